@@ -1,0 +1,114 @@
+// One contact's state and the loading steps applied to it (physics.md). No gRPC in here.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "mdr/core/material.h"
+#include "mdr/core/memory.h"
+#include "mdr/core/profile.h"
+#include "mdr/core/status.h"
+
+namespace mdr {
+
+struct ContactConfig {
+  ProfilePtr profile;
+  EffectiveMaterial material;
+  double friction = 0;  // mu >= 0
+  // Dissipated energy costs one profile evaluation per slipping piece and step; scenes that do
+  // not ask for energy switch it off.
+  bool track_energy = true;
+  // Relative tolerance of force-controlled steps whose path is curved in (delta, ux).
+  double force_path_tolerance = 1e-10;
+  // Limit on memory vertices (ResourceExhausted beyond it); bounded in practice by the
+  // nesting depth of load reversals.
+  std::size_t max_memory_vertices = 1 << 16;
+};
+
+// Validates a config: profile present, material moduli > 0, friction >= 0 and finite,
+// tolerance in (0, 0.1], vertex limit >= 8. Field names are relative to the proto Scene.
+Status ValidateContactConfig(const ContactConfig& config);
+
+// How each channel of a step is driven. "Increment" values are relative to the current state.
+enum class NormalControl { kDepth, kDepthIncrement, kForce };
+enum class TangentialControl { kDisplacement, kDisplacementIncrement, kForce };
+
+// One loading step. Path semantics: every controlled quantity moves linearly in a common
+// parameter s in [0, 1] from its current value to its target. If both channels are
+// displacements, or one channel does not change, the path is a straight line in (delta, ux) and
+// the step is exact. Otherwise (a force channel changing together with the other channel) the
+// path is curved in (delta, ux); it is followed by adaptive sub-steps that are each exact, until
+// two successive refinements agree to force_path_tolerance (StepReport::path_error).
+struct Step {
+  NormalControl normal = NormalControl::kDepthIncrement;
+  double normal_value = 0;
+  TangentialControl tangential = TangentialControl::kDisplacementIncrement;
+  double tangential_value = 0;
+};
+
+struct StepReport {
+  int substeps = 0;       // exact linear sub-steps used
+  double path_error = 0;  // estimated max |delta u| / (mu kappa delta) from path refinement
+  double dissipated = 0;  // J, 0 when energy is not tracked
+};
+
+// Incremental tangential stiffness dF_x/dux at the current state for a small further move in
+// +x and in -x (they differ once part of the contact slips).
+struct TangentialStiffness {
+  double positive, negative;
+};
+
+// A radial interval [r_begin, r_end] where springs slip (at the Coulomb bound).
+struct SlipInterval {
+  double r_begin, r_end;
+  int direction;  // +1: at +mu kappa w, -1: at -mu kappa w
+};
+
+class Contact {
+ public:
+  static Result<Contact> Create(ContactConfig config);
+
+  // Applies a step atomically: on error the contact is unchanged.
+  Status Apply(const Step& step, StepReport* report = nullptr);
+  // The exact linear step to (delta, ux) without validation of targets beyond finiteness.
+  Status MoveTo(double depth, double tangential_displacement, StepReport* report = nullptr);
+
+  const ContactConfig& config() const { return config_; }
+  double depth() const { return memory_.depth(); }
+  double tangential_displacement() const { return ux_; }
+  double mu_kappa() const { return config_.friction * config_.material.kappa(); }
+  double contact_radius() const;
+  double normal_force() const;
+  double tangential_force() const;
+  // mu F_N: the largest |F_x| the contact can carry.
+  double friction_limit() const { return config_.friction * normal_force(); }
+  double dissipated_energy() const { return dissipated_; }
+  double last_step_dissipation() const { return last_dissipated_; }
+  TangentialStiffness tangential_stiffness() const;
+  std::vector<SlipInterval> slip_intervals() const;
+  // Tangential spring displacement u(x) and normal one w(x) = delta - g(x) (0 outside contact).
+  double tangential_displacement_at(double x) const;
+  double normal_displacement_at(double x) const;
+  const PiecewiseLinearMemory& memory() const { return memory_; }
+  std::vector<MemoryPiece> memory_pieces() const { return memory_.Pieces(*config_.profile); }
+
+  // F_N(delta) for this profile and material, and its inverse (F_N >= 0).
+  double NormalForceAtDepth(double depth) const;
+  double DepthAtNormalForce(double normal_force) const;
+
+ private:
+  explicit Contact(ContactConfig config) : config_(std::move(config)) {}
+  // Exact linear step to (depth1, ux1); returns dissipation (J) if tracked.
+  double LinearStep(double depth1, double ux1);
+  // The ux1 that gives tangential force fx at depth1 after a linear step from the current state.
+  Result<double> SolveTangentialDisplacement(double depth1, double fx) const;
+  Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report);
+
+  ContactConfig config_;
+  PiecewiseLinearMemory memory_;
+  double ux_ = 0;
+  double dissipated_ = 0;
+  double last_dissipated_ = 0;
+};
+
+}  // namespace mdr

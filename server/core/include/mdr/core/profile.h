@@ -1,0 +1,53 @@
+// Axisymmetric indenter profiles f(r) in their MDR form: the equivalent 1D profile g(x)
+// (physics.md, "MDR"). Everything the engine needs of a profile is here; the per-increment
+// update never calls a profile (it works in z = g(x)), only force and profile queries do.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "mdr/core/status.h"
+
+namespace mdr {
+
+class Profile {
+ public:
+  virtual ~Profile() = default;
+
+  // Equivalent profile z = g(x), x >= 0.
+  virtual double G(double x) const = 0;
+  // Slope g'(x); +inf where g jumps (flat punch edge).
+  virtual double Slope(double x) const = 0;
+  // Inverse of g: the radius x at which g(x) = z, i.e. the contact radius at depth z.
+  // For z = 0 it is the radius of the region where g = 0 (a0 of a flat punch, 0 otherwise).
+  virtual double RadiusAtDepth(double z) const = 0;
+  // g(x) - g(x_ref) for x >= x_ref, without the cancellation of the plain difference when
+  // x is close to x_ref (energy over thin slip annuli).
+  virtual double Rise(double x, double x_ref) const { return G(x) - G(x_ref); }
+  // Moments M_j(x) = integral_0^x g(t)^j dt for j = 0, 1, 2 (forces and dissipation).
+  virtual double Moment(int j, double x) const = 0;
+  // Pressure of the frictionless normal contact at depth z, per unit E*:
+  // p/E* = (1/pi) integral_r^a g'(x)/sqrt(x^2-r^2) dx with a = RadiusAtDepth(z) (a jump of g
+  // counts as a delta function in g'); 0 for r >= a. Taking depth, not radius, keeps the flat
+  // punch (radius fixed, pressure proportional to depth) in the same form. May be +inf (cone
+  // centre, flat punch edge), never NaN.
+  virtual double PressurePerModulus(double r, double depth) const = 0;
+  // F_N/E* = 2 (z a - M_1(a)) at depth z, and its inverse (depth for F_N/E* >= 0).
+  double NormalForcePerModulus(double depth) const;
+  virtual double DepthAtNormalForcePerModulus(double force_per_modulus) const = 0;
+  // Human-readable description, e.g. "power law f = 1e3 r^2".
+  virtual std::string Describe() const = 0;
+};
+
+using ProfilePtr = std::shared_ptr<const Profile>;
+
+// f = C r^n, 0.3 <= n <= 10, C > 0: g = k x^n with k = C sqrt(pi) Gamma(n/2+1)/Gamma(n/2+1/2).
+Result<ProfilePtr> MakePowerLaw(double coefficient, double exponent);
+// Hertz sphere of radius R: f = r^2/(2R), g = x^2/R.
+Result<ProfilePtr> MakeSphere(double radius);
+// Cone of slope angle theta (rad, 0 < theta < pi/2) to the surface: g = (pi/2) tan(theta) x.
+Result<ProfilePtr> MakeCone(double slope_angle);
+// Flat cylindrical punch of radius a0: g = 0 for x < a0; contact radius a0 while delta > 0.
+Result<ProfilePtr> MakeFlatPunch(double radius);
+
+}  // namespace mdr

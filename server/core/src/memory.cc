@@ -1,0 +1,364 @@
+#include "mdr/core/memory.h"
+
+#include <gsl/gsl_integration.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace mdr {
+namespace {
+
+// integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2.
+// Uses the profile's moments, except where za is close to zb: there the shifted moments cancel
+// (a slip annulus of relative width h would lose a factor 1/h^2), so q is integrated by 16-point
+// Gauss-Legendre in x with z - za from Profile::Rise, exact to round-off for za > zb/2.
+double IntegrateQuadratic(const Profile& profile, double za, double zb, double c0, double c1,
+                          double c2) {
+  const double xa = profile.RadiusAtDepth(za), xb = profile.RadiusAtDepth(zb);
+  if (!(xb > xa)) return 0;
+  if (za > 0.5 * zb) {
+    static const gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(16);
+    double sum = 0;
+    for (std::size_t i = 0; i < 16; ++i) {
+      double x = 0, w = 0;
+      gsl_integration_glfixed_point(xa, xb, i, &x, &w, table);
+      const double rise = profile.Rise(x, xa);
+      sum += w * (c0 + rise * (c1 + rise * c2));
+    }
+    return sum;
+  }
+  const double d0 = xb - xa;
+  const double d1 = profile.Moment(1, xb) - profile.Moment(1, xa);
+  double total = c0 * d0 + c1 * (d1 - za * d0);
+  if (c2 != 0) {
+    const double d2 = profile.Moment(2, xb) - profile.Moment(2, xa);
+    total += c2 * (d2 - 2 * za * d1 + za * za * d0);
+  }
+  return total;
+}
+
+// A linear function of zeta = z - z_a.
+struct Linear {
+  double at_a, slope;
+};
+
+// Coefficients (c0, c1, c2) of p*q - k*p^2 for linear p, q.
+struct Quadratic {
+  double c0, c1, c2;
+};
+Quadratic ProductMinusSquare(Linear p, Linear q, double k) {
+  return {p.at_a * q.at_a - k * p.at_a * p.at_a,
+          p.slope * q.at_a + p.at_a * q.slope - 2 * k * p.at_a * p.slope,
+          p.slope * q.slope - k * p.slope * p.slope};
+}
+
+double Interpolate(double za, double ua, double zb, double ub, double z) {
+  return ua + (ub - ua) * ((z - za) / (zb - za));
+}
+
+}  // namespace
+
+double PiecewiseLinearMemory::Step(double depth1, double dux, double mu_kappa,
+                                   const Profile* profile) {
+  const double depth0 = depth_;
+  double dissipated = 0;
+  if (profile != nullptr && depth1 < depth0 && depth0 > 0) {
+    dissipated += LeavingDissipation(depth1, dux, mu_kappa, *profile);
+  }
+  depth_ = depth1;
+  if (depth1 <= 0) {
+    z_.clear();
+    u_.clear();
+    tag_.clear();
+    return dissipated;
+  }
+  ShiftAndResize(depth0, depth1, dux);
+  dissipated += ClampToBounds(depth0, dux, mu_kappa, profile);
+  MergeRedundantVertices();
+  return dissipated;
+}
+
+void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double dux) {
+  if (depth0 <= 0) {
+    // Everything enters during the step: u = (1 - s_e) dux, s_e = (z - depth0)/(depth1 - depth0).
+    z_.assign({0.0, depth1});
+    u_.assign({dux * (depth1 / (depth1 - depth0)), 0.0});
+    tag_.assign(2, kInside);
+    return;
+  }
+  if (depth1 < depth0) {
+    // Springs beyond depth1 leave; the polyline is cut at depth1.
+    const auto j =
+        static_cast<std::size_t>(std::lower_bound(z_.begin(), z_.end(), depth1) - z_.begin());
+    if (z_[j] != depth1) {
+      u_[j] = Interpolate(z_[j - 1], u_[j - 1], z_[j], u_[j], depth1);
+      z_[j] = depth1;
+    }
+    z_.resize(j + 1);
+    u_.resize(j + 1);
+    tag_.resize(j + 1);
+  }
+  for (double& u : u_) u += dux;
+  if (depth1 > depth0) {
+    // Springs in (depth0, depth1] enter: u = (1 - s_e) dux, linear from dux at depth0 to 0.
+    z_.push_back(depth1);
+    u_.push_back(0.0);
+    tag_.push_back(kInside);
+  }
+}
+
+double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
+                                            const Profile* profile) {
+  const double depth1 = depth_;
+  auto bound = [&](double z) { return mu_kappa * (depth1 - z); };
+
+  // 1. Refine: insert the points where v crosses +bound or -bound (both linear in z).
+  // Crossings are tagged here with their bound; original vertices are classified in step 3.
+  auto& rz = next_.z;
+  auto& rv = next_.u;
+  auto& tags = next_.tag;
+  rz.clear();
+  rv.clear();
+  tags.clear();
+  const std::size_t n = z_.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    rz.push_back(z_[i]);
+    rv.push_back(u_[i]);
+    tags.push_back(kInside);
+    if (i + 1 == n) break;
+    const double za = z_[i], zb = z_[i + 1];
+    const double hi_a = u_[i] - bound(za), hi_b = u_[i + 1] - bound(zb);
+    const double lo_a = u_[i] + bound(za), lo_b = u_[i + 1] + bound(zb);
+    double t[2];
+    int sign[2];
+    int count = 0;
+    if (hi_a * hi_b < 0) t[count] = hi_a / (hi_a - hi_b), sign[count++] = +1;
+    if (lo_a * lo_b < 0) t[count] = lo_a / (lo_a - lo_b), sign[count++] = -1;
+    if (count == 2 && t[1] < t[0]) std::swap(t[0], t[1]), std::swap(sign[0], sign[1]);
+    for (int k = 0; k < count; ++k) {
+      const double z = za + t[k] * (zb - za);
+      if (!(z > rz.back() && z < zb)) continue;  // rounding put it on a vertex
+      // z carries ~eps*delta of round-off, so v(z) and bound(z) differ by ~eps*mu_kappa*delta.
+      // Taking v(z) keeps a sticking zone exact and puts that round-off on the slip side,
+      // which is the thin one when slip starts (relative force error eps, not eps/slip).
+      rz.push_back(z);
+      rv.push_back(Interpolate(za, u_[i], zb, u_[i + 1], z));
+      tags.push_back(sign[k] > 0 ? kOnUpper : kOnLower);
+    }
+  }
+
+  // 2. Dissipation of springs that slid along the bound (physics: exact per spring, see
+  //    docs/engine.md): density 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2] per G*, with e the
+  //    amount clamped away and r = sigma dux - mu_kappa ddelta the sliding rate.
+  double dissipated = 0;
+  if (profile != nullptr && mu_kappa > 0) {
+    const double ddelta = depth1 - depth0;
+    auto excess = [&](std::size_t i, int sigma) {
+      return tags[i] != kInside ? 0.0 : sigma * rv[i] - bound(rz[i]);  // crossings: exactly 0
+    };
+    auto rate_factor = [&](int sigma) {
+      const double r = sigma * dux - mu_kappa * ddelta;
+      return r > 0 ? mu_kappa * ddelta / (2 * r) : 0.0;
+    };
+    for (int sigma : {+1, -1}) {
+      const double k = rate_factor(sigma);
+      const double atom = profile->RadiusAtDepth(0);
+      if (atom > 0 && excess(0, sigma) > 0) {
+        dissipated +=
+            2 * atom * (excess(0, sigma) * bound(0) - k * excess(0, sigma) * excess(0, sigma));
+      }
+      for (std::size_t i = 0; i + 1 < rz.size(); ++i) {
+        // Sign changes of the excess were split at crossings above, unless round-off put the
+        // crossing on a vertex: then the segment slides if the crossing is at its
+        // non-positive end (the end nearer zero), and sticks otherwise.
+        double ea = excess(i, sigma), eb = excess(i + 1, sigma);
+        if (ea <= 0 && eb <= 0) continue;
+        if (ea < 0 || eb < 0) {
+          if (std::min(ea, eb) + std::max(ea, eb) <= 0) continue;
+          ea = std::max(ea, 0.0);
+          eb = std::max(eb, 0.0);
+        }
+        const double width = rz[i + 1] - rz[i];
+        const Quadratic q =
+            ProductMinusSquare({ea, (eb - ea) / width}, {bound(rz[i]), -mu_kappa}, k);
+        dissipated += 2 * IntegrateQuadratic(*profile, rz[i], rz[i + 1], q.c0, q.c1, q.c2);
+      }
+    }
+  }
+
+  // 3. Clamp and tag the original vertices.
+  for (std::size_t i = 0; i < rz.size(); ++i) {
+    if (tags[i] != kInside) continue;  // a crossing, already on its bound
+    const double b = bound(rz[i]);
+    if (b <= 0) {
+      rv[i] = 0;
+      tags[i] = kOnBoth;
+    } else if (rv[i] >= b) {
+      rv[i] = b;
+      tags[i] = kOnUpper;
+    } else if (rv[i] <= -b) {
+      rv[i] = -b;
+      tags[i] = kOnLower;
+    }
+  }
+  std::swap(z_, next_.z);
+  std::swap(u_, next_.u);
+  std::swap(tag_, next_.tag);
+  return dissipated;
+}
+
+void PiecewiseLinearMemory::MergeRedundantVertices() {
+  // A vertex goes if it lies on the same bound line as both neighbours, or (to round-off) on the
+  // straight line through them; so memory grows only with the nesting depth of reversals.
+  constexpr double kCollinear = 16 * std::numeric_limits<double>::epsilon();
+  const std::size_t n = z_.size();
+  if (n < 3) return;
+  std::size_t kept = 1;  // vertex 0 always stays
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const std::size_t prev = kept - 1;
+    bool redundant = (tag_[prev] & tag_[i] & tag_[i + 1]) != 0;
+    if (!redundant) {
+      const double line = Interpolate(z_[prev], u_[prev], z_[i + 1], u_[i + 1], z_[i]);
+      const double scale = std::max({std::abs(u_[prev]), std::abs(u_[i]), std::abs(u_[i + 1])});
+      redundant = std::abs(u_[i] - line) <= kCollinear * scale;
+    }
+    if (redundant) continue;
+    z_[kept] = z_[i];
+    u_[kept] = u_[i];
+    tag_[kept] = tag_[i];
+    ++kept;
+  }
+  z_[kept] = z_[n - 1];
+  u_[kept] = u_[n - 1];
+  tag_[kept] = tag_[n - 1];
+  z_.resize(kept + 1);
+  u_.resize(kept + 1);
+  tag_.resize(kept + 1);
+}
+
+double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, double mu_kappa,
+                                                 const Profile& profile) const {
+  // A spring at z leaves at s_l = (depth0 - z)/(depth0 - depth1). It slides on the bound sigma
+  // = sign(u0 + s_l dux) from s* on; per G* it dissipates r b*^2 / (-mu_kappa ddelta), with
+  // r = sigma dux - mu_kappa ddelta and b* = b0 + mu_kappa ddelta s* the bound when it starts to
+  // slide, s* = (b0 - sigma u0)/r. b* is linear in z between sign changes of u0 + s_l dux.
+  if (!(mu_kappa > 0)) return 0;
+  const double depth0 = depth_;
+  const double ddelta = depth1 - depth0;
+  auto leave_value = [&](double z, double u0) { return u0 + (depth0 - z) / -ddelta * dux; };
+  auto slide_bound = [&](double z, double u0, int sigma) {
+    const double b0 = mu_kappa * (depth0 - z);
+    const double r = sigma * dux - mu_kappa * ddelta;
+    return std::clamp(b0 + mu_kappa * ddelta * (b0 - sigma * u0) / r, 0.0, b0);
+  };
+  auto add_piece = [&](double za, double ua, double zb, double ub) {
+    const double wa = leave_value(za, ua), wb = leave_value(zb, ub);
+    const int sigma = (wa + wb) > 0 ? +1 : -1;
+    if (wa == 0 && wb == 0) return 0.0;
+    const double r = sigma * dux - mu_kappa * ddelta;
+    const double ba = slide_bound(za, ua, sigma), bb = slide_bound(zb, ub, sigma);
+    const double k = r / (-mu_kappa * ddelta);
+    const double slope = (bb - ba) / (zb - za);
+    return IntegrateQuadratic(profile, za, zb, k * ba * ba, 2 * k * ba * slope, k * slope * slope);
+  };
+
+  double dissipated = 0;
+  const double z_low = std::max(depth1, 0.0);
+  const double atom = profile.RadiusAtDepth(0);
+  if (depth1 <= 0 && atom > 0) {
+    const double w = leave_value(0, u_[0]);
+    if (w != 0) {
+      const int sigma = w > 0 ? +1 : -1;
+      const double b = slide_bound(0, u_[0], sigma);
+      dissipated += atom * (sigma * dux - mu_kappa * ddelta) * b * b / (-mu_kappa * ddelta);
+    }
+  }
+  for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
+    if (z_[i + 1] <= z_low) continue;
+    double za = z_[i], ua = u_[i];
+    const double zb = z_[i + 1], ub = u_[i + 1];
+    if (za < z_low) {
+      ua = Interpolate(za, ua, zb, ub, z_low);
+      za = z_low;
+    }
+    const double wa = leave_value(za, ua), wb = leave_value(zb, ub);
+    if (wa * wb < 0) {  // the sliding direction changes inside the piece
+      const double zc = za + (zb - za) * (wa / (wa - wb));
+      const double uc = Interpolate(za, ua, zb, ub, zc);
+      dissipated += add_piece(za, ua, zc, uc) + add_piece(zc, uc, zb, ub);
+    } else {
+      dissipated += add_piece(za, ua, zb, ub);
+    }
+  }
+  return dissipated;
+}
+
+double PiecewiseLinearMemory::UAtDepth(double z) const {
+  if (z_.empty() || z < 0 || z > depth_) return 0;
+  const auto j = static_cast<std::size_t>(std::upper_bound(z_.begin(), z_.end(), z) - z_.begin());
+  if (j >= z_.size()) return u_.back();
+  if (j == 0) return u_.front();
+  return Interpolate(z_[j - 1], u_[j - 1], z_[j], u_[j], z);
+}
+
+double PiecewiseLinearMemory::IntegralU(const Profile& profile) const {
+  if (z_.empty()) return 0;
+  double total = u_[0] * profile.RadiusAtDepth(0);  // flat punch: springs at z = 0
+  for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
+    const double slope = (u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i]);
+    total += IntegrateQuadratic(profile, z_[i], z_[i + 1], u_[i], slope, 0);
+  }
+  return total;
+}
+
+double PiecewiseLinearMemory::MeasureOnBound(const Profile& profile, BoundTag bound) const {
+  if (z_.empty()) return 0;
+  double measure = (tag_[0] & bound) ? profile.RadiusAtDepth(0) : 0;
+  for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
+    if (tag_[i] & tag_[i + 1] & bound) {
+      measure += profile.RadiusAtDepth(z_[i + 1]) - profile.RadiusAtDepth(z_[i]);
+    }
+  }
+  return measure;
+}
+
+double PiecewiseLinearMemory::GrossSlipIncrement(double depth1, double mu_kappa,
+                                                 int direction) const {
+  // Springs that stay in contact reach the bound once sigma (u0 + dux) >= b1; springs that
+  // enter do once |dux| >= mu_kappa (depth1 - depth0).
+  const double sigma = direction >= 0 ? 1.0 : -1.0;
+  const double depth0 = depth_;
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  double needed = depth1 > depth0 ? mu_kappa * (depth1 - depth0) : kNone;
+  for (std::size_t i = 0; i < z_.size() && depth1 > 0; ++i) {
+    double z = z_[i], u = u_[i];
+    if (z > depth1) {
+      z = depth1;
+      u = UAtDepth(depth1);
+    }
+    needed = std::max(needed, mu_kappa * (depth1 - z) - sigma * u);
+    if (z == depth1) break;
+  }
+  return needed == kNone ? 0.0 : sigma * needed;
+}
+
+std::vector<MemoryPiece> PiecewiseLinearMemory::Pieces(const Profile& profile) const {
+  std::vector<MemoryPiece> pieces;
+  if (z_.empty()) return pieces;
+  const double atom = profile.RadiusAtDepth(0);
+  if (atom > 0) {
+    pieces.push_back({0, atom, 0, 0, u_[0], 0, static_cast<BoundTag>(tag_[0])});
+  }
+  for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
+    const double xa = profile.RadiusAtDepth(z_[i]), xb = profile.RadiusAtDepth(z_[i + 1]);
+    if (!(xb > xa)) continue;
+    const double slope = (u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i]);
+    pieces.push_back({xa, xb, z_[i], z_[i + 1], u_[i] - slope * z_[i], slope,
+                      static_cast<BoundTag>(tag_[i] & tag_[i + 1])});
+  }
+  return pieces;
+}
+
+}  // namespace mdr

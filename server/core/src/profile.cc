@@ -1,0 +1,165 @@
+#include "mdr/core/profile.h"
+
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_integration.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include "mdr/core/validate.h"
+
+namespace mdr {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPi = std::numbers::pi;
+
+// f = C r^n maps to g = k x^n (physics.md, "Power law").
+double PowerLawScale(double coefficient, double exponent) {
+  return coefficient * std::sqrt(kPi) * std::tgamma(exponent / 2 + 1) /
+         std::tgamma(exponent / 2 + 0.5);
+}
+
+// integral_0^S (r^2 + s^2)^beta ds by adaptive Gauss-Kronrod; the integrand is smooth for r > 0
+// but peaks in a layer of width r at s = 0 when beta < 0, so that layer is a separate interval.
+double IntegratePowerOfHypotenuse(double r, double span, double beta) {
+  struct Params {
+    double r2, beta;
+  } params{r * r, beta};
+  gsl_function f;
+  f.function = [](double s, void* p) {
+    const auto* q = static_cast<const Params*>(p);
+    return std::pow(q->r2 + s * s, q->beta);
+  };
+  f.params = &params;
+  constexpr std::size_t kWorkspace = 256;
+  gsl_integration_workspace* w = gsl_integration_workspace_alloc(kWorkspace);
+  gsl_error_handler_t* previous = gsl_set_error_handler_off();
+  double total = 0;
+  const double split = std::min(r, span);
+  for (auto [lo, hi] : {std::pair{0.0, split}, std::pair{split, span}}) {
+    if (hi <= lo) continue;
+    double value = 0, error = 0;
+    gsl_integration_qag(&f, lo, hi, 0, 1e-13, kWorkspace, GSL_INTEG_GAUSS31, w, &value, &error);
+    total += value;
+  }
+  gsl_set_error_handler(previous);
+  gsl_integration_workspace_free(w);
+  return total;
+}
+
+class PowerLawProfile final : public Profile {
+ public:
+  PowerLawProfile(double coefficient, double exponent, std::string name)
+      : coefficient_(coefficient),
+        n_(exponent),
+        k_(PowerLawScale(coefficient, exponent)),
+        name_(std::move(name)) {}
+
+  double G(double x) const override { return k_ * std::pow(x, n_); }
+  double Slope(double x) const override {
+    if (x == 0) return n_ < 1 ? kInf : (n_ == 1 ? k_ : 0.0);
+    return n_ * k_ * std::pow(x, n_ - 1);
+  }
+  double RadiusAtDepth(double z) const override { return z > 0 ? std::pow(z / k_, 1 / n_) : 0; }
+  double Rise(double x, double x_ref) const override {
+    if (!(x_ref > 0)) return G(x);
+    return G(x_ref) * std::expm1(n_ * std::log1p((x - x_ref) / x_ref));
+  }
+  double Moment(int j, double x) const override {
+    // integral_0^x (k t^n)^j dt = x g(x)^j / (j n + 1).
+    return x * std::pow(G(x), j) / (j * n_ + 1);
+  }
+  double PressurePerModulus(double r, double depth) const override {
+    const double a = RadiusAtDepth(depth);
+    if (!(r < a)) return 0;
+    // Substituting x = sqrt(r^2 + s^2): p/E* = (n k / pi) integral_0^S (r^2+s^2)^((n-2)/2) ds.
+    const double span = std::sqrt((a - r) * (a + r));
+    if (n_ == 2) return 2 * k_ / kPi * span;
+    if (n_ == 1) return r == 0 ? kInf : k_ / kPi * std::acosh(a / r);
+    if (r == 0) return n_ < 1 ? kInf : n_ * k_ / kPi * std::pow(a, n_ - 1) / (n_ - 1);
+    return n_ * k_ / kPi * IntegratePowerOfHypotenuse(r, span, (n_ - 2) / 2);
+  }
+  double DepthAtNormalForcePerModulus(double f) const override {
+    if (!(f > 0)) return 0;
+    // F_N/E* = 2 n/(n+1) a z with z = k a^n.
+    const double a = std::pow(f * (n_ + 1) / (2 * n_ * k_), 1 / (n_ + 1));
+    return G(a);
+  }
+  std::string Describe() const override { return name_; }
+
+ private:
+  double coefficient_, n_, k_;
+  std::string name_;
+};
+
+class FlatPunchProfile final : public Profile {
+ public:
+  explicit FlatPunchProfile(double radius) : a0_(radius) {}
+
+  double G(double x) const override { return x < a0_ ? 0 : kInf; }
+  double Slope(double x) const override { return x < a0_ ? 0 : kInf; }
+  double RadiusAtDepth(double) const override { return a0_; }
+  double Moment(int j, double x) const override { return j == 0 ? x : 0.0; }
+  double PressurePerModulus(double r, double depth) const override {
+    if (!(r < a0_) || depth <= 0) return 0;
+    return depth / (kPi * std::sqrt((a0_ - r) * (a0_ + r)));
+  }
+  double DepthAtNormalForcePerModulus(double f) const override { return f > 0 ? f / (2 * a0_) : 0; }
+  std::string Describe() const override {
+    std::ostringstream out;
+    out << "flat punch a0 = " << a0_ << " m";
+    return out.str();
+  }
+
+ private:
+  double a0_;
+};
+
+std::string PowerLawName(double coefficient, double exponent) {
+  std::ostringstream out;
+  out.precision(10);
+  out << "power law f = " << coefficient << " r^" << exponent;
+  return out.str();
+}
+
+}  // namespace
+
+double Profile::NormalForcePerModulus(double depth) const {
+  if (!(depth > 0)) return 0;
+  const double a = RadiusAtDepth(depth);
+  return 2 * (depth * a - Moment(1, a));
+}
+
+Result<ProfilePtr> MakePowerLaw(double coefficient, double exponent) {
+  if (Status s = RequirePositive("coefficient", coefficient); !s.ok()) return s;
+  if (Status s = RequireInRange("exponent", exponent, 0.3, 10); !s.ok()) return s;
+  return ProfilePtr(std::make_shared<PowerLawProfile>(coefficient, exponent,
+                                                      PowerLawName(coefficient, exponent)));
+}
+
+Result<ProfilePtr> MakeSphere(double radius) {
+  if (Status s = RequirePositive("radius", radius); !s.ok()) return s;
+  std::ostringstream name;
+  name << "sphere R = " << radius << " m";
+  return ProfilePtr(std::make_shared<PowerLawProfile>(1 / (2 * radius), 2.0, name.str()));
+}
+
+Result<ProfilePtr> MakeCone(double slope_angle) {
+  if (Status s = RequireInRange("slope_angle", slope_angle, 0, kPi / 2, /*lo_open=*/true);
+      !s.ok() || slope_angle == kPi / 2) {
+    return s.ok() ? InvalidArgument("slope_angle", "must be in (0, pi/2) rad, got pi/2") : s;
+  }
+  std::ostringstream name;
+  name << "cone slope " << slope_angle << " rad";
+  return ProfilePtr(std::make_shared<PowerLawProfile>(std::tan(slope_angle), 1.0, name.str()));
+}
+
+Result<ProfilePtr> MakeFlatPunch(double radius) {
+  if (Status s = RequirePositive("radius", radius); !s.ok()) return s;
+  return ProfilePtr(std::make_shared<FlatPunchProfile>(radius));
+}
+
+}  // namespace mdr

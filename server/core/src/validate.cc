@@ -1,0 +1,40 @@
+#include "mdr/core/validate.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace mdr {
+namespace {
+
+std::string Format(double v) {
+  std::ostringstream out;
+  out.precision(10);
+  out << v;
+  return out.str();
+}
+
+}  // namespace
+
+Status RequireFinite(const std::string& field, double value) {
+  if (std::isfinite(value)) return OkStatus();
+  return InvalidArgument(field, "must be a finite number, got " + Format(value));
+}
+
+Status RequirePositive(const std::string& field, double value) {
+  if (std::isfinite(value) && value > 0) return OkStatus();
+  return InvalidArgument(field, "must be finite and > 0, got " + Format(value));
+}
+
+Status RequireNonNegative(const std::string& field, double value) {
+  if (std::isfinite(value) && value >= 0) return OkStatus();
+  return InvalidArgument(field, "must be finite and >= 0, got " + Format(value));
+}
+
+Status RequireInRange(const std::string& field, double value, double lo, double hi, bool lo_open) {
+  const bool above_lo = lo_open ? value > lo : value >= lo;
+  if (std::isfinite(value) && above_lo && value <= hi) return OkStatus();
+  return InvalidArgument(field, "must be in " + std::string(lo_open ? "(" : "[") + Format(lo) +
+                                    ", " + Format(hi) + "], got " + Format(value));
+}
+
+}  // namespace mdr

@@ -1,0 +1,97 @@
+// Core engine throughput: increments per second and the cost of queries, with memory size.
+//   build/release/tests/bench/mdr_core_bench
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "mdr/core/contact.h"
+
+namespace mdr {
+namespace {
+
+// H1 of reference-values.md: steel sphere R = 10 mm on steel, mu = 0.3, F_N = 100 N.
+Contact HertzContact(bool track_energy) {
+  ContactConfig config;
+  config.profile = *MakeSphere(0.01);
+  config.material = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  config.friction = 0.3;
+  config.track_energy = track_energy;
+  Contact contact = std::move(Contact::Create(config)).value();
+  Step normal;
+  normal.normal = NormalControl::kForce;
+  normal.normal_value = 100;
+  (void)contact.Apply(normal);
+  return contact;
+}
+
+// Mindlin-Deresiewicz cycling at constant F_N, amplitude half the slip limit, `steps` per cycle.
+void BM_MindlinDeresiewiczCycling(benchmark::State& state) {
+  const bool energy = state.range(0) != 0;
+  Contact contact = HertzContact(energy);
+  const double amplitude = 0.4 * contact.mu_kappa() * contact.depth();
+  const int steps_per_half = 8;
+  std::size_t max_vertices = 0;
+  int k = 0;
+  for (auto _ : state) {
+    const int phase = k++ % (2 * steps_per_half);
+    const double s = phase < steps_per_half ? phase : 2 * steps_per_half - phase;
+    const double ux = amplitude * (2.0 * s / steps_per_half - 1.0);
+    benchmark::DoNotOptimize(contact.MoveTo(contact.depth(), ux));
+    max_vertices = std::max(max_vertices, contact.memory().vertex_count());
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["memory_vertices_max"] = static_cast<double>(max_vertices);
+  state.counters["energy"] = energy;
+}
+BENCHMARK(BM_MindlinDeresiewiczCycling)->Arg(0)->Arg(1);
+
+// Random piecewise-linear histories in (delta, ux) with loss of contact and re-contact.
+void BM_RandomHistory(benchmark::State& state) {
+  Contact contact = HertzContact(state.range(0) != 0);
+  const double d0 = contact.depth(), slip = contact.mu_kappa() * d0;
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> depth(-0.1 * d0, 1.5 * d0), ux(-2 * slip, 2 * slip);
+  std::size_t max_vertices = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(contact.MoveTo(depth(rng), ux(rng)));
+    max_vertices = std::max(max_vertices, contact.memory().vertex_count());
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["memory_vertices_max"] = static_cast<double>(max_vertices);
+}
+BENCHMARK(BM_RandomHistory)->Arg(0)->Arg(1);
+
+// Forces query after a fretting history with nested reversals.
+void BM_ForcesQuery(benchmark::State& state) {
+  Contact contact = HertzContact(false);
+  const double slip = contact.mu_kappa() * contact.depth();
+  for (int i = 0; i < state.range(0); ++i) {
+    (void)contact.MoveTo(contact.depth(), (i % 2 ? -1 : 1) * slip * 0.9 / (1 + i));
+  }
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(contact.normal_force());
+    benchmark::DoNotOptimize(contact.tangential_force());
+  }
+  state.counters["memory_vertices"] = static_cast<double>(contact.memory().vertex_count());
+}
+BENCHMARK(BM_ForcesQuery)->Arg(1)->Arg(8)->Arg(64);
+
+// A force-controlled tangential step (root solve on the exact memory).
+void BM_TangentialForceStep(benchmark::State& state) {
+  Contact contact = HertzContact(false);
+  const double limit = contact.friction_limit();
+  int k = 0;
+  for (auto _ : state) {
+    Step step;
+    step.tangential = TangentialControl::kForce;
+    step.tangential_value = (k++ % 2 ? -0.5 : 0.5) * limit;
+    benchmark::DoNotOptimize(contact.Apply(step));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_TangentialForceStep);
+
+}  // namespace
+}  // namespace mdr
+
+BENCHMARK_MAIN();

@@ -1,0 +1,241 @@
+// The exact engine against the closed forms of ../shared/physics.md and reference-values.md.
+#include "mdr/core/contact.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include "test_util.h"
+
+namespace mdr {
+namespace {
+
+using testing::MakeContact;
+using testing::NormalForceStep;
+using testing::RelNear;
+using testing::SteelSphere;
+using testing::TangentialForceStep;
+
+// Radius where the +x slip zone starts (the stick radius c), or a if none.
+double StickRadius(const Contact& c) {
+  for (const SlipInterval& s : c.slip_intervals()) {
+    if (s.direction != 0) return s.r_begin;
+  }
+  return c.contact_radius();
+}
+
+TEST(ContactTest, CattaneoMindlinReferenceH1ByForceControl) {
+  Contact c = SteelSphere();
+  ASSERT_TRUE(c.Apply(NormalForceStep(100)).ok());
+  EXPECT_TRUE(RelNear(c.depth(), 3.4829098839e-6, 1e-10));
+  ASSERT_TRUE(c.Apply(TangentialForceStep(15)).ok());
+  EXPECT_TRUE(RelNear(c.tangential_force(), 15, 1e-12));
+  EXPECT_TRUE(RelNear(c.normal_force(), 100, 1e-12));
+  EXPECT_TRUE(RelNear(c.tangential_displacement(), 4.6949658143e-7, 1e-10));
+  EXPECT_TRUE(RelNear(StickRadius(c), 1.4812480342e-4, 1e-10));
+  // Full-slip displacement mu kappa d.
+  EXPECT_TRUE(RelNear(c.mu_kappa() * c.depth(), 1.2687743149e-6, 1e-10));
+}
+
+TEST(ContactTest, CattaneoMindlinAnyProfileFormula) {
+  // F_x = mu [F_N(delta) - F_N(g(c))] with g(c) = delta - ux/(mu kappa), for power laws and cone.
+  for (double n : {0.5, 1.0, 2.0, 4.0, 8.0}) {
+    Contact c = MakeContact(*MakePowerLaw(3.0, n), *RigidOnHalfSpace(1e9, 0.3), 0.4);
+    const double d = 1e-5;
+    ASSERT_TRUE(c.MoveTo(d, 0).ok());
+    for (double frac : {1e-12, 1e-6, 0.1, 0.5, 0.9, 0.999999}) {
+      Contact loaded = c;
+      const double ux = frac * c.mu_kappa() * d;
+      ASSERT_TRUE(loaded.MoveTo(d, ux).ok());
+      EXPECT_TRUE(
+          RelNear(loaded.tangential_force(), testing::CattaneoMindlinPowerLaw(c, n, d, ux), 1e-12))
+          << n << " " << frac;
+      // g(c) = d - ux/(mu kappa): compared in z, where round-off is absolute (~eps d).
+      EXPECT_NEAR(c.config().profile->G(StickRadius(loaded)), d - ux / c.mu_kappa(), 4e-16 * d)
+          << n << " " << frac;
+    }
+  }
+}
+
+TEST(ContactTest, PowerLawStickRadiusAndDisplacementTable) {
+  // reference-values.md 3.2: c/a and u0/(mu kappa d) at constant F_N.
+  struct Row {
+    double n, s, c_over_a, u0;
+  } rows[] = {{1, 0.1, 0.9486832981, 0.0513167020},
+              {1, 0.9, 0.3162277660, 0.6837722340},
+              {2, 0.5, 0.7937005260, 0.3700394751},
+              {3, 0.9, 0.5623413252, 0.8221720590}};
+  for (const Row& r : rows) {
+    Contact c = MakeContact(*MakePowerLaw(1.0, r.n), *RigidOnHalfSpace(1e9, 0.3), 0.3);
+    ASSERT_TRUE(c.MoveTo(1e-6, 0).ok());
+    ASSERT_TRUE(c.Apply(TangentialForceStep(r.s * c.friction_limit())).ok());
+    EXPECT_TRUE(RelNear(StickRadius(c) / c.contact_radius(), r.c_over_a, 1e-9));
+    EXPECT_TRUE(RelNear(c.tangential_displacement() / (c.mu_kappa() * 1e-6), r.u0, 1e-9));
+  }
+}
+
+TEST(ContactTest, MindlinDeresiewiczLoopAndEnergyPerCycle) {
+  // reference-values.md 3.2: W/(mu^2 F_N kappa d) per full cycle of amplitude T* = s mu F_N.
+  struct Row {
+    double n, s, w;
+  } rows[] = {{1, 0.1, 1.801834707e-4}, {1, 0.5, 3.35016878e-2},
+              {1, 0.9, 0.4262585671},   {2, 0.1, 1.587715693e-4},
+              {2, 0.5, 2.817369023e-2}, {2, 0.9, 0.3209906465},
+              {3, 0.1, 1.333810679e-4}, {3, 0.5, 2.312761071e-2},
+              {3, 0.9, 0.2499552108},   {2, 1.0, 0.8}};
+  for (const Row& r : rows) {
+    const double mu = 0.3, d = 1e-6;
+    Contact c = MakeContact(*MakePowerLaw(1.0, r.n), *RigidOnHalfSpace(1e9, 0.3), mu);
+    ASSERT_TRUE(c.MoveTo(d, 0).ok());
+    const double fn = c.normal_force(), kappa = c.mu_kappa() / mu;
+    const double ux_star = c.mu_kappa() * d * (1 - std::pow(1 - r.s, r.n / (r.n + 1)));
+    ASSERT_TRUE(c.MoveTo(d, ux_star).ok());
+    EXPECT_TRUE(RelNear(c.tangential_force(), r.s * mu * fn, 1e-12));
+    const double w0 = c.dissipated_energy();
+    // Unloading branch at mid-way, closed form of Mindlin-Deresiewicz.
+    ASSERT_TRUE(c.MoveTo(d, 0).ok());
+    const double unload =
+        r.s * mu * fn - 2 * mu * (fn - c.NormalForceAtDepth(d - ux_star / (2 * c.mu_kappa())));
+    EXPECT_TRUE(RelNear(c.tangential_force(), unload, 1e-12)) << r.n << " " << r.s;
+    ASSERT_TRUE(c.MoveTo(d, -ux_star).ok());
+    EXPECT_TRUE(RelNear(c.tangential_force(), -r.s * mu * fn, 1e-12));
+    ASSERT_TRUE(c.MoveTo(d, ux_star).ok());
+    EXPECT_TRUE(RelNear(c.tangential_force(), r.s * mu * fn, 1e-12));  // the loop closes
+    const double w = (c.dissipated_energy() - w0) / (mu * mu * fn * kappa * d);
+    EXPECT_TRUE(RelNear(w, r.w, 1e-9)) << r.n << " " << r.s;  // table has 10 digits
+  }
+}
+
+TEST(ContactTest, EnergyPerCycleMatchesFormulaToMachinePrecision) {
+  // The closed form itself (not its 10-digit table), for n = 2 and small amplitudes.
+  for (double s : {1e-3, 0.01, 0.1, 0.5, 0.9}) {
+    const double mu = 0.3, d = 1e-6, n = 2;
+    Contact c = MakeContact(*MakeSphere(0.01), *RigidOnHalfSpace(1e9, 0.3), mu);
+    ASSERT_TRUE(c.MoveTo(d, 0).ok());
+    const double fn = c.normal_force(), kappa = c.mu_kappa() / mu;
+    const double ux_star = c.mu_kappa() * d * (1 - std::pow(1 - s, n / (n + 1)));
+    ASSERT_TRUE(c.MoveTo(d, ux_star).ok());
+    const double w0 = c.dissipated_energy();
+    ASSERT_TRUE(c.MoveTo(d, -ux_star).ok());
+    ASSERT_TRUE(c.MoveTo(d, ux_star).ok());
+    const double w = c.dissipated_energy() - w0;
+    const double expected = mu * mu * fn * kappa * d * testing::EnergyPerCycleRatio(n, s);
+    // Slip annuli are stored by z = g(x), with round-off eps*delta: a relative annulus width h
+    // costs ~eps/h of relative accuracy, so the smallest amplitude is held to 1e-11.
+    EXPECT_TRUE(RelNear(w, expected, s < 0.01 ? 1e-11 : 1e-12)) << s;
+  }
+}
+
+TEST(ContactTest, ObliqueLoadingFromZeroIsCompleteStick) {
+  for (double n : {1.0, 2.0, 4.0}) {
+    Contact c = MakeContact(*MakePowerLaw(1.0, n), *RigidOnHalfSpace(1e9, 0.25), 0.5);
+    const double r = 0.7 * c.mu_kappa();
+    for (int i = 1; i <= 10; ++i) ASSERT_TRUE(c.MoveTo(i * 1e-7, r * i * 1e-7).ok());
+    const double kappa = c.mu_kappa() / 0.5;
+    EXPECT_TRUE(RelNear(c.tangential_force() / c.normal_force(), r / kappa, 1e-12));
+    EXPECT_TRUE(c.slip_intervals().empty());
+    EXPECT_EQ(c.memory().vertex_count(), 2u) << "collinear ramps merge";
+  }
+}
+
+TEST(ContactTest, NormalUnloadingAndReloadingAtFixedDisplacement) {
+  Contact c = SteelSphere();
+  ASSERT_TRUE(c.Apply(NormalForceStep(100)).ok());
+  ASSERT_TRUE(c.Apply(TangentialForceStep(15)).ok());
+  const double d0 = c.depth(), ux = c.tangential_displacement(), m = c.mu_kappa();
+  const double d1 = 0.8 * d0;
+  ASSERT_TRUE(c.MoveTo(d1, ux).ok());
+  const double expected = 0.3 * (c.NormalForceAtDepth(d1) - c.NormalForceAtDepth(d1 - ux / m));
+  EXPECT_TRUE(RelNear(c.tangential_force(), expected, 1e-12));
+  // Reloading normally at fixed ux: everything sticks, new springs carry nothing.
+  const double fx = c.tangential_force();
+  ASSERT_TRUE(c.MoveTo(1.2 * d0, ux).ok());
+  EXPECT_TRUE(RelNear(c.tangential_force(), fx, 1e-13));
+  EXPECT_EQ(c.last_step_dissipation(), 0);
+}
+
+TEST(ContactTest, FlatPunchSticksThenSlipsGrossly) {
+  const double a0 = 1e-3, d = 1e-6;
+  Contact c = MakeContact(*MakeFlatPunch(a0), *RigidOnHalfSpace(1e9, 0.3), 0.2);
+  ASSERT_TRUE(c.MoveTo(d, 0).ok());
+  const EffectiveMaterial mat = c.config().material;
+  EXPECT_TRUE(RelNear(c.normal_force(), 2 * mat.e_star * a0 * d, 1e-15));
+  EXPECT_EQ(c.contact_radius(), a0);
+  const double slip = c.mu_kappa() * d;
+  ASSERT_TRUE(c.MoveTo(d, 0.5 * slip).ok());
+  EXPECT_TRUE(RelNear(c.tangential_force(), 2 * mat.g_star * a0 * 0.5 * slip, 1e-15));
+  EXPECT_TRUE(c.slip_intervals().empty()) << "no partial slip for a flat punch";
+  EXPECT_TRUE(RelNear(c.tangential_stiffness().positive, 2 * mat.g_star * a0, 1e-15));
+  ASSERT_TRUE(c.MoveTo(d, 3 * slip).ok());
+  EXPECT_TRUE(RelNear(c.tangential_force(), c.friction_limit(), 1e-15));
+  EXPECT_EQ(c.tangential_stiffness().positive, 0);
+  // It sticks from 0.5 to 1 slip length, then slides 2 slip lengths at mu F_N.
+  EXPECT_TRUE(RelNear(c.last_step_dissipation(), c.friction_limit() * 2 * slip, 1e-12));
+  // Force control reaches exactly the onset of gross slip.
+  Contact fresh = MakeContact(*MakeFlatPunch(a0), *RigidOnHalfSpace(1e9, 0.3), 0.2);
+  ASSERT_TRUE(fresh.MoveTo(d, 0).ok());
+  ASSERT_TRUE(fresh.Apply(TangentialForceStep(fresh.friction_limit())).ok());
+  EXPECT_TRUE(RelNear(fresh.tangential_displacement(), slip, 1e-12));
+}
+
+TEST(ContactTest, LossOfContactErasesMemoryAndRecontactStartsFresh) {
+  Contact c = SteelSphere();
+  ASSERT_TRUE(c.Apply(NormalForceStep(100)).ok());
+  ASSERT_TRUE(c.Apply(TangentialForceStep(20)).ok());
+  ASSERT_TRUE(c.MoveTo(-1e-7, c.tangential_displacement()).ok());
+  EXPECT_EQ(c.normal_force(), 0);
+  EXPECT_EQ(c.tangential_force(), 0);
+  EXPECT_EQ(c.memory().vertex_count(), 0u);
+  ASSERT_TRUE(c.MoveTo(2e-6, c.tangential_displacement()).ok());
+  EXPECT_EQ(c.tangential_force(), 0) << "re-contact without tangential motion carries nothing";
+  // Lifting off dissipates exactly the stored tangential energy (all springs slide to 0).
+  Contact d = SteelSphere();
+  ASSERT_TRUE(d.Apply(NormalForceStep(100)).ok());
+  ASSERT_TRUE(d.MoveTo(d.depth(), 1e-7).ok());  // complete stick: u = ux on [0, a]... near
+  EXPECT_GT(d.tangential_force(), 0);
+  const double before = d.dissipated_energy();
+  ASSERT_TRUE(d.MoveTo(0, d.tangential_displacement()).ok());
+  EXPECT_GT(d.dissipated_energy(), before);
+}
+
+TEST(ContactTest, UnreachableTargetsFailAndLeaveStateUnchanged) {
+  Contact c = SteelSphere();
+  ASSERT_TRUE(c.Apply(NormalForceStep(100)).ok());
+  ASSERT_TRUE(c.Apply(TangentialForceStep(10)).ok());
+  const Contact before = c;
+  Status s = c.Apply(TangentialForceStep(31));
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(s.field(), "tangential_force");
+  EXPECT_NE(s.message().find("mu F_N = 30"), std::string::npos) << s.message();
+  EXPECT_TRUE(c.memory() == before.memory());
+  EXPECT_EQ(c.tangential_displacement(), before.tangential_displacement());
+  s = c.Apply(NormalForceStep(-1));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.field(), "normal_force");
+  Step nan_step;
+  nan_step.tangential = TangentialControl::kDisplacement;
+  nan_step.tangential_value = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(c.Apply(nan_step).field(), "displacement");
+  EXPECT_TRUE(c.memory() == before.memory());
+  EXPECT_EQ(c.dissipated_energy(), before.dissipated_energy());
+}
+
+TEST(ContactTest, ConfigValidationNamesFields) {
+  ContactConfig config;
+  EXPECT_EQ(ValidateContactConfig(config).field(), "profile");
+  config.profile = *MakeSphere(1);
+  config.material = *RigidOnHalfSpace(1e9, 0.3);
+  config.friction = -0.1;
+  EXPECT_EQ(ValidateContactConfig(config).field(), "friction");
+  config.friction = 0.3;
+  config.force_path_tolerance = 0;
+  EXPECT_EQ(ValidateContactConfig(config).field(), "force_path_tolerance");
+  config.force_path_tolerance = 1e-9;
+  EXPECT_TRUE(ValidateContactConfig(config).ok());
+}
+
+}  // namespace
+}  // namespace mdr

@@ -1,0 +1,69 @@
+// Shared helpers for core tests: the reference scenes of ../shared/reference-values.md.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "mdr/core/contact.h"
+
+namespace mdr::testing {
+
+// |actual - expected| <= tolerance * |expected|.
+inline ::testing::AssertionResult RelNear(double actual, double expected, double tolerance) {
+  const double error = std::abs(actual - expected);
+  if (error <= tolerance * std::abs(expected)) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure()
+         << "actual " << actual << " vs expected " << expected << ": relative error "
+         << error / std::abs(expected) << " > " << tolerance;
+}
+
+// mu [F_N(d) - F_N(d - h)] for a power law (F_N proportional to d^((n+1)/n)), h = ux/(mu kappa):
+// the Cattaneo-Mindlin force, written without the cancellation of the plain difference.
+inline double CattaneoMindlinPowerLaw(const Contact& c, double n, double d, double ux) {
+  const double h = ux / c.mu_kappa(), p = (n + 1) / n;
+  return -c.config().friction * c.NormalForceAtDepth(d) * std::expm1(p * std::log1p(-h / d));
+}
+
+// Energy per Mindlin-Deresiewicz cycle / (mu^2 F_N kappa d). The two terms of the closed form
+// cancel to O(s^3) from O(s), so it is evaluated in long double with expm1/log1p: good to
+// ~1e-19/s^2 relative, i.e. 1e-13 for s >= 1e-3.
+inline double EnergyPerCycleRatio(double n, double s) {
+  const long double N = n, log_rest = std::log1pl(-static_cast<long double>(s));
+  const long double a = -8 * (N + 1) / (2 * N + 1) * std::expm1l((2 * N + 1) / (N + 1) * log_rest);
+  const long double b = 4 * s * (2 + std::expm1l(N / (N + 1) * log_rest));
+  return static_cast<double>(a - b);
+}
+
+inline Contact MakeContact(ProfilePtr profile, EffectiveMaterial material, double mu,
+                           bool energy = true) {
+  ContactConfig config;
+  config.profile = std::move(profile);
+  config.material = material;
+  config.friction = mu;
+  config.track_energy = energy;
+  Result<Contact> contact = Contact::Create(config);
+  EXPECT_TRUE(contact.ok()) << contact.status().ToString();
+  return std::move(contact).value();
+}
+
+// H1: steel sphere R = 10 mm on steel (E = 210 GPa, nu = 0.3 both), mu = 0.3.
+inline Contact SteelSphere(bool energy = true) {
+  return MakeContact(*MakeSphere(0.01), *ElasticPair(210e9, 0.3, 210e9, 0.3), 0.3, energy);
+}
+
+inline Step NormalForceStep(double fn) {
+  Step step;
+  step.normal = NormalControl::kForce;
+  step.normal_value = fn;
+  return step;
+}
+
+inline Step TangentialForceStep(double fx) {
+  Step step;
+  step.tangential = TangentialControl::kForce;
+  step.tangential_value = fx;
+  return step;
+}
+
+}  // namespace mdr::testing
