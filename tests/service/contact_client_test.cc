@@ -1,0 +1,89 @@
+// The typed client over an in-process channel (mdrctl's embedded mode).
+#include "mdr/client/contact_client.h"
+
+#include <gmock/gmock.h>
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "mdr/service/server.h"
+
+namespace {
+
+using ::testing::HasSubstr;
+
+class ContactClientTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto server = mdr::service::ContactServer::Start({});
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = std::move(server).value();
+    client_ = std::make_unique<mdr::client::ContactClient>(server_->InProcessChannel());
+  }
+
+  std::unique_ptr<mdr::service::ContactServer> server_;
+  std::unique_ptr<mdr::client::ContactClient> client_;
+};
+
+mdr::v1::Scene RigidConeOnPolymer() {
+  mdr::v1::Scene scene;
+  scene.mutable_cone()->set_slope_angle(10 * 3.14159265358979323846 / 180);
+  scene.mutable_rigid_on_half_space()->set_shear_modulus(3e9 / (2 * 1.35));
+  scene.mutable_rigid_on_half_space()->set_poisson_ratio(0.35);
+  scene.set_friction(0.5);
+  return scene;
+}
+
+TEST(ContactClientStandaloneTest, UnreachableServerIsUnavailableAfterDeadline) {
+  mdr::client::ContactClient client(
+      grpc::CreateChannel("127.0.0.1:1", grpc::InsecureChannelCredentials()),
+      std::chrono::milliseconds(200));
+  auto session = client.CreateSession(RigidConeOnPolymer());
+  ASSERT_FALSE(session.ok());
+  EXPECT_THAT(session.status().error_code(),
+              ::testing::AnyOf(grpc::StatusCode::UNAVAILABLE, grpc::StatusCode::DEADLINE_EXCEEDED));
+}
+
+TEST_F(ContactClientTest, RoundTripCreateApplyQueryDelete) {
+  auto session = client_->CreateSession(RigidConeOnPolymer(), "cone");
+  ASSERT_TRUE(session.ok()) << session.status().error_message();
+  EXPECT_EQ(session->name(), "sessions/cone");
+
+  google::protobuf::RepeatedPtrField<mdr::v1::Step> steps;
+  steps.Add()->set_normal_force(1);
+  steps.Add()->set_tangential_force(0.25);
+  auto applied = client_->Apply(session->name(), steps, /*include_step_results=*/true);
+  ASSERT_TRUE(applied.ok()) << applied.status().error_message();
+  EXPECT_EQ(applied->step_results_size(), 2);
+  // C1 (reference-values.md): F_N = 1 N gives d = 9.0008237835e-6 m, a = 3.2497025499e-5 m.
+  EXPECT_NEAR(applied->state().depth(), 9.0008237835e-6, 1e-9 * 9.0008237835e-6);
+  EXPECT_NEAR(applied->state().contact_radius(), 3.2497025499e-5, 1e-9 * 3.2497025499e-5);
+  EXPECT_NEAR(applied->state().tangential_force(), 0.25, 1e-10);
+
+  auto queried = client_->Query(session->name());
+  ASSERT_TRUE(queried.ok());
+  EXPECT_EQ(queried->normal_force(), applied->state().normal_force());
+
+  auto fetched = client_->GetSession(session->name());
+  ASSERT_TRUE(fetched.ok());
+  EXPECT_EQ(fetched->state().applied_steps(), 2u);
+
+  EXPECT_TRUE(client_->DeleteSession(session->name()).ok());
+  auto gone = client_->Query(session->name());
+  ASSERT_FALSE(gone.ok());
+  EXPECT_EQ(gone.status().error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_THAT(gone.status().error_message(), HasSubstr("sessions/cone"));
+}
+
+TEST_F(ContactClientTest, ErrorsCarryCodeAndFieldMessage) {
+  mdr::v1::Scene scene = RigidConeOnPolymer();
+  scene.mutable_cone()->set_slope_angle(2);
+  auto session = client_->CreateSession(scene);
+  ASSERT_FALSE(session.ok());
+  EXPECT_EQ(session.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(session.status().error_message(), HasSubstr("session.scene.cone.slope_angle: "));
+}
+
+}  // namespace
