@@ -239,3 +239,39 @@ TEST(ContactTest, ConfigValidationNamesFields) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+TEST(ContactSnapshotTest, RestoredContactContinuesBitIdentically) {
+  Contact a = testing::SteelSphere();
+  ASSERT_TRUE(a.Apply(testing::NormalForceStep(100)).ok());
+  ASSERT_TRUE(a.Apply(testing::TangentialForceStep(20)).ok());
+  ASSERT_TRUE(a.MoveTo(a.depth() * 0.9, -1e-7).ok());
+  Result<Contact> b = Contact::Restore(a.config(), a.Snapshot());
+  ASSERT_TRUE(b.ok()) << b.status().ToString();
+  for (Contact* c : {&a, &b.value()}) {
+    ASSERT_TRUE(c->Apply(testing::TangentialForceStep(-12)).ok());
+    ASSERT_TRUE(c->MoveTo(c->depth() * 1.1, 2e-7).ok());
+  }
+  EXPECT_TRUE(a.memory() == b->memory());
+  EXPECT_EQ(a.tangential_force(), b->tangential_force());
+  EXPECT_EQ(a.dissipated_energy(), b->dissipated_energy());
+}
+
+TEST(ContactSnapshotTest, RejectsInvalidSnapshots) {
+  Contact a = testing::SteelSphere();
+  ASSERT_TRUE(a.MoveTo(1e-6, 1e-8).ok());
+  ContactSnapshot s = a.Snapshot();
+  s.u[0] = 1.0;  // far beyond the Coulomb bound
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "memory[0]");
+  s = a.Snapshot();
+  s.z.back() = 2e-6;
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "memory");
+  s = a.Snapshot();
+  s.tangential_displacement = std::nan("");
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "tangential_displacement");
+}
+
+}  // namespace
+}  // namespace mdr

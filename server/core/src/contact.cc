@@ -80,6 +80,38 @@ Result<Contact> Contact::Create(ContactConfig config) {
   return Contact(std::move(config));
 }
 
+Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& snapshot) {
+  Result<Contact> contact = Create(std::move(config));
+  if (!contact.ok()) return contact;
+  if (Status s = RequireFinite("tangential_displacement", snapshot.tangential_displacement);
+      !s.ok()) {
+    return s;
+  }
+  if (Status s = RequireNonNegative("dissipated_energy", snapshot.dissipated_energy); !s.ok()) {
+    return s;
+  }
+  Result<PiecewiseLinearMemory> memory =
+      PiecewiseLinearMemory::Restore(snapshot.depth, snapshot.z, snapshot.u, snapshot.tags);
+  if (!memory.ok()) return memory.status();
+  const double m = contact->mu_kappa();
+  for (std::size_t i = 0; i < snapshot.z.size(); ++i) {
+    if (std::abs(snapshot.u[i]) > m * (snapshot.depth - snapshot.z[i]) * (1 + 1e-12)) {
+      return InvalidArgument("memory[" + std::to_string(i) + "]",
+                             "u exceeds the Coulomb bound mu kappa (depth - z)");
+    }
+  }
+  contact->memory_ = std::move(memory).value();
+  contact->ux_ = snapshot.tangential_displacement;
+  contact->dissipated_ = snapshot.dissipated_energy;
+  contact->last_dissipated_ = snapshot.last_step_dissipation;
+  return contact;
+}
+
+ContactSnapshot Contact::Snapshot() const {
+  return {memory_.depth(), ux_,         dissipated_,   last_dissipated_,
+          memory_.z(),     memory_.u(), memory_.tags()};
+}
+
 double Contact::NormalForceAtDepth(double depth) const {
   return config_.material.e_star * config_.profile->NormalForcePerModulus(depth);
 }

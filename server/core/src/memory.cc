@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <utility>
 
 namespace mdr {
@@ -359,6 +360,36 @@ std::vector<MemoryPiece> PiecewiseLinearMemory::Pieces(const Profile& profile) c
                       static_cast<BoundTag>(tag_[i] & tag_[i + 1])});
   }
   return pieces;
+}
+
+Result<PiecewiseLinearMemory> PiecewiseLinearMemory::Restore(double depth, std::vector<double> z,
+                                                             std::vector<double> u,
+                                                             std::vector<std::uint8_t> tags) {
+  if (!std::isfinite(depth)) return InvalidArgument("depth", "must be finite");
+  const std::size_t n = z.size();
+  if (u.size() != n || tags.size() != n) {
+    return InvalidArgument("memory", "z, u and tags must have the same length");
+  }
+  if (depth <= 0 ? n != 0 : n < 2) {
+    return InvalidArgument("memory", depth <= 0 ? "must be empty out of contact"
+                                                : "needs at least 2 vertices in contact");
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string at = "memory[" + std::to_string(i) + "]";
+    if (!std::isfinite(z[i]) || !std::isfinite(u[i]) || tags[i] > kOnBoth) {
+      return InvalidArgument(at, "z and u must be finite and the tag in 0..3");
+    }
+    if (i > 0 && !(z[i] > z[i - 1])) return InvalidArgument(at, "z must increase strictly");
+  }
+  if (n > 0 && (z.front() != 0 || z.back() != depth || u.back() != 0)) {
+    return InvalidArgument("memory", "must start at z = 0 and end at z = depth with u = 0");
+  }
+  PiecewiseLinearMemory memory;
+  memory.depth_ = depth;
+  memory.z_ = std::move(z);
+  memory.u_ = std::move(u);
+  memory.tag_ = std::move(tags);
+  return memory;
 }
 
 }  // namespace mdr

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "mdr/core/material.h"
@@ -64,9 +65,24 @@ struct SlipInterval {
   int direction;  // +1: at +mu kappa w, -1: at -mu kappa w
 };
 
+// The complete state of a Contact besides its config: what a session export carries so that an
+// imported session continues bit-identically.
+struct ContactSnapshot {
+  double depth = 0;
+  double tangential_displacement = 0;
+  double dissipated_energy = 0;
+  double last_step_dissipation = 0;
+  std::vector<double> z, u;        // memory polyline in z = g(x)
+  std::vector<std::uint8_t> tags;  // BoundTag of each vertex
+};
+
 class Contact {
  public:
   static Result<Contact> Create(ContactConfig config);
+
+  // Rebuilds a contact from a snapshot, validating it against the config (Coulomb bound included).
+  static Result<Contact> Restore(ContactConfig config, const ContactSnapshot& snapshot);
+  ContactSnapshot Snapshot() const;
 
   // Applies a step atomically: on error the contact is unchanged.
   Status Apply(const Step& step, StepReport* report = nullptr);

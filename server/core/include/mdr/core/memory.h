@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mdr/core/profile.h"
+#include "mdr/core/status.h"
 
 namespace mdr {
 
@@ -56,6 +57,13 @@ class PiecewiseLinearMemory {
   double GrossSlipIncrement(double depth1, double mu_kappa, int direction) const;
   // The pieces in x (one per polyline segment, plus the z = 0 atom of a flat punch when present).
   std::vector<MemoryPiece> Pieces(const Profile& profile) const;
+
+  // Rebuilds a memory from its exact state (session export/import), validating the polyline:
+  // no vertices when depth <= 0; otherwise z_0 = 0 < z_1 < ... < z_N = depth, u_N = 0, tags <= 3,
+  // all finite. The Coulomb bound is checked by the caller, who knows mu*kappa.
+  static Result<PiecewiseLinearMemory> Restore(double depth, std::vector<double> z,
+                                               std::vector<double> u,
+                                               std::vector<std::uint8_t> tags);
 
   // Same state (depth and polyline), bit for bit.
   bool operator==(const PiecewiseLinearMemory& other) const {
