@@ -12,14 +12,17 @@ namespace mdr {
 namespace {
 
 // integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2.
-// Uses the profile's moments, except where za is close to zb: there the shifted moments cancel
-// (a slip annulus of relative width h would lose a factor 1/h^2), so q is integrated by 16-point
-// Gauss-Legendre in x with z - za from Profile::Rise, exact to round-off for za > zb/2.
+// Uses the profile's moments unless they cancel: the shifted moments lose a factor
+// za/(zb - za) (linear term) or its square (quadratic term) to round-off, so thin pieces (a slip
+// annulus just starting) are integrated by 16-point Gauss-Legendre in x with z - za from
+// Profile::Rise, exact to round-off there. (Differences of moments also lose a/(xb - xa); the
+// thresholds keep the total loss near 1e2..1e3 eps.)
 double IntegrateQuadratic(const Profile& profile, double za, double zb, double c0, double c1,
                           double c2) {
   const double xa = profile.RadiusAtDepth(za), xb = profile.RadiusAtDepth(zb);
   if (!(xb > xa)) return 0;
-  if (za > 0.5 * zb) {
+  const double thin = c2 != 0 ? 4 * (zb - za) : 1e3 * (zb - za);
+  if (za > thin) {
     static const gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(16);
     double sum = 0;
     for (std::size_t i = 0; i < 16; ++i) {
