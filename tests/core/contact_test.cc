@@ -275,3 +275,121 @@ TEST(ContactSnapshotTest, RejectsInvalidSnapshots) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+using testing::RelNear;
+
+Contact SphereWithTolerance(double tolerance) {
+  ContactConfig config;
+  config.profile = *MakeSphere(0.01);
+  config.material = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  config.friction = 0.3;
+  config.force_path_tolerance = tolerance;
+  return std::move(Contact::Create(config)).value();
+}
+
+TEST(ForcePathTest, ProportionalForceLoadingIsObliqueDisplacementLoading) {
+  // F_x/F_N = r/kappa from zero maps to the straight path ux = r delta (complete stick), so the
+  // adaptive path control must accept the first bisection and land on the oblique state.
+  Contact c = SphereWithTolerance(1e-10);
+  Step step;
+  step.normal = NormalControl::kForce;
+  step.normal_value = 100;
+  step.tangential = TangentialControl::kForce;
+  step.tangential_value = 20;
+  StepReport report;
+  ASSERT_TRUE(c.Apply(step, &report).ok());
+  EXPECT_TRUE(RelNear(c.normal_force(), 100, 1e-12));
+  EXPECT_TRUE(RelNear(c.tangential_force(), 20, 1e-12));
+  const double kappa = c.mu_kappa() / 0.3;
+  EXPECT_TRUE(RelNear(c.tangential_displacement(), 0.2 * kappa * c.depth(), 1e-10));
+  EXPECT_TRUE(c.slip_intervals().empty());
+  EXPECT_EQ(report.substeps, 2);
+  EXPECT_LE(report.path_error, 1e-10);
+}
+
+TEST(ForcePathTest, CurvedPathHitsTargetsAndConvergesWithTolerance) {
+  // While every spring sticks, a path linear in force is a straight line in (delta, ux)
+  // (Delta F_x = (r/kappa) Delta F_N), and monotone slip growth is path-independent too. Loading
+  // normally while partly unloading tangentially is neither: the entering springs record the
+  // curved path, so the end state depends on the sub-steps.
+  auto run = [](double tolerance, StepReport* report) {
+    Contact c = SphereWithTolerance(tolerance);
+    EXPECT_TRUE(c.Apply(testing::NormalForceStep(100)).ok());
+    EXPECT_TRUE(c.Apply(testing::TangentialForceStep(15)).ok());
+    Step step;
+    step.normal = NormalControl::kForce;
+    step.normal_value = 150;
+    step.tangential = TangentialControl::kDisplacement;
+    step.tangential_value = 3e-7;
+    EXPECT_TRUE(c.Apply(step, report).ok());
+    return c;
+  };
+  StepReport coarse_report, fine_report;
+  Contact coarse = run(1e-5, &coarse_report), fine = run(1e-9, &fine_report);
+  for (const Contact* c : {&coarse, &fine}) {
+    EXPECT_TRUE(RelNear(c->normal_force(), 150, 1e-12));
+    EXPECT_EQ(c->tangential_displacement(), 3e-7);
+  }
+  EXPECT_GT(coarse_report.path_error, 1e-7) << "the path is curved";
+  EXPECT_LE(coarse_report.path_error, 1e-5);
+  EXPECT_LE(fine_report.path_error, 1e-9);
+  EXPECT_GT(fine_report.substeps, 10 * coarse_report.substeps);
+  // The coarse state is within (a small multiple of) its reported error of the fine one.
+  double diff = 0;
+  for (double z : fine.memory().z()) {
+    diff = std::max(diff, std::abs(fine.memory().UAtDepth(z) - coarse.memory().UAtDepth(z)));
+  }
+  const double scale = fine.mu_kappa() * fine.depth();
+  EXPECT_LE(diff / scale, 2 * coarse_report.path_error);
+  EXPECT_TRUE(RelNear(coarse.tangential_force(), fine.tangential_force(), 1e-5));
+}
+
+TEST(ForcePathTest, NormalForceWithDisplacementAndDepthWithTangentialForce) {
+  Contact c = SphereWithTolerance(1e-9);
+  ASSERT_TRUE(c.Apply(testing::NormalForceStep(100)).ok());
+  Step mixed;  // F_N down while ux moves: curved
+  mixed.normal = NormalControl::kForce;
+  mixed.normal_value = 60;
+  mixed.tangential = TangentialControl::kDisplacement;
+  mixed.tangential_value = 3e-7;
+  StepReport report;
+  ASSERT_TRUE(c.Apply(mixed, &report).ok());
+  EXPECT_TRUE(RelNear(c.normal_force(), 60, 1e-12));
+  EXPECT_EQ(c.tangential_displacement(), 3e-7);
+  EXPECT_LE(report.path_error, 1e-8);
+  Step depth_with_force;  // depth up while F_x is driven to -5 N: curved
+  depth_with_force.normal = NormalControl::kDepthIncrement;
+  depth_with_force.normal_value = 1e-7;
+  depth_with_force.tangential = TangentialControl::kForce;
+  depth_with_force.tangential_value = -5;
+  const double depth_before = c.depth();
+  ASSERT_TRUE(c.Apply(depth_with_force, &report).ok());
+  EXPECT_TRUE(RelNear(c.tangential_force(), -5, 1e-12));
+  EXPECT_EQ(c.depth(), depth_before + 1e-7);
+  EXPECT_GE(c.last_step_dissipation(), 0);
+}
+
+TEST(ForcePathTest, UnreachableIntermediateTargetFailsAtomically) {
+  // Depth falls to zero while F_x must stay at 10 N: impossible on the way; nothing changes.
+  Contact c = SphereWithTolerance(1e-9);
+  ASSERT_TRUE(c.Apply(testing::NormalForceStep(100)).ok());
+  ASSERT_TRUE(c.Apply(testing::TangentialForceStep(10)).ok());
+  const ContactSnapshot before = c.Snapshot();
+  Step step;
+  step.normal = NormalControl::kDepth;
+  step.normal_value = 0;
+  step.tangential = TangentialControl::kForce;
+  step.tangential_value = 10;
+  Status s = c.Apply(step);
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(s.field(), "tangential_force");
+  EXPECT_EQ(c.Snapshot().z, before.z);
+  EXPECT_EQ(c.Snapshot().u, before.u);
+  EXPECT_EQ(c.depth(), before.depth);
+}
+
+}  // namespace
+}  // namespace mdr

@@ -7,13 +7,19 @@
 #include <cmath>
 #include <sstream>
 
+#include "gsl_errors.h"
 #include "mdr/core/validate.h"
 
 namespace mdr {
 namespace {
 
-// Curved force paths: cap on exact sub-steps per step, so a pathological request ends.
-constexpr int kMaxSubsteps = 1 << 14;
+// Largest grid the config accepts (32 MiB of spring state).
+constexpr std::size_t kMaxGridSize = std::size_t{1} << 22;
+
+// Curved force paths: bisection depth cap (at most 2^13 intervals, 3 exact sub-steps each), so
+// a pathological request ends; a depth cap rather than a sub-step budget keeps the resolution
+// uniform along the path when it is reached.
+constexpr int kMaxBisections = 13;
 
 std::string Format(double v) {
   std::ostringstream out;
@@ -29,6 +35,15 @@ double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory
   for (double z : b.z()) diff = std::max(diff, std::abs(a.UAtDepth(z) - b.UAtDepth(z)));
   return diff;
 }
+
+}  // namespace
+
+double Contact::MemoryDifference(const Contact& a, const Contact& b) {
+  if (const GridMemory* grid = a.grid_memory()) return grid->MaxDifference(*b.grid_memory());
+  return MaxDifference(a.memory(), b.memory());
+}
+
+namespace {
 
 const char* NormalField(NormalControl c) {
   switch (c) {
@@ -72,12 +87,45 @@ Status ValidateContactConfig(const ContactConfig& config) {
     return InvalidArgument("max_memory_vertices",
                            "must be >= 8, got " + std::to_string(config.max_memory_vertices));
   }
+  if (config.grid_size < 2 || config.grid_size > kMaxGridSize) {
+    return InvalidArgument("grid_size", "must be in [2, " + std::to_string(kMaxGridSize) +
+                                            "], got " + std::to_string(config.grid_size));
+  }
+  if (config.method == Method::kGrid) {
+    if (Status s = RequirePositive("grid_max_radius", config.grid_max_radius); !s.ok()) return s;
+  }
   return OkStatus();
 }
 
 Result<Contact> Contact::Create(ContactConfig config) {
   if (Status s = ValidateContactConfig(config); !s.ok()) return s;
-  return Contact(std::move(config));
+  Contact contact(std::move(config));
+  const ContactConfig& c = contact.config_;
+  if (c.method == Method::kGrid) {
+    contact.memory_.emplace<GridMemory>(*c.profile, c.grid_size, c.grid_max_radius,
+                                        c.grid_step_rule);
+  }
+  return contact;
+}
+
+std::vector<MemoryPiece> Contact::memory_pieces() const {
+  const auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_);
+  return exact ? exact->Pieces(*config_.profile) : std::vector<MemoryPiece>{};
+}
+
+double Contact::grid_spacing() const {
+  const GridMemory* grid = grid_memory();
+  return grid ? grid->spacing() : 0.0;
+}
+
+Status Contact::CheckGridReach(double depth1) const {
+  const GridMemory* grid = grid_memory();
+  if (grid == nullptr || !(depth1 > 0)) return OkStatus();
+  const double radius = config_.profile->RadiusAtDepth(depth1);
+  if (radius <= grid->max_radius()) return OkStatus();
+  return FailedPrecondition(
+      "grid_max_radius", "the contact radius " + Format(radius) + " m at depth " + Format(depth1) +
+                             " m exceeds the grid's radius " + Format(grid->max_radius()) + " m");
 }
 
 Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& snapshot) {
@@ -90,6 +138,15 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
   if (Status s = RequireNonNegative("dissipated_energy", snapshot.dissipated_energy); !s.ok()) {
     return s;
   }
+  contact->ux_ = snapshot.tangential_displacement;
+  contact->dissipated_ = snapshot.dissipated_energy;
+  contact->last_dissipated_ = snapshot.last_step_dissipation;
+  if (auto* grid = std::get_if<GridMemory>(&contact->memory_)) {
+    if (Status s = grid->Restore(snapshot.depth, snapshot.grid_u, contact->mu_kappa()); !s.ok()) {
+      return s;
+    }
+    return contact;
+  }
   Result<PiecewiseLinearMemory> memory =
       PiecewiseLinearMemory::Restore(snapshot.depth, snapshot.z, snapshot.u, snapshot.tags);
   if (!memory.ok()) return memory.status();
@@ -101,15 +158,17 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
     }
   }
   contact->memory_ = std::move(memory).value();
-  contact->ux_ = snapshot.tangential_displacement;
-  contact->dissipated_ = snapshot.dissipated_energy;
-  contact->last_dissipated_ = snapshot.last_step_dissipation;
   return contact;
 }
 
 ContactSnapshot Contact::Snapshot() const {
-  return {memory_.depth(), ux_,         dissipated_,   last_dissipated_,
-          memory_.z(),     memory_.u(), memory_.tags()};
+  if (const GridMemory* grid = grid_memory()) {
+    const Eigen::ArrayXd& u = grid->u();
+    return {depth(), ux_, dissipated_, last_dissipated_,
+            {},      {},  {},          std::vector<double>(u.data(), u.data() + u.size())};
+  }
+  const PiecewiseLinearMemory& m = memory();
+  return {m.depth(), ux_, dissipated_, last_dissipated_, m.z(), m.u(), m.tags(), {}};
 }
 
 double Contact::NormalForceAtDepth(double depth) const {
@@ -127,28 +186,55 @@ double Contact::contact_radius() const {
 double Contact::normal_force() const { return NormalForceAtDepth(depth()); }
 
 double Contact::tangential_force() const {
-  return 2 * config_.material.g_star * memory_.IntegralU(*config_.profile);
+  const GridMemory* grid = grid_memory();
+  const double integral = grid ? grid->IntegralU() : memory().IntegralU(*config_.profile);
+  return 2 * config_.material.g_star * integral;
 }
 
 TangentialStiffness Contact::tangential_stiffness() const {
   // Sticking springs follow ux; those on the bound in the direction of motion slide.
-  const double a = contact_radius();
   const double k = 2 * config_.material.g_star;
-  return {k * (a - memory_.MeasureOnBound(*config_.profile, kOnUpper)),
-          k * (a - memory_.MeasureOnBound(*config_.profile, kOnLower))};
+  if (const GridMemory* grid = grid_memory()) {
+    const double a = grid->MeasureInContact();
+    return {k * (a - grid->MeasureOnBound(mu_kappa(), kOnUpper)),
+            k * (a - grid->MeasureOnBound(mu_kappa(), kOnLower))};
+  }
+  const double a = contact_radius();
+  return {k * (a - memory().MeasureOnBound(*config_.profile, kOnUpper)),
+          k * (a - memory().MeasureOnBound(*config_.profile, kOnLower))};
 }
+
+namespace {
+
+// Appends [r_begin, r_end] to intervals, merging it with the last one if they touch.
+void AddSlipInterval(std::vector<SlipInterval>& intervals, double r_begin, double r_end,
+                     BoundTag bound) {
+  const int direction = bound == kOnUpper ? +1 : bound == kOnLower ? -1 : 0;
+  if (!intervals.empty() && intervals.back().direction == direction &&
+      intervals.back().r_end == r_begin) {
+    intervals.back().r_end = r_end;
+  } else {
+    intervals.push_back({r_begin, r_end, direction});
+  }
+}
+
+}  // namespace
 
 std::vector<SlipInterval> Contact::slip_intervals() const {
   std::vector<SlipInterval> intervals;
-  for (const MemoryPiece& piece : memory_pieces()) {
-    if (piece.bound == kInside) continue;
-    const int direction = piece.bound == kOnUpper ? +1 : piece.bound == kOnLower ? -1 : 0;
-    if (!intervals.empty() && intervals.back().direction == direction &&
-        intervals.back().r_end == piece.x_begin) {
-      intervals.back().r_end = piece.x_end;
-    } else {
-      intervals.push_back({piece.x_begin, piece.x_end, direction});
+  if (const GridMemory* grid = grid_memory()) {
+    // Each spring stands for its cell [j h, (j + 1) h], cut at the contact radius.
+    const double h = grid->spacing(), a = contact_radius(), m = mu_kappa();
+    for (std::size_t j = 0; j < grid->size(); ++j) {
+      const BoundTag tag = grid->Tag(j, m);
+      const double r_begin = static_cast<double>(j) * h;  // same product as the previous r_end
+      const double r_end = std::min(static_cast<double>(j + 1) * h, a);
+      if (tag != kInside) AddSlipInterval(intervals, r_begin, r_end, tag);
     }
+    return intervals;
+  }
+  for (const MemoryPiece& piece : memory_pieces()) {
+    if (piece.bound != kInside) AddSlipInterval(intervals, piece.x_begin, piece.x_end, piece.bound);
   }
   return intervals;
 }
@@ -156,7 +242,8 @@ std::vector<SlipInterval> Contact::slip_intervals() const {
 double Contact::tangential_displacement_at(double x) const {
   x = std::abs(x);
   if (!(x < contact_radius())) return 0;
-  return memory_.UAtDepth(config_.profile->G(x));
+  if (const GridMemory* grid = grid_memory()) return grid->UAtRadius(x);
+  return memory().UAtDepth(config_.profile->G(x));
 }
 
 double Contact::normal_displacement_at(double x) const {
@@ -166,12 +253,30 @@ double Contact::normal_displacement_at(double x) const {
 }
 
 double Contact::LinearStep(double depth1, double ux1) {
-  const Profile* energy_profile = config_.track_energy ? config_.profile.get() : nullptr;
-  const double per_modulus = memory_.Step(depth1, ux1 - ux_, mu_kappa(), energy_profile);
+  double per_modulus = 0;
+  if (auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_)) [[likely]] {
+    const Profile* energy_profile = config_.track_energy ? config_.profile.get() : nullptr;
+    per_modulus = exact->Step(depth1, ux1 - ux_, mu_kappa(), energy_profile);
+  } else {
+    per_modulus =
+        std::get<GridMemory>(memory_).Step(depth1, ux1 - ux_, mu_kappa(), config_.track_energy);
+  }
   ux_ = ux1;
   const double dissipated = config_.material.g_star * per_modulus;
   dissipated_ += dissipated;
   return dissipated;
+}
+
+double Contact::TangentialForceAfterStep(double depth1, double ux1) const {
+  double integral = 0;
+  if (const GridMemory* grid = grid_memory()) {
+    integral = grid->IntegralUAfterStep(depth1, ux1 - ux_, mu_kappa());
+  } else {
+    PiecewiseLinearMemory memory = this->memory();
+    memory.Step(depth1, ux1 - ux_, mu_kappa(), nullptr);
+    integral = memory.IntegralU(*config_.profile);
+  }
+  return 2 * config_.material.g_star * integral;
 }
 
 Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) const {
@@ -184,8 +289,11 @@ Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) co
   }
   if (limit == 0) return ux_;  // F_x = 0 holds for any ux: keep it
   const double m = mu_kappa();
-  const double lo = ux_ + memory_.GrossSlipIncrement(depth1, m, -1);
-  const double hi = ux_ + memory_.GrossSlipIncrement(depth1, m, +1);
+  const GridMemory* grid = grid_memory();
+  const double lo = ux_ + (grid ? grid->GrossSlipIncrement(depth1, m, -1)
+                                : memory().GrossSlipIncrement(depth1, m, -1));
+  const double hi = ux_ + (grid ? grid->GrossSlipIncrement(depth1, m, +1)
+                                : memory().GrossSlipIncrement(depth1, m, +1));
   if (fx >= limit) return hi;  // onset of gross slip
   if (fx <= -limit) return lo;
 
@@ -197,17 +305,13 @@ Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) co
   f.params = &trial;
   f.function = [](double ux1, void* p) {
     const auto* t = static_cast<const Trial*>(p);
-    PiecewiseLinearMemory memory = t->contact->memory_;
-    memory.Step(t->depth1, ux1 - t->contact->ux_, t->contact->mu_kappa(), nullptr);
-    return 2 * t->contact->config_.material.g_star *
-               memory.IntegralU(*t->contact->config_.profile) -
-           t->fx;
+    return t->contact->TangentialForceAfterStep(t->depth1, ux1) - t->fx;
   };
   const double f_lo = f.function(lo, f.params), f_hi = f.function(hi, f.params);
   if (f_lo >= 0) return lo;
   if (f_hi <= 0) return hi;
 
-  gsl_error_handler_t* previous = gsl_set_error_handler_off();
+  internal::ReturnGslErrorCodes();
   gsl_root_fsolver* solver = gsl_root_fsolver_alloc(gsl_root_fsolver_brent);
   gsl_root_fsolver_set(solver, &f, lo, hi);
   const double tolerance = 1e-15 * std::max({std::abs(lo), std::abs(hi), hi - lo});
@@ -219,13 +323,15 @@ Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) co
     if (x_hi - x_lo <= tolerance) break;
   }
   gsl_root_fsolver_free(solver);
-  gsl_set_error_handler(previous);
   return root;
 }
 
 Status Contact::MoveTo(double depth, double tangential_displacement, StepReport* report) {
   if (Status s = RequireFinite("depth", depth); !s.ok()) return s;
   if (Status s = RequireFinite("displacement", tangential_displacement); !s.ok()) return s;
+  if (grid_memory() != nullptr) {
+    if (Status s = CheckGridReach(depth); !s.ok()) return s;
+  }
   last_dissipated_ = LinearStep(depth, tangential_displacement);
   if (report) *report = {1, 0, last_dissipated_};
   return OkStatus();
@@ -256,6 +362,7 @@ Status Contact::Apply(const Step& step, StepReport* report) {
     }
   }
   if (Status s = RequireFinite(normal_field, depth1); !s.ok()) return s;
+  if (Status s = CheckGridReach(depth1); !s.ok()) return s;
 
   Contact trial = *this;
   StepReport local;
@@ -280,9 +387,9 @@ Status Contact::Apply(const Step& step, StepReport* report) {
   } else if (Status s = trial.ApplyCurvedPath(step, depth1, &local); !s.ok()) {
     return s;
   }
-  if (trial.memory_.vertex_count() > config_.max_memory_vertices) {
+  if (trial.memory().vertex_count() > config_.max_memory_vertices) {
     return ResourceExhausted("max_memory_vertices",
-                             "the step needs " + std::to_string(trial.memory_.vertex_count()) +
+                             "the step needs " + std::to_string(trial.memory().vertex_count()) +
                                  " memory vertices, above the session limit of " +
                                  std::to_string(config_.max_memory_vertices));
   }
@@ -320,27 +427,31 @@ Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepRepor
   };
   const double scale = std::max(mu_kappa() * std::max(depth0, depth_target), 1e-300);
 
-  // Adaptive bisection: accept [s0, s1] when one sub-step and two half sub-steps agree.
+  // Adaptive bisection: accept [s0, s1] when one sub-step and two half sub-steps agree to the
+  // tolerance. A chord's error sits in the springs that enter or slide during that interval and
+  // is not accumulated afterwards (sticking springs move rigidly with exact sub-step ends, the
+  // clamp is non-expansive), so the estimate of the whole step is the largest local one; it
+  // converges at second order in the sub-step length.
   StepReport total;
-  auto refine = [&](auto&& self, double s0, double s1) -> Status {
+  auto refine = [&](auto&& self, double s0, double s1, int level) -> Status {
     Contact one = *this, two = *this;
     double d_one = 0, d_two = 0;
     const double mid = 0.5 * (s0 + s1);
     if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
     if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
     if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
-    const double error = MaxDifference(one.memory_, two.memory_) / scale;
-    if (error <= config_.force_path_tolerance || total.substeps + 2 >= kMaxSubsteps) {
+    const double error = MemoryDifference(one, two) / scale;
+    if (error <= config_.force_path_tolerance || level >= kMaxBisections) {
       *this = std::move(two);
       total.substeps += 2;
-      total.path_error += error;
+      total.path_error = std::max(total.path_error, error);
       total.dissipated += d_two;
       return OkStatus();
     }
-    if (Status s = self(self, s0, mid); !s.ok()) return s;
-    return self(self, mid, s1);
+    if (Status s = self(self, s0, mid, level + 1); !s.ok()) return s;
+    return self(self, mid, s1, level + 1);
   };
-  if (Status s = refine(refine, 0.0, 1.0); !s.ok()) return s;
+  if (Status s = refine(refine, 0.0, 1.0, 0); !s.ok()) return s;
   *report = total;
   return OkStatus();
 }

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "gsl_errors.h"
 #include "mdr/core/validate.h"
 
 namespace mdr {
@@ -36,7 +37,7 @@ double IntegratePowerOfHypotenuse(double r, double span, double beta) {
   f.params = &params;
   constexpr std::size_t kWorkspace = 256;
   gsl_integration_workspace* w = gsl_integration_workspace_alloc(kWorkspace);
-  gsl_error_handler_t* previous = gsl_set_error_handler_off();
+  internal::ReturnGslErrorCodes();
   double total = 0;
   const double split = std::min(r, span);
   for (auto [lo, hi] : {std::pair{0.0, split}, std::pair{split, span}}) {
@@ -45,7 +46,6 @@ double IntegratePowerOfHypotenuse(double r, double span, double beta) {
     gsl_integration_qag(&f, lo, hi, 0, 1e-13, kWorkspace, GSL_INTEG_GAUSS31, w, &value, &error);
     total += value;
   }
-  gsl_set_error_handler(previous);
   gsl_integration_workspace_free(w);
   return total;
 }

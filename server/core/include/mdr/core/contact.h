@@ -3,14 +3,22 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <variant>
 #include <vector>
 
+#include "mdr/core/grid_memory.h"
 #include "mdr/core/material.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
 #include "mdr/core/status.h"
 
 namespace mdr {
+
+// How the tangential memory is represented.
+enum class Method {
+  kExact,  // PiecewiseLinearMemory: exact for piecewise-linear histories, no discretisation
+  kGrid,   // GridMemory: the classical MDR with grid_size springs on [0, grid_max_radius]
+};
 
 struct ContactConfig {
   ProfilePtr profile;
@@ -19,15 +27,27 @@ struct ContactConfig {
   // Dissipated energy costs one profile evaluation per slipping piece and step; scenes that do
   // not ask for energy switch it off.
   bool track_energy = true;
-  // Relative tolerance of force-controlled steps whose path is curved in (delta, ux).
-  double force_path_tolerance = 1e-10;
+  // Tolerance of force-controlled steps whose path is curved in (delta, ux), relative to
+  // mu*kappa*delta. The memory records such a path with one vertex per sub-step, and the
+  // sub-step count grows like 1/sqrt(tolerance) (about 1300 for 1e-8 on a Hertz contact).
+  double force_path_tolerance = 1e-8;
   // Limit on memory vertices (ResourceExhausted beyond it); bounded in practice by the
   // nesting depth of load reversals.
   std::size_t max_memory_vertices = 1 << 16;
+
+  Method method = Method::kExact;
+  // Grid method only. Springs at the midpoints of grid_size cells on [0, grid_max_radius]
+  // (spacing h = grid_max_radius / grid_size, Contact::grid_spacing()); with the exact step rule
+  // forces and energies converge like h^2. A step whose contact radius would exceed
+  // grid_max_radius fails (FailedPrecondition, field grid_max_radius).
+  std::size_t grid_size = 1024;  // in [2, 2^22]
+  double grid_max_radius = 0;    // m, > 0 for Method::kGrid
+  GridStepRule grid_step_rule = GridStepRule::kExact;
 };
 
 // Validates a config: profile present, material moduli > 0, friction >= 0 and finite,
-// tolerance in (0, 0.1], vertex limit >= 8. Field names are relative to the proto Scene.
+// tolerance in (0, 0.1], vertex limit >= 8, grid_size in [2, 2^22], grid_max_radius > 0 for the
+// grid method. Field names are relative to the proto Scene.
 Status ValidateContactConfig(const ContactConfig& config);
 
 // How each channel of a step is driven. "Increment" values are relative to the current state.
@@ -49,7 +69,7 @@ struct Step {
 
 struct StepReport {
   int substeps = 0;       // exact linear sub-steps used
-  double path_error = 0;  // estimated max |delta u| / (mu kappa delta) from path refinement
+  double path_error = 0;  // estimated max |u error| / (mu kappa delta) of a curved path
   double dissipated = 0;  // J, 0 when energy is not tracked
 };
 
@@ -74,6 +94,7 @@ struct ContactSnapshot {
   double last_step_dissipation = 0;
   std::vector<double> z, u;        // memory polyline in z = g(x)
   std::vector<std::uint8_t> tags;  // BoundTag of each vertex
+  std::vector<double> grid_u;      // grid method: u_j of every spring (z, u, tags stay empty)
 };
 
 class Contact {
@@ -86,11 +107,15 @@ class Contact {
 
   // Applies a step atomically: on error the contact is unchanged.
   Status Apply(const Step& step, StepReport* report = nullptr);
-  // The exact linear step to (delta, ux) without validation of targets beyond finiteness.
+  // The exact linear step to (delta, ux) without validation of targets beyond finiteness (and,
+  // for the grid method, the grid's reach).
   Status MoveTo(double depth, double tangential_displacement, StepReport* report = nullptr);
 
   const ContactConfig& config() const { return config_; }
-  double depth() const { return memory_.depth(); }
+  double depth() const {
+    const auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_);
+    return exact ? exact->depth() : std::get<GridMemory>(memory_).depth();
+  }
   double tangential_displacement() const { return ux_; }
   double mu_kappa() const { return config_.friction * config_.material.kappa(); }
   double contact_radius() const;
@@ -105,8 +130,17 @@ class Contact {
   // Tangential spring displacement u(x) and normal one w(x) = delta - g(x) (0 outside contact).
   double tangential_displacement_at(double x) const;
   double normal_displacement_at(double x) const;
-  const PiecewiseLinearMemory& memory() const { return memory_; }
-  std::vector<MemoryPiece> memory_pieces() const { return memory_.Pieces(*config_.profile); }
+  // The exact memory; for the grid method an empty one (use grid_memory()).
+  const PiecewiseLinearMemory& memory() const {
+    const auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_);
+    return exact ? *exact : kNoExactMemory;
+  }
+  // The exact memory's pieces; empty for the grid method, whose u is not piecewise affine.
+  std::vector<MemoryPiece> memory_pieces() const;
+  // The grid memory, or nullptr for the exact method.
+  const GridMemory* grid_memory() const { return std::get_if<GridMemory>(&memory_); }
+  // Grid spacing h (the grid method's resolution), 0 for the exact method.
+  double grid_spacing() const;
 
   // F_N(delta) for this profile and material, and its inverse (F_N >= 0).
   double NormalForceAtDepth(double depth) const;
@@ -116,12 +150,21 @@ class Contact {
   explicit Contact(ContactConfig config) : config_(std::move(config)) {}
   // Exact linear step to (depth1, ux1); returns dissipation (J) if tracked.
   double LinearStep(double depth1, double ux1);
+  // FailedPrecondition if the grid method's contact would outgrow the grid at depth1.
+  Status CheckGridReach(double depth1) const;
+  // F_x after a linear step to (depth1, ux1), the state unchanged.
+  double TangentialForceAfterStep(double depth1, double ux1) const;
+  // Largest |u_a - u_b| between two contacts of this config (curved-path refinement).
+  static double MemoryDifference(const Contact& a, const Contact& b);
   // The ux1 that gives tangential force fx at depth1 after a linear step from the current state.
   Result<double> SolveTangentialDisplacement(double depth1, double fx) const;
   Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report);
 
+  static inline const PiecewiseLinearMemory kNoExactMemory{};
+
   ContactConfig config_;
-  PiecewiseLinearMemory memory_;
+  // One of the two; the exact path dispatches once per step, never per spring.
+  std::variant<PiecewiseLinearMemory, GridMemory> memory_;
   double ux_ = 0;
   double dissipated_ = 0;
   double last_dissipated_ = 0;

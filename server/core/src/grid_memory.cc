@@ -1,0 +1,168 @@
+#include "mdr/core/grid_memory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace mdr {
+namespace {
+
+// One step linear in (delta, ux): depth0 -> depth1, ux -> ux + dux.
+struct LinearStep {
+  double depth0, depth1, dux, mu_kappa;
+  double ddelta() const { return depth1 - depth0; }
+  double BoundAtEnd(double z) const { return mu_kappa * (depth1 - z); }
+};
+
+// Unclamped end value of a spring at z with start value u that is in contact at the end
+// (z < depth1), by the given rule (see GridStepRule).
+double UnclampedEnd(const LinearStep& step, GridStepRule rule, double z, double u) {
+  if (z < step.depth0) return u + step.dux;  // in contact throughout
+  if (rule == GridStepRule::kNaive) return step.dux;
+  return step.dux * ((step.depth1 - z) / step.ddelta());  // (1 - s_e) dux, entering at s_e
+}
+
+// Energy per G* and unit radius of a spring that stays or enters and ends clamped from v to
+// the bound b1: 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2], e = |v| - b1, r the sliding rate
+// (memory.cc, ClampToBounds).
+double ClampedSpringDissipation(const LinearStep& step, double v, double b1) {
+  const double sigma = v > 0 ? 1.0 : -1.0;
+  const double excess = sigma * v - b1;
+  const double rate = sigma * step.dux - step.mu_kappa * step.ddelta();
+  const double k = rate > 0 ? step.mu_kappa * step.ddelta() / (2 * rate) : 0.0;
+  return 2 * (excess * b1 - k * excess * excess);
+}
+
+// Energy per G* and unit radius of a spring at z with start value u0 that leaves contact
+// during an unloading step: r b*^2 / (-mu_kappa ddelta) (memory.cc, LeavingDissipation).
+double LeavingSpringDissipation(const LinearStep& step, double z, double u0) {
+  const double ddelta = step.ddelta(), m = step.mu_kappa;
+  const double at_leaving = u0 + (step.depth0 - z) / -ddelta * step.dux;
+  if (at_leaving == 0) return 0;
+  const double sigma = at_leaving > 0 ? 1.0 : -1.0;
+  const double rate = sigma * step.dux - m * ddelta;
+  const double b0 = m * (step.depth0 - z);
+  const double b_star = std::clamp(b0 + m * ddelta * (b0 - sigma * u0) / rate, 0.0, b0);
+  return rate * b_star * b_star / (-m * ddelta);
+}
+
+}  // namespace
+
+GridMemory::GridMemory(const Profile& profile, std::size_t size, double max_radius,
+                       GridStepRule rule)
+    : spacing_(max_radius / static_cast<double>(size)),
+      rule_(rule),
+      z_(static_cast<Eigen::Index>(size)),
+      u_(Eigen::ArrayXd::Zero(static_cast<Eigen::Index>(size))) {
+  for (Eigen::Index j = 0; j < z_.size(); ++j) {
+    z_[j] = profile.G((static_cast<double>(j) + 0.5) * spacing_);
+  }
+}
+
+double GridMemory::Step(double depth1, double dux, double mu_kappa, bool track_energy) {
+  const LinearStep step{depth_, depth1, dux, mu_kappa};
+  const bool energy = track_energy && mu_kappa > 0;
+  double dissipated = 0;
+  for (Eigen::Index j = 0; j < z_.size(); ++j) {
+    const double z = z_[j];
+    if (!(z < depth1)) {  // out of contact at the end: forgets
+      if (energy && z < step.depth0) dissipated += LeavingSpringDissipation(step, z, u_[j]);
+      u_[j] = 0;
+      continue;
+    }
+    const double v = UnclampedEnd(step, rule_, z, u_[j]);
+    const double b1 = step.BoundAtEnd(z);
+    u_[j] = std::clamp(v, -b1, b1);
+    if (energy && std::abs(v) > b1) dissipated += ClampedSpringDissipation(step, v, b1);
+  }
+  depth_ = depth1;
+  return dissipated * spacing_;
+}
+
+double GridMemory::IntegralUAfterStep(double depth1, double dux, double mu_kappa) const {
+  const LinearStep step{depth_, depth1, dux, mu_kappa};
+  double sum = 0;
+  for (Eigen::Index j = 0; j < z_.size(); ++j) {
+    const double z = z_[j];
+    if (!(z < depth1)) continue;
+    const double b1 = step.BoundAtEnd(z);
+    sum += std::clamp(UnclampedEnd(step, rule_, z, u_[j]), -b1, b1);
+  }
+  return sum * spacing_;
+}
+
+double GridMemory::MeasureInContact() const {
+  return spacing_ * static_cast<double>((z_ < depth_).count());
+}
+
+BoundTag GridMemory::Tag(std::size_t j, double mu_kappa) const {
+  const auto i = static_cast<Eigen::Index>(j);
+  if (!(z_[i] < depth_)) return kInside;
+  const double bound = mu_kappa * (depth_ - z_[i]);  // the expression Step clamped against
+  const int upper = u_[i] >= bound ? kOnUpper : kInside;
+  const int lower = u_[i] <= -bound ? kOnLower : kInside;
+  return static_cast<BoundTag>(upper | lower);
+}
+
+double GridMemory::MeasureOnBound(double mu_kappa, BoundTag bound) const {
+  std::size_t count = 0;
+  for (std::size_t j = 0; j < size(); ++j) count += (Tag(j, mu_kappa) & bound) != 0;
+  return spacing_ * static_cast<double>(count);
+}
+
+double GridMemory::GrossSlipIncrement(double depth1, double mu_kappa, int direction) const {
+  // Every spring in contact at the end must reach the bound: springs in contact throughout
+  // once sigma (u + dux) >= b1; entering ones once |dux| >= mu_kappa (depth1 - depth0) with the
+  // exact rule, or |dux| >= b1 with the naive one.
+  const double sigma = direction >= 0 ? 1.0 : -1.0;
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  double needed = kNone;
+  for (Eigen::Index j = 0; j < z_.size(); ++j) {
+    const double z = z_[j];
+    if (!(z < depth1)) continue;
+    const double b1 = mu_kappa * (depth1 - z);
+    if (z < depth_) {
+      needed = std::max(needed, b1 - sigma * u_[j]);
+    } else {
+      needed = std::max(needed, rule_ == GridStepRule::kExact ? mu_kappa * (depth1 - depth_) : b1);
+    }
+  }
+  return needed == kNone ? 0.0 : sigma * needed;
+}
+
+double GridMemory::UAtRadius(double x) const {
+  const double cell = std::floor(std::abs(x) / spacing_);
+  if (!(cell < static_cast<double>(size()))) return 0;
+  const auto j = static_cast<Eigen::Index>(cell);
+  return z_[j] < depth_ ? u_[j] : 0.0;
+}
+
+double GridMemory::MaxDifference(const GridMemory& other) const {
+  return (u_ - other.u_).abs().maxCoeff();
+}
+
+Status GridMemory::Restore(double depth, const std::vector<double>& u, double mu_kappa) {
+  if (!std::isfinite(depth)) return InvalidArgument("depth", "must be finite");
+  if (u.size() != size()) {
+    return InvalidArgument("grid_u", "needs one value per spring: " + std::to_string(u.size()) +
+                                         " values for grid_size " + std::to_string(size()));
+  }
+  for (std::size_t j = 0; j < u.size(); ++j) {
+    const double z = z_[static_cast<Eigen::Index>(j)];
+    const double bound = z < depth ? mu_kappa * (depth - z) : 0.0;
+    if (!std::isfinite(u[j]) || std::abs(u[j]) > bound * (1 + 1e-12)) {
+      std::string field = "grid_u[";  // (not "[" + ...: GCC 12 warns falsely on that form)
+      field += std::to_string(j);
+      field += ']';
+      return InvalidArgument(field,
+                             "must be finite, 0 out of contact and within the Coulomb "
+                             "bound mu kappa (depth - g(x_j))");
+    }
+  }
+  depth_ = depth;
+  u_ = Eigen::Map<const Eigen::ArrayXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+  return OkStatus();
+}
+
+}  // namespace mdr

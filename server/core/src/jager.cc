@@ -1,0 +1,424 @@
+#include "mdr/core/jager.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "mdr/core/validate.h"
+
+namespace mdr {
+namespace {
+
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+// Slack of the Coulomb checks and bound tags, in units of mu_kappa * depth: the engine places
+// bound crossings with round-off ~eps * depth in z (memory.cc), so its own vertices may sit that
+// far outside a bound or off it.
+constexpr double kBoundSlack = 8 * kEpsilon;
+
+// Jäger's weight of a memory segment, F = -(du/dz)/(mu kappa) (physics.md), from the spring
+// displacements at its inner and outer ends and its extent in depth.
+double SegmentWeight(double u_inner, double u_outer, double depth_span, double mu_kappa) {
+  return (u_inner - u_outer) / (mu_kappa * depth_span);
+}
+
+// u of one weighted basis solution at depth z: weight * mu kappa (z_a - max(z, z_c)), z <= z_a.
+// In long double so that a superposition of many terms sums to the memory it came from without
+// a visible loss (the terms of a decomposition telescope).
+long double BasisDisplacement(const CattaneoMindlinTerm& term, double z, double mu_kappa) {
+  if (!(z < term.depth_a)) return 0;
+  const long double span =
+      static_cast<long double>(term.depth_a) - std::max<long double>(z, term.depth_c);
+  return static_cast<long double>(term.weight) * mu_kappa * span;
+}
+
+Status CheckMuKappa(const std::string& field, double mu_kappa) {
+  if (Status s = RequireNonNegative(field, mu_kappa); !s.ok()) return s;
+  if (mu_kappa == 0) {
+    return FailedPrecondition(field,
+                              "weights are undefined for mu = 0: every spring is at the bound");
+  }
+  return OkStatus();
+}
+
+// A run of memory segments of one weight, in depth.
+struct DepthRun {
+  double depth_begin, depth_end, weight;
+};
+
+// Vertex `middle` lies on the straight line from `first` to `last` to round-off (4 eps of the
+// largest |u|): the segments on either side have one weight and are one basis solution. Weights
+// computed from rounded u are seldom exactly equal, so this is the test of the superposition rule.
+bool OnOneLine(const std::vector<double>& z, const std::vector<double>& u, std::size_t first,
+               std::size_t middle, std::size_t last) {
+  const double line =
+      u[first] + (u[last] - u[first]) * ((z[middle] - z[first]) / (z[last] - z[first]));
+  const double scale = std::max({std::abs(u[first]), std::abs(u[middle]), std::abs(u[last])});
+  return std::abs(u[middle] - line) <= 4 * kEpsilon * scale;
+}
+
+// The memory's maximal runs of segments of one weight, from the centre out; each run's weight is
+// the mean over its depths, so the run reproduces u at both of its ends.
+std::vector<DepthRun> WeightRuns(const PiecewiseLinearMemory& memory, double mu_kappa) {
+  const std::vector<double>& z = memory.z();
+  const std::vector<double>& u = memory.u();
+  std::vector<DepthRun> runs;
+  std::size_t first = 0;
+  for (std::size_t k = 1; k < z.size(); ++k) {
+    if (k + 1 < z.size() && OnOneLine(z, u, first, k, k + 1)) continue;
+    runs.push_back({z[first], z[k], SegmentWeight(u[first], u[k], z[k] - z[first], mu_kappa)});
+    first = k;
+  }
+  return runs;
+}
+
+JagerWeights WeightsOf(const PiecewiseLinearMemory& memory, const Profile& profile,
+                       double mu_kappa) {
+  JagerWeights weights;
+  if (!memory.in_contact()) return weights;
+  const double depth = memory.depth();
+  weights.contact_radius = profile.RadiusAtDepth(depth);
+  if (!(profile.RadiusAtDepth(0) < weights.contact_radius)) {
+    // g jumps from 0 to beyond depth at the edge (flat punch): all weight is there, and its mean
+    // over the depths telescopes to u_0 / (mu kappa delta).
+    weights.edge_weight = SegmentWeight(memory.u().front(), 0, depth, mu_kappa);
+    return weights;
+  }
+  for (const DepthRun& run : WeightRuns(memory, mu_kappa)) {
+    const double r_begin = profile.RadiusAtDepth(run.depth_begin);
+    const double r_end = profile.RadiusAtDepth(run.depth_end);
+    // A run thinner than the radius' round-off has no radial extent and no traction; its
+    // neighbours then meet, and merge if their weights are equal.
+    if (!(r_end > r_begin)) continue;
+    if (!weights.intervals.empty() && weights.intervals.back().weight == run.weight) {
+      weights.intervals.back().r_end = r_end;
+      weights.intervals.back().depth_end = run.depth_end;
+    } else {
+      weights.intervals.push_back({r_begin, r_end, run.depth_begin, run.depth_end, run.weight});
+    }
+  }
+  return weights;
+}
+
+std::vector<CattaneoMindlinTerm> TermsOf(const PiecewiseLinearMemory& memory,
+                                         const Profile& profile, double mu_kappa) {
+  std::vector<CattaneoMindlinTerm> terms;
+  if (!memory.in_contact()) return terms;
+  for (const DepthRun& run : WeightRuns(memory, mu_kappa)) {
+    if (run.weight == 0) continue;  // a stick zone adds nothing to the superposition
+    terms.push_back({run.weight, profile.RadiusAtDepth(run.depth_end),
+                     profile.RadiusAtDepth(run.depth_begin), run.depth_end, run.depth_begin});
+  }
+  return terms;
+}
+
+// "name[i]", the field of one element of an input list.
+std::string Indexed(const char* name, std::size_t i) {
+  std::string field = name;
+  field += '[';
+  field += std::to_string(i);
+  field += ']';
+  return field;
+}
+
+std::string TermField(std::size_t i, const char* name) { return Indexed("terms", i) + "." + name; }
+
+Status ValidateTerms(const std::vector<CattaneoMindlinTerm>& terms, double depth) {
+  for (std::size_t i = 0; i < terms.size(); ++i) {
+    const CattaneoMindlinTerm& t = terms[i];
+    if (Status s = RequireFinite(TermField(i, "weight"), t.weight); !s.ok()) return s;
+    if (Status s = RequireNonNegative(TermField(i, "depth_c"), t.depth_c); !s.ok()) return s;
+    // depth_c <= depth_a <= depth: the message states the range.
+    if (Status s = RequireInRange(TermField(i, "depth_a"), t.depth_a, t.depth_c, depth); !s.ok()) {
+      return s;
+    }
+  }
+  return OkStatus();
+}
+
+// Tag of a vertex against the bounds +-mu_kappa (depth - z), with the engine's round-off slack.
+BoundTag TagVertex(double z, double u, double depth, double mu_kappa) {
+  const double bound = mu_kappa * (depth - z);
+  const double slack = kBoundSlack * mu_kappa * depth;
+  if (bound <= 0) return kOnBoth;
+  if (std::abs(u - bound) <= slack) return kOnUpper;
+  if (std::abs(u + bound) <= slack) return kOnLower;
+  return kInside;
+}
+
+// Coulomb admissibility of a polyline: |u| <= bound and |du/dz| <= mu_kappa, within the slack.
+Status CheckCoulomb(const std::vector<double>& z, const std::vector<double>& u, double depth,
+                    double mu_kappa) {
+  const double slack = kBoundSlack * mu_kappa * depth;
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    if (std::abs(u[i]) > mu_kappa * (depth - z[i]) + slack) {
+      return InvalidArgument("terms", "the superposition exceeds the Coulomb bound at z = " +
+                                          std::to_string(z[i]) + " (|sum of weights| > 1 there)");
+    }
+    if (i > 0 && std::abs(u[i] - u[i - 1]) > mu_kappa * (z[i] - z[i - 1]) + slack) {
+      return InvalidArgument("terms",
+                             "the superposition has |F| > 1 below z = " + std::to_string(z[i]));
+    }
+  }
+  return OkStatus();
+}
+
+// One cell [x_j, x_{j+1}] of a sampled u(x): its depths and the mean weight over them.
+struct Cell {
+  double x_begin, x_end, z_begin, z_end, weight;
+};
+
+// A plateau of F over cells first..last (a run of weights inside a band 2 * tolerance wide),
+// with its extent, which a jump inside a neighbouring cell may shift into that cell.
+struct Plateau {
+  std::size_t first, last;
+  double low, high;       // band of the cell weights
+  double weighted, span;  // sum of weight * depth extent, and of depth extent
+  double x_begin, x_end, z_begin, z_end;
+  std::size_t cells() const { return last - first + 1; }
+  // The mean of F over the plateau's depths, so u is reproduced exactly at its ends.
+  double weight() const { return weighted / span; }
+};
+
+Status ValidateSamples(const std::vector<double>& x, const std::vector<double>& u,
+                       const Profile& profile, double mu_kappa,
+                       const SampledWeightOptions& options) {
+  if (Status s = CheckMuKappa("mu_kappa", mu_kappa); !s.ok()) return s;
+  if (Status s = RequireInRange("options.tolerance", options.tolerance, 0, 1, /*lo_open=*/true);
+      !s.ok()) {
+    return s;
+  }
+  if (options.max_plateaus < 1) return InvalidArgument("options.max_plateaus", "must be >= 1");
+  if (u.size() != x.size()) return InvalidArgument("u", "needs one value per sample of x");
+  if (x.size() < 3) return InvalidArgument("x", "needs at least 3 samples");
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (Status s = RequireNonNegative(Indexed("x", i), x[i]); !s.ok()) return s;
+    if (Status s = RequireFinite(Indexed("u", i), u[i]); !s.ok()) return s;
+    if (i > 0 && !(x[i] > x[i - 1])) {
+      return InvalidArgument(Indexed("x", i), "must increase strictly");
+    }
+  }
+  const double depth = profile.G(x.back());
+  if (!(std::isfinite(depth) && depth > 0)) {
+    return InvalidArgument("x",
+                           "the last sample must be the contact edge, where g is finite and "
+                           "> 0 (a flat punch's edge weight comes from its memory)");
+  }
+  if (std::abs(u.back()) > options.tolerance * mu_kappa * depth) {
+    return InvalidArgument(Indexed("u", u.size() - 1),
+                           "must vanish at the contact edge (within tolerance * mu kappa g)");
+  }
+  return OkStatus();
+}
+
+// Cells with their weights by finite differences in g; cells where g is constant (a flat bottom)
+// hold no weight and are skipped, but u must not change there.
+Result<std::vector<Cell>> SampleCells(const std::vector<double>& x, const std::vector<double>& u,
+                                      const Profile& profile, double mu_kappa, double tolerance) {
+  const double depth = profile.G(x.back());
+  std::vector<Cell> cells;
+  for (std::size_t j = 0; j + 1 < x.size(); ++j) {
+    const double rise = profile.Rise(x[j + 1], x[j]);
+    if (!(rise > 0)) {
+      if (std::abs(u[j + 1] - u[j]) > tolerance * mu_kappa * depth) {
+        return InvalidArgument(Indexed("u", j + 1),
+                               "changes where g is constant: not an MDR state");
+      }
+      continue;
+    }
+    cells.push_back({x[j], x[j + 1], profile.G(x[j]), profile.G(x[j + 1]),
+                     SegmentWeight(u[j], u[j + 1], rise, mu_kappa)});
+  }
+  return cells;
+}
+
+std::vector<Plateau> GroupIntoRuns(const std::vector<Cell>& cells, double tolerance) {
+  std::vector<Plateau> runs;
+  for (std::size_t j = 0; j < cells.size(); ++j) {
+    const Cell& cell = cells[j];
+    const double span = cell.z_end - cell.z_begin;
+    if (!runs.empty()) {
+      Plateau& run = runs.back();
+      const double low = std::min(run.low, cell.weight), high = std::max(run.high, cell.weight);
+      if (high - low <= 2 * tolerance) {
+        run.last = j;
+        run.low = low;
+        run.high = high;
+        run.weighted += cell.weight * span;
+        run.span += span;
+        run.x_end = cell.x_end;
+        run.z_end = cell.z_end;
+        continue;
+      }
+    }
+    runs.push_back({j, j, cell.weight, cell.weight, cell.weight * span, span, cell.x_begin,
+                    cell.x_end, cell.z_begin, cell.z_end});
+  }
+  return runs;
+}
+
+// Resolves runs into plateaus: a lone cell between two plateaus of two or more cells whose weight
+// lies between theirs holds the jump from one to the other; its position follows from the cell
+// mean, F_cell = (F_left (z* - z_j) + F_right (z_{j+1} - z*)) / (z_{j+1} - z_j). Any other run
+// is a plateau of its own.
+std::vector<Plateau> ResolveJumps(const std::vector<Plateau>& runs, const std::vector<Cell>& cells,
+                                  const Profile& profile, double tolerance) {
+  std::vector<Plateau> plateaus;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const Plateau& run = runs[i];
+    if (run.cells() == 1 && i > 0 && i + 1 < runs.size() && runs[i - 1].cells() >= 2 &&
+        runs[i + 1].cells() >= 2) {
+      const double left = runs[i - 1].weight(), right = runs[i + 1].weight();
+      const double f = run.weight();
+      if (left != right && f >= std::min(left, right) - tolerance &&
+          f <= std::max(left, right) + tolerance) {
+        const Cell& cell = cells[run.first];
+        const double theta = std::clamp((f - right) / (left - right), 0.0, 1.0);
+        const double z_jump = cell.z_begin + theta * (cell.z_end - cell.z_begin);
+        const double x_jump = std::clamp(profile.RadiusAtDepth(z_jump), cell.x_begin, cell.x_end);
+        Plateau& previous = plateaus.back();
+        previous.weighted += left * (z_jump - cell.z_begin);
+        previous.span += z_jump - cell.z_begin;
+        previous.x_end = x_jump;
+        previous.z_end = z_jump;
+        Plateau next = runs[i + 1];
+        next.weighted += right * (cell.z_end - z_jump);
+        next.span += cell.z_end - z_jump;
+        next.x_begin = x_jump;
+        next.z_begin = z_jump;
+        plateaus.push_back(next);
+        ++i;
+        continue;
+      }
+    }
+    plateaus.push_back(run);
+  }
+  return plateaus;
+}
+
+// max_j |u_terms(x_j) - u_j| / (mu kappa g(x_N)): how well the terms reproduce the samples.
+double MaxResidual(const std::vector<CattaneoMindlinTerm>& terms, const std::vector<double>& x,
+                   const std::vector<double>& u, const Profile& profile, double mu_kappa) {
+  const double scale = mu_kappa * profile.G(x.back());
+  double residual = 0;
+  for (std::size_t j = 0; j < x.size(); ++j) {
+    const double z = profile.G(x[j]);
+    long double sum = 0;
+    for (const CattaneoMindlinTerm& t : terms) sum += BasisDisplacement(t, z, mu_kappa);
+    residual = std::max(residual, std::abs(static_cast<double>(sum) - u[j]) / scale);
+  }
+  return residual;
+}
+
+}  // namespace
+
+double JagerWeights::At(double r) const {
+  for (const WeightInterval& interval : intervals) {
+    if (r >= interval.r_begin && r < interval.r_end) return interval.weight;
+  }
+  return 0;
+}
+
+Result<JagerWeights> ComputeJagerWeights(const PiecewiseLinearMemory& memory,
+                                         const Profile& profile, double mu_kappa) {
+  if (Status s = CheckMuKappa("mu_kappa", mu_kappa); !s.ok()) return s;
+  return WeightsOf(memory, profile, mu_kappa);
+}
+
+Result<JagerWeights> ComputeJagerWeights(const Contact& contact) {
+  if (Status s = CheckMuKappa("friction", contact.mu_kappa()); !s.ok()) return s;
+  return WeightsOf(contact.memory(), *contact.config().profile, contact.mu_kappa());
+}
+
+Result<std::vector<double>> SampleJagerWeights(const JagerWeights& weights,
+                                               const std::vector<double>& radii) {
+  std::vector<double> sampled;
+  sampled.reserve(radii.size());
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    if (Status s = RequireFinite(Indexed("radii", i), radii[i]); !s.ok()) return s;
+    sampled.push_back(weights.At(std::abs(radii[i])));
+  }
+  return sampled;
+}
+
+Result<CattaneoMindlinTerm> CattaneoMindlinTermFromRadii(double weight, double a, double c,
+                                                         const Profile& profile) {
+  if (Status s = RequireFinite("weight", weight); !s.ok()) return s;
+  if (Status s = RequireNonNegative("c", c); !s.ok()) return s;
+  if (Status s = RequireNonNegative("a", a); !s.ok()) return s;
+  if (c > a) return InvalidArgument("c", "must not exceed a");
+  const double depth_a = profile.G(a), depth_c = profile.G(c);
+  if (!std::isfinite(depth_a)) {
+    return InvalidArgument("a", "g is infinite there (flat punch edge): give the term by depths");
+  }
+  return CattaneoMindlinTerm{weight, a, c, depth_a, depth_c};
+}
+
+Result<std::vector<CattaneoMindlinTerm>> DecomposeMemory(const PiecewiseLinearMemory& memory,
+                                                         const Profile& profile, double mu_kappa) {
+  if (Status s = CheckMuKappa("mu_kappa", mu_kappa); !s.ok()) return s;
+  return TermsOf(memory, profile, mu_kappa);
+}
+
+Result<std::vector<CattaneoMindlinTerm>> DecomposeMemory(const Contact& contact) {
+  if (Status s = CheckMuKappa("friction", contact.mu_kappa()); !s.ok()) return s;
+  return TermsOf(contact.memory(), *contact.config().profile, contact.mu_kappa());
+}
+
+Result<PiecewiseLinearMemory> MemoryFromTerms(const std::vector<CattaneoMindlinTerm>& terms,
+                                              double depth, double mu_kappa) {
+  if (Status s = RequireFinite("depth", depth); !s.ok()) return s;
+  if (Status s = RequireNonNegative("mu_kappa", mu_kappa); !s.ok()) return s;
+  if (depth <= 0) {
+    if (!terms.empty()) return InvalidArgument("terms", "must be empty out of contact");
+    return PiecewiseLinearMemory::Restore(depth, {}, {}, {});
+  }
+  if (Status s = ValidateTerms(terms, depth); !s.ok()) return s;
+  std::vector<double> z = {0.0, depth};
+  for (const CattaneoMindlinTerm& t : terms) {
+    z.push_back(t.depth_a);
+    z.push_back(t.depth_c);
+  }
+  std::sort(z.begin(), z.end());
+  z.erase(std::unique(z.begin(), z.end()), z.end());
+  std::vector<double> u(z.size());
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    long double sum = 0;
+    for (const CattaneoMindlinTerm& t : terms) sum += BasisDisplacement(t, z[i], mu_kappa);
+    u[i] = static_cast<double>(sum);
+  }
+  if (Status s = CheckCoulomb(z, u, depth, mu_kappa); !s.ok()) return s;
+  std::vector<std::uint8_t> tags(z.size());
+  for (std::size_t i = 0; i < z.size(); ++i) tags[i] = TagVertex(z[i], u[i], depth, mu_kappa);
+  return PiecewiseLinearMemory::Restore(depth, std::move(z), std::move(u), std::move(tags));
+}
+
+Result<SampledWeight> AnalyzeSampledDisplacement(const std::vector<double>& x,
+                                                 const std::vector<double>& u,
+                                                 const Profile& profile, double mu_kappa,
+                                                 const SampledWeightOptions& options) {
+  if (Status s = ValidateSamples(x, u, profile, mu_kappa, options); !s.ok()) return s;
+  Result<std::vector<Cell>> cells = SampleCells(x, u, profile, mu_kappa, options.tolerance);
+  if (!cells.ok()) return cells.status();
+
+  SampledWeight out;
+  out.tolerance = options.tolerance;
+  for (const Cell& cell : *cells) {
+    out.midpoints.push_back(0.5 * (cell.x_begin + cell.x_end));
+    out.weights.push_back(cell.weight);
+  }
+  const std::vector<Plateau> plateaus =
+      ResolveJumps(GroupIntoRuns(*cells, options.tolerance), *cells, profile, options.tolerance);
+  if (plateaus.size() > static_cast<std::size_t>(options.max_plateaus)) return out;
+
+  out.kind = WeightKind::kStepFunction;
+  for (const Plateau& plateau : plateaus) {
+    const double weight = plateau.weight();
+    if (std::abs(weight) <= options.tolerance) continue;  // a stick zone, within tolerance
+    out.terms.push_back({weight, plateau.x_end, plateau.x_begin, plateau.z_end, plateau.z_begin});
+  }
+  out.max_residual = MaxResidual(out.terms, x, u, profile, mu_kappa);
+  return out;
+}
+
+}  // namespace mdr
