@@ -156,3 +156,23 @@ TEST(ExtremeTest, NoNanOrInfinityLeavesTheEngine) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+TEST(ExtremeTest, LiftOffWhoseTangentialRateEqualsTheBoundRateDissipatesNothing) {
+  // Found by the engine fuzzer: a spring on the bound whose tangential motion exactly keeps pace
+  // with the shrinking bound never slides; round-off used to give 0/0 here.
+  for (ProfilePtr profile : {*MakeFlatPunch(0.01), *MakeSphere(0.01)}) {
+    Contact c = testing::MakeContact(profile, *RigidOnHalfSpace(1e9, 0.3), 0.5);
+    const double d = 1e-6, m = c.mu_kappa();
+    ASSERT_TRUE(c.MoveTo(d, 0).ok());
+    ASSERT_TRUE(c.MoveTo(d, 2 * m * d).ok());  // gross slip: every spring on the upper bound
+    ASSERT_TRUE(c.MoveTo(-d, 2 * m * d - m * 2 * d).ok());  // dux = mu kappa ddelta, to lift-off
+    EXPECT_TRUE(std::isfinite(c.dissipated_energy()));
+    EXPECT_NEAR(c.last_step_dissipation(), 0, 1e-12 * c.dissipated_energy());
+  }
+}
+
+}  // namespace
+}  // namespace mdr

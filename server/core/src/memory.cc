@@ -262,6 +262,7 @@ double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, doub
     const int sigma = (wa + wb) > 0 ? +1 : -1;
     if (wa == 0 && wb == 0) return 0.0;
     const double r = sigma * dux - mu_kappa * ddelta;
+    if (!(r > 0)) return 0.0;  // moves no faster than the bound shrinks: a sign from round-off
     const double ba = slide_bound(za, ua, sigma), bb = slide_bound(zb, ub, sigma);
     const double k = r / (-mu_kappa * ddelta);
     const double slope = (bb - ba) / (zb - za);
@@ -273,10 +274,11 @@ double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, doub
   const double atom = profile.RadiusAtDepth(0);
   if (depth1 <= 0 && atom > 0) {
     const double w = leave_value(0, u_[0]);
-    if (w != 0) {
-      const int sigma = w > 0 ? +1 : -1;
+    const int sigma = w > 0 ? +1 : -1;
+    const double r = sigma * dux - mu_kappa * ddelta;
+    if (w != 0 && r > 0) {
       const double b = slide_bound(0, u_[0], sigma);
-      dissipated += atom * (sigma * dux - mu_kappa * ddelta) * b * b / (-mu_kappa * ddelta);
+      dissipated += atom * r * b * b / (-mu_kappa * ddelta);
     }
   }
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
