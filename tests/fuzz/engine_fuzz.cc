@@ -48,10 +48,14 @@ void Check(bool ok, const char* what) {
 
 mdr::Result<mdr::ProfilePtr> FuzzProfile(ByteReader& in) {
   switch (in.Byte() % 4) {
-    case 0: return mdr::MakeSphere(in.Scaled(1e-4, 1));
-    case 1: return mdr::MakeCone(in.Scaled(1e-3, 1.5));
-    case 2: return mdr::MakePowerLaw(in.Scaled(1e-3, 1e3), in.Scaled(0.3, 10));
-    default: return mdr::MakeFlatPunch(in.Scaled(1e-5, 1e-1));
+    case 0:
+      return mdr::MakeSphere(in.Scaled(1e-4, 1));
+    case 1:
+      return mdr::MakeCone(in.Scaled(1e-3, 1.5));
+    case 2:
+      return mdr::MakePowerLaw(in.Scaled(1e-3, 1e3), in.Scaled(0.3, 10));
+    default:
+      return mdr::MakeFlatPunch(in.Scaled(1e-5, 1e-1));
   }
 }
 
