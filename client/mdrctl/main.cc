@@ -128,7 +128,9 @@ int RunScene(mdr::client::ContactClient& client, const SceneFile& file,
              const std::vector<Column>& columns) {
   auto session = client.CreateSession(file.scene());
   if (!session.ok()) return Fail(InSceneFileTerms(session.status().error_message()));
-  auto applied = client.Apply(session->name(), file.steps(), /*include_step_results=*/true);
+  google::protobuf::FieldMask every_state;
+  every_state.add_paths("state");
+  auto applied = client.Apply(session->name(), file.steps(), every_state);
   // The session is this run's scratch space: remove it whether or not the steps succeeded.
   const grpc::Status deleted = client.DeleteSession(session->name());
   if (!applied.ok()) return Fail(applied.status().error_message());

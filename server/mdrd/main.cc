@@ -1,21 +1,22 @@
-// mdrd: serves mdr.v1.ContactService with health checking and reflection until SIGTERM/SIGINT.
+// mdrd: serves mdr.v1.ContactService with health checking and reflection until SIGTERM/SIGINT,
+// then drains: readiness NOT_SERVING, open streams told to finish, Shutdown(grace deadline).
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
-#include <string>
 
-#include "mdr/service/server.h"
+#include "options.h"
 
 namespace {
 
 constexpr char kServiceName[] = "mdr.v1.ContactService";
+// Health name that turns NOT_SERVING as soon as a drain starts (readiness probes).
+constexpr char kReadiness[] = "readiness";
 
 // Self-pipe: the handler only writes one byte (async-signal-safe); main blocks reading it.
 int signal_pipe[2] = {-1, -1};
@@ -40,50 +41,44 @@ int WaitForTerminationSignal() {
   return byte;
 }
 
+void SetServing(grpc::HealthCheckServiceInterface* health, bool serving) {
+  health->SetServingStatus(kServiceName, serving);
+  health->SetServingStatus(kReadiness, serving);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mdrd: tangential contact sessions (Method of Dimensionality Reduction) over gRPC"};
-  mdr::service::ServerOptions options{.listen_address = "0.0.0.0:50051"};
-  std::string log_level = "info";
-  double shutdown_grace_seconds = 5;
-  app.add_option("--listen", options.listen_address, "Address to listen on (host:port)")
-      ->capture_default_str();
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical or off")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
-  app.add_option("--max-sessions", options.max_sessions, "Sessions held at most")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  app.add_option("--shutdown-grace", shutdown_grace_seconds,
-                 "Seconds running calls get to finish after SIGTERM/SIGINT")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  CLI11_PARSE(app, argc, argv);
-  spdlog::set_level(spdlog::level::from_str(log_level));
+  mdrd::Options options;
+  if (auto exit_code = mdrd::ParseOptions(argc, argv, &options)) return *exit_code;
+  spdlog::set_level(spdlog::level::from_str(options.log_level));
+  spdlog::set_pattern("ts=%Y-%m-%dT%H:%M:%S.%e%z level=%l %v");
+  mdrd::LogEffectiveOptions(options);
 
   if (!InstallSignalHandlers()) {
-    spdlog::critical("cannot install signal handlers");
+    spdlog::critical("event=error error=\"cannot install signal handlers\"");
     return EXIT_FAILURE;
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  auto server = mdr::service::ContactServer::Start(options);
+  auto server = mdr::service::ContactServer::Start(options.server);
   if (!server.ok()) {
-    spdlog::critical("{}", server.status().ToString());
+    spdlog::critical("event=error error=\"{}\"", server.status().ToString());
     return EXIT_FAILURE;
   }
   grpc::HealthCheckServiceInterface* health = (*server)->server().GetHealthCheckService();
-  health->SetServingStatus(kServiceName, true);
-  spdlog::info("mdrd serving {} on port {}", kServiceName, (*server)->port());
+  SetServing(health, true);
+  spdlog::info("event=serving service={} port={}", kServiceName, (*server)->port());
 
   const int signal_number = WaitForTerminationSignal();
-  spdlog::info("signal {}: draining for up to {} s", signal_number, shutdown_grace_seconds);
-  // NOT_SERVING first, so health-checking load balancers stop sending new sessions here.
-  health->SetServingStatus(kServiceName, false);
+  spdlog::info("event=draining signal={} grace_s={} sessions={} streams={}", signal_number,
+               options.shutdown_grace_seconds, (*server)->session_count(),
+               (*server)->open_streams());
+  // NOT_SERVING first, so health-checking load balancers stop sending new work here.
+  SetServing(health, false);
   const auto grace = std::chrono::duration_cast<std::chrono::system_clock::duration>(
-      std::chrono::duration<double>(shutdown_grace_seconds));
+      std::chrono::duration<double>(options.shutdown_grace_seconds));
   (*server)->Shutdown(std::chrono::system_clock::now() + grace);
-  spdlog::info("mdrd stopped");
+  spdlog::info("event=stopped");
   return EXIT_SUCCESS;
 }

@@ -54,7 +54,9 @@ TEST_F(ContactClientTest, RoundTripCreateApplyQueryDelete) {
   google::protobuf::RepeatedPtrField<mdr::v1::Step> steps;
   steps.Add()->set_normal_force(1);
   steps.Add()->set_tangential_force(0.25);
-  auto applied = client_->Apply(session->name(), steps, /*include_step_results=*/true);
+  google::protobuf::FieldMask every_state;
+  every_state.add_paths("state");
+  auto applied = client_->Apply(session->name(), steps, every_state);
   ASSERT_TRUE(applied.ok()) << applied.status().error_message();
   EXPECT_EQ(applied->step_results_size(), 2);
   // C1 (reference-values.md): F_N = 1 N gives d = 9.0008237835e-6 m, a = 3.2497025499e-5 m.
@@ -64,7 +66,7 @@ TEST_F(ContactClientTest, RoundTripCreateApplyQueryDelete) {
 
   auto queried = client_->Query(session->name());
   ASSERT_TRUE(queried.ok());
-  EXPECT_EQ(queried->normal_force(), applied->state().normal_force());
+  EXPECT_EQ(queried->state().normal_force(), applied->state().normal_force());
 
   auto fetched = client_->GetSession(session->name());
   ASSERT_TRUE(fetched.ok());
@@ -75,6 +77,36 @@ TEST_F(ContactClientTest, RoundTripCreateApplyQueryDelete) {
   ASSERT_FALSE(gone.ok());
   EXPECT_EQ(gone.status().error_code(), grpc::StatusCode::NOT_FOUND);
   EXPECT_THAT(gone.status().error_message(), HasSubstr("sessions/cone"));
+}
+
+TEST_F(ContactClientTest, ListExportImportAndQueryOutputs) {
+  auto session = client_->CreateSession(RigidConeOnPolymer(), "cone");
+  ASSERT_TRUE(session.ok());
+  google::protobuf::RepeatedPtrField<mdr::v1::Step> steps;
+  steps.Add()->set_normal_force(1);
+  steps.Add()->set_displacement_increment(1e-6);
+  ASSERT_TRUE(client_->Apply(session->name(), steps, {}, "first").ok());
+
+  auto snapshot = client_->ExportSession(session->name());
+  ASSERT_TRUE(snapshot.ok());
+  auto imported = client_->ImportSession(*snapshot, "cone-copy");
+  ASSERT_TRUE(imported.ok()) << imported.status().error_message();
+  auto page = client_->ListSessions(1);
+  ASSERT_TRUE(page.ok());
+  ASSERT_EQ(page->sessions_size(), 1);
+  EXPECT_EQ(page->sessions(0).name(), "sessions/cone");
+  page = client_->ListSessions(1, page->next_page_token());
+  ASSERT_TRUE(page.ok());
+  ASSERT_EQ(page->sessions_size(), 1);
+  EXPECT_EQ(page->sessions(0).name(), "sessions/cone-copy");
+  EXPECT_EQ(page->sessions(0).state().tangential_force(), imported->state().tangential_force());
+
+  google::protobuf::FieldMask springs;
+  springs.add_paths("springs.normal_displacement");
+  auto queried = client_->Query("sessions/cone-copy", springs, {0.0});
+  ASSERT_TRUE(queried.ok()) << queried.status().error_message();
+  ASSERT_EQ(queried->springs().normal_displacement_size(), 1);
+  EXPECT_EQ(queried->springs().normal_displacement(0), imported->state().depth());  // w(0) = d
 }
 
 TEST_F(ContactClientTest, ErrorsCarryCodeAndFieldMessage) {

@@ -1,145 +1,22 @@
-// Integration tests: a real server on a free port, driven through the generated stub.
-#include <gmock/gmock.h>
+// CreateSession, GetSession, DeleteSession, Apply and Query through the generated stub against a
+// real server on a free port.
 #include <google/protobuf/util/message_differencer.h>
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-#include <gtest/gtest.h>
 
-#include <cmath>
-#include <memory>
-#include <string>
 #include <thread>
-#include <vector>
 
-#include "mdr/service/server.h"
-#include "mdr/v1/contact_service.grpc.pb.h"
+#include "service_test_util.h"
 
+namespace mdr::service_testing {
 namespace {
 
 using google::protobuf::util::MessageDifferencer;
+using service::Output;
 using ::testing::HasSubstr;
 
-// Reference vector H1 (reference-values.md): steel sphere on steel flat.
-constexpr double kYoungsModulus = 210e9;
-constexpr double kPoissonRatio = 0.3;
-constexpr double kRadius = 0.01;
-constexpr double kFriction = 0.3;
-constexpr double kDepth = 3.4829098839e-6;              // gives F_N = 100 N
-constexpr double kDisplacementAt15N = 4.6949658143e-7;  // gives F_x = 15 N
-
-// Closed forms (physics.md) for two equal elastic bodies.
-double EffectiveYoungsModulus() {
-  return 1 / (2 * (1 - kPoissonRatio * kPoissonRatio) / kYoungsModulus);
-}
-double EffectiveShearModulus() {
-  const double shear_modulus = kYoungsModulus / (2 * (1 + kPoissonRatio));
-  return 1 / (2 * (2 - kPoissonRatio) / (4 * shear_modulus));
-}
-double HertzNormalForce(double depth) {
-  return 4.0 / 3.0 * EffectiveYoungsModulus() * std::sqrt(kRadius) * std::pow(depth, 1.5);
-}
-// Cattaneo-Mindlin at constant depth: ux = mu kappa d [1 - (1-s)^(2/3)], F_x = s mu F_N.
-double CattaneoMindlinTangentialForce(double depth, double displacement) {
-  const double kappa = EffectiveYoungsModulus() / EffectiveShearModulus();
-  const double full_slip = kFriction * kappa * depth;
-  const double s = 1 - std::pow(1 - displacement / full_slip, 1.5);
-  return s * kFriction * HertzNormalForce(depth);
-}
-
-mdr::v1::Scene SteelSphereOnSteelFlat() {
-  mdr::v1::Scene scene;
-  scene.mutable_sphere()->set_radius(kRadius);
-  mdr::v1::ElasticPair* pair = scene.mutable_elastic_pair();
-  pair->set_youngs_modulus_1(kYoungsModulus);
-  pair->set_poisson_ratio_1(kPoissonRatio);
-  pair->set_youngs_modulus_2(kYoungsModulus);
-  pair->set_poisson_ratio_2(kPoissonRatio);
-  scene.set_friction(kFriction);
-  return scene;
-}
-
-mdr::v1::Step DepthStep(double depth) {
-  mdr::v1::Step step;
-  step.set_depth(depth);
-  return step;
-}
-mdr::v1::Step DisplacementStep(double displacement) {
-  mdr::v1::Step step;
-  step.set_displacement(displacement);
-  return step;
-}
-mdr::v1::Step TangentialForceStep(double force) {
-  mdr::v1::Step step;
-  step.set_tangential_force(force);
-  return step;
-}
-
-void ExpectRelativelyNear(double actual, double expected, double tolerance) {
-  EXPECT_NEAR(actual, expected, tolerance * std::abs(expected));
-}
-
-class ContactServiceTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    auto server = mdr::service::ContactServer::Start({.listen_address = "127.0.0.1:0"});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = std::move(server).value();
-    ASSERT_GT(server_->port(), 0);
-    stub_ = mdr::v1::ContactService::NewStub(grpc::CreateChannel(
-        "127.0.0.1:" + std::to_string(server_->port()), grpc::InsecureChannelCredentials()));
-  }
-
-  std::unique_ptr<grpc::ClientContext> Context() {
-    auto context = std::make_unique<grpc::ClientContext>();
-    context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    return context;
-  }
-
-  grpc::Status Create(const mdr::v1::Scene& scene, mdr::v1::Session* session,
-                      const std::string& session_id = "") {
-    mdr::v1::CreateSessionRequest request;
-    *request.mutable_session()->mutable_scene() = scene;
-    request.set_session_id(session_id);
-    return stub_->CreateSession(Context().get(), request, session);
-  }
-
-  std::string CreateOrDie() {
-    mdr::v1::Session session;
-    grpc::Status status = Create(SteelSphereOnSteelFlat(), &session);
-    EXPECT_TRUE(status.ok()) << status.error_message();
-    return session.name();
-  }
-
-  grpc::Status Apply(const std::string& session, const std::vector<mdr::v1::Step>& steps,
-                     mdr::v1::ApplyResponse* response) {
-    mdr::v1::ApplyRequest request;
-    request.set_session(session);
-    for (const mdr::v1::Step& step : steps) *request.add_steps() = step;
-    request.set_include_step_results(true);
-    return stub_->Apply(Context().get(), request, response);
-  }
-
-  grpc::Status Query(const std::string& session, mdr::v1::QueryResponse* response,
-                     const std::vector<std::string>& read_mask = {}) {
-    mdr::v1::QueryRequest request;
-    request.set_session(session);
-    for (const std::string& path : read_mask) request.mutable_read_mask()->add_paths(path);
-    return stub_->Query(Context().get(), request, response);
-  }
-
-  void ExpectInvalidScene(const mdr::v1::Scene& scene, const std::string& field) {
-    mdr::v1::Session session;
-    grpc::Status status = Create(scene, &session);
-    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << field;
-    EXPECT_THAT(status.error_message(), HasSubstr(field + ": "));
-  }
-
-  std::unique_ptr<mdr::service::ContactServer> server_;
-  std::unique_ptr<mdr::v1::ContactService::Stub> stub_;
-};
+using ContactServiceTest = ServiceTest;
 
 TEST_F(ContactServiceTest, CreateSessionReturnsUnloadedSessionResource) {
-  mdr::v1::Session session;
+  v1::Session session;
   grpc::Status status = Create(SteelSphereOnSteelFlat(), &session);
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_TRUE(session.name().starts_with("sessions/")) << session.name();
@@ -148,72 +25,124 @@ TEST_F(ContactServiceTest, CreateSessionReturnsUnloadedSessionResource) {
   EXPECT_EQ(session.state().normal_force(), 0);
   EXPECT_EQ(session.state().applied_steps(), 0u);
   EXPECT_GT(session.create_time().seconds(), 0);
+  // The server's limits (defaults: 10000 steps per batch, one hour idle).
+  EXPECT_EQ(session.limits().max_steps_per_batch(), 10000u);
+  EXPECT_EQ(session.limits().idle_timeout().seconds(), 3600);
+  EXPECT_NEAR(session.expire_time().seconds() - session.create_time().seconds(), 3600, 2);
 
-  mdr::v1::GetSessionRequest get;
+  v1::GetSessionRequest get;
   get.set_name(session.name());
-  mdr::v1::Session fetched;
+  v1::Session fetched;
   ASSERT_TRUE(stub_->GetSession(Context().get(), get, &fetched).ok());
-  EXPECT_TRUE(MessageDifferencer::Equals(fetched, session));
+  EXPECT_TRUE(MessageDifferencer::Equals(fetched.state(), session.state()));
+  EXPECT_TRUE(MessageDifferencer::Equals(fetched.limits(), session.limits()));
+  EXPECT_EQ(fetched.name(), session.name());
 }
 
 TEST_F(ContactServiceTest, CreateSessionRejectsInvalidSceneNamingTheField) {
-  mdr::v1::Scene scene = SteelSphereOnSteelFlat();
+  const auto expect_invalid = [&](const v1::Scene& scene, const std::string& field) {
+    v1::Session session;
+    ExpectInvalidArgument(Create(scene, &session), field);
+  };
+  v1::Scene scene = SteelSphereOnSteelFlat();
   scene.mutable_sphere()->set_radius(-1);
-  ExpectInvalidScene(scene, "session.scene.sphere.radius");
+  expect_invalid(scene, "session.scene.sphere.radius");
+
+  scene = SteelSphereOnSteelFlat();
+  scene.mutable_sphere()->set_radius(std::nan(""));
+  expect_invalid(scene, "session.scene.sphere.radius");
 
   scene = SteelSphereOnSteelFlat();
   scene.mutable_elastic_pair()->set_poisson_ratio_2(0.7);
-  ExpectInvalidScene(scene, "session.scene.elastic_pair.poisson_ratio_2");
+  expect_invalid(scene, "session.scene.elastic_pair.poisson_ratio_2");
 
   scene = SteelSphereOnSteelFlat();
   scene.set_friction(-0.1);
-  ExpectInvalidScene(scene, "session.scene.friction");
+  expect_invalid(scene, "session.scene.friction");
+
+  scene = SteelSphereOnSteelFlat();
+  scene.set_friction(INFINITY);
+  expect_invalid(scene, "session.scene.friction");
 
   scene = SteelSphereOnSteelFlat();
   scene.mutable_power_law()->set_coefficient(1);
   scene.mutable_power_law()->set_exponent(20);
-  ExpectInvalidScene(scene, "session.scene.power_law.exponent");
+  expect_invalid(scene, "session.scene.power_law.exponent");
 
   scene = SteelSphereOnSteelFlat();
   scene.mutable_options()->set_force_path_tolerance(0.5);
-  ExpectInvalidScene(scene, "session.scene.options.force_path_tolerance");
+  expect_invalid(scene, "session.scene.options.force_path_tolerance");
 
   scene = SteelSphereOnSteelFlat();
   scene.mutable_options()->set_max_memory_vertices(0);
-  ExpectInvalidScene(scene, "session.scene.options.max_memory_vertices");
+  expect_invalid(scene, "session.scene.options.max_memory_vertices");
+
+  // Above the server's --max-memory-vertices (default 2^20).
+  scene = SteelSphereOnSteelFlat();
+  scene.mutable_options()->set_max_memory_vertices(uint64_t{1} << 21);
+  expect_invalid(scene, "session.scene.options.max_memory_vertices");
 
   scene = SteelSphereOnSteelFlat();
   scene.clear_sphere();
-  ExpectInvalidScene(scene, "session.scene.profile");
+  expect_invalid(scene, "session.scene.profile");
 
   scene = SteelSphereOnSteelFlat();
   scene.clear_elastic_pair();
-  ExpectInvalidScene(scene, "session.scene.material");
+  expect_invalid(scene, "session.scene.material");
+}
+
+TEST_F(ContactServiceTest, CreateSessionResolvesAndChecksSessionLimits) {
+  v1::CreateSessionRequest request;
+  *request.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+  request.mutable_session()->mutable_limits()->set_max_steps_per_batch(5);
+  request.mutable_session()->mutable_limits()->mutable_idle_timeout()->set_seconds(60);
+  v1::Session session;
+  ASSERT_TRUE(stub_->CreateSession(Context().get(), request, &session).ok());
+  EXPECT_EQ(session.limits().max_steps_per_batch(), 5u);
+  EXPECT_EQ(session.limits().idle_timeout().seconds(), 60);
+
+  // The session's own limit applies to its batches.
+  v1::ApplyResponse response;
+  grpc::Status status =
+      Apply(session.name(), std::vector<v1::Step>(6, DepthStep(kDepth)), &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("steps: 6 steps exceed the session's limit of 5"));
+
+  request.mutable_session()->mutable_limits()->set_max_steps_per_batch(20000);
+  status = stub_->CreateSession(Context().get(), request, &session);
+  ExpectInvalidArgument(status, "session.limits.max_steps_per_batch");
+  EXPECT_THAT(status.error_message(), HasSubstr("[1, 10000]"));
+
+  request.mutable_session()->mutable_limits()->set_max_steps_per_batch(0);
+  request.mutable_session()->mutable_limits()->mutable_idle_timeout()->set_seconds(7200);
+  ExpectInvalidArgument(stub_->CreateSession(Context().get(), request, &session),
+                        "session.limits.idle_timeout");
+  request.mutable_session()->mutable_limits()->mutable_idle_timeout()->set_seconds(0);
+  ExpectInvalidArgument(stub_->CreateSession(Context().get(), request, &session),
+                        "session.limits.idle_timeout");
 }
 
 TEST_F(ContactServiceTest, CreateSessionWithChosenIdRejectsDuplicatesAndBadIds) {
-  mdr::v1::Session session;
+  v1::Session session;
   ASSERT_TRUE(Create(SteelSphereOnSteelFlat(), &session, "rig-1").ok());
   EXPECT_EQ(session.name(), "sessions/rig-1");
   EXPECT_EQ(Create(SteelSphereOnSteelFlat(), &session, "rig-1").error_code(),
             grpc::StatusCode::ALREADY_EXISTS);
-  grpc::Status status = Create(SteelSphereOnSteelFlat(), &session, "Rig/1");
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_THAT(status.error_message(), HasSubstr("session_id: "));
+  ExpectInvalidArgument(Create(SteelSphereOnSteelFlat(), &session, "Rig/1"), "session_id");
 }
 
 TEST_F(ContactServiceTest, HertzDisplacementStepsMatchCattaneoMindlin) {
   const std::string session = CreateOrDie();
-  std::vector<mdr::v1::Step> steps = {DepthStep(kDepth)};
+  std::vector<v1::Step> steps = {DepthStep(kDepth)};
   for (int k = 1; k <= 3; ++k) steps.push_back(DisplacementStep(kDisplacementAt15N * k / 3));
-  mdr::v1::ApplyResponse response;
-  grpc::Status status = Apply(session, steps, &response);
+  v1::ApplyResponse response;
+  grpc::Status status = Apply(session, steps, &response, {"state"});
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_EQ(response.step_results_size(), 4);
 
   for (int i = 0; i < 4; ++i) {
     SCOPED_TRACE("step " + std::to_string(i));
-    const mdr::v1::ContactState& state = response.step_results(i).state();
+    const v1::ContactState& state = response.step_results(i).state();
     EXPECT_EQ(state.depth(), kDepth);
     ExpectRelativelyNear(state.normal_force(), HertzNormalForce(kDepth), 1e-10);
     ExpectRelativelyNear(state.contact_radius(), std::sqrt(kRadius * kDepth), 1e-10);
@@ -232,131 +161,298 @@ TEST_F(ContactServiceTest, HertzDisplacementStepsMatchCattaneoMindlin) {
   ExpectRelativelyNear(response.state().tangential_force(), 15, 1e-9);
   ExpectRelativelyNear(response.state().contact_radius(), 1.8662555784e-4, 1e-9);
   EXPECT_TRUE(MessageDifferencer::Equals(response.state(), response.step_results(3).state()));
+  // Displacement steps are exact.
+  EXPECT_EQ(response.error_estimate().path_error(), 0);
+  EXPECT_GT(response.compute_seconds(), 0);
+  EXPECT_FALSE(response.replayed());
 }
 
-TEST_F(ContactServiceTest, ForceControlledStepsReachTheirTargets) {
+TEST_F(ContactServiceTest, ForceControlledStepsReachTheirTargetsAndReportPathError) {
   const std::string session = CreateOrDie();
-  mdr::v1::Step load;
-  load.set_normal_force(100);
-  mdr::v1::ApplyResponse response;
-  ASSERT_TRUE(
-      Apply(session, {load, TangentialForceStep(5), TangentialForceStep(15)}, &response).ok());
+  v1::ApplyResponse response;
+  ASSERT_TRUE(Apply(session,
+                    {NormalForceStep(100), TangentialForceStep(5), TangentialForceStep(15)},
+                    &response)
+                  .ok());
   ExpectRelativelyNear(response.state().normal_force(), 100, 1e-9);
   ExpectRelativelyNear(response.state().tangential_force(), 15, 1e-9);
-  ExpectRelativelyNear(response.state().depth(), 3.4829098839e-6, 1e-9);
+  ExpectRelativelyNear(response.state().depth(), kDepth, 1e-9);
   ExpectRelativelyNear(response.state().tangential_displacement(), kDisplacementAt15N, 1e-9);
+  EXPECT_EQ(response.error_estimate().path_error(), 0);  // straight paths: exact
+
+  // Both forces changing at once: a curved path in (depth, ux), followed by exact sub-steps.
+  v1::Step curved = NormalForceStep(150);
+  curved.set_tangential_force(30);
+  ASSERT_TRUE(Apply(session, {curved}, &response, {"substeps", "path_error"}).ok());
+  ASSERT_EQ(response.step_results_size(), 1);
+  EXPECT_GT(response.step_results(0).substeps(), 1);
+  EXPECT_GT(response.step_results(0).path_error(), 0);
+  EXPECT_LE(response.step_results(0).path_error(), 1e-6);
+  EXPECT_EQ(response.error_estimate().path_error(), response.step_results(0).path_error());
+  ExpectRelativelyNear(response.state().normal_force(), 150, 1e-9);
+  ExpectRelativelyNear(response.state().tangential_force(), 30, 1e-9);
+}
+
+TEST_F(ContactServiceTest, StepMaskSelectsPerStepFields) {
+  const std::string session = CreateOrDie();
+  v1::ApplyResponse response;
+  ASSERT_TRUE(Apply(session, {DepthStep(kDepth), DisplacementStep(1e-7)}, &response).ok());
+  EXPECT_EQ(response.step_results_size(), 0);  // empty mask: final state only
+  EXPECT_EQ(response.state().applied_steps(), 2u);
+
+  ASSERT_TRUE(Apply(session, {DisplacementStep(2e-7), DisplacementStep(3e-7)}, &response,
+                    {"state.tangential_force", "dissipated_energy"})
+                  .ok());
+  ASSERT_EQ(response.step_results_size(), 2);
+  for (const v1::StepResult& result : response.step_results()) {
+    EXPECT_GT(result.state().tangential_force(), 0);
+    EXPECT_GT(result.dissipated_energy(), 0);  // partial slip dissipates
+    EXPECT_EQ(result.state().depth(), 0);      // not selected
+    EXPECT_EQ(result.state().normal_force(), 0);
+    EXPECT_EQ(result.substeps(), 0);
+  }
+  EXPECT_EQ(response.step_results(1).state().tangential_force(),
+            response.state().tangential_force());
+
+  grpc::Status status =
+      Apply(session, {DisplacementStep(1e-7)}, &response, {"state", "state.no_such_field"});
+  ExpectInvalidArgument(status, "step_mask.paths[1]");
+  EXPECT_EQ(StateOf(session).applied_steps(), 4u);
 }
 
 TEST_F(ContactServiceTest, FailingBatchLeavesSessionUnchanged) {
   const std::string session = CreateOrDie();
-  mdr::v1::ApplyResponse response;
+  v1::ApplyResponse response;
   ASSERT_TRUE(Apply(session, {DepthStep(kDepth), DisplacementStep(1e-7)}, &response).ok());
-  mdr::v1::QueryResponse before;
-  ASSERT_TRUE(Query(session, &before).ok());
+  const v1::SessionSnapshot before = ExportOrDie(session);
 
-  mdr::v1::Step invalid;
-  invalid.set_normal_force(-1);
-  grpc::Status status = Apply(session, {DisplacementStep(2e-7), invalid}, &response);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_THAT(status.error_message(), HasSubstr("steps[1]"));
+  grpc::Status status = Apply(session, {DisplacementStep(2e-7), NormalForceStep(-1)}, &response);
+  ExpectInvalidArgument(status, "steps[1].normal_force");
+  EXPECT_THAT(status.error_message(), HasSubstr(">= 0, got -1"));
 
-  // |F_x| = 40 N > mu F_N = 30 N cannot be reached.
+  status = Apply(session, {DisplacementStep(2e-7), DepthStep(std::nan(""))}, &response);
+  ExpectInvalidArgument(status, "steps[1].depth");
+
+  // |F_x| = 40 N > mu F_N = 30 N cannot be reached; the message states the limit.
   status = Apply(session, {DisplacementStep(2e-7), TangentialForceStep(40)}, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
-  EXPECT_THAT(status.error_message(), HasSubstr("steps[1]"));
+  EXPECT_THAT(status.error_message(), HasSubstr("steps[1].tangential_force: "));
+  EXPECT_THAT(status.error_message(), HasSubstr("mu F_N = 30"));
 
-  mdr::v1::QueryResponse after;
-  ASSERT_TRUE(Query(session, &after).ok());
-  EXPECT_TRUE(MessageDifferencer::Equals(before, after))
-      << before.DebugString() << " vs " << after.DebugString();
+  const v1::SessionSnapshot after = ExportOrDie(session);
+  EXPECT_EQ(before.SerializeAsString(), after.SerializeAsString());
 }
 
-TEST_F(ContactServiceTest, ApplyRejectsEmptyBatchAndRequestId) {
+TEST_F(ContactServiceTest, ApplyRejectsEmptyBatchOversizedBatchAndBadRequestId) {
   const std::string session = CreateOrDie();
-  mdr::v1::ApplyResponse response;
-  grpc::Status status = Apply(session, {}, &response);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_THAT(status.error_message(), HasSubstr("steps: "));
+  v1::ApplyResponse response;
+  ExpectInvalidArgument(Apply(session, {}, &response), "steps");
 
-  mdr::v1::ApplyRequest request;
-  request.set_session(session);
-  *request.add_steps() = DepthStep(kDepth);
-  request.set_request_id("retry-1");
-  status = stub_->Apply(Context().get(), request, &response);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNIMPLEMENTED);
+  grpc::Status status =
+      Apply(session, std::vector<v1::Step>(10001, DisplacementIncrementStep(0)), &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("limit of 10000 per batch"));
+
+  ExpectInvalidArgument(Apply(session, {DepthStep(kDepth)}, &response, {}, std::string(129, 'x')),
+                        "request_id");
+  ExpectInvalidArgument(Apply(session, {DepthStep(kDepth)}, &response, {}, "tab\there"),
+                        "request_id");
+  EXPECT_EQ(StateOf(session).applied_steps(), 0u);
 }
 
-TEST_F(ContactServiceTest, QueryReadMaskSelectsFields) {
+TEST_F(ContactServiceTest, RetriedRequestIdReturnsStoredResponseWithoutApplyingAgain) {
   const std::string session = CreateOrDie();
-  mdr::v1::ApplyResponse applied;
+  v1::ApplyResponse first, retried;
+  ASSERT_TRUE(Apply(session, {DepthStep(kDepth)}, &first).ok());
+  const std::vector<v1::Step> batch = {DisplacementIncrementStep(1e-8),
+                                       DisplacementIncrementStep(1e-8)};
+  ASSERT_TRUE(Apply(session, batch, &first, {"state"}, "rig-7/batch-1").ok());
+  EXPECT_FALSE(first.replayed());
+  ASSERT_TRUE(Apply(session, batch, &retried, {"state"}, "rig-7/batch-1").ok());
+  EXPECT_TRUE(retried.replayed());
+  retried.set_replayed(false);
+  EXPECT_EQ(first.SerializeAsString(), retried.SerializeAsString());
+  EXPECT_EQ(StateOf(session).applied_steps(), 3u);
+  EXPECT_EQ(StateOf(session).tangential_displacement(), first.state().tangential_displacement());
+
+  // The same id for other steps is a client bug.
+  ExpectInvalidArgument(
+      Apply(session, {DisplacementIncrementStep(5e-8)}, &retried, {"state"}, "rig-7/batch-1"),
+      "request_id");
+
+  // A failed batch is not remembered: its retry runs (and fails) again.
+  EXPECT_EQ(Apply(session, {TangentialForceStep(40)}, &retried, {}, "bad").error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(Apply(session, {TangentialForceStep(40)}, &retried, {}, "bad").error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+
+  // Ids are remembered per session, for the last 64 successful batches.
+  for (int i = 0; i < 64; ++i) {
+    ASSERT_TRUE(
+        Apply(session, {DisplacementIncrementStep(0)}, &retried, {}, "id-" + std::to_string(i))
+            .ok());
+  }
+  ASSERT_TRUE(Apply(session, {DisplacementIncrementStep(0)}, &retried, {}, "id-0").ok());
+  EXPECT_TRUE(retried.replayed());
+  ASSERT_TRUE(Apply(session, batch, &retried, {"state"}, "rig-7/batch-1").ok());
+  EXPECT_FALSE(retried.replayed());  // forgotten: applied again
+  EXPECT_EQ(StateOf(session).applied_steps(), 3u + 64u + 2u);
+}
+
+TEST_F(ContactServiceTest, QueryComputesOnlyTheSelectedOutputs) {
+  const std::string session = CreateOrDie();
+  v1::ApplyResponse applied;
   ASSERT_TRUE(Apply(session, {DepthStep(kDepth), DisplacementStep(1e-7)}, &applied).ok());
 
-  mdr::v1::QueryResponse response;
+  v1::QueryResponse response;
   ASSERT_TRUE(Query(session, &response, {"state.normal_force"}).ok());
   EXPECT_EQ(response.state().normal_force(), applied.state().normal_force());
   EXPECT_EQ(response.state().tangential_force(), 0);
   EXPECT_EQ(response.state().depth(), 0);
+  EXPECT_FALSE(response.has_tangential_stiffness());
+  EXPECT_EQ(response.slip_intervals_size(), 0);
+  EXPECT_FALSE(response.has_springs());
+  EXPECT_EQ(response.memory_pieces_size(), 0);
+  EXPECT_FALSE(response.has_energy());
+  EXPECT_GT(response.compute_seconds(), 0);
+  EXPECT_EQ(counters_[Output::kNormalForce], 1u);
+  for (Output unselected :
+       {Output::kTangentialForce, Output::kContactRadius, Output::kMemoryPieces,
+        Output::kSlipIntervals, Output::kStiffnessPositive, Output::kSpringTangentialDisplacement,
+        Output::kSpringNormalDisplacement, Output::kEnergyDissipated}) {
+    EXPECT_EQ(counters_[unselected], 0u) << static_cast<int>(unselected);
+  }
 
+  // Empty mask: the whole state, nothing else.
   ASSERT_TRUE(Query(session, &response).ok());
   EXPECT_TRUE(MessageDifferencer::Equals(response.state(), applied.state()));
+  EXPECT_EQ(counters_[Output::kMemoryPieces], 0u);
+  EXPECT_EQ(counters_[Output::kTangentialForce], 1u);
 
-  grpc::Status status = Query(session, &response, {"state", "state.no_such_field"});
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_THAT(status.error_message(), HasSubstr("read_mask.paths[1]: "));
+  ASSERT_TRUE(Query(session, &response, {"memory_pieces", "tangential_stiffness.negative"}).ok());
+  EXPECT_FALSE(response.has_state());
+  EXPECT_GT(response.memory_pieces_size(), 0);
+  EXPECT_GT(response.tangential_stiffness().negative(), 0);
+  EXPECT_EQ(response.tangential_stiffness().positive(), 0);
+  EXPECT_EQ(counters_[Output::kMemoryPieces], 1u);
+  EXPECT_EQ(counters_[Output::kStiffnessPositive], 0u);
+}
+
+TEST_F(ContactServiceTest, QueryOutputsMatchCattaneoMindlin) {
+  const std::string session = CreateOrDie();
+  const double ux = kDisplacementAt15N;
+  v1::ApplyResponse applied;
+  ASSERT_TRUE(Apply(session, {DepthStep(kDepth), DisplacementStep(ux)}, &applied).ok());
+  const double a = std::sqrt(kRadius * kDepth);
+  const double fx = applied.state().tangential_force(), fn = applied.state().normal_force();
+  const double c = a * std::cbrt(1 - fx / (kFriction * fn));  // stick radius
+  const double k = 2 * EffectiveShearModulus();
+
+  const std::vector<double> radii = {0, 0.5 * c, 0.5 * (c + a), 2 * a};
+  v1::QueryResponse response;
+  grpc::Status status = Query(session, &response,
+                              {"tangential_stiffness", "slip_intervals", "springs", "energy",
+                               "memory_pieces", "state.contact_radius"},
+                              radii);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  // Reversing sticks everywhere; moving on slides the annulus c < r < a.
+  ExpectRelativelyNear(response.tangential_stiffness().negative(), k * a, 1e-10);
+  ExpectRelativelyNear(response.tangential_stiffness().positive(), k * c, 1e-9);
+  ASSERT_EQ(response.slip_intervals_size(), 1);
+  ExpectRelativelyNear(response.slip_intervals(0).r_begin(), c, 1e-9);
+  ExpectRelativelyNear(response.slip_intervals(0).r_end(), a, 1e-12);
+  EXPECT_EQ(response.slip_intervals(0).direction(), 1);
+  ASSERT_EQ(response.springs().tangential_displacement_size(), 4);
+  ASSERT_EQ(response.springs().normal_displacement_size(), 4);
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE("radius " + std::to_string(radii[i]));
+    const double r = radii[i];
+    const double w = r < a ? kDepth - r * r / kRadius : 0;
+    ExpectRelativelyNear(response.springs().normal_displacement(i), w, 1e-12);
+    const double u = r < c ? ux : kFriction * Kappa() * w;  // stick: ux; slip: on the bound
+    EXPECT_NEAR(response.springs().tangential_displacement(i), u, 1e-12 * ux);
+  }
+  EXPECT_GT(response.energy().dissipated_energy(), 0);
+  EXPECT_EQ(response.energy().dissipated_energy(), applied.state().dissipated_energy());
+  EXPECT_GT(response.energy().last_step_dissipated_energy(), 0);
+  ASSERT_GT(response.memory_pieces_size(), 0);
+  ExpectRelativelyNear(response.memory_pieces(response.memory_pieces_size() - 1).x_end(), a, 1e-12);
+  ExpectRelativelyNear(response.state().contact_radius(), a, 1e-12);
+}
+
+TEST_F(ContactServiceTest, QueryValidatesReadMaskAndRadii) {
+  const std::string session = CreateOrDie();
+  v1::QueryResponse response;
+  ExpectInvalidArgument(Query(session, &response, {"state", "state.no_such_field"}),
+                        "read_mask.paths[1]");
+  ExpectInvalidArgument(Query(session, &response, {"slip_intervals.r_begin"}),
+                        "read_mask.paths[0]");
+  ExpectInvalidArgument(Query(session, &response, {"springs"}), "radii");
+  grpc::Status status = Query(session, &response, {"springs"}, {0, -1e-6});
+  ExpectInvalidArgument(status, "radii[1]");
+  EXPECT_THAT(status.error_message(), HasSubstr("must be finite and >= 0"));
+  ExpectInvalidArgument(Query(session, &response, {"springs"}, {std::nan("")}), "radii[0]");
+  ExpectInvalidArgument(Query(session, &response, {"springs.normal_displacement"}, {INFINITY}),
+                        "radii[0]");
 }
 
 TEST_F(ContactServiceTest, UnknownSessionIsNotFoundAndMalformedNameInvalid) {
-  mdr::v1::ApplyResponse applied;
+  v1::ApplyResponse applied;
   EXPECT_EQ(Apply("sessions/unknown", {DepthStep(kDepth)}, &applied).error_code(),
             grpc::StatusCode::NOT_FOUND);
-  mdr::v1::QueryResponse queried;
+  v1::QueryResponse queried;
   EXPECT_EQ(Query("sessions/unknown", &queried).error_code(), grpc::StatusCode::NOT_FOUND);
-  mdr::v1::GetSessionRequest get;
+  v1::GetSessionRequest get;
   get.set_name("sessions/unknown");
-  mdr::v1::Session session;
+  v1::Session session;
   EXPECT_EQ(stub_->GetSession(Context().get(), get, &session).error_code(),
             grpc::StatusCode::NOT_FOUND);
+  v1::ExportSessionRequest export_request;
+  export_request.set_name("sessions/unknown");
+  v1::SessionSnapshot snapshot;
+  EXPECT_EQ(stub_->ExportSession(Context().get(), export_request, &snapshot).error_code(),
+            grpc::StatusCode::NOT_FOUND);
 
-  grpc::Status status = Query("unknown", &queried);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_THAT(status.error_message(), HasSubstr("session: "));
+  ExpectInvalidArgument(Query("unknown", &queried), "session");
+  get.set_name("sessions/");
+  ExpectInvalidArgument(stub_->GetSession(Context().get(), get, &session), "name");
 }
 
 TEST_F(ContactServiceTest, DeleteRemovesSessionOnce) {
   const std::string session = CreateOrDie();
-  mdr::v1::DeleteSessionRequest request;
+  v1::DeleteSessionRequest request;
   request.set_name(session);
   google::protobuf::Empty empty;
   ASSERT_TRUE(stub_->DeleteSession(Context().get(), request, &empty).ok());
   EXPECT_EQ(stub_->DeleteSession(Context().get(), request, &empty).error_code(),
             grpc::StatusCode::NOT_FOUND);
-  mdr::v1::QueryResponse response;
+  v1::QueryResponse response;
   EXPECT_EQ(Query(session, &response).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(server_->session_count(), 0u);
 }
 
 TEST_F(ContactServiceTest, ConcurrentBatchesOnOneSessionAreSerialised) {
   const std::string session = CreateOrDie();
-  mdr::v1::ApplyResponse response;
+  v1::ApplyResponse response;
   ASSERT_TRUE(Apply(session, {DepthStep(kDepth)}, &response).ok());
   constexpr int kThreads = 4;
   constexpr int kBatchesPerThread = 25;
-  mdr::v1::Step increment;
-  increment.set_displacement_increment(1e-9);
+  const v1::Step increment = DisplacementIncrementStep(1e-9);
   std::vector<std::thread> threads;
   for (int t = 0; t < kThreads; ++t) {
     threads.emplace_back([&] {
       for (int b = 0; b < kBatchesPerThread; ++b) {
-        mdr::v1::ApplyResponse ignored;
+        v1::ApplyResponse ignored;
         EXPECT_TRUE(Apply(session, {increment, increment}, &ignored).ok());
       }
     });
   }
   for (std::thread& thread : threads) thread.join();
-  mdr::v1::QueryResponse state;
-  ASSERT_TRUE(Query(session, &state).ok());
-  EXPECT_EQ(state.state().applied_steps(), 1u + 2u * kThreads * kBatchesPerThread);
-  ExpectRelativelyNear(state.state().tangential_displacement(),
-                       2 * kThreads * kBatchesPerThread * 1e-9, 1e-12);
+  const v1::ContactState state = StateOf(session);
+  EXPECT_EQ(state.applied_steps(), 1u + 2u * kThreads * kBatchesPerThread);
+  ExpectRelativelyNear(state.tangential_displacement(), 2 * kThreads * kBatchesPerThread * 1e-9,
+                       1e-12);
 }
 
 }  // namespace
+}  // namespace mdr::service_testing

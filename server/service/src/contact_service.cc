@@ -1,123 +1,101 @@
 #include "mdr/service/contact_service.h"
 
-#include <google/protobuf/util/field_mask_util.h>
-#include <spdlog/spdlog.h>
-
-#include <memory>
+#include <chrono>
 #include <string>
-#include <vector>
 
-#include "mdr/service/conversion.h"
-#include "mdr/service/status.h"
+#include "mdr/service/call.h"
 
 namespace mdr::service {
 namespace {
 
-using google::protobuf::util::FieldMaskUtil;
+// Handlers run to completion on the calling thread (the work is CPU-bound), so each finishes its
+// reactor before returning it, after one structured log line.
+class UnaryCall {
+ public:
+  UnaryCall(grpc::CallbackServerContext* context, const char* method, std::string session,
+            const std::string& request_id = "")
+      : context_(context),
+        method_(method),
+        session_(std::move(session)),
+        request_id_(RequestIdOf(context, request_id)) {}
 
-// Handlers run to completion on the calling thread (the work is short and CPU-bound), so each
-// finishes its reactor before returning it.
-grpc::ServerUnaryReactor* Finish(grpc::CallbackServerContext* context, const char* method,
-                                 const grpc::Status& status) {
-  if (!status.ok()) {
-    spdlog::debug("{} failed with code {}: {}", method, static_cast<int>(status.error_code()),
-                  status.error_message());
+  grpc::ServerUnaryReactor* Finish(const grpc::Status& status) const {
+    LogCall(method_, session_, request_id_, status,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+    grpc::ServerUnaryReactor* reactor = context_->DefaultReactor();
+    reactor->Finish(status);
+    return reactor;
   }
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  reactor->Finish(status);
-  return reactor;
-}
 
-grpc::Status CheckReadMask(const google::protobuf::FieldMask& mask) {
-  for (int i = 0; i < mask.paths_size(); ++i) {
-    std::vector<const google::protobuf::FieldDescriptor*> fields;
-    if (!FieldMaskUtil::GetFieldDescriptors(v1::QueryResponse::descriptor(), mask.paths(i),
-                                            &fields)) {
-      return GrpcError(grpc::StatusCode::INVALID_ARGUMENT,
-                       "read_mask.paths[" + std::to_string(i) + "]",
-                       "\"" + mask.paths(i) +
-                           "\" is not a field of QueryResponse (e.g. \"state\", "
-                           "\"state.normal_force\")");
-    }
-  }
-  return grpc::Status::OK;
-}
+ private:
+  grpc::CallbackServerContext* const context_;
+  const char* const method_;
+  const std::string session_;
+  const std::string request_id_;
+  const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
 
 }  // namespace
 
 grpc::ServerUnaryReactor* ContactServiceImpl::CreateSession(grpc::CallbackServerContext* context,
                                                             const v1::CreateSessionRequest* request,
                                                             v1::Session* response) {
-  Result<ContactConfig> config = ToContactConfig(request->session().scene());
-  if (!config.ok())
-    return Finish(context, "CreateSession",
-                  ToGrpcStatus(config.status().WithFieldPrefix("session")));
-  Result<Contact> contact = Contact::Create(std::move(config).value());
-  if (!contact.ok()) {
-    return Finish(context, "CreateSession",
-                  ToGrpcStatus(contact.status().WithFieldPrefix("session")));
-  }
-  std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Create(request->session_id(), request->session().scene(),
-                                         std::move(contact).value(), &session);
-  if (!status.ok()) return Finish(context, "CreateSession", status);
-  session->ReadResource(response);
-  spdlog::info("created {} ({} sessions)", session->name(), sessions_.size());
-  return Finish(context, "CreateSession", grpc::Status::OK);
+  const UnaryCall call(context, "CreateSession", request->session_id());
+  return call.Finish(operations_.CreateSession(*request, response));
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::GetSession(grpc::CallbackServerContext* context,
                                                          const v1::GetSessionRequest* request,
                                                          v1::Session* response) {
-  std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("name", request->name(), &session);
-  if (status.ok()) session->ReadResource(response);
-  return Finish(context, "GetSession", status);
+  const UnaryCall call(context, "GetSession", request->name());
+  return call.Finish(operations_.GetSession(*request, response));
+}
+
+grpc::ServerUnaryReactor* ContactServiceImpl::ListSessions(grpc::CallbackServerContext* context,
+                                                           const v1::ListSessionsRequest* request,
+                                                           v1::ListSessionsResponse* response) {
+  const UnaryCall call(context, "ListSessions", "");
+  return call.Finish(operations_.ListSessions(*request, response));
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::DeleteSession(grpc::CallbackServerContext* context,
                                                             const v1::DeleteSessionRequest* request,
                                                             google::protobuf::Empty* /*response*/) {
-  grpc::Status status = sessions_.Erase("name", request->name());
-  if (status.ok()) spdlog::info("deleted {} ({} sessions)", request->name(), sessions_.size());
-  return Finish(context, "DeleteSession", status);
+  const UnaryCall call(context, "DeleteSession", request->name());
+  return call.Finish(operations_.DeleteSession(*request));
+}
+
+grpc::ServerUnaryReactor* ContactServiceImpl::ExportSession(grpc::CallbackServerContext* context,
+                                                            const v1::ExportSessionRequest* request,
+                                                            v1::SessionSnapshot* response) {
+  const UnaryCall call(context, "ExportSession", request->name());
+  return call.Finish(operations_.ExportSession(*request, response));
+}
+
+grpc::ServerUnaryReactor* ContactServiceImpl::ImportSession(grpc::CallbackServerContext* context,
+                                                            const v1::ImportSessionRequest* request,
+                                                            v1::Session* response) {
+  const UnaryCall call(context, "ImportSession", request->session_id());
+  return call.Finish(operations_.ImportSession(*request, response));
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::Apply(grpc::CallbackServerContext* context,
                                                     const v1::ApplyRequest* request,
                                                     v1::ApplyResponse* response) {
-  if (!request->request_id().empty()) {
-    return Finish(context, "Apply",
-                  GrpcError(grpc::StatusCode::UNIMPLEMENTED, "request_id",
-                            "idempotent retries are not implemented yet; leave it empty"));
-  }
-  if (request->steps().empty()) {
-    return Finish(
-        context, "Apply",
-        GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "steps", "must contain at least one step"));
-  }
-  std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("session", request->session(), &session);
-  if (!status.ok()) return Finish(context, "Apply", status);
-  return Finish(
-      context, "Apply",
-      ToGrpcStatus(session->Apply(request->steps(), request->include_step_results(), response)));
+  const UnaryCall call(context, "Apply", request->session(), request->request_id());
+  return call.Finish(operations_.Apply(*request, InterruptionOf(context), response));
+}
+
+grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse>*
+ContactServiceImpl::StreamApply(grpc::CallbackServerContext* context) {
+  return new StreamApplyReactor(context, operations_, streams_);
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::Query(grpc::CallbackServerContext* context,
                                                     const v1::QueryRequest* request,
                                                     v1::QueryResponse* response) {
-  if (grpc::Status status = CheckReadMask(request->read_mask()); !status.ok()) {
-    return Finish(context, "Query", status);
-  }
-  std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("session", request->session(), &session);
-  if (!status.ok()) return Finish(context, "Query", status);
-  session->ReadState(response->mutable_state());
-  if (request->read_mask().paths_size() > 0) {
-    FieldMaskUtil::TrimMessage(request->read_mask(), response);
-  }
-  return Finish(context, "Query", grpc::Status::OK);
+  const UnaryCall call(context, "Query", request->session());
+  return call.Finish(operations_.Query(*request, response));
 }
 
 }  // namespace mdr::service

@@ -1,5 +1,6 @@
 #include "mdr/service/conversion.h"
 
+#include <algorithm>
 #include <string>
 
 #include "mdr/core/material.h"
@@ -63,20 +64,29 @@ std::string ScenePath(const std::string& config_field) {
   return "scene." + config_field;
 }
 
-// Unset options keep the core's defaults.
-void ApplyOptions(const v1::ContactOptions& options, ContactConfig* config) {
+// Unset options keep the core's defaults; the vertex limit defaults to at most the server's.
+Status ApplyOptions(const v1::ContactOptions& options, std::size_t max_memory_vertices,
+                    ContactConfig* config) {
   if (options.has_track_energy()) config->track_energy = options.track_energy();
   if (options.has_force_path_tolerance()) {
     config->force_path_tolerance = options.force_path_tolerance();
   }
+  config->max_memory_vertices = std::min(config->max_memory_vertices, max_memory_vertices);
   if (options.has_max_memory_vertices()) {
+    if (options.max_memory_vertices() > max_memory_vertices) {
+      return InvalidArgument("scene.options.max_memory_vertices",
+                             "must be <= " + std::to_string(max_memory_vertices) +
+                                 " (the server's --max-memory-vertices), got " +
+                                 std::to_string(options.max_memory_vertices()));
+    }
     config->max_memory_vertices = static_cast<std::size_t>(options.max_memory_vertices());
   }
+  return OkStatus();
 }
 
 }  // namespace
 
-Result<ContactConfig> ToContactConfig(const v1::Scene& scene) {
+Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices) {
   Result<ProfilePtr> profile = ToProfile(scene);
   if (!profile.ok()) return profile.status();
   Result<EffectiveMaterial> material = ToMaterial(scene);
@@ -86,11 +96,22 @@ Result<ContactConfig> ToContactConfig(const v1::Scene& scene) {
   config.profile = std::move(profile).value();
   config.material = *material;
   config.friction = scene.friction();
-  ApplyOptions(scene.options(), &config);
+  if (Status status = ApplyOptions(scene.options(), max_memory_vertices, &config); !status.ok()) {
+    return status;
+  }
   if (Status status = ValidateContactConfig(config); !status.ok()) {
     return Status(status.code(), ScenePath(status.field()), status.message());
   }
   return config;
+}
+
+v1::Scene WithEffectiveOptions(const v1::Scene& scene, const ContactConfig& config) {
+  v1::Scene effective = scene;
+  v1::ContactOptions* options = effective.mutable_options();
+  options->set_track_energy(config.track_energy);
+  options->set_force_path_tolerance(config.force_path_tolerance);
+  options->set_max_memory_vertices(config.max_memory_vertices);
+  return effective;
 }
 
 Step ToCoreStep(const v1::Step& step) {
@@ -130,24 +151,52 @@ Step ToCoreStep(const v1::Step& step) {
   return core;
 }
 
-void ToProtoState(const Contact& contact, std::uint64_t applied_steps, v1::ContactState* state) {
-  state->set_depth(contact.depth());
-  state->set_tangential_displacement(contact.tangential_displacement());
-  state->set_contact_radius(contact.contact_radius());
-  state->set_normal_force(contact.normal_force());
-  state->set_tangential_force(contact.tangential_force());
-  state->set_dissipated_energy(contact.dissipated_energy());
-  state->set_friction_limit(contact.friction_limit());
-  state->set_applied_steps(applied_steps);
-  state->set_memory_vertices(contact.memory().vertex_count());
+ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
+  constexpr std::uint8_t kRejectedTag = 0xFF;  // the core accepts tags 0..3 only
+  ContactSnapshot core;
+  core.depth = snapshot.depth();
+  core.tangential_displacement = snapshot.tangential_displacement();
+  core.dissipated_energy = snapshot.dissipated_energy();
+  core.last_step_dissipation = snapshot.last_step_dissipated_energy();
+  const int n = snapshot.memory_size();
+  core.z.reserve(n);
+  core.u.reserve(n);
+  core.tags.reserve(n);
+  for (const v1::MemoryVertex& vertex : snapshot.memory()) {
+    core.z.push_back(vertex.z());
+    core.u.push_back(vertex.u());
+    const int bound = vertex.bound();
+    core.tags.push_back(bound >= 0 && bound <= kOnBoth ? static_cast<std::uint8_t>(bound)
+                                                       : kRejectedTag);
+  }
+  return core;
 }
 
-void ToProtoStepResult(const Contact& contact, std::uint64_t applied_steps,
-                       const StepReport& report, v1::StepResult* result) {
-  ToProtoState(contact, applied_steps, result->mutable_state());
-  result->set_substeps(report.substeps);
-  result->set_path_error(report.path_error);
-  result->set_dissipated_energy(report.dissipated);
+void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto) {
+  proto->set_depth(snapshot.depth);
+  proto->set_tangential_displacement(snapshot.tangential_displacement);
+  proto->set_dissipated_energy(snapshot.dissipated_energy);
+  proto->set_last_step_dissipated_energy(snapshot.last_step_dissipation);
+  proto->mutable_memory()->Reserve(static_cast<int>(snapshot.z.size()));
+  for (std::size_t i = 0; i < snapshot.z.size(); ++i) {
+    v1::MemoryVertex* vertex = proto->add_memory();
+    vertex->set_z(snapshot.z[i]);
+    vertex->set_u(snapshot.u[i]);
+    vertex->set_bound(ToProtoBound(snapshot.tags[i]));
+  }
+}
+
+v1::MemoryBound ToProtoBound(std::uint8_t tag) {
+  switch (tag) {
+    case kOnUpper:
+      return v1::MEMORY_BOUND_UPPER;
+    case kOnLower:
+      return v1::MEMORY_BOUND_LOWER;
+    case kOnBoth:
+      return v1::MEMORY_BOUND_BOTH;
+    default:
+      return v1::MEMORY_BOUND_INSIDE;
+  }
 }
 
 }  // namespace mdr::service

@@ -1,12 +1,9 @@
 #include "mdr/service/session_store.h"
 
-#include <google/protobuf/util/time_util.h>
-
 #include <cstdio>
-#include <random>
+#include <mutex>
 #include <utility>
 
-#include "mdr/service/conversion.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -26,69 +23,38 @@ bool IsValidSessionId(const std::string& id) {
   return true;
 }
 
-bool IsSessionName(const std::string& name) {
-  const std::string prefix = kCollection;
-  return name.starts_with(prefix) && IsValidSessionId(name.substr(prefix.size()));
+grpc::Status NotFound(const std::string& field, const std::string& name) {
+  return GrpcError(grpc::StatusCode::NOT_FOUND, field, name + " does not exist (or expired)");
 }
 
 }  // namespace
 
-Session::Session(std::string name, v1::Scene scene, Contact contact)
-    : name_(std::move(name)),
-      scene_(std::move(scene)),
-      create_time_(google::protobuf::util::TimeUtil::GetCurrentTime()),
-      contact_(std::move(contact)) {}
-
-Status Session::Apply(const google::protobuf::RepeatedPtrField<v1::Step>& steps,
-                      bool include_step_results, v1::ApplyResponse* response) {
-  std::lock_guard lock(mutex_);
-  // Work on a copy so that a failing step leaves the session as it was.
-  Contact trial = contact_;
-  std::uint64_t applied = applied_steps_;
-  for (int i = 0; i < steps.size(); ++i) {
-    StepReport report;
-    if (Status status = trial.Apply(ToCoreStep(steps[i]), &report); !status.ok()) {
-      response->Clear();
-      return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
-    }
-    ++applied;
-    if (include_step_results) {
-      ToProtoStepResult(trial, applied, report, response->add_step_results());
-    }
-  }
-  contact_ = std::move(trial);
-  applied_steps_ = applied;
-  ToProtoState(contact_, applied_steps_, response->mutable_state());
-  return OkStatus();
-}
-
-void Session::ReadState(v1::ContactState* state) const {
-  std::lock_guard lock(mutex_);
-  ToProtoState(contact_, applied_steps_, state);
-}
-
-void Session::ReadResource(v1::Session* resource) const {
-  resource->set_name(name_);
-  *resource->mutable_scene() = scene_;
-  *resource->mutable_create_time() = create_time_;
-  ReadState(resource->mutable_state());
+bool SessionStore::IsSessionName(const std::string& name) {
+  const std::string prefix = kCollection;
+  return name.starts_with(prefix) && IsValidSessionId(name.substr(prefix.size()));
 }
 
 SessionStore::SessionStore(std::size_t max_sessions)
     : max_sessions_(max_sessions), id_generator_(std::random_device{}()) {}
 
-grpc::Status SessionStore::Create(const std::string& session_id, const v1::Scene& scene,
-                                  Contact contact, std::shared_ptr<Session>* session) {
+grpc::Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
+                                  SessionState state, std::shared_ptr<Session>* session) {
   if (!session_id.empty() && !IsValidSessionId(session_id)) {
     return GrpcError(
-        grpc::StatusCode::INVALID_ARGUMENT, "session_id",
+        grpc::StatusCode::INVALID_ARGUMENT, id_field,
         "must be 1-63 characters of [a-z0-9-] starting with a letter, got \"" + session_id + "\"");
   }
   std::unique_lock lock(mutex_);
   if (sessions_.size() >= max_sessions_) {
+    // Expired sessions the sweeper has not reached yet do not count.
+    std::erase_if(sessions_, [now = Session::Clock::now()](const auto& entry) {
+      return entry.second->IsExpired(now);
+    });
+  }
+  if (sessions_.size() >= max_sessions_) {
     return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
                      "the server holds its maximum of " + std::to_string(max_sessions_) +
-                         " sessions; delete unused ones");
+                         " sessions (--max-sessions); delete unused ones");
   }
   std::string name = kCollection + session_id;
   if (session_id.empty()) {
@@ -96,28 +62,40 @@ grpc::Status SessionStore::Create(const std::string& session_id, const v1::Scene
       name = kCollection + GenerateSessionId();
     } while (sessions_.contains(name));
   }
-  if (sessions_.contains(name)) {
-    return GrpcError(grpc::StatusCode::ALREADY_EXISTS, "session_id", name + " already exists");
+  if (auto it = sessions_.find(name); it != sessions_.end()) {
+    if (!it->second->IsExpired(Session::Clock::now())) {
+      return GrpcError(grpc::StatusCode::ALREADY_EXISTS, id_field, name + " already exists");
+    }
+    sessions_.erase(it);
   }
-  auto created = std::make_shared<Session>(name, scene, std::move(contact));
+  auto created = std::make_shared<Session>(name, std::move(state));
   sessions_.emplace(name, created);
   *session = std::move(created);
   return grpc::Status::OK;
 }
 
 grpc::Status SessionStore::Find(const std::string& field, const std::string& name,
-                                std::shared_ptr<Session>* session) const {
+                                std::shared_ptr<Session>* session) {
   if (!IsSessionName(name)) {
     return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, field,
                      "must be a session name \"sessions/{session_id}\", got \"" + name + "\"");
   }
-  std::shared_lock lock(mutex_);
-  auto it = sessions_.find(name);
-  if (it == sessions_.end()) {
-    return GrpcError(grpc::StatusCode::NOT_FOUND, field, name + " does not exist");
+  {
+    std::shared_lock lock(mutex_);
+    auto it = sessions_.find(name);
+    if (it == sessions_.end()) return NotFound(field, name);
+    if (!it->second->IsExpired(Session::Clock::now())) {
+      it->second->Touch();
+      *session = it->second;
+      return grpc::Status::OK;
+    }
   }
-  *session = it->second;
-  return grpc::Status::OK;
+  std::unique_lock lock(mutex_);
+  if (auto it = sessions_.find(name);
+      it != sessions_.end() && it->second->IsExpired(Session::Clock::now())) {
+    sessions_.erase(it);
+  }
+  return NotFound(field, name);
 }
 
 grpc::Status SessionStore::Erase(const std::string& field, const std::string& name) {
@@ -125,10 +103,35 @@ grpc::Status SessionStore::Erase(const std::string& field, const std::string& na
   if (grpc::Status status = Find(field, name, &session); !status.ok()) return status;
   std::unique_lock lock(mutex_);
   // A concurrent delete may have won; deleting twice reports NOT_FOUND once.
-  if (sessions_.erase(name) == 0) {
-    return GrpcError(grpc::StatusCode::NOT_FOUND, field, name + " does not exist");
-  }
+  if (sessions_.erase(name) == 0) return NotFound(field, name);
   return grpc::Status::OK;
+}
+
+std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string& after,
+                                                              std::size_t page_size,
+                                                              bool* more) const {
+  std::vector<std::shared_ptr<Session>> page;
+  const auto now = Session::Clock::now();
+  std::shared_lock lock(mutex_);
+  auto it = after.empty() ? sessions_.begin() : sessions_.upper_bound(after);
+  for (; it != sessions_.end() && page.size() < page_size; ++it) {
+    if (!it->second->IsExpired(now)) page.push_back(it->second);
+  }
+  while (it != sessions_.end() && it->second->IsExpired(now)) ++it;
+  *more = it != sessions_.end();
+  return page;
+}
+
+std::vector<std::string> SessionStore::EraseExpired() {
+  std::vector<std::string> erased;
+  const auto now = Session::Clock::now();
+  std::unique_lock lock(mutex_);
+  std::erase_if(sessions_, [&](const auto& entry) {
+    if (!entry.second->IsExpired(now)) return false;
+    erased.push_back(entry.first);
+    return true;
+  });
+  return erased;
 }
 
 std::size_t SessionStore::size() const {

@@ -1,5 +1,9 @@
 #include "mdr/service/status.h"
 
+#include <grpcpp/support/error_details.h>
+
+#include "google/rpc/error_details.pb.h"
+
 namespace mdr::service {
 namespace {
 
@@ -21,14 +25,35 @@ grpc::StatusCode ToGrpcCode(StatusCode code) {
 
 }  // namespace
 
-grpc::Status ToGrpcStatus(const Status& status) {
-  if (status.ok()) return grpc::Status::OK;
-  return grpc::Status(ToGrpcCode(status.code()), status.ToString());
-}
-
 grpc::Status GrpcError(grpc::StatusCode code, const std::string& field,
                        const std::string& message) {
-  return grpc::Status(code, field.empty() ? message : field + ": " + message);
+  const std::string text = field.empty() ? message : field + ": " + message;
+  if (code != grpc::StatusCode::INVALID_ARGUMENT || field.empty()) return {code, text};
+  google::rpc::BadRequest bad_request;
+  google::rpc::BadRequest::FieldViolation* violation = bad_request.add_field_violations();
+  violation->set_field(field);
+  violation->set_description(message);
+  google::rpc::Status rich;
+  rich.set_code(code);
+  rich.set_message(text);
+  rich.add_details()->PackFrom(bad_request);
+  grpc::Status status;
+  grpc::SetErrorDetails(rich, &status);
+  return status;
+}
+
+grpc::Status ToGrpcStatus(const Status& status) {
+  if (status.ok()) return grpc::Status::OK;
+  return GrpcError(ToGrpcCode(status.code()), status.field(), status.message());
+}
+
+void ToRpcStatus(const grpc::Status& status, google::rpc::Status* rpc_status) {
+  if (!status.error_details().empty() && rpc_status->ParseFromString(status.error_details())) {
+    return;
+  }
+  rpc_status->Clear();
+  rpc_status->set_code(status.error_code());
+  rpc_status->set_message(status.error_message());
 }
 
 }  // namespace mdr::service

@@ -10,6 +10,7 @@
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include "mdr/v1/contact_service.grpc.pb.h"
 
@@ -44,14 +45,23 @@ class ContactClient {
   // Empty session_id: the server picks one.
   RpcResult<v1::Session> CreateSession(const v1::Scene& scene, const std::string& session_id = "");
   RpcResult<v1::Session> GetSession(const std::string& name);
+  // One page of sessions in name order; pass the previous page's next_page_token.
+  RpcResult<v1::ListSessionsResponse> ListSessions(int page_size = 0,
+                                                   const std::string& page_token = "");
   grpc::Status DeleteSession(const std::string& name);
-  // Applies the steps as one atomic batch; with include_step_results, one result per step.
+  RpcResult<v1::SessionSnapshot> ExportSession(const std::string& name);
+  RpcResult<v1::Session> ImportSession(const v1::SessionSnapshot& snapshot,
+                                       const std::string& session_id = "");
+  // Applies the steps as one atomic batch; step_mask selects the per-step results (empty: none).
+  // A non-empty request_id makes a retry of the same batch safe.
   RpcResult<v1::ApplyResponse> Apply(const std::string& session,
                                      const google::protobuf::RepeatedPtrField<v1::Step>& steps,
-                                     bool include_step_results = false);
-  // The current state; an empty read_mask returns every field.
-  RpcResult<v1::ContactState> Query(const std::string& session,
-                                    const google::protobuf::FieldMask& read_mask = {});
+                                     const google::protobuf::FieldMask& step_mask = {},
+                                     const std::string& request_id = "");
+  // The outputs selected by read_mask (empty: the state); radii for "springs".
+  RpcResult<v1::QueryResponse> Query(const std::string& session,
+                                     const google::protobuf::FieldMask& read_mask = {},
+                                     const std::vector<double>& radii = {});
 
  private:
   // A context whose deadline is now + timeout_ (deadlines are system_clock time points).

@@ -1,17 +1,16 @@
-// The gRPC adapter: decodes a request, calls the session store and the core, encodes the reply.
-// No physics and no validation rules of its own beyond the API's shape (names, required oneofs).
+// The gRPC adapter: each handler hands its request to ContactOperations and finishes the call
+// with the result; StreamApply runs a StreamApplyReactor. No physics and no validation rules here.
 #pragma once
 
-#include <cstddef>
-
-#include "mdr/service/session_store.h"
+#include "mdr/service/operations.h"
+#include "mdr/service/stream_apply.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
 
 namespace mdr::service {
 
 class ContactServiceImpl final : public v1::ContactService::CallbackService {
  public:
-  explicit ContactServiceImpl(std::size_t max_sessions) : sessions_(max_sessions) {}
+  explicit ContactServiceImpl(ContactOperations& operations) : operations_(operations) {}
 
   grpc::ServerUnaryReactor* CreateSession(grpc::CallbackServerContext* context,
                                           const v1::CreateSessionRequest* request,
@@ -19,18 +18,34 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
   grpc::ServerUnaryReactor* GetSession(grpc::CallbackServerContext* context,
                                        const v1::GetSessionRequest* request,
                                        v1::Session* response) override;
+  grpc::ServerUnaryReactor* ListSessions(grpc::CallbackServerContext* context,
+                                         const v1::ListSessionsRequest* request,
+                                         v1::ListSessionsResponse* response) override;
   grpc::ServerUnaryReactor* DeleteSession(grpc::CallbackServerContext* context,
                                           const v1::DeleteSessionRequest* request,
                                           google::protobuf::Empty* response) override;
+  grpc::ServerUnaryReactor* ExportSession(grpc::CallbackServerContext* context,
+                                          const v1::ExportSessionRequest* request,
+                                          v1::SessionSnapshot* response) override;
+  grpc::ServerUnaryReactor* ImportSession(grpc::CallbackServerContext* context,
+                                          const v1::ImportSessionRequest* request,
+                                          v1::Session* response) override;
   grpc::ServerUnaryReactor* Apply(grpc::CallbackServerContext* context,
                                   const v1::ApplyRequest* request,
                                   v1::ApplyResponse* response) override;
+  grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse>* StreamApply(
+      grpc::CallbackServerContext* context) override;
   grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
                                   const v1::QueryRequest* request,
                                   v1::QueryResponse* response) override;
 
+  // Open streams answer what they are working on and end with UNAVAILABLE; new ones end at once.
+  void DrainStreams() { streams_.DrainAll(); }
+  std::size_t open_streams() const { return streams_.size(); }
+
  private:
-  SessionStore sessions_;
+  ContactOperations& operations_;
+  StreamRegistry streams_;
 };
 
 }  // namespace mdr::service

@@ -1,24 +1,30 @@
-// Builds and starts a gRPC server for ContactService; shared by mdrd and mdrctl's embedded mode.
+// Builds and starts a gRPC server for ContactService; shared by mdrd, mdrctl's embedded mode and
+// the tests. Owns the operations (sessions), the service, the idle-session sweeper and the drain.
 #pragma once
 
 #include <grpcpp/channel.h>
 #include <grpcpp/server.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <cstddef>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "mdr/core/status.h"
 #include "mdr/service/contact_service.h"
+#include "mdr/service/limits.h"
+#include "mdr/service/operations.h"
 
 namespace mdr::service {
 
 struct ServerOptions {
   // "host:port" to listen on (port 0: pick a free one); empty: in-process channels only.
   std::string listen_address;
-  // Sessions held at most; CreateSession beyond it fails with RESOURCE_EXHAUSTED.
-  std::size_t max_sessions = 10000;
+  ServiceLimits limits;
+  TestHooks test_hooks;
 };
 
 class ContactServer {
@@ -36,14 +42,25 @@ class ContactServer {
   int port() const { return port_; }
   std::shared_ptr<grpc::Channel> InProcessChannel();
   grpc::Server& server() { return *server_; }
-  // Refuses new calls, lets running ones finish until the deadline, then cancels the rest.
+  std::size_t session_count() const { return operations_.session_count(); }
+  std::size_t open_streams() const { return service_.open_streams(); }
+
+  // Graceful stop: open StreamApply streams finish (UNAVAILABLE, after answering the message they
+  // are working on), new calls are refused, running calls get until the deadline and are then
+  // cancelled.
   void Shutdown(std::chrono::system_clock::time_point deadline);
 
  private:
-  explicit ContactServer(std::size_t max_sessions) : service_(max_sessions) {}
+  explicit ContactServer(const ServerOptions& options);
+  // Deletes idle sessions every `period` until stopped.
+  void SweepExpiredSessions(std::stop_token stop, std::chrono::milliseconds period);
 
+  ContactOperations operations_;
   ContactServiceImpl service_;
   std::unique_ptr<grpc::Server> server_;
+  std::mutex sweeper_mutex_;
+  std::condition_variable_any sweeper_wakeup_;
+  std::jthread sweeper_;
   int port_ = 0;
   bool shut_down_ = false;
 };

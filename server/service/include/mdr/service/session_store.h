@@ -1,74 +1,56 @@
-// Contact sessions and the thread-safe store that owns them. Calls on one session are
-// serialised by the session's own mutex; calls on different sessions run in parallel.
+// The thread-safe set of sessions, ordered by name (stable pages for ListSessions). Sessions
+// whose idle timeout ran out are invisible at once and erased by EraseExpired (the server's
+// sweeper) or on the next lookup.
 #pragma once
 
-#include <google/protobuf/repeated_field.h>
-#include <google/protobuf/timestamp.pb.h>
 #include <grpcpp/support/status.h>
 
 #include <cstddef>
-#include <cstdint>
+#include <map>
 #include <memory>
-#include <mutex>
 #include <random>
 #include <shared_mutex>
 #include <string>
-#include <unordered_map>
+#include <vector>
 
-#include "mdr/core/contact.h"
-#include "mdr/core/status.h"
-#include "mdr/v1/contact_service.pb.h"
+#include "mdr/service/session.h"
 
 namespace mdr::service {
-
-class Session {
- public:
-  Session(std::string name, v1::Scene scene, Contact contact);
-
-  const std::string& name() const { return name_; }
-
-  // Applies the steps atomically: all succeed and are committed, or the first failure is
-  // returned (field prefixed "steps[i]") and the session is unchanged.
-  Status Apply(const google::protobuf::RepeatedPtrField<v1::Step>& steps, bool include_step_results,
-               v1::ApplyResponse* response);
-
-  void ReadState(v1::ContactState* state) const;
-  // Scene, state and creation time as the API resource.
-  void ReadResource(v1::Session* resource) const;
-
- private:
-  const std::string name_;
-  const v1::Scene scene_;
-  const google::protobuf::Timestamp create_time_;
-
-  mutable std::mutex mutex_;
-  Contact contact_;                  // guarded by mutex_
-  std::uint64_t applied_steps_ = 0;  // guarded by mutex_
-};
 
 class SessionStore {
  public:
   explicit SessionStore(std::size_t max_sessions);
 
-  // Creates a session "sessions/{session_id}" for a validated scene; an empty session_id gets a
-  // generated one. Errors: ALREADY_EXISTS, RESOURCE_EXHAUSTED, INVALID_ARGUMENT (session_id).
-  grpc::Status Create(const std::string& session_id, const v1::Scene& scene, Contact contact,
-                      std::shared_ptr<Session>* session);
-  // NOT_FOUND for an unknown name, INVALID_ARGUMENT for one not of the form "sessions/{id}";
-  // field names the request field that held the name.
+  // Creates "sessions/{session_id}"; an empty session_id gets a generated one. Errors:
+  // INVALID_ARGUMENT (session_id, named by id_field), ALREADY_EXISTS, RESOURCE_EXHAUSTED.
+  grpc::Status Create(const std::string& id_field, const std::string& session_id,
+                      SessionState state, std::shared_ptr<Session>* session);
+  // Finds a live session and restarts its idle timer. NOT_FOUND for an unknown or expired name,
+  // INVALID_ARGUMENT for one not of the form "sessions/{id}"; field names the request field.
   grpc::Status Find(const std::string& field, const std::string& name,
-                    std::shared_ptr<Session>* session) const;
+                    std::shared_ptr<Session>* session);
   grpc::Status Erase(const std::string& field, const std::string& name);
 
+  // Up to page_size live sessions with names after `after` (empty: from the first), in name
+  // order; *more tells whether further sessions follow.
+  std::vector<std::shared_ptr<Session>> ListAfter(const std::string& after, std::size_t page_size,
+                                                  bool* more) const;
+
+  // Erases the sessions whose idle timeout ran out; returns their names.
+  std::vector<std::string> EraseExpired();
+
   std::size_t size() const;
+
+  // Whether name has the form "sessions/{session_id}" with a valid id.
+  static bool IsSessionName(const std::string& name);
 
  private:
   std::string GenerateSessionId();
 
   const std::size_t max_sessions_;
   mutable std::shared_mutex mutex_;
-  std::unordered_map<std::string, std::shared_ptr<Session>> sessions_;  // guarded by mutex_
-  std::mt19937_64 id_generator_;                                        // guarded by mutex_
+  std::map<std::string, std::shared_ptr<Session>> sessions_;  // guarded by mutex_
+  std::mt19937_64 id_generator_;                              // guarded by mutex_
 };
 
 }  // namespace mdr::service

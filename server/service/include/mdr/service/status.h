@@ -1,19 +1,25 @@
-// Errors of the service layer as grpc::Status, in the form "field: message".
+// Errors of the service layer as grpc::Status, in the form "field: message". The one place where
+// an error becomes a gRPC status: INVALID_ARGUMENT errors also carry a google.rpc.BadRequest in
+// their binary error details (grpc::ExtractErrorDetails into a google::rpc::Status).
 #pragma once
 
 #include <grpcpp/support/status.h>
 
 #include <string>
 
+#include "google/rpc/status.pb.h"
 #include "mdr/core/status.h"
 
 namespace mdr::service {
 
-// The one mapping of core errors to gRPC: kInvalidArgument -> INVALID_ARGUMENT, etc.
+// An error of the service itself or of the core, by gRPC code: message "field: message" (just
+// "message" when field is empty) and, for INVALID_ARGUMENT with a field, a BadRequest detail.
+grpc::Status GrpcError(grpc::StatusCode code, const std::string& field, const std::string& message);
+
+// A core error mapped to its gRPC code (kInvalidArgument -> INVALID_ARGUMENT, ...) via GrpcError.
 grpc::Status ToGrpcStatus(const Status& status);
 
-// An error of the service itself (a code the core has no name for, e.g. ALREADY_EXISTS), in the
-// same "field: message" form.
-grpc::Status GrpcError(grpc::StatusCode code, const std::string& field, const std::string& message);
+// The status as a google.rpc.Status message (StreamApply's per-message status), details included.
+void ToRpcStatus(const grpc::Status& status, google::rpc::Status* rpc_status);
 
 }  // namespace mdr::service

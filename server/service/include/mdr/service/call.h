@@ -1,0 +1,29 @@
+// Per-call helpers shared by the unary handlers and the StreamApply reactor: the batch
+// interruption check from the call's deadline and cancellation, the request id for logs, and the
+// structured (key=value) call log.
+#pragma once
+
+#include <grpcpp/server_context.h>
+#include <grpcpp/support/status.h>
+
+#include <string>
+
+#include "mdr/service/operations.h"
+
+namespace mdr::service {
+
+// DEADLINE_EXCEEDED once the call's deadline has passed, CANCELLED once the client cancelled.
+ContactOperations::Interruption InterruptionOf(grpc::CallbackServerContext* context);
+
+// explicit_id if set, else the client's "x-request-id" metadata, else "-".
+std::string RequestIdOf(const grpc::CallbackServerContext* context,
+                        const std::string& explicit_id = "");
+
+// "OK", "INVALID_ARGUMENT", ...
+const char* CodeName(grpc::StatusCode code);
+
+// One log line per call: debug when it succeeded, info when it failed.
+void LogCall(const char* method, const std::string& session, const std::string& request_id,
+             const grpc::Status& status, double seconds);
+
+}  // namespace mdr::service

@@ -1,0 +1,39 @@
+// Server-wide limits and the per-session limits derived from them.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+
+#include "mdr/core/status.h"
+#include "mdr/v1/contact_service.pb.h"
+
+namespace mdr::service {
+
+struct ServiceLimits {
+  // Sessions held at most; CreateSession/ImportSession beyond it fail with RESOURCE_EXHAUSTED.
+  std::size_t max_sessions = 10000;
+  // Steps in one Apply request or StreamApply message at most (and the sessions' default).
+  std::uint32_t max_steps_per_batch = 10000;
+  // Largest scene.options.max_memory_vertices a session may ask for (and its default when
+  // lower than the core's default of 65536).
+  std::size_t max_memory_vertices = std::size_t{1} << 20;
+  // Sessions idle this long are deleted (and the sessions' longest idle timeout); 0: never.
+  std::chrono::milliseconds session_idle_timeout = std::chrono::hours(1);
+  // Largest request or response message in bytes (RESOURCE_EXHAUSTED beyond). A batch whose
+  // response would be larger fails before it is committed.
+  int max_message_bytes = 4 << 20;
+};
+
+// Checks the server limits themselves (field names are the mdrd flags).
+Status ValidateServiceLimits(const ServiceLimits& limits);
+
+// The effective limits of a new session: unset (0) fields take the server's, set ones must not
+// exceed them. Errors name the field bare ("max_steps_per_batch", "idle_timeout").
+Result<v1::SessionLimits> ResolveSessionLimits(const v1::SessionLimits& requested,
+                                               const ServiceLimits& server);
+
+// A session's idle timeout; zero when it never expires.
+std::chrono::nanoseconds IdleTimeout(const v1::SessionLimits& limits);
+
+}  // namespace mdr::service

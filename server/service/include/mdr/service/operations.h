@@ -1,0 +1,63 @@
+// The operations of ContactService independent of the transport: validate a request, find the
+// session, run the core, encode the reply, all errors as grpc::Status. The unary handlers and the
+// StreamApply reactor are thin wrappers around this class.
+#pragma once
+
+#include <grpcpp/support/status.h>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mdr/service/limits.h"
+#include "mdr/service/outputs.h"
+#include "mdr/service/session_store.h"
+#include "mdr/v1/contact_service.pb.h"
+
+namespace mdr::service {
+
+// Hooks for tests; both default to off.
+struct TestHooks {
+  // Counts every Query output computed.
+  OutputCounters* output_counters = nullptr;
+  // Called before every step of every batch (e.g. to make a batch outlast a deadline).
+  std::function<void(int step_index)> before_step;
+};
+
+class ContactOperations {
+ public:
+  // Why a running batch must stop (deadline passed, call cancelled); OK to go on.
+  using Interruption = std::function<grpc::Status()>;
+
+  ContactOperations(const ServiceLimits& limits, TestHooks hooks);
+
+  grpc::Status CreateSession(const v1::CreateSessionRequest& request, v1::Session* response);
+  grpc::Status GetSession(const v1::GetSessionRequest& request, v1::Session* response);
+  grpc::Status ListSessions(const v1::ListSessionsRequest& request,
+                            v1::ListSessionsResponse* response);
+  grpc::Status DeleteSession(const v1::DeleteSessionRequest& request);
+  grpc::Status ExportSession(const v1::ExportSessionRequest& request,
+                             v1::SessionSnapshot* response);
+  grpc::Status ImportSession(const v1::ImportSessionRequest& request, v1::Session* response);
+  // interruption is checked before every step.
+  grpc::Status Apply(const v1::ApplyRequest& request, const Interruption& interruption,
+                     v1::ApplyResponse* response);
+  grpc::Status Query(const v1::QueryRequest& request, v1::QueryResponse* response);
+
+  // Deletes the sessions whose idle timeout ran out; returns their names.
+  std::vector<std::string> EraseExpiredSessions() { return sessions_.EraseExpired(); }
+  std::size_t session_count() const { return sessions_.size(); }
+  const ServiceLimits& limits() const { return limits_; }
+
+ private:
+  // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
+  Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix) const;
+  grpc::Status AddSession(const std::string& id_field, const std::string& session_id,
+                          SessionState state, v1::Session* response, const char* verb);
+
+  const ServiceLimits limits_;
+  const TestHooks hooks_;
+  SessionStore sessions_;
+};
+
+}  // namespace mdr::service

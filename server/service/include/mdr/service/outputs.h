@@ -1,0 +1,97 @@
+// Output selection: which fields of a StepResult or QueryResponse a request asked for (its field
+// mask), and one function per output that computes it. Only selected outputs are computed: a
+// query for state.normal_force never evaluates the memory pieces, slip zones or spring samples.
+#pragma once
+
+#include <google/protobuf/field_mask.pb.h>
+#include <google/protobuf/repeated_field.h>
+
+#include <array>
+#include <atomic>
+#include <bitset>
+#include <cstddef>
+#include <cstdint>
+
+#include "mdr/core/contact.h"
+#include "mdr/core/status.h"
+#include "mdr/v1/contact_service.pb.h"
+
+namespace mdr::service {
+
+// The leaves a field mask can select.
+enum class Output : std::uint8_t {
+  // ContactState (StepResult.state and QueryResponse.state).
+  kDepth,
+  kTangentialDisplacement,
+  kContactRadius,
+  kNormalForce,
+  kTangentialForce,
+  kDissipatedEnergy,
+  kFrictionLimit,
+  kAppliedSteps,
+  kMemoryVertices,
+  // StepResult.
+  kSubsteps,
+  kPathError,
+  kStepDissipatedEnergy,
+  // QueryResponse.
+  kStiffnessPositive,
+  kStiffnessNegative,
+  kSlipIntervals,
+  kSpringTangentialDisplacement,
+  kSpringNormalDisplacement,
+  kMemoryPieces,
+  kEnergyDissipated,
+  kEnergyLastStep,
+  kComputeSeconds,
+  kCount,
+};
+constexpr std::size_t kOutputCount = static_cast<std::size_t>(Output::kCount);
+
+class OutputSelection {
+ public:
+  // Every ContactState field.
+  static OutputSelection FullState();
+
+  bool has(Output output) const { return bits_.test(static_cast<std::size_t>(output)); }
+  void add(Output output) { bits_.set(static_cast<std::size_t>(output)); }
+  bool empty() const { return bits_.none(); }
+  bool any_state() const;
+  bool any_springs() const {
+    return has(Output::kSpringTangentialDisplacement) || has(Output::kSpringNormalDisplacement);
+  }
+
+ private:
+  std::bitset<kOutputCount> bits_;
+};
+
+// The outputs named by ApplyRequest.step_mask (paths of StepResult); empty mask: none. Errors
+// name "step_mask.paths[i]" and list the valid paths.
+Result<OutputSelection> SelectStepOutputs(const google::protobuf::FieldMask& mask);
+// The outputs named by QueryRequest.read_mask (paths of QueryResponse); empty mask: "state".
+// Errors name "read_mask.paths[i]".
+Result<OutputSelection> SelectQueryOutputs(const google::protobuf::FieldMask& mask);
+
+// Test hook: how often each output was computed (Query outputs; per-step outputs are not counted).
+struct OutputCounters {
+  std::array<std::atomic<std::uint64_t>, kOutputCount> computed{};
+  std::uint64_t operator[](Output output) const {
+    return computed[static_cast<std::size_t>(output)].load();
+  }
+};
+
+// The selected ContactState fields (nothing else is evaluated).
+void WriteState(const Contact& contact, std::uint64_t applied_steps,
+                const OutputSelection& selection, v1::ContactState* state,
+                OutputCounters* counters = nullptr);
+
+void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const StepReport& report,
+                     const OutputSelection& selection, v1::StepResult* result);
+
+// The selected QueryResponse outputs except compute_seconds; radii are validated by the caller.
+void WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
+                       const OutputSelection& selection,
+                       const google::protobuf::RepeatedField<double>& radii,
+                       v1::QueryResponse* response, OutputCounters* counters);
+
+}  // namespace mdr::service

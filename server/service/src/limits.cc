@@ -1,0 +1,66 @@
+#include "mdr/service/limits.h"
+
+#include <google/protobuf/util/time_util.h>
+
+#include <string>
+
+#include "mdr/core/validate.h"
+
+namespace mdr::service {
+
+using google::protobuf::util::TimeUtil;
+
+Status ValidateServiceLimits(const ServiceLimits& limits) {
+  if (limits.max_sessions < 1) return InvalidArgument("max-sessions", "must be >= 1, got 0");
+  if (limits.max_steps_per_batch < 1) {
+    return InvalidArgument("max-steps-per-batch", "must be >= 1, got 0");
+  }
+  if (limits.max_memory_vertices < 8) {
+    return InvalidArgument("max-memory-vertices",
+                           "must be >= 8, got " + std::to_string(limits.max_memory_vertices));
+  }
+  if (limits.session_idle_timeout.count() < 0) {
+    return InvalidArgument("session-idle-timeout", "must be >= 0 (0: never)");
+  }
+  if (limits.max_message_bytes < 1024) {
+    return InvalidArgument("max-message-bytes",
+                           "must be >= 1024, got " + std::to_string(limits.max_message_bytes));
+  }
+  return OkStatus();
+}
+
+Result<v1::SessionLimits> ResolveSessionLimits(const v1::SessionLimits& requested,
+                                               const ServiceLimits& server) {
+  v1::SessionLimits effective;
+  effective.set_max_steps_per_batch(server.max_steps_per_batch);
+  if (requested.max_steps_per_batch() != 0) {
+    if (Status s = RequireInRange("max_steps_per_batch", requested.max_steps_per_batch(), 1,
+                                  server.max_steps_per_batch);
+        !s.ok()) {
+      return s;
+    }
+    effective.set_max_steps_per_batch(requested.max_steps_per_batch());
+  }
+  const double server_seconds = std::chrono::duration<double>(server.session_idle_timeout).count();
+  if (server_seconds > 0) {
+    *effective.mutable_idle_timeout() =
+        TimeUtil::MillisecondsToDuration(server.session_idle_timeout.count());
+  }
+  if (requested.has_idle_timeout()) {
+    const double seconds =
+        static_cast<double>(TimeUtil::DurationToNanoseconds(requested.idle_timeout())) * 1e-9;
+    Status s = server_seconds > 0 ? RequireInRange("idle_timeout", seconds, 0, server_seconds,
+                                                   /*lo_open=*/true)
+                                  : RequirePositive("idle_timeout", seconds);
+    if (!s.ok()) return s;
+    *effective.mutable_idle_timeout() = requested.idle_timeout();
+  }
+  return effective;
+}
+
+std::chrono::nanoseconds IdleTimeout(const v1::SessionLimits& limits) {
+  if (!limits.has_idle_timeout()) return std::chrono::nanoseconds(0);
+  return std::chrono::nanoseconds(TimeUtil::DurationToNanoseconds(limits.idle_timeout()));
+}
+
+}  // namespace mdr::service

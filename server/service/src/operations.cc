@@ -1,0 +1,189 @@
+#include "mdr/service/operations.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <string>
+#include <utility>
+
+#include "mdr/core/validate.h"
+#include "mdr/service/conversion.h"
+#include "mdr/service/status.h"
+
+namespace mdr::service {
+namespace {
+
+constexpr int kDefaultPageSize = 100;
+constexpr int kMaxPageSize = 1000;
+constexpr std::size_t kMaxRequestIdLength = 128;
+
+Status ValidateRequestId(const std::string& request_id) {
+  const bool printable = std::all_of(request_id.begin(), request_id.end(),
+                                     [](char c) { return c >= 0x20 && c <= 0x7E; });
+  if (request_id.size() <= kMaxRequestIdLength && printable) return OkStatus();
+  return InvalidArgument("request_id", "must be at most " + std::to_string(kMaxRequestIdLength) +
+                                           " printable ASCII characters (empty: none), got " +
+                                           std::to_string(request_id.size()) + " characters");
+}
+
+Status ValidateRadii(const google::protobuf::RepeatedField<double>& radii,
+                     const OutputSelection& selection) {
+  for (int i = 0; i < radii.size(); ++i) {
+    if (Status s = RequireNonNegative("radii[" + std::to_string(i) + "]", radii[i]); !s.ok()) {
+      return s;
+    }
+  }
+  if (selection.any_springs() && radii.empty()) {
+    return InvalidArgument("radii",
+                           "required (at least one radius) when read_mask selects springs");
+  }
+  return OkStatus();
+}
+
+}  // namespace
+
+ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hooks)
+    : limits_(limits), hooks_(std::move(hooks)), sessions_(limits.max_sessions) {}
+
+Result<ContactConfig> ContactOperations::SessionConfig(const v1::Scene& scene,
+                                                       const std::string& prefix) const {
+  Result<ContactConfig> config = ToContactConfig(scene, limits_.max_memory_vertices);
+  if (!config.ok()) return config.status().WithFieldPrefix(prefix);
+  return config;
+}
+
+grpc::Status ContactOperations::AddSession(const std::string& id_field,
+                                           const std::string& session_id, SessionState state,
+                                           v1::Session* response, const char* verb) {
+  std::shared_ptr<Session> session;
+  grpc::Status status = sessions_.Create(id_field, session_id, std::move(state), &session);
+  if (!status.ok()) return status;
+  session->ReadResource(response);
+  spdlog::info("event=session_{} session={} sessions={}", verb, session->name(), sessions_.size());
+  return grpc::Status::OK;
+}
+
+grpc::Status ContactOperations::CreateSession(const v1::CreateSessionRequest& request,
+                                              v1::Session* response) {
+  const v1::Session& resource = request.session();
+  Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
+  if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("session.limits"));
+  Result<ContactConfig> config = SessionConfig(resource.scene(), "session");
+  if (!config.ok()) return ToGrpcStatus(config.status());
+  Result<Contact> contact = Contact::Create(std::move(config).value());
+  if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("session.scene"));
+  return AddSession("session_id", request.session_id(),
+                    {resource.scene(), *limits, std::move(contact).value(), 0}, response,
+                    "created");
+}
+
+grpc::Status ContactOperations::GetSession(const v1::GetSessionRequest& request,
+                                           v1::Session* response) {
+  std::shared_ptr<Session> session;
+  grpc::Status status = sessions_.Find("name", request.name(), &session);
+  if (status.ok()) session->ReadResource(response);
+  return status;
+}
+
+grpc::Status ContactOperations::ListSessions(const v1::ListSessionsRequest& request,
+                                             v1::ListSessionsResponse* response) {
+  if (Status s = RequireNonNegative("page_size", request.page_size()); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (!request.page_token().empty() && !SessionStore::IsSessionName(request.page_token())) {
+    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "page_token",
+                     "must be empty or a next_page_token returned by ListSessions");
+  }
+  const int page_size =
+      request.page_size() == 0 ? kDefaultPageSize : std::min(request.page_size(), kMaxPageSize);
+  bool more = false;
+  const auto page =
+      sessions_.ListAfter(request.page_token(), static_cast<std::size_t>(page_size), &more);
+  for (const auto& session : page) session->ReadResource(response->add_sessions());
+  if (more && !page.empty()) response->set_next_page_token(page.back()->name());
+  return grpc::Status::OK;
+}
+
+grpc::Status ContactOperations::DeleteSession(const v1::DeleteSessionRequest& request) {
+  grpc::Status status = sessions_.Erase("name", request.name());
+  if (status.ok()) {
+    spdlog::info("event=session_deleted session={} sessions={}", request.name(), sessions_.size());
+  }
+  return status;
+}
+
+grpc::Status ContactOperations::ExportSession(const v1::ExportSessionRequest& request,
+                                              v1::SessionSnapshot* response) {
+  std::shared_ptr<Session> session;
+  grpc::Status status = sessions_.Find("name", request.name(), &session);
+  if (status.ok()) session->Export(response);
+  return status;
+}
+
+grpc::Status ContactOperations::ImportSession(const v1::ImportSessionRequest& request,
+                                              v1::Session* response) {
+  const v1::SessionSnapshot& snapshot = request.snapshot();
+  if (snapshot.version() != Session::kSnapshotVersion) {
+    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "snapshot.version",
+                     "must be " + std::to_string(Session::kSnapshotVersion) +
+                         " (the snapshot format this server reads), got " +
+                         std::to_string(snapshot.version()));
+  }
+  Result<v1::SessionLimits> limits = ResolveSessionLimits(snapshot.limits(), limits_);
+  if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("snapshot.limits"));
+  Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot");
+  if (!config.ok()) return ToGrpcStatus(config.status());
+  const auto vertices = static_cast<std::size_t>(snapshot.contact().memory_size());
+  if (vertices > config->max_memory_vertices) {
+    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "snapshot.contact.memory",
+                     std::to_string(vertices) + " vertices exceed the session's limit of " +
+                         std::to_string(config->max_memory_vertices) +
+                         " (scene.options.max_memory_vertices)");
+  }
+  Result<Contact> contact =
+      Contact::Restore(std::move(config).value(), ToCoreSnapshot(snapshot.contact()));
+  if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("snapshot.contact"));
+  return AddSession(
+      "session_id", request.session_id(),
+      {snapshot.scene(), *limits, std::move(contact).value(), snapshot.applied_steps()}, response,
+      "imported");
+}
+
+grpc::Status ContactOperations::Apply(const v1::ApplyRequest& request,
+                                      const Interruption& interruption,
+                                      v1::ApplyResponse* response) {
+  if (request.steps().empty()) {
+    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "steps", "must contain at least one step");
+  }
+  if (Status s = ValidateRequestId(request.request_id()); !s.ok()) return ToGrpcStatus(s);
+  Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
+  if (!step_outputs.ok()) return ToGrpcStatus(step_outputs.status());
+  std::shared_ptr<Session> session;
+  if (grpc::Status status = sessions_.Find("session", request.session(), &session); !status.ok()) {
+    return status;
+  }
+  const Session::StepGuard guard = [&](int step_index) {
+    if (hooks_.before_step) hooks_.before_step(step_index);
+    return interruption ? interruption() : grpc::Status::OK;
+  };
+  // Room for the final state and the other fields of the response.
+  constexpr std::size_t kResponseOverheadBytes = 512;
+  const std::size_t max_response_bytes =
+      static_cast<std::size_t>(limits_.max_message_bytes) - kResponseOverheadBytes;
+  return session->Apply(request, *step_outputs, guard, max_response_bytes, response);
+}
+
+grpc::Status ContactOperations::Query(const v1::QueryRequest& request,
+                                      v1::QueryResponse* response) {
+  Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
+  if (!selection.ok()) return ToGrpcStatus(selection.status());
+  if (Status s = ValidateRadii(request.radii(), *selection); !s.ok()) return ToGrpcStatus(s);
+  std::shared_ptr<Session> session;
+  if (grpc::Status status = sessions_.Find("session", request.session(), &session); !status.ok()) {
+    return status;
+  }
+  session->Query(*selection, request.radii(), hooks_.output_counters, response);
+  return grpc::Status::OK;
+}
+
+}  // namespace mdr::service

@@ -1,0 +1,275 @@
+#include "mdr/service/outputs.h"
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mdr/service/conversion.h"
+
+namespace mdr::service {
+namespace {
+
+struct Leaf {
+  std::string path;
+  Output output;
+};
+
+using StateWriter = void (*)(const Contact&, std::uint64_t, v1::ContactState*);
+
+struct StateField {
+  const char* name;
+  Output output;
+  StateWriter write;
+};
+
+// One writer per ContactState field, each calling only what its field needs.
+const StateField kStateFields[] = {
+    {"depth", Output::kDepth,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) { s->set_depth(c.depth()); }},
+    {"tangential_displacement", Output::kTangentialDisplacement,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_tangential_displacement(c.tangential_displacement());
+     }},
+    {"contact_radius", Output::kContactRadius,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_contact_radius(c.contact_radius());
+     }},
+    {"normal_force", Output::kNormalForce,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_normal_force(c.normal_force());
+     }},
+    {"tangential_force", Output::kTangentialForce,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_tangential_force(c.tangential_force());
+     }},
+    {"dissipated_energy", Output::kDissipatedEnergy,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_dissipated_energy(c.dissipated_energy());
+     }},
+    {"friction_limit", Output::kFrictionLimit,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_friction_limit(c.friction_limit());
+     }},
+    {"applied_steps", Output::kAppliedSteps,
+     [](const Contact&, std::uint64_t applied, v1::ContactState* s) {
+       s->set_applied_steps(applied);
+     }},
+    {"memory_vertices", Output::kMemoryVertices,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_memory_vertices(c.memory().vertex_count());
+     }},
+};
+
+std::vector<Leaf> StateLeaves() {
+  std::vector<Leaf> leaves;
+  for (const StateField& field : kStateFields) {
+    leaves.push_back({std::string("state.") + field.name, field.output});
+  }
+  return leaves;
+}
+
+const std::vector<Leaf>& StepResultLeaves() {
+  static const std::vector<Leaf> leaves = [] {
+    std::vector<Leaf> all = StateLeaves();
+    all.push_back({"substeps", Output::kSubsteps});
+    all.push_back({"path_error", Output::kPathError});
+    all.push_back({"dissipated_energy", Output::kStepDissipatedEnergy});
+    return all;
+  }();
+  return leaves;
+}
+
+const std::vector<Leaf>& QueryResponseLeaves() {
+  static const std::vector<Leaf> leaves = [] {
+    std::vector<Leaf> all = StateLeaves();
+    all.push_back({"tangential_stiffness.positive", Output::kStiffnessPositive});
+    all.push_back({"tangential_stiffness.negative", Output::kStiffnessNegative});
+    all.push_back({"slip_intervals", Output::kSlipIntervals});
+    all.push_back({"springs.tangential_displacement", Output::kSpringTangentialDisplacement});
+    all.push_back({"springs.normal_displacement", Output::kSpringNormalDisplacement});
+    all.push_back({"memory_pieces", Output::kMemoryPieces});
+    all.push_back({"energy.dissipated_energy", Output::kEnergyDissipated});
+    all.push_back({"energy.last_step_dissipated_energy", Output::kEnergyLastStep});
+    all.push_back({"compute_seconds", Output::kComputeSeconds});
+    return all;
+  }();
+  return leaves;
+}
+
+// "state, substeps, ..." : the top-level paths, for error messages.
+std::string TopLevelPaths(const std::vector<Leaf>& leaves) {
+  std::vector<std::string> names;
+  std::set<std::string> seen;
+  for (const Leaf& leaf : leaves) {
+    const std::string top = leaf.path.substr(0, leaf.path.find('.'));
+    if (seen.insert(top).second) names.push_back(top);
+  }
+  std::string joined;
+  for (const std::string& name : names) joined += (joined.empty() ? "" : ", ") + name;
+  return joined;
+}
+
+// A path selects the leaf it names and every leaf below it.
+Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
+                               const std::vector<Leaf>& leaves, const std::string& mask_field,
+                               const char* message_name) {
+  OutputSelection selection;
+  for (int i = 0; i < mask.paths_size(); ++i) {
+    const std::string& path = mask.paths(i);
+    bool matched = false;
+    for (const Leaf& leaf : leaves) {
+      if (leaf.path == path || leaf.path.starts_with(path + ".")) {
+        selection.add(leaf.output);
+        matched = true;
+      }
+    }
+    if (!matched) {
+      return InvalidArgument(mask_field + ".paths[" + std::to_string(i) + "]",
+                             "\"" + path + "\" is not a field of " + message_name +
+                                 "; valid: " + TopLevelPaths(leaves) +
+                                 " or one of their fields (e.g. \"state.normal_force\")");
+    }
+  }
+  return selection;
+}
+
+void Count(OutputCounters* counters, Output output) {
+  if (counters != nullptr) {
+    counters->computed[static_cast<std::size_t>(output)].fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void WriteTangentialStiffness(const Contact& contact, const OutputSelection& selection,
+                              v1::TangentialStiffness* stiffness) {
+  const TangentialStiffness computed = contact.tangential_stiffness();
+  if (selection.has(Output::kStiffnessPositive)) stiffness->set_positive(computed.positive);
+  if (selection.has(Output::kStiffnessNegative)) stiffness->set_negative(computed.negative);
+}
+
+void WriteSlipIntervals(const Contact& contact,
+                        google::protobuf::RepeatedPtrField<v1::SlipInterval>* intervals) {
+  for (const SlipInterval& interval : contact.slip_intervals()) {
+    v1::SlipInterval* out = intervals->Add();
+    out->set_r_begin(interval.r_begin);
+    out->set_r_end(interval.r_end);
+    out->set_direction(interval.direction);
+  }
+}
+
+void WriteSpringTangentialDisplacements(const Contact& contact,
+                                        const google::protobuf::RepeatedField<double>& radii,
+                                        v1::SpringDisplacements* springs) {
+  springs->mutable_tangential_displacement()->Reserve(radii.size());
+  for (double radius : radii) {
+    springs->add_tangential_displacement(contact.tangential_displacement_at(radius));
+  }
+}
+
+void WriteSpringNormalDisplacements(const Contact& contact,
+                                    const google::protobuf::RepeatedField<double>& radii,
+                                    v1::SpringDisplacements* springs) {
+  springs->mutable_normal_displacement()->Reserve(radii.size());
+  for (double radius : radii) {
+    springs->add_normal_displacement(contact.normal_displacement_at(radius));
+  }
+}
+
+void WriteMemoryPieces(const Contact& contact,
+                       google::protobuf::RepeatedPtrField<v1::MemoryPiece>* pieces) {
+  for (const MemoryPiece& piece : contact.memory_pieces()) {
+    v1::MemoryPiece* out = pieces->Add();
+    out->set_x_begin(piece.x_begin);
+    out->set_x_end(piece.x_end);
+    out->set_z_begin(piece.z_begin);
+    out->set_z_end(piece.z_end);
+    out->set_intercept(piece.intercept);
+    out->set_slope(piece.slope);
+    out->set_bound(ToProtoBound(piece.bound));
+  }
+}
+
+}  // namespace
+
+OutputSelection OutputSelection::FullState() {
+  OutputSelection selection;
+  for (const StateField& field : kStateFields) selection.add(field.output);
+  return selection;
+}
+
+bool OutputSelection::any_state() const {
+  for (const StateField& field : kStateFields) {
+    if (has(field.output)) return true;
+  }
+  return false;
+}
+
+Result<OutputSelection> SelectStepOutputs(const google::protobuf::FieldMask& mask) {
+  return Select(mask, StepResultLeaves(), "step_mask", "StepResult");
+}
+
+Result<OutputSelection> SelectQueryOutputs(const google::protobuf::FieldMask& mask) {
+  if (mask.paths_size() == 0) return OutputSelection::FullState();
+  return Select(mask, QueryResponseLeaves(), "read_mask", "QueryResponse");
+}
+
+void WriteState(const Contact& contact, std::uint64_t applied_steps,
+                const OutputSelection& selection, v1::ContactState* state,
+                OutputCounters* counters) {
+  for (const StateField& field : kStateFields) {
+    if (!selection.has(field.output)) continue;
+    field.write(contact, applied_steps, state);
+    Count(counters, field.output);
+  }
+}
+
+void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const StepReport& report,
+                     const OutputSelection& selection, v1::StepResult* result) {
+  if (selection.any_state()) {
+    WriteState(contact, applied_steps, selection, result->mutable_state());
+  }
+  if (selection.has(Output::kSubsteps)) result->set_substeps(report.substeps);
+  if (selection.has(Output::kPathError)) result->set_path_error(report.path_error);
+  if (selection.has(Output::kStepDissipatedEnergy)) {
+    result->set_dissipated_energy(report.dissipated);
+  }
+}
+
+void WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
+                       const OutputSelection& selection,
+                       const google::protobuf::RepeatedField<double>& radii,
+                       v1::QueryResponse* response, OutputCounters* counters) {
+  if (selection.any_state()) {
+    WriteState(contact, applied_steps, selection, response->mutable_state(), counters);
+  }
+  if (selection.has(Output::kStiffnessPositive) || selection.has(Output::kStiffnessNegative)) {
+    WriteTangentialStiffness(contact, selection, response->mutable_tangential_stiffness());
+    if (selection.has(Output::kStiffnessPositive)) Count(counters, Output::kStiffnessPositive);
+    if (selection.has(Output::kStiffnessNegative)) Count(counters, Output::kStiffnessNegative);
+  }
+  if (selection.has(Output::kSlipIntervals)) {
+    WriteSlipIntervals(contact, response->mutable_slip_intervals());
+    Count(counters, Output::kSlipIntervals);
+  }
+  if (selection.has(Output::kSpringTangentialDisplacement)) {
+    WriteSpringTangentialDisplacements(contact, radii, response->mutable_springs());
+    Count(counters, Output::kSpringTangentialDisplacement);
+  }
+  if (selection.has(Output::kSpringNormalDisplacement)) {
+    WriteSpringNormalDisplacements(contact, radii, response->mutable_springs());
+    Count(counters, Output::kSpringNormalDisplacement);
+  }
+  if (selection.has(Output::kMemoryPieces)) {
+    WriteMemoryPieces(contact, response->mutable_memory_pieces());
+    Count(counters, Output::kMemoryPieces);
+  }
+  if (selection.has(Output::kEnergyDissipated)) {
+    response->mutable_energy()->set_dissipated_energy(contact.dissipated_energy());
+    Count(counters, Output::kEnergyDissipated);
+  }
+  if (selection.has(Output::kEnergyLastStep)) {
+    response->mutable_energy()->set_last_step_dissipated_energy(contact.last_step_dissipation());
+    Count(counters, Output::kEnergyLastStep);
+  }
+}
+
+}  // namespace mdr::service

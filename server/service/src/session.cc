@@ -1,0 +1,182 @@
+#include "mdr/service/session.h"
+
+#include <google/protobuf/util/time_util.h>
+
+#include <algorithm>
+#include <optional>
+#include <utility>
+
+#include "mdr/service/conversion.h"
+#include "mdr/service/limits.h"
+#include "mdr/service/status.h"
+
+namespace mdr::service {
+namespace {
+
+using google::protobuf::util::TimeUtil;
+
+class Stopwatch {
+ public:
+  double Seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+// Identifies what a request asked for, so a request_id reused for other steps is caught.
+std::size_t Fingerprint(const v1::ApplyRequest& request) {
+  v1::ApplyRequest content;
+  *content.mutable_steps() = request.steps();
+  *content.mutable_step_mask() = request.step_mask();
+  return std::hash<std::string>{}(content.SerializeAsString());
+}
+
+}  // namespace
+
+const CompletedRequests::Entry* CompletedRequests::Find(const std::string& request_id) const {
+  for (const Entry& entry : entries_) {
+    if (entry.request_id == request_id) return &entry;
+  }
+  return nullptr;
+}
+
+void CompletedRequests::Add(Entry entry) {
+  entries_.push_back(std::move(entry));
+  if (entries_.size() > kCapacity) entries_.pop_front();
+}
+
+Session::Session(std::string name, SessionState state)
+    : name_(std::move(name)),
+      scene_(std::move(state.scene)),
+      limits_(std::move(state.limits)),
+      idle_timeout_(IdleTimeout(limits_)),
+      create_time_(TimeUtil::GetCurrentTime()),
+      last_used_(Clock::now().time_since_epoch().count()),
+      contact_(std::move(state.contact)),
+      applied_steps_(state.applied_steps) {}
+
+grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                            const StepGuard& guard, std::size_t max_response_bytes,
+                            v1::ApplyResponse* response) {
+  if (static_cast<std::uint32_t>(request.steps_size()) > limits_.max_steps_per_batch()) {
+    return GrpcError(
+        grpc::StatusCode::RESOURCE_EXHAUSTED, "steps",
+        std::to_string(request.steps_size()) + " steps exceed the session's limit of " +
+            std::to_string(limits_.max_steps_per_batch()) + " per batch; split the batch");
+  }
+  const bool deduplicated = !request.request_id().empty();
+  const std::size_t fingerprint = deduplicated ? Fingerprint(request) : 0;
+  std::lock_guard lock(mutex_);
+  const Stopwatch stopwatch;
+  if (deduplicated) {
+    if (const CompletedRequests::Entry* done = completed_.Find(request.request_id())) {
+      if (done->fingerprint != fingerprint) {
+        return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "request_id",
+                         "\"" + request.request_id() +
+                             "\" was used for a different batch on this session; use a new id");
+      }
+      *response = done->response;
+      response->set_replayed(true);
+      return grpc::Status::OK;
+    }
+  }
+  if (grpc::Status status = RunBatch(request, step_outputs, guard, max_response_bytes, response);
+      !status.ok()) {
+    response->Clear();
+    return status;
+  }
+  response->set_compute_seconds(stopwatch.Seconds());
+  if (deduplicated) completed_.Add({request.request_id(), fingerprint, *response});
+  Touch();  // a long batch counts as use until its end
+  return grpc::Status::OK;
+}
+
+grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                               const StepGuard& guard, std::size_t max_response_bytes,
+                               v1::ApplyResponse* response) {
+  // A single step is atomic in the core; a longer batch runs on a copy that is committed at the
+  // end, so a failing step (or an expired deadline) leaves the session as it was.
+  std::optional<Contact> copy;
+  if (request.steps_size() > 1) copy.emplace(contact_);
+  Contact& target = copy ? *copy : contact_;
+  std::uint64_t applied = applied_steps_;
+  double path_error = 0;
+  for (int i = 0; i < request.steps_size(); ++i) {
+    if (guard) {
+      if (grpc::Status status = guard(i); !status.ok()) return status;
+    }
+    StepReport report;
+    if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report); !status.ok()) {
+      return ToGrpcStatus(status.WithFieldPrefix("steps[" + std::to_string(i) + "]"));
+    }
+    ++applied;
+    path_error = std::max(path_error, report.path_error);
+    if (!step_outputs.empty()) {
+      WriteStepResult(target, applied, report, step_outputs, response->add_step_results());
+    }
+  }
+  // Checked before the commit (a single step, applied in place, has a response far below any
+  // allowed limit).
+  if (const std::size_t bytes = response->ByteSizeLong(); bytes > max_response_bytes) {
+    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "step_mask",
+                     "the per-step results would take " + std::to_string(bytes) +
+                         " bytes, above the message limit of " +
+                         std::to_string(max_response_bytes) +
+                         "; select fewer fields or split the batch (nothing was applied)");
+  }
+  if (copy) contact_ = std::move(*copy);
+  applied_steps_ = applied;
+  WriteState(contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
+  response->mutable_error_estimate()->set_path_error(path_error);
+  return grpc::Status::OK;
+}
+
+void Session::Query(const OutputSelection& selection,
+                    const google::protobuf::RepeatedField<double>& radii, OutputCounters* counters,
+                    v1::QueryResponse* response) const {
+  std::lock_guard lock(mutex_);
+  const Stopwatch stopwatch;
+  WriteQueryOutputs(contact_, applied_steps_, selection, radii, response, counters);
+  response->set_compute_seconds(stopwatch.Seconds());
+}
+
+void Session::ReadResource(v1::Session* resource) const {
+  resource->set_name(name_);
+  *resource->mutable_scene() = scene_;
+  *resource->mutable_limits() = limits_;
+  *resource->mutable_create_time() = create_time_;
+  if (idle_timeout_.count() > 0) {
+    const auto remaining = last_used() + idle_timeout_ - Clock::now();
+    *resource->mutable_expire_time() =
+        TimeUtil::GetCurrentTime() +
+        TimeUtil::NanosecondsToDuration(std::chrono::nanoseconds(remaining).count());
+  }
+  std::lock_guard lock(mutex_);
+  WriteState(contact_, applied_steps_, OutputSelection::FullState(), resource->mutable_state());
+}
+
+void Session::Export(v1::SessionSnapshot* snapshot) const {
+  snapshot->set_version(kSnapshotVersion);
+  snapshot->set_source_name(name_);
+  *snapshot->mutable_limits() = limits_;
+  std::lock_guard lock(mutex_);
+  *snapshot->mutable_scene() = WithEffectiveOptions(scene_, contact_.config());
+  ToProtoSnapshot(contact_.Snapshot(), snapshot->mutable_contact());
+  snapshot->set_applied_steps(applied_steps_);
+}
+
+void Session::Touch() {
+  last_used_.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
+}
+
+bool Session::IsExpired(Clock::time_point now) const {
+  return idle_timeout_.count() > 0 && now - last_used() > idle_timeout_;
+}
+
+Session::Clock::time_point Session::last_used() const {
+  return Clock::time_point(Clock::duration(last_used_.load(std::memory_order_relaxed)));
+}
+
+}  // namespace mdr::service

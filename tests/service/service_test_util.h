@@ -1,0 +1,224 @@
+// Shared helpers for the service tests: the H1 reference scene (steel sphere on steel flat), step
+// builders, closed forms, and a fixture with a real server on a free port driven through the stub.
+#pragma once
+
+#include <gmock/gmock.h>
+#include <grpcpp/client_context.h>
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+#include <grpcpp/support/error_details.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "google/rpc/error_details.pb.h"
+#include "google/rpc/status.pb.h"
+#include "mdr/service/server.h"
+#include "mdr/v1/contact_service.grpc.pb.h"
+
+namespace mdr::service_testing {
+
+// Reference vector H1 (reference-values.md): steel sphere R = 10 mm on a steel flat, mu = 0.3.
+constexpr double kYoungsModulus = 210e9;
+constexpr double kPoissonRatio = 0.3;
+constexpr double kRadius = 0.01;
+constexpr double kFriction = 0.3;
+constexpr double kDepth = 3.4829098839e-6;              // gives F_N = 100 N
+constexpr double kDisplacementAt15N = 4.6949658143e-7;  // gives F_x = 15 N
+
+// Closed forms (physics.md) for two equal elastic bodies.
+inline double EffectiveYoungsModulus() {
+  return 1 / (2 * (1 - kPoissonRatio * kPoissonRatio) / kYoungsModulus);
+}
+inline double EffectiveShearModulus() {
+  const double shear_modulus = kYoungsModulus / (2 * (1 + kPoissonRatio));
+  return 1 / (2 * (2 - kPoissonRatio) / (4 * shear_modulus));
+}
+inline double Kappa() { return EffectiveYoungsModulus() / EffectiveShearModulus(); }
+inline double HertzNormalForce(double depth) {
+  return 4.0 / 3.0 * EffectiveYoungsModulus() * std::sqrt(kRadius) * std::pow(depth, 1.5);
+}
+// Cattaneo-Mindlin at constant depth: ux = mu kappa d [1 - (1-s)^(2/3)], F_x = s mu F_N.
+inline double CattaneoMindlinTangentialForce(double depth, double displacement) {
+  const double full_slip = kFriction * Kappa() * depth;
+  const double s = 1 - std::pow(1 - displacement / full_slip, 1.5);
+  return s * kFriction * HertzNormalForce(depth);
+}
+
+inline v1::Scene SteelSphereOnSteelFlat() {
+  v1::Scene scene;
+  scene.mutable_sphere()->set_radius(kRadius);
+  v1::ElasticPair* pair = scene.mutable_elastic_pair();
+  pair->set_youngs_modulus_1(kYoungsModulus);
+  pair->set_poisson_ratio_1(kPoissonRatio);
+  pair->set_youngs_modulus_2(kYoungsModulus);
+  pair->set_poisson_ratio_2(kPoissonRatio);
+  scene.set_friction(kFriction);
+  return scene;
+}
+
+inline v1::Step DepthStep(double depth) {
+  v1::Step step;
+  step.set_depth(depth);
+  return step;
+}
+inline v1::Step DisplacementStep(double displacement) {
+  v1::Step step;
+  step.set_displacement(displacement);
+  return step;
+}
+inline v1::Step DisplacementIncrementStep(double increment) {
+  v1::Step step;
+  step.set_displacement_increment(increment);
+  return step;
+}
+inline v1::Step TangentialForceStep(double force) {
+  v1::Step step;
+  step.set_tangential_force(force);
+  return step;
+}
+inline v1::Step NormalForceStep(double force) {
+  v1::Step step;
+  step.set_normal_force(force);
+  return step;
+}
+
+inline google::protobuf::FieldMask Mask(const std::vector<std::string>& paths) {
+  google::protobuf::FieldMask mask;
+  for (const std::string& path : paths) mask.add_paths(path);
+  return mask;
+}
+
+inline v1::ApplyRequest ApplyRequestFor(const std::string& session,
+                                        const std::vector<v1::Step>& steps,
+                                        const std::vector<std::string>& step_mask = {},
+                                        const std::string& request_id = "") {
+  v1::ApplyRequest request;
+  request.set_session(session);
+  for (const v1::Step& step : steps) *request.add_steps() = step;
+  *request.mutable_step_mask() = Mask(step_mask);
+  request.set_request_id(request_id);
+  return request;
+}
+
+inline std::unique_ptr<grpc::ClientContext> Context(
+    std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
+  auto context = std::make_unique<grpc::ClientContext>();
+  context->set_deadline(std::chrono::system_clock::now() + timeout);
+  return context;
+}
+
+// The BadRequest in a status' binary details (empty if there is none).
+inline google::rpc::BadRequest BadRequestOf(const google::rpc::Status& rich) {
+  google::rpc::BadRequest bad_request;
+  for (const auto& detail : rich.details()) {
+    if (detail.Is<google::rpc::BadRequest>()) detail.UnpackTo(&bad_request);
+  }
+  return bad_request;
+}
+inline google::rpc::BadRequest BadRequestOf(const grpc::Status& status) {
+  google::rpc::Status rich;
+  if (!grpc::ExtractErrorDetails(status, &rich).ok()) return {};
+  return BadRequestOf(rich);
+}
+
+// INVALID_ARGUMENT whose message starts "field: " and whose details name the same field.
+inline void ExpectInvalidArgument(const grpc::Status& status, const std::string& field) {
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+      << field << ": " << status.error_message();
+  EXPECT_THAT(status.error_message(), ::testing::StartsWith(field + ": "));
+  const google::rpc::BadRequest bad_request = BadRequestOf(status);
+  ASSERT_EQ(bad_request.field_violations_size(), 1) << status.error_message();
+  EXPECT_EQ(bad_request.field_violations(0).field(), field);
+  EXPECT_FALSE(bad_request.field_violations(0).description().empty());
+}
+
+inline void ExpectRelativelyNear(double actual, double expected, double tolerance) {
+  EXPECT_NEAR(actual, expected, tolerance * std::abs(expected));
+}
+
+inline service::ServerOptions LocalServerOptions() {
+  service::ServerOptions options;
+  options.listen_address = "127.0.0.1:0";
+  return options;
+}
+
+// A server on a free loopback port, its stub, and shorthands for the common calls. Tests that
+// need other limits or hooks call Restart.
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override { Restart(LocalServerOptions()); }
+
+  void Restart(service::ServerOptions options) {
+    stub_.reset();
+    server_.reset();
+    if (options.test_hooks.output_counters == nullptr) {
+      options.test_hooks.output_counters = &counters_;
+    }
+    auto server = service::ContactServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = std::move(server).value();
+    ASSERT_GT(server_->port(), 0);
+    channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
+                                   grpc::InsecureChannelCredentials());
+    stub_ = v1::ContactService::NewStub(channel_);
+  }
+
+  grpc::Status Create(const v1::Scene& scene, v1::Session* session,
+                      const std::string& session_id = "") {
+    v1::CreateSessionRequest request;
+    *request.mutable_session()->mutable_scene() = scene;
+    request.set_session_id(session_id);
+    return stub_->CreateSession(Context().get(), request, session);
+  }
+
+  std::string CreateOrDie(const std::string& session_id = "") {
+    v1::Session session;
+    grpc::Status status = Create(SteelSphereOnSteelFlat(), &session, session_id);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return session.name();
+  }
+
+  grpc::Status Apply(const std::string& session, const std::vector<v1::Step>& steps,
+                     v1::ApplyResponse* response, const std::vector<std::string>& step_mask = {},
+                     const std::string& request_id = "") {
+    return stub_->Apply(Context().get(), ApplyRequestFor(session, steps, step_mask, request_id),
+                        response);
+  }
+
+  grpc::Status Query(const std::string& session, v1::QueryResponse* response,
+                     const std::vector<std::string>& read_mask = {},
+                     const std::vector<double>& radii = {}) {
+    v1::QueryRequest request;
+    request.set_session(session);
+    *request.mutable_read_mask() = Mask(read_mask);
+    request.mutable_radii()->Add(radii.begin(), radii.end());
+    return stub_->Query(Context().get(), request, response);
+  }
+
+  v1::ContactState StateOf(const std::string& session) {
+    v1::QueryResponse response;
+    EXPECT_TRUE(Query(session, &response).ok());
+    return response.state();
+  }
+
+  v1::SessionSnapshot ExportOrDie(const std::string& session) {
+    v1::ExportSessionRequest request;
+    request.set_name(session);
+    v1::SessionSnapshot snapshot;
+    grpc::Status status = stub_->ExportSession(Context().get(), request, &snapshot);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return snapshot;
+  }
+
+  service::OutputCounters counters_;
+  std::unique_ptr<service::ContactServer> server_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::ContactService::Stub> stub_;
+};
+
+}  // namespace mdr::service_testing
