@@ -1,19 +1,37 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets with clang-14 under ASan + UBSan and runs each for a bounded time
-# on the corpus kept in tests/fuzz/corpus (new inputs go to a scratch copy, not the repo).
-# Usage: tests/fuzz/run.sh [seconds per target, default 60]
+# Builds the libFuzzer targets with clang-14 under ASan + UBSan and runs each on the corpus kept in
+# tests/fuzz/corpus (new inputs go to a scratch copy, not the repo).
+#   tests/fuzz/run.sh [RUNS]     deterministic: fixed seed, RUNS inputs per target (default 20000);
+#                                this is what CI runs
+#   MDR_FUZZ_SECONDS=600 tests/fuzz/run.sh   explore: random seed for that many seconds per target
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-seconds=${1:-60}
+runs=${1:-20000}
 bash deploy/install-deps.sh
 cmake --preset fuzz >/dev/null
 cmake --build --preset fuzz
+if [ -n "${MDR_FUZZ_SECONDS:-}" ]; then
+  budget=(-max_total_time="$MDR_FUZZ_SECONDS")
+else
+  budget=(-seed=1 -runs="$runs")
+fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+artifacts=build/fuzz/artifacts
+mkdir -p "$artifacts"
 for target in engine; do
   mkdir -p "$work/$target"
-  cp -r "tests/fuzz/corpus/$target/." "$work/$target/"
-  echo "fuzz: $target for ${seconds}s"
-  "build/fuzz/tests/fuzz/mdr_${target}_fuzz" -max_total_time="$seconds" -timeout=10 \
-    -print_final_stats=1 "$work/$target" "tests/fuzz/corpus/$target" 2>&1 | tail -n 12
+  echo "fuzz: $target (${budget[*]})"
+  set +e
+  "build/fuzz/tests/fuzz/mdr_${target}_fuzz" "${budget[@]}" -timeout=10 -print_final_stats=1 \
+    -artifact_prefix="$artifacts/" "$work/$target" "tests/fuzz/corpus/$target" > "$work/log" 2>&1
+  status=$?
+  set -e
+  if [ "$status" -ne 0 ]; then
+    grep -E "invariant|ERROR|runtime error|SUMMARY" "$work/log" | head -n 20 >&2
+    echo "fuzz: $target failed (exit $status); inputs kept in $artifacts:" >&2
+    ls "$artifacts" >&2
+    exit "$status"
+  fi
+  tail -n 6 "$work/log"
 done
