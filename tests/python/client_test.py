@@ -213,6 +213,29 @@ class MdrdClientTest(unittest.TestCase):
         rich.details[0].Unpack(bad_request)
         self.assertEqual(bad_request.field_violations[0].field, "session.scene.sphere.radius")
 
+    def test_tractions_match_cattaneo_mindlin(self):
+        from mdr.v1 import scene_pb2
+        session = self.create_session().name
+        depth = hertz_depth(100.0)
+        displacement = FRICTION * KAPPA * depth * (1 - (1 - 0.15 / FRICTION) ** (2 / 3))
+        apply = pb.ApplyRequest(session=session, steps=[scene_pb2.Step(depth=depth),
+                                                        scene_pb2.Step(displacement=displacement)])
+        self.assertAlmostEqual(self.stub.Apply(apply, timeout=10).state.tangential_force, 15,
+                               delta=1e-7)
+        query = pb.QueryRequest(session=session, radii=[0.0],
+                                traction_route=pb.TRACTION_ROUTE_BOTH)
+        query.read_mask.paths.extend(["tractions", "slip_intervals", "state.contact_radius"])
+        answer = self.stub.Query(query, timeout=10)
+        a, c = answer.state.contact_radius, answer.slip_intervals[0].r_begin
+        # tau(0) = mu [p(0; a) - p(0; c)] with the Hertz peak p(0; a) = 2 E* a / (pi R).
+        expected = FRICTION * 2 * E_STAR * (a - c) / (math.pi * RADIUS)
+        traction = answer.tractions[0]
+        self.assertEqual(traction.route, pb.TRACTION_ROUTE_BOTH)
+        self.assertAlmostEqual(traction.value / expected, 1, delta=1e-9)
+        self.assertAlmostEqual(traction.abel / traction.jager, 1, delta=1e-9)
+        peak = FRICTION * 2 * E_STAR * a / (math.pi * RADIUS)
+        self.assertLess(answer.error_estimate.traction_error, 1e-9 * peak)
+
     def test_zz_sigterm_drains_open_streams(self):  # last: stops the server
         from mdr.v1 import scene_pb2
         session = self.create_session().name

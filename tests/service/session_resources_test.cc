@@ -1,4 +1,5 @@
 // Sessions as resources: pagination, export/import with bit-identical continuation, idle expiry.
+#include <algorithm>
 #include <random>
 #include <thread>
 
@@ -164,6 +165,90 @@ TEST_F(SessionResourcesTest, ImportedSessionContinuesBitIdentically) {
   v1::SessionSnapshot reference = ExportOrDie(original);
   EXPECT_EQ(reference.contact().SerializeAsString(), continued.contact().SerializeAsString());
   EXPECT_EQ(continued.applied_steps(), 309u);
+}
+
+TEST_F(SessionResourcesTest, ImportedGridSessionContinuesBitIdentically) {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_options()->set_force_path_tolerance(1e-6);
+  scene.set_method(v1::METHOD_GRID);
+  scene.mutable_grid()->set_size(512);
+  scene.mutable_grid()->set_max_radius(3 * std::sqrt(kRadius * kDepth));
+  scene.mutable_grid()->set_step_rule(v1::GRID_STEP_RULE_NAIVE);
+  v1::Session created;
+  grpc::Status status = Create(scene, &created);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const std::string original = created.name();
+  RandomHistory history(7);
+  v1::ApplyResponse response;
+  for (int batch = 0; batch < 5; ++batch) {
+    status = Apply(original, history.Batch(10), &response);
+    ASSERT_TRUE(status.ok()) << "batch " << batch << ": " << status.error_message();
+  }
+  ASSERT_TRUE(Apply(original,
+                    {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N),
+                     DisplacementStep(-0.5 * kDisplacementAt15N),
+                     DisplacementStep(0.2 * kDisplacementAt15N)},
+                    &response)
+                  .ok());
+  const v1::SessionSnapshot snapshot = ExportOrDie(original);
+  EXPECT_EQ(snapshot.scene().method(), v1::METHOD_GRID);
+  EXPECT_EQ(snapshot.scene().grid().step_rule(), v1::GRID_STEP_RULE_NAIVE);
+  EXPECT_EQ(snapshot.contact().memory_size(), 0);
+  ASSERT_EQ(snapshot.contact().grid_u_size(), 512);
+  EXPECT_GT(
+      *std::max_element(snapshot.contact().grid_u().begin(), snapshot.contact().grid_u().end()), 0);
+  EXPECT_LT(
+      *std::min_element(snapshot.contact().grid_u().begin(), snapshot.contact().grid_u().end()), 0);
+
+  auto other = service::ContactServer::Start(LocalServerOptions());
+  ASSERT_TRUE(other.ok());
+  auto other_stub = v1::ContactService::NewStub(grpc::CreateChannel(
+      "127.0.0.1:" + std::to_string((*other)->port()), grpc::InsecureChannelCredentials()));
+  v1::ImportSessionRequest import_request;
+  *import_request.mutable_snapshot() = snapshot;
+  v1::Session imported;
+  status = other_stub->ImportSession(Context().get(), import_request, &imported);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(imported.state().SerializeAsString(), StateOf(original).SerializeAsString());
+  for (int batch = 0; batch < 5; ++batch) {
+    const std::vector<v1::Step> steps = history.Batch(10);
+    const std::vector<std::string> every_field = {"state", "substeps", "path_error",
+                                                  "dissipated_energy"};
+    v1::ApplyResponse here, there;
+    ASSERT_TRUE(Apply(original, steps, &here, every_field).ok());
+    ASSERT_TRUE(
+        other_stub
+            ->Apply(Context().get(), ApplyRequestFor(imported.name(), steps, every_field), &there)
+            .ok());
+    here.clear_compute_seconds();
+    there.clear_compute_seconds();
+    ASSERT_EQ(here.SerializeAsString(), there.SerializeAsString()) << "batch " << batch;
+    EXPECT_GT(here.error_estimate().grid_spacing(), 0);
+  }
+  v1::ExportSessionRequest export_request;
+  export_request.set_name(imported.name());
+  v1::SessionSnapshot continued;
+  ASSERT_TRUE(other_stub->ExportSession(Context().get(), export_request, &continued).ok());
+  EXPECT_EQ(ExportOrDie(original).contact().SerializeAsString(),
+            continued.contact().SerializeAsString());
+
+  // The snapshot's state must fit its method.
+  const auto import = [&](const v1::SessionSnapshot& bad) {
+    *import_request.mutable_snapshot() = bad;
+    return stub_->ImportSession(Context().get(), import_request, &imported);
+  };
+  v1::SessionSnapshot bad = snapshot;
+  bad.mutable_contact()->mutable_grid_u()->RemoveLast();
+  ExpectInvalidArgument(import(bad), "snapshot.contact.grid_u");
+  bad = snapshot;
+  bad.mutable_contact()->set_grid_u(3, 1);  // far beyond the Coulomb bound
+  ExpectInvalidArgument(import(bad), "snapshot.contact.grid_u[3]");
+  bad = snapshot;
+  bad.mutable_contact()->add_memory()->set_z(0);
+  ExpectInvalidArgument(import(bad), "snapshot.contact.memory");
+  bad = snapshot;
+  bad.mutable_scene()->set_method(v1::METHOD_EXACT);
+  ExpectInvalidArgument(import(bad), "snapshot.contact.grid_u");
 }
 
 TEST_F(SessionResourcesTest, ImportRejectsInconsistentSnapshots) {

@@ -98,4 +98,11 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Query(grpc::CallbackServerContext*
   return call.Finish(operations_.Query(*request, response));
 }
 
+grpc::ServerUnaryReactor* ContactServiceImpl::Transform(grpc::CallbackServerContext* context,
+                                                        const v1::TransformRequest* request,
+                                                        v1::TransformResponse* response) {
+  const UnaryCall call(context, "Transform", "");
+  return call.Finish(operations_.Transform(*request, response));
+}
+
 }  // namespace mdr::service

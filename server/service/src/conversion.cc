@@ -1,10 +1,13 @@
 #include "mdr/service/conversion.h"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "mdr/core/material.h"
 #include "mdr/core/profile.h"
+#include "mdr/core/tabulated_profile.h"
+#include "mdr/core/validate.h"
 
 namespace mdr::service {
 namespace {
@@ -14,6 +17,40 @@ template <typename T>
 Result<T> Prefixed(Result<T> result, const std::string& path) {
   if (result.ok()) return result;
   return result.status().WithFieldPrefix(path);
+}
+
+Result<TabulatedOptions::Interpolation> ToInterpolation(
+    v1::TabulatedProfile::Interpolation interpolation) {
+  switch (interpolation) {
+    case v1::TabulatedProfile::INTERPOLATION_UNSPECIFIED:
+    case v1::TabulatedProfile::INTERPOLATION_STEFFEN:
+      return TabulatedOptions::Interpolation::kSteffen;
+    case v1::TabulatedProfile::INTERPOLATION_CUBIC_SPLINE:
+      return TabulatedOptions::Interpolation::kCubicSpline;
+    default:
+      break;
+  }
+  return InvalidArgument("interpolation",
+                         "must be INTERPOLATION_STEFFEN or "
+                         "INTERPOLATION_CUBIC_SPLINE, got " +
+                             std::to_string(interpolation));
+}
+
+Result<ProfilePtr> ToTabulatedProfile(const v1::TabulatedProfile& tabulated) {
+  Result<TabulatedOptions::Interpolation> interpolation =
+      ToInterpolation(tabulated.interpolation());
+  if (!interpolation.ok()) return interpolation.status();
+  TabulatedOptions options;
+  options.interpolation = *interpolation;
+  if (tabulated.has_tolerance()) options.tolerance = tabulated.tolerance();
+  Result<ProfilePtr> profile =
+      MakeTabulatedProfile({tabulated.radii().begin(), tabulated.radii().end()},
+                           {tabulated.heights().begin(), tabulated.heights().end()}, options);
+  // The internal grid's node limit is reached by asking for too small a tolerance.
+  if (!profile.ok() && profile.status().field() == "max_grid_nodes") {
+    return Status(profile.status().code(), "tolerance", profile.status().message());
+  }
+  return profile;
 }
 
 Result<ProfilePtr> ToProfile(const v1::Scene& scene) {
@@ -27,11 +64,13 @@ Result<ProfilePtr> ToProfile(const v1::Scene& scene) {
                       "scene.power_law");
     case v1::Scene::kFlatPunch:
       return Prefixed(MakeFlatPunch(scene.flat_punch().radius()), "scene.flat_punch");
+    case v1::Scene::kTabulated:
+      return Prefixed(ToTabulatedProfile(scene.tabulated()), "scene.tabulated");
     case v1::Scene::PROFILE_NOT_SET:
       break;
   }
   return InvalidArgument("scene.profile",
-                         "required: set one of sphere, cone, power_law, flat_punch");
+                         "required: set one of sphere, cone, power_law, flat_punch, tabulated");
 }
 
 Result<EffectiveMaterial> ToMaterial(const v1::Scene& scene) {
@@ -54,10 +93,13 @@ Result<EffectiveMaterial> ToMaterial(const v1::Scene& scene) {
                          "required: set one of rigid_on_half_space, elastic_pair");
 }
 
-// The proto path of a ContactConfig field named by ValidateContactConfig ("friction",
-// "force_path_tolerance", ...): numerical options live in scene.options.
+// The proto path of a ContactConfig field named by the core ("friction",
+// "force_path_tolerance", "grid_size", ...): numerical options live in scene.options, the grid
+// settings in scene.grid.
 std::string ScenePath(const std::string& config_field) {
   if (config_field.starts_with("scene")) return config_field;
+  if (config_field == "grid_size") return "scene.grid.size";
+  if (config_field == "grid_max_radius") return "scene.grid.max_radius";
   const auto* options = v1::ContactOptions::descriptor();
   const std::string top_level = config_field.substr(0, config_field.find('.'));
   if (options->FindFieldByName(top_level) != nullptr) return "scene.options." + config_field;
@@ -84,6 +126,55 @@ Status ApplyOptions(const v1::ContactOptions& options, std::size_t max_memory_ve
   return OkStatus();
 }
 
+Status ApplyMethod(const v1::Scene& scene, ContactConfig* config) {
+  switch (scene.method()) {
+    case v1::METHOD_UNSPECIFIED:
+    case v1::METHOD_EXACT:
+      config->method = Method::kExact;
+      break;
+    case v1::METHOD_GRID:
+      config->method = Method::kGrid;
+      break;
+    default:
+      return InvalidArgument("scene.method", "must be METHOD_EXACT or METHOD_GRID, got " +
+                                                 std::to_string(scene.method()));
+  }
+  const v1::GridSettings& grid = scene.grid();
+  if (grid.size() != 0) config->grid_size = grid.size();
+  config->grid_max_radius = grid.max_radius();
+  switch (grid.step_rule()) {
+    case v1::GRID_STEP_RULE_UNSPECIFIED:
+    case v1::GRID_STEP_RULE_EXACT:
+      config->grid_step_rule = GridStepRule::kExact;
+      break;
+    case v1::GRID_STEP_RULE_NAIVE:
+      config->grid_step_rule = GridStepRule::kNaive;
+      break;
+    default:
+      return InvalidArgument("scene.grid.step_rule",
+                             "must be GRID_STEP_RULE_EXACT or GRID_STEP_RULE_NAIVE, got " +
+                                 std::to_string(grid.step_rule()));
+  }
+  return OkStatus();
+}
+
+void ToProtoVertices(const std::vector<double>& z, const std::vector<double>& u,
+                     const std::vector<std::uint8_t>& tags,
+                     google::protobuf::RepeatedPtrField<v1::MemoryVertex>* vertices) {
+  vertices->Reserve(static_cast<int>(z.size()));
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    v1::MemoryVertex* vertex = vertices->Add();
+    vertex->set_z(z[i]);
+    vertex->set_u(u[i]);
+    vertex->set_bound(ToProtoBound(tags[i]));
+  }
+}
+
+// g^-1(depth) for display; 0 for a depth the core will reject (negative or not finite).
+double RadiusForReading(const Profile& profile, double depth) {
+  return std::isfinite(depth) && depth >= 0 ? profile.RadiusAtDepth(depth) : 0;
+}
+
 }  // namespace
 
 Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices) {
@@ -99,10 +190,14 @@ Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_me
   if (Status status = ApplyOptions(scene.options(), max_memory_vertices, &config); !status.ok()) {
     return status;
   }
-  if (Status status = ValidateContactConfig(config); !status.ok()) {
-    return Status(status.code(), ScenePath(status.field()), status.message());
-  }
+  if (Status status = ApplyMethod(scene, &config); !status.ok()) return status;
+  if (Status status = ValidateContactConfig(config); !status.ok()) return ToSceneStatus(status);
   return config;
+}
+
+Status ToSceneStatus(const Status& status) {
+  if (status.ok()) return status;
+  return Status(status.code(), ScenePath(status.field()), status.message());
 }
 
 v1::Scene WithEffectiveOptions(const v1::Scene& scene, const ContactConfig& config) {
@@ -111,6 +206,20 @@ v1::Scene WithEffectiveOptions(const v1::Scene& scene, const ContactConfig& conf
   options->set_track_energy(config.track_energy);
   options->set_force_path_tolerance(config.force_path_tolerance);
   options->set_max_memory_vertices(config.max_memory_vertices);
+  if (effective.has_tabulated()) {
+    v1::TabulatedProfile* tabulated = effective.mutable_tabulated();
+    if (tabulated->interpolation() == v1::TabulatedProfile::INTERPOLATION_UNSPECIFIED) {
+      tabulated->set_interpolation(v1::TabulatedProfile::INTERPOLATION_STEFFEN);
+    }
+    if (!tabulated->has_tolerance()) tabulated->set_tolerance(TabulatedOptions{}.tolerance);
+  }
+  effective.set_method(config.method == Method::kGrid ? v1::METHOD_GRID : v1::METHOD_EXACT);
+  if (config.method != Method::kGrid) return effective;
+  v1::GridSettings* grid = effective.mutable_grid();
+  grid->set_size(static_cast<std::uint32_t>(config.grid_size));
+  grid->set_max_radius(config.grid_max_radius);
+  grid->set_step_rule(config.grid_step_rule == GridStepRule::kNaive ? v1::GRID_STEP_RULE_NAIVE
+                                                                    : v1::GRID_STEP_RULE_EXACT);
   return effective;
 }
 
@@ -169,6 +278,7 @@ ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
     core.tags.push_back(bound >= 0 && bound <= kOnBoth ? static_cast<std::uint8_t>(bound)
                                                        : kRejectedTag);
   }
+  core.grid_u.assign(snapshot.grid_u().begin(), snapshot.grid_u().end());
   return core;
 }
 
@@ -177,13 +287,13 @@ void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto
   proto->set_tangential_displacement(snapshot.tangential_displacement);
   proto->set_dissipated_energy(snapshot.dissipated_energy);
   proto->set_last_step_dissipated_energy(snapshot.last_step_dissipation);
-  proto->mutable_memory()->Reserve(static_cast<int>(snapshot.z.size()));
-  for (std::size_t i = 0; i < snapshot.z.size(); ++i) {
-    v1::MemoryVertex* vertex = proto->add_memory();
-    vertex->set_z(snapshot.z[i]);
-    vertex->set_u(snapshot.u[i]);
-    vertex->set_bound(ToProtoBound(snapshot.tags[i]));
-  }
+  ToProtoVertices(snapshot.z, snapshot.u, snapshot.tags, proto->mutable_memory());
+  proto->mutable_grid_u()->Add(snapshot.grid_u.begin(), snapshot.grid_u.end());
+}
+
+void ToProtoMemory(const PiecewiseLinearMemory& memory,
+                   google::protobuf::RepeatedPtrField<v1::MemoryVertex>* vertices) {
+  ToProtoVertices(memory.z(), memory.u(), memory.tags(), vertices);
 }
 
 v1::MemoryBound ToProtoBound(std::uint8_t tag) {
@@ -197,6 +307,138 @@ v1::MemoryBound ToProtoBound(std::uint8_t tag) {
     default:
       return v1::MEMORY_BOUND_INSIDE;
   }
+}
+
+Result<TractionOptions> ToTractionOptions(v1::TractionRoute route, const std::string& field) {
+  TractionOptions options;
+  switch (route) {
+    case v1::TRACTION_ROUTE_UNSPECIFIED:
+    case v1::TRACTION_ROUTE_BOTH:
+      options.routes = TractionRoute::kBoth;
+      return options;
+    case v1::TRACTION_ROUTE_ABEL:
+      options.routes = TractionRoute::kAbel;
+      return options;
+    case v1::TRACTION_ROUTE_JAGER:
+      options.routes = TractionRoute::kJager;
+      return options;
+    default:
+      break;
+  }
+  return InvalidArgument(
+      field,
+      "must be TRACTION_ROUTE_BOTH, TRACTION_ROUTE_ABEL or TRACTION_ROUTE_JAGER, "
+      "got " +
+          std::to_string(route));
+}
+
+Result<RadialSampling> ToRadialSampling(const google::protobuf::RepeatedField<double>& radii,
+                                        v1::TractionRoute route) {
+  RadialSampling sampling;
+  for (int i = 0; i < radii.size(); ++i) {
+    if (Status s = RequireNonNegative("radii[" + std::to_string(i) + "]", radii[i]); !s.ok()) {
+      return s;
+    }
+  }
+  sampling.radii.assign(radii.begin(), radii.end());
+  Result<TractionOptions> options = ToTractionOptions(route, "traction_route");
+  if (!options.ok()) return options.status();
+  sampling.traction_options = *options;
+  return sampling;
+}
+
+double ToProtoRadialValues(const std::vector<RadialValue>& values,
+                           google::protobuf::RepeatedPtrField<v1::RadialValue>* proto) {
+  double max_error = 0;
+  proto->Reserve(static_cast<int>(values.size()));
+  for (const RadialValue& value : values) {
+    v1::RadialValue* out = proto->Add();
+    out->set_radius(value.radius);
+    if (value.abel) out->set_abel(*value.abel);
+    if (value.jager) out->set_jager(*value.jager);
+    out->set_value(value.value);
+    switch (value.chosen) {
+      case TractionRoute::kBoth:
+        out->set_route(v1::TRACTION_ROUTE_BOTH);
+        break;
+      case TractionRoute::kAbel:
+        out->set_route(v1::TRACTION_ROUTE_ABEL);
+        break;
+      case TractionRoute::kJager:
+        out->set_route(v1::TRACTION_ROUTE_JAGER);
+        break;
+    }
+    out->set_error_estimate(value.error_estimate);
+    max_error = std::max(max_error, value.error_estimate);
+  }
+  return max_error;
+}
+
+void ToProtoJagerWeights(const JagerWeights& weights, v1::JagerWeights* proto) {
+  proto->set_contact_radius(weights.contact_radius);
+  proto->mutable_intervals()->Reserve(static_cast<int>(weights.intervals.size()));
+  for (const WeightInterval& interval : weights.intervals) {
+    v1::WeightInterval* out = proto->add_intervals();
+    out->set_r_begin(interval.r_begin);
+    out->set_r_end(interval.r_end);
+    out->set_depth_begin(interval.depth_begin);
+    out->set_depth_end(interval.depth_end);
+    out->set_weight(interval.weight);
+  }
+  proto->set_edge_weight(weights.edge_weight);
+}
+
+void ToProtoTerms(const std::vector<CattaneoMindlinTerm>& terms,
+                  google::protobuf::RepeatedPtrField<v1::CattaneoMindlinTerm>* proto) {
+  proto->Reserve(static_cast<int>(terms.size()));
+  for (const CattaneoMindlinTerm& term : terms) {
+    v1::CattaneoMindlinTerm* out = proto->Add();
+    out->set_weight(term.weight);
+    out->set_a(term.a);
+    out->set_c(term.c);
+    out->set_depth_a(term.depth_a);
+    out->set_depth_c(term.depth_c);
+  }
+}
+
+Result<std::vector<CattaneoMindlinTerm>> ToCoreTerms(
+    const v1::CattaneoMindlinSuperposition& superposition, const Profile& profile) {
+  std::vector<CattaneoMindlinTerm> terms;
+  terms.reserve(static_cast<std::size_t>(superposition.terms_size()));
+  switch (superposition.coordinates()) {
+    case v1::CattaneoMindlinSuperposition::COORDINATES_UNSPECIFIED:
+    case v1::CattaneoMindlinSuperposition::COORDINATES_DEPTHS:
+      // Checked against each other and the depth by MemoryFromTerms; a and c for reading.
+      for (const v1::CattaneoMindlinTerm& term : superposition.terms()) {
+        terms.push_back({term.weight(), RadiusForReading(profile, term.depth_a()),
+                         RadiusForReading(profile, term.depth_c()), term.depth_a(),
+                         term.depth_c()});
+      }
+      return terms;
+    case v1::CattaneoMindlinSuperposition::COORDINATES_RADII:
+      for (int i = 0; i < superposition.terms_size(); ++i) {
+        const v1::CattaneoMindlinTerm& term = superposition.terms(i);
+        Result<CattaneoMindlinTerm> core =
+            CattaneoMindlinTermFromRadii(term.weight(), term.a(), term.c(), profile);
+        if (!core.ok()) return core.status().WithFieldPrefix("terms[" + std::to_string(i) + "]");
+        terms.push_back(*core);
+      }
+      return terms;
+    default:
+      break;
+  }
+  return InvalidArgument("coordinates", "must be COORDINATES_DEPTHS or COORDINATES_RADII, got " +
+                                            std::to_string(superposition.coordinates()));
+}
+
+void ToProtoSampledWeight(const SampledWeight& weight, v1::SampledWeight* proto) {
+  proto->set_kind(weight.kind == WeightKind::kStepFunction ? v1::SampledWeight::KIND_STEP_FUNCTION
+                                                           : v1::SampledWeight::KIND_CONTINUOUS);
+  proto->set_tolerance(weight.tolerance);
+  proto->mutable_midpoints()->Add(weight.midpoints.begin(), weight.midpoints.end());
+  proto->mutable_weights()->Add(weight.weights.begin(), weight.weights.end());
+  ToProtoTerms(weight.terms, proto->mutable_terms());
+  proto->set_max_residual(weight.max_residual);
 }
 
 }  // namespace mdr::service

@@ -3,12 +3,14 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <string>
 #include <utility>
 
 #include "mdr/core/validate.h"
 #include "mdr/service/conversion.h"
 #include "mdr/service/status.h"
+#include "mdr/service/transform.h"
 
 namespace mdr::service {
 namespace {
@@ -26,18 +28,27 @@ Status ValidateRequestId(const std::string& request_id) {
                                            std::to_string(request_id.size()) + " characters");
 }
 
-Status ValidateRadii(const google::protobuf::RepeatedField<double>& radii,
-                     const OutputSelection& selection) {
-  for (int i = 0; i < radii.size(); ++i) {
-    if (Status s = RequireNonNegative("radii[" + std::to_string(i) + "]", radii[i]); !s.ok()) {
-      return s;
-    }
+// The snapshot carries the state of its scene's method: a polyline or grid springs, not both.
+Status CheckSnapshotMethod(const v1::ContactSnapshot& contact, Method method) {
+  if (method == Method::kGrid && contact.memory_size() > 0) {
+    return InvalidArgument("snapshot.contact.memory",
+                           "must be empty for METHOD_GRID (the state is in grid_u)");
   }
-  if (selection.any_springs() && radii.empty()) {
-    return InvalidArgument("radii",
-                           "required (at least one radius) when read_mask selects springs");
+  if (method == Method::kExact && contact.grid_u_size() > 0) {
+    return InvalidArgument("snapshot.contact.grid_u",
+                           "must be empty for METHOD_EXACT (the state is in memory)");
   }
   return OkStatus();
+}
+
+Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
+                                     const OutputSelection& selection) {
+  if (selection.any_radial() && request.radii().empty()) {
+    return InvalidArgument("radii",
+                           "required (at least one radius) when read_mask selects springs, "
+                           "tractions or pressure");
+  }
+  return ToRadialSampling(request.radii(), request.traction_route());
 }
 
 }  // namespace
@@ -133,6 +144,9 @@ grpc::Status ContactOperations::ImportSession(const v1::ImportSessionRequest& re
   if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("snapshot.limits"));
   Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot");
   if (!config.ok()) return ToGrpcStatus(config.status());
+  if (Status s = CheckSnapshotMethod(snapshot.contact(), config->method); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
   const auto vertices = static_cast<std::size_t>(snapshot.contact().memory_size());
   if (vertices > config->max_memory_vertices) {
     return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "snapshot.contact.memory",
@@ -177,12 +191,24 @@ grpc::Status ContactOperations::Query(const v1::QueryRequest& request,
                                       v1::QueryResponse* response) {
   Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
   if (!selection.ok()) return ToGrpcStatus(selection.status());
-  if (Status s = ValidateRadii(request.radii(), *selection); !s.ok()) return ToGrpcStatus(s);
+  Result<RadialSampling> sampling = QuerySampling(request, *selection);
+  if (!sampling.ok()) return ToGrpcStatus(sampling.status());
   std::shared_ptr<Session> session;
   if (grpc::Status status = sessions_.Find("session", request.session(), &session); !status.ok()) {
     return status;
   }
-  session->Query(*selection, request.radii(), hooks_.output_counters, response);
+  return session->Query(*selection, *sampling, hooks_.output_counters, response);
+}
+
+grpc::Status ContactOperations::Transform(const v1::TransformRequest& request,
+                                          v1::TransformResponse* response) {
+  const auto start = std::chrono::steady_clock::now();
+  if (Status status = RunTransform(request, limits_.max_memory_vertices, response); !status.ok()) {
+    response->Clear();
+    return ToGrpcStatus(status);
+  }
+  response->set_compute_seconds(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return grpc::Status::OK;
 }
 

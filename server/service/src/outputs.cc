@@ -1,9 +1,12 @@
 #include "mdr/service/outputs.h"
 
+#include <algorithm>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "mdr/core/jager.h"
+#include "mdr/core/tabulated_profile.h"
 #include "mdr/service/conversion.h"
 
 namespace mdr::service {
@@ -90,6 +93,10 @@ const std::vector<Leaf>& QueryResponseLeaves() {
     all.push_back({"memory_pieces", Output::kMemoryPieces});
     all.push_back({"energy.dissipated_energy", Output::kEnergyDissipated});
     all.push_back({"energy.last_step_dissipated_energy", Output::kEnergyLastStep});
+    all.push_back({"jager_weights", Output::kJagerWeights});
+    all.push_back({"jager_decomposition", Output::kJagerDecomposition});
+    all.push_back({"tractions", Output::kTractions});
+    all.push_back({"pressure", Output::kPressure});
     all.push_back({"compute_seconds", Output::kComputeSeconds});
     return all;
   }();
@@ -156,19 +163,17 @@ void WriteSlipIntervals(const Contact& contact,
   }
 }
 
-void WriteSpringTangentialDisplacements(const Contact& contact,
-                                        const google::protobuf::RepeatedField<double>& radii,
+void WriteSpringTangentialDisplacements(const Contact& contact, const std::vector<double>& radii,
                                         v1::SpringDisplacements* springs) {
-  springs->mutable_tangential_displacement()->Reserve(radii.size());
+  springs->mutable_tangential_displacement()->Reserve(static_cast<int>(radii.size()));
   for (double radius : radii) {
     springs->add_tangential_displacement(contact.tangential_displacement_at(radius));
   }
 }
 
-void WriteSpringNormalDisplacements(const Contact& contact,
-                                    const google::protobuf::RepeatedField<double>& radii,
+void WriteSpringNormalDisplacements(const Contact& contact, const std::vector<double>& radii,
                                     v1::SpringDisplacements* springs) {
-  springs->mutable_normal_displacement()->Reserve(radii.size());
+  springs->mutable_normal_displacement()->Reserve(static_cast<int>(radii.size()));
   for (double radius : radii) {
     springs->add_normal_displacement(contact.normal_displacement_at(radius));
   }
@@ -188,7 +193,63 @@ void WriteMemoryPieces(const Contact& contact,
   }
 }
 
+// The Jäger picture and the tangential tractions are computed from the exact memory.
+Status RequireExactMethod(const Contact& contact, const char* output) {
+  if (contact.config().method == Method::kExact) return OkStatus();
+  return FailedPrecondition(output,
+                            "available for method EXACT; this session's scene.method is "
+                            "METHOD_GRID (its springs are not a piecewise-linear memory)");
+}
+
+Status WriteJagerWeights(const Contact& contact, v1::JagerWeights* weights) {
+  if (Status s = RequireExactMethod(contact, "jager_weights"); !s.ok()) return s;
+  Result<JagerWeights> computed = ComputeJagerWeights(contact);
+  if (!computed.ok()) return ToSceneStatus(computed.status());
+  ToProtoJagerWeights(*computed, weights);
+  return OkStatus();
+}
+
+Status WriteJagerDecomposition(const Contact& contact,
+                               google::protobuf::RepeatedPtrField<v1::CattaneoMindlinTerm>* terms) {
+  if (Status s = RequireExactMethod(contact, "jager_decomposition"); !s.ok()) return s;
+  Result<std::vector<CattaneoMindlinTerm>> computed = DecomposeMemory(contact);
+  if (!computed.ok()) return ToSceneStatus(computed.status());
+  ToProtoTerms(*computed, terms);
+  return OkStatus();
+}
+
+Status WriteTractions(const Contact& contact, const RadialSampling& sampling,
+                      google::protobuf::RepeatedPtrField<v1::RadialValue>* tractions,
+                      v1::ErrorEstimate* estimate) {
+  if (Status s = RequireExactMethod(contact, "tractions"); !s.ok()) return s;
+  Result<std::vector<RadialValue>> computed =
+      ComputeTangentialTraction(contact, sampling.radii, sampling.traction_options);
+  if (!computed.ok()) return computed.status();
+  estimate->set_traction_error(ToProtoRadialValues(*computed, tractions));
+  return OkStatus();
+}
+
+Status WritePressure(const Contact& contact, const RadialSampling& sampling,
+                     google::protobuf::RepeatedPtrField<v1::RadialValue>* pressure,
+                     v1::ErrorEstimate* estimate) {
+  Result<std::vector<RadialValue>> computed =
+      ComputeNormalPressure(contact, sampling.radii, sampling.traction_options);
+  if (!computed.ok()) return computed.status();
+  estimate->set_pressure_error(ToProtoRadialValues(*computed, pressure));
+  return OkStatus();
+}
+
 }  // namespace
+
+double ProfileTolerance(const Profile& profile) {
+  const auto* tabulated = dynamic_cast<const TabulatedProfile*>(&profile);
+  return tabulated != nullptr ? tabulated->tolerance_estimate() : 0.0;
+}
+
+void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimate) {
+  estimate->set_grid_spacing(contact.grid_spacing());
+  estimate->set_profile_tolerance(ProfileTolerance(*contact.config().profile));
+}
 
 OutputSelection OutputSelection::FullState() {
   OutputSelection selection;
@@ -234,10 +295,10 @@ void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const 
   }
 }
 
-void WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
-                       const OutputSelection& selection,
-                       const google::protobuf::RepeatedField<double>& radii,
-                       v1::QueryResponse* response, OutputCounters* counters) {
+Status WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
+                         const OutputSelection& selection, const RadialSampling& sampling,
+                         v1::QueryResponse* response, OutputCounters* counters) {
+  const std::vector<double>& radii = sampling.radii;
   if (selection.any_state()) {
     WriteState(contact, applied_steps, selection, response->mutable_state(), counters);
   }
@@ -270,6 +331,34 @@ void WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
     response->mutable_energy()->set_last_step_dissipated_energy(contact.last_step_dissipation());
     Count(counters, Output::kEnergyLastStep);
   }
+  if (selection.has(Output::kJagerWeights)) {
+    if (Status s = WriteJagerWeights(contact, response->mutable_jager_weights()); !s.ok()) return s;
+    Count(counters, Output::kJagerWeights);
+  }
+  if (selection.has(Output::kJagerDecomposition)) {
+    if (Status s = WriteJagerDecomposition(contact, response->mutable_jager_decomposition());
+        !s.ok()) {
+      return s;
+    }
+    Count(counters, Output::kJagerDecomposition);
+  }
+  v1::ErrorEstimate* estimate = response->mutable_error_estimate();
+  if (selection.has(Output::kTractions)) {
+    if (Status s = WriteTractions(contact, sampling, response->mutable_tractions(), estimate);
+        !s.ok()) {
+      return s;
+    }
+    Count(counters, Output::kTractions);
+  }
+  if (selection.has(Output::kPressure)) {
+    if (Status s = WritePressure(contact, sampling, response->mutable_pressure(), estimate);
+        !s.ok()) {
+      return s;
+    }
+    Count(counters, Output::kPressure);
+  }
+  WriteApproximationErrors(contact, estimate);
+  return OkStatus();
 }
 
 }  // namespace mdr::service

@@ -130,16 +130,22 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   applied_steps_ = applied;
   WriteState(contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
   response->mutable_error_estimate()->set_path_error(path_error);
+  WriteApproximationErrors(contact_, response->mutable_error_estimate());
   return grpc::Status::OK;
 }
 
-void Session::Query(const OutputSelection& selection,
-                    const google::protobuf::RepeatedField<double>& radii, OutputCounters* counters,
-                    v1::QueryResponse* response) const {
+grpc::Status Session::Query(const OutputSelection& selection, const RadialSampling& sampling,
+                            OutputCounters* counters, v1::QueryResponse* response) const {
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
-  WriteQueryOutputs(contact_, applied_steps_, selection, radii, response, counters);
+  if (Status status =
+          WriteQueryOutputs(contact_, applied_steps_, selection, sampling, response, counters);
+      !status.ok()) {
+    response->Clear();
+    return ToGrpcStatus(status);
+  }
   response->set_compute_seconds(stopwatch.Seconds());
+  return grpc::Status::OK;
 }
 
 void Session::ReadResource(v1::Session* resource) const {

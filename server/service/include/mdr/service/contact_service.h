@@ -38,6 +38,9 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
   grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
                                   const v1::QueryRequest* request,
                                   v1::QueryResponse* response) override;
+  grpc::ServerUnaryReactor* Transform(grpc::CallbackServerContext* context,
+                                      const v1::TransformRequest* request,
+                                      v1::TransformResponse* response) override;
 
   // Open streams answer what they are working on and end with UNAVAILABLE; new ones end at once.
   void DrainStreams() { streams_.DrainAll(); }

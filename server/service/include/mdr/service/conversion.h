@@ -3,10 +3,18 @@
 // Contact::Restore); this layer maps fields and names them by their proto path.
 #pragma once
 
+#include <google/protobuf/repeated_field.h>
+
 #include <cstddef>
+#include <string>
+#include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/jager.h"
+#include "mdr/core/memory.h"
 #include "mdr/core/status.h"
+#include "mdr/core/traction.h"
+#include "mdr/service/outputs.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"
 
@@ -17,6 +25,10 @@ namespace mdr::service {
 // a scene may ask for. Errors name the field from the Scene message down, e.g.
 // "scene.sphere.radius" or "scene.options.force_path_tolerance".
 Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices);
+
+// A core error whose field names a ContactConfig member ("friction", "grid_size") renamed to its
+// Scene path ("scene.friction", "scene.grid.size"); other statuses unchanged.
+Status ToSceneStatus(const Status& status);
 
 // The scene with every option spelled out as the config resolved it, so that a snapshot behaves
 // the same on a server with other defaults.
@@ -30,5 +42,27 @@ ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot);
 void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto);
 
 v1::MemoryBound ToProtoBound(std::uint8_t tag);
+void ToProtoMemory(const PiecewiseLinearMemory& memory,
+                   google::protobuf::RepeatedPtrField<v1::MemoryVertex>* vertices);
+
+// The core's traction options for a route; an unknown enum value is INVALID_ARGUMENT (field).
+Result<TractionOptions> ToTractionOptions(v1::TractionRoute route, const std::string& field);
+// Radii (each finite and >= 0, field "radii[i]") and route (field "traction_route") of a
+// request's radial outputs.
+Result<RadialSampling> ToRadialSampling(const google::protobuf::RepeatedField<double>& radii,
+                                        v1::TractionRoute route);
+// Appends the values and returns the largest error estimate among them (0 for none).
+double ToProtoRadialValues(const std::vector<RadialValue>& values,
+                           google::protobuf::RepeatedPtrField<v1::RadialValue>* proto);
+
+void ToProtoJagerWeights(const JagerWeights& weights, v1::JagerWeights* proto);
+void ToProtoTerms(const std::vector<CattaneoMindlinTerm>& terms,
+                  google::protobuf::RepeatedPtrField<v1::CattaneoMindlinTerm>* proto);
+// The terms of a superposition by the coordinates it names (depths: a and c from g^-1; radii:
+// depths from g). Errors name "terms[i].a" etc. (relative to the superposition) or "coordinates";
+// depth ranges are MemoryFromTerms' to check.
+Result<std::vector<CattaneoMindlinTerm>> ToCoreTerms(
+    const v1::CattaneoMindlinSuperposition& superposition, const Profile& profile);
+void ToProtoSampledWeight(const SampledWeight& weight, v1::SampledWeight* proto);
 
 }  // namespace mdr::service

@@ -43,6 +43,8 @@ class ContactOperations {
   grpc::Status Apply(const v1::ApplyRequest& request, const Interruption& interruption,
                      v1::ApplyResponse* response);
   grpc::Status Query(const v1::QueryRequest& request, v1::QueryResponse* response);
+  // Stateless: no session is read or changed.
+  grpc::Status Transform(const v1::TransformRequest& request, v1::TransformResponse* response);
 
   // Deletes the sessions whose idle timeout ran out; returns their names.
   std::vector<std::string> EraseExpiredSessions() { return sessions_.EraseExpired(); }

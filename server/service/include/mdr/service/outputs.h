@@ -11,9 +11,11 @@
 #include <bitset>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "mdr/core/contact.h"
 #include "mdr/core/status.h"
+#include "mdr/core/traction.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -43,6 +45,10 @@ enum class Output : std::uint8_t {
   kMemoryPieces,
   kEnergyDissipated,
   kEnergyLastStep,
+  kJagerWeights,
+  kJagerDecomposition,
+  kTractions,
+  kPressure,
   kComputeSeconds,
   kCount,
 };
@@ -59,6 +65,10 @@ class OutputSelection {
   bool any_state() const;
   bool any_springs() const {
     return has(Output::kSpringTangentialDisplacement) || has(Output::kSpringNormalDisplacement);
+  }
+  // Springs, tractions or pressure: outputs sampled at QueryRequest.radii.
+  bool any_radial() const {
+    return any_springs() || has(Output::kTractions) || has(Output::kPressure);
   }
 
  private:
@@ -80,6 +90,18 @@ struct OutputCounters {
   }
 };
 
+// Where the radial outputs (springs, tractions, pressure) are evaluated, validated.
+struct RadialSampling {
+  std::vector<double> radii;  // m, finite, >= 0
+  TractionOptions traction_options;
+};
+
+// The error estimates of the scene's approximations: ErrorEstimate.grid_spacing of the grid
+// method and profile_tolerance of a tabulated profile.
+void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimate);
+// A tabulated profile's achieved tolerance; 0 for closed-form profiles.
+double ProfileTolerance(const Profile& profile);
+
 // The selected ContactState fields (nothing else is evaluated).
 void WriteState(const Contact& contact, std::uint64_t applied_steps,
                 const OutputSelection& selection, v1::ContactState* state,
@@ -88,10 +110,11 @@ void WriteState(const Contact& contact, std::uint64_t applied_steps,
 void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const StepReport& report,
                      const OutputSelection& selection, v1::StepResult* result);
 
-// The selected QueryResponse outputs except compute_seconds; radii are validated by the caller.
-void WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
-                       const OutputSelection& selection,
-                       const google::protobuf::RepeatedField<double>& radii,
-                       v1::QueryResponse* response, OutputCounters* counters);
+// The selected QueryResponse outputs and error_estimate, except compute_seconds. Fails
+// (FAILED_PRECONDITION) when a selected output does not exist for this contact: Jäger weights,
+// decomposition and tractions for the grid method, weights and decomposition for friction 0.
+Status WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
+                         const OutputSelection& selection, const RadialSampling& sampling,
+                         v1::QueryResponse* response, OutputCounters* counters);
 
 }  // namespace mdr::service

@@ -73,9 +73,10 @@ class Session {
                      const StepGuard& guard, std::size_t max_response_bytes,
                      v1::ApplyResponse* response);
 
-  // The selected outputs of the current state (radii validated by the caller).
-  void Query(const OutputSelection& selection, const google::protobuf::RepeatedField<double>& radii,
-             OutputCounters* counters, v1::QueryResponse* response) const;
+  // The selected outputs of the current state; on error (an output this contact does not have)
+  // the response is cleared.
+  grpc::Status Query(const OutputSelection& selection, const RadialSampling& sampling,
+                     OutputCounters* counters, v1::QueryResponse* response) const;
 
   // Scene, limits, state, creation and expiry time as the API resource.
   void ReadResource(v1::Session* resource) const;
