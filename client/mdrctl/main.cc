@@ -1,142 +1,39 @@
-// mdrctl: runs a scene file (JSON of mdr.v1.SceneFile) against mdrd, or against a server it
-// starts in-process when no --server is given, and prints one table row per step.
-#include <google/protobuf/util/json_util.h>
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
+// mdrctl: the command-line client of the mdr contact service. `run SCENE` applies a scene file's
+// loading path (YAML or JSON of mdr.v1.SceneFile) and prints one row per step; the other
+// subcommands wrap one RPC each. Without --server an in-process server is used.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
-#include <fstream>
-#include <memory>
-#include <sstream>
-#include <string>
-#include <vector>
 
-#include "mdr/client/contact_client.h"
-#include "mdr/service/server.h"
-#include "mdr/v1/scene_file.pb.h"
+#include "commands.h"
 
 namespace {
 
-using mdr::v1::ContactState;
-using mdr::v1::SceneFile;
+using mdrctl::Common;
 
-struct Column {
-  const char* header;
-  double (*value)(const ContactState&);
-};
-
-Column ColumnFor(SceneFile::Output output) {
-  switch (output) {
-    case SceneFile::DEPTH:
-      return {"delta [m]", [](const ContactState& s) { return s.depth(); }};
-    case SceneFile::TANGENTIAL_DISPLACEMENT:
-      return {"ux [m]", [](const ContactState& s) { return s.tangential_displacement(); }};
-    case SceneFile::NORMAL_FORCE:
-      return {"F_N [N]", [](const ContactState& s) { return s.normal_force(); }};
-    case SceneFile::TANGENTIAL_FORCE:
-      return {"F_x [N]", [](const ContactState& s) { return s.tangential_force(); }};
-    case SceneFile::CONTACT_RADIUS:
-      return {"a [m]", [](const ContactState& s) { return s.contact_radius(); }};
-    case SceneFile::DISSIPATED_ENERGY:
-      return {"W [J]", [](const ContactState& s) { return s.dissipated_energy(); }};
-    case SceneFile::FRICTION_LIMIT:
-      return {"mu*F_N [N]", [](const ContactState& s) { return s.friction_limit(); }};
-    default:
-      return {nullptr, nullptr};
-  }
-}
-
-mdr::Result<std::vector<Column>> ColumnsFor(const SceneFile& file) {
-  if (file.outputs().empty()) {
-    return std::vector<Column>{
-        ColumnFor(SceneFile::DEPTH), ColumnFor(SceneFile::TANGENTIAL_DISPLACEMENT),
-        ColumnFor(SceneFile::NORMAL_FORCE), ColumnFor(SceneFile::TANGENTIAL_FORCE),
-        ColumnFor(SceneFile::CONTACT_RADIUS)};
-  }
-  std::vector<Column> columns;
-  for (int i = 0; i < file.outputs_size(); ++i) {
-    Column column = ColumnFor(file.outputs(i));
-    if (column.header == nullptr) {
-      return mdr::InvalidArgument("outputs[" + std::to_string(i) + "]",
-                                  "must be one of DEPTH, TANGENTIAL_DISPLACEMENT, NORMAL_FORCE, "
-                                  "TANGENTIAL_FORCE, CONTACT_RADIUS, DISSIPATED_ENERGY, "
-                                  "FRICTION_LIMIT");
-    }
-    columns.push_back(column);
-  }
-  return columns;
-}
-
-mdr::Result<SceneFile> ReadSceneFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return mdr::InvalidArgument(path, "cannot open the scene file");
-  std::stringstream json;
-  json << in.rdbuf();
-  SceneFile file;
-  const auto status = google::protobuf::util::JsonStringToMessage(json.str(), &file);
-  if (!status.ok()) {
-    return mdr::InvalidArgument(path, "not a valid scene file: " + std::string(status.message()));
-  }
-  if (file.steps().empty()) return mdr::InvalidArgument("steps", "must contain at least one step");
-  return file;
-}
-
-// The server reports CreateSession fields from the request ("session.scene.friction"); the scene
-// file holds the scene at "scene".
-std::string InSceneFileTerms(const std::string& server_message) {
-  const std::string request_prefix = "session.";
-  if (server_message.starts_with(request_prefix + "scene")) {
-    return server_message.substr(request_prefix.size());
-  }
-  return server_message;
-}
-
-void PrintRow(const std::string& first, const std::vector<std::string>& cells) {
-  std::printf("%5s", first.c_str());
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    const bool last = i + 1 == cells.size();
-    std::printf(last ? "  %s" : "  %-18s", cells[i].c_str());
-  }
-  std::printf("\n");
-}
-
-void PrintTable(const std::vector<Column>& columns, const mdr::v1::ApplyResponse& response) {
-  std::vector<std::string> headers;
-  for (const Column& column : columns) headers.push_back(column.header);
-  PrintRow("step", headers);
-  for (int i = 0; i < response.step_results_size(); ++i) {
-    std::vector<std::string> cells;
-    for (const Column& column : columns) {
-      char cell[32];
-      std::snprintf(cell, sizeof cell, "%.10g", column.value(response.step_results(i).state()));
-      cells.push_back(cell);
-    }
-    PrintRow(std::to_string(i + 1), cells);
-  }
-}
-
-int Fail(const std::string& message) {
-  std::fprintf(stderr, "mdrctl: %s\n", message.c_str());
-  return EXIT_FAILURE;
-}
-
-int RunScene(mdr::client::ContactClient& client, const SceneFile& file,
-             const std::vector<Column>& columns) {
-  auto session = client.CreateSession(file.scene());
-  if (!session.ok()) return Fail(InSceneFileTerms(session.status().error_message()));
-  google::protobuf::FieldMask every_state;
-  every_state.add_paths("state");
-  auto applied = client.Apply(session->name(), file.steps(), every_state);
-  // The session is this run's scratch space: remove it whether or not the steps succeeded.
-  const grpc::Status deleted = client.DeleteSession(session->name());
-  if (!applied.ok()) return Fail(applied.status().error_message());
-  PrintTable(columns, *applied);
-  if (!deleted.ok()) return Fail(deleted.error_message());
-  return EXIT_SUCCESS;
+void AddCommonOptions(CLI::App* app, Common* common) {
+  app->add_option("--server", common->server,
+                  "mdrd address host:port; without it an in-process server is used (its "
+                  "sessions live as long as the command)")
+      ->envname("MDR_SERVER");
+  app->add_option("--timeout", common->timeout_seconds, "Deadline of each call in seconds")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app->add_option_function<std::string>(
+         "--format",
+         [common](const std::string& name) {
+           common->format = name == "csv"    ? mdrctl::Format::kCsv
+                            : name == "json" ? mdrctl::Format::kJson
+                                             : mdrctl::Format::kTable;
+         },
+         "Output: table (default), csv or json")
+      ->check(CLI::IsMember({"table", "csv", "json"}));
+  app->add_flag("--tls", common->tls, "Connect with TLS (implied by --ca, --cert, --key)");
+  app->add_option("--ca", common->root_certificates_file, "PEM file of the root certificates");
+  app->add_option("--cert", common->client_certificate_file, "PEM client certificate (mTLS)");
+  app->add_option("--key", common->client_key_file, "PEM private key of --cert");
+  app->add_option("--token", common->token, "Bearer token sent on every call (needs TLS)")
+      ->envname("MDR_TOKEN");
 }
 
 }  // namespace
@@ -144,37 +41,79 @@ int RunScene(mdr::client::ContactClient& client, const SceneFile& file,
 int main(int argc, char** argv) {
   CLI::App app{"mdrctl: client of the mdr contact service"};
   app.require_subcommand(1);
-  CLI::App* run = app.add_subcommand("run", "Apply a scene file's steps and print the states");
-  std::string scene_path;
-  std::string server_address;
-  double timeout_seconds = 60;
-  run->add_option("scene", scene_path, "Scene file (JSON of mdr.v1.SceneFile)")->required();
-  run->add_option("--server", server_address,
-                  "mdrd address host:port; without it an in-process server is used");
-  run->add_option("--timeout", timeout_seconds, "Deadline of each call in seconds")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  CLI11_PARSE(app, argc, argv);
-  // The embedded server's session log would interleave with the table; errors still show.
-  spdlog::set_level(spdlog::level::warn);
+  Common common;
+  int exit_code = EXIT_SUCCESS;
 
-  auto file = ReadSceneFile(scene_path);
-  if (!file.ok()) return Fail(file.status().ToString());
-  auto columns = ColumnsFor(*file);
-  if (!columns.ok()) return Fail(columns.status().ToString());
+  CLI::App* run = app.add_subcommand("run", "Run a scene file and print the state after each step");
+  mdrctl::RunArgs run_args;
+  run->add_option("scene", run_args.scene, "Scene file (YAML or JSON of mdr.v1.SceneFile)")
+      ->required();
+  run->add_option("--plot", run_args.plot_dir, "Write PNG plots (gnuplot) into this directory");
+  run->add_flag("--keep", run_args.keep_session, "Keep the session (with --server)");
+  run->callback([&] { exit_code = mdrctl::Run(common, run_args); });
 
-  std::unique_ptr<mdr::service::ContactServer> embedded;
-  std::shared_ptr<grpc::Channel> channel;
-  if (server_address.empty()) {
-    auto started = mdr::service::ContactServer::Start({});
-    if (!started.ok()) return Fail(started.status().ToString());
-    embedded = std::move(started).value();
-    channel = embedded->InProcessChannel();
-  } else {
-    channel = grpc::CreateChannel(server_address, grpc::InsecureChannelCredentials());
+  CLI::App* session = app.add_subcommand("session", "Create, get, list or delete sessions");
+  session->require_subcommand(1);
+  std::string scene_file;
+  std::string session_id;
+  std::string name;
+  CLI::App* create = session->add_subcommand("create", "Create a session for a scene file's scene");
+  create->add_option("scene", scene_file, "Scene file (YAML or JSON)")->required();
+  create->add_option("--id", session_id, "Session id ([a-z0-9-], starting with a letter)");
+  create->callback([&] { exit_code = mdrctl::SessionCreate(common, scene_file, session_id); });
+  CLI::App* get = session->add_subcommand("get", "Show a session");
+  get->add_option("name", name, "sessions/ID or ID")->required();
+  get->callback([&] { exit_code = mdrctl::SessionGet(common, name); });
+  CLI::App* list = session->add_subcommand("list", "List every session");
+  list->callback([&] { exit_code = mdrctl::SessionList(common); });
+  CLI::App* remove = session->add_subcommand("delete", "Delete a session");
+  remove->add_option("name", name, "sessions/ID or ID")->required();
+  remove->callback([&] { exit_code = mdrctl::SessionDelete(common, name); });
+
+  CLI::App* apply = app.add_subcommand("apply", "Apply steps to a session as one atomic batch");
+  mdrctl::ApplyArgs apply_args;
+  apply->add_option("session", apply_args.session, "sessions/ID or ID")->required();
+  apply->add_option("steps", apply_args.steps, "Steps as YAML/JSON, e.g. '{normal_force: 100}'")
+      ->required();
+  apply->add_option("--request-id", apply_args.request_id, "Makes a retry safe");
+  apply->add_flag("--stream", apply_args.stream, "One StreamApply message per step");
+  apply->callback([&] { exit_code = mdrctl::Apply(common, apply_args); });
+
+  CLI::App* query = app.add_subcommand("query", "Read a session's outputs");
+  mdrctl::QueryArgs query_args;
+  query->add_option("session", query_args.session, "sessions/ID or ID")->required();
+  query
+      ->add_option("--mask", query_args.read_mask,
+                   "Outputs, e.g. state,energy,springs,tractions (default: state)")
+      ->delimiter(',');
+  query->add_option("--radii", query_args.radii, "Radii in m for springs and tractions")
+      ->delimiter(',');
+  query->callback([&] { exit_code = mdrctl::Query(common, query_args); });
+
+  CLI::App* exporter = app.add_subcommand("export", "Print a session's snapshot (JSON)");
+  std::string output;
+  exporter->add_option("session", name, "sessions/ID or ID")->required();
+  exporter->add_option("-o,--output", output, "Write to this file instead of stdout");
+  exporter->callback([&] { exit_code = mdrctl::Export(common, name, output); });
+
+  CLI::App* importer = app.add_subcommand("import", "Create a session from a snapshot file");
+  std::string snapshot_file;
+  importer->add_option("snapshot", snapshot_file, "JSON from export")->required();
+  importer->add_option("--id", session_id, "Session id");
+  importer->callback([&] { exit_code = mdrctl::Import(common, snapshot_file, session_id); });
+
+  CLI::App* transform =
+      app.add_subcommand("transform", "Convert between the MDR and the Jäger picture");
+  std::string request_file;
+  transform->add_option("request", request_file, "TransformRequest in YAML or JSON")->required();
+  transform->callback([&] { exit_code = mdrctl::Transform(common, request_file); });
+
+  for (CLI::App* command :
+       {run, create, get, list, remove, apply, query, exporter, importer, transform}) {
+    AddCommonOptions(command, &common);
   }
-  const auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(
-      std::chrono::duration<double>(timeout_seconds));
-  mdr::client::ContactClient client(channel, timeout);
-  return RunScene(client, *file, *columns);
+  // The embedded server's session log would interleave with the output; errors still show.
+  spdlog::set_level(spdlog::level::warn);
+  CLI11_PARSE(app, argc, argv);
+  return exit_code;
 }

@@ -2,43 +2,66 @@
 
 #include <grpcpp/client_context.h>
 
+#include <algorithm>
+#include <thread>
+
 namespace mdr::client {
 namespace {
 
-template <typename Response>
-RpcResult<Response> ToResult(const grpc::Status& status, Response* response) {
-  if (!status.ok()) return status;
-  return std::move(*response);
-}
+using google::protobuf::FieldMask;
+using google::protobuf::RepeatedPtrField;
 
 }  // namespace
 
+ContactClient::ContactClient(std::shared_ptr<grpc::ChannelInterface> channel, ClientOptions options)
+    : stub_(v1::ContactService::NewStub(std::move(channel))), options_(options) {
+  options_.max_attempts = std::max(options_.max_attempts, 1);
+}
+
 ContactClient::ContactClient(std::shared_ptr<grpc::ChannelInterface> channel,
                              std::chrono::milliseconds timeout)
-    : stub_(v1::ContactService::NewStub(std::move(channel))), timeout_(timeout) {}
+    : ContactClient(std::move(channel), ClientOptions{.timeout = timeout}) {}
 
 std::unique_ptr<grpc::ClientContext> ContactClient::NewContext() const {
   auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(std::chrono::system_clock::now() + timeout_);
+  context->set_deadline(std::chrono::system_clock::now() + options_.timeout);
   return context;
 }
 
+template <typename Request, typename Response, typename Rpc>
+RpcResult<Response> ContactClient::Call(Rpc rpc, const Request& request, bool idempotent) {
+  const int attempts = idempotent ? options_.max_attempts : 1;
+  std::chrono::milliseconds backoff = options_.initial_backoff;
+  grpc::Status status;
+  for (int attempt = 1;; ++attempt) {
+    Response response;
+    status = rpc(NewContext().get(), request, &response);
+    if (status.ok()) return response;
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE || attempt >= attempts) break;
+    std::this_thread::sleep_for(backoff);
+    backoff *= 2;
+  }
+  return status;
+}
+
 RpcResult<v1::Session> ContactClient::CreateSession(const v1::Scene& scene,
-                                                    const std::string& session_id) {
+                                                    const std::string& session_id,
+                                                    const v1::SessionLimits& limits) {
   v1::CreateSessionRequest request;
   *request.mutable_session()->mutable_scene() = scene;
+  *request.mutable_session()->mutable_limits() = limits;
   request.set_session_id(session_id);
-  v1::Session response;
-  const grpc::Status status = stub_->CreateSession(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Call<v1::CreateSessionRequest, v1::Session>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->CreateSession(c, r, o); }, request,
+      false);
 }
 
 RpcResult<v1::Session> ContactClient::GetSession(const std::string& name) {
   v1::GetSessionRequest request;
   request.set_name(name);
-  v1::Session response;
-  const grpc::Status status = stub_->GetSession(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Call<v1::GetSessionRequest, v1::Session>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->GetSession(c, r, o); }, request,
+      true);
 }
 
 RpcResult<v1::ListSessionsResponse> ContactClient::ListSessions(int page_size,
@@ -46,9 +69,21 @@ RpcResult<v1::ListSessionsResponse> ContactClient::ListSessions(int page_size,
   v1::ListSessionsRequest request;
   request.set_page_size(page_size);
   request.set_page_token(page_token);
-  v1::ListSessionsResponse response;
-  const grpc::Status status = stub_->ListSessions(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Call<v1::ListSessionsRequest, v1::ListSessionsResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->ListSessions(c, r, o); }, request,
+      true);
+}
+
+RpcResult<std::vector<v1::Session>> ContactClient::ListAllSessions() {
+  std::vector<v1::Session> sessions;
+  std::string token;
+  do {
+    auto page = ListSessions(0, token);
+    if (!page.ok()) return page.status();
+    for (const v1::Session& session : page->sessions()) sessions.push_back(session);
+    token = page->next_page_token();
+  } while (!token.empty());
+  return sessions;
 }
 
 grpc::Status ContactClient::DeleteSession(const std::string& name) {
@@ -61,9 +96,9 @@ grpc::Status ContactClient::DeleteSession(const std::string& name) {
 RpcResult<v1::SessionSnapshot> ContactClient::ExportSession(const std::string& name) {
   v1::ExportSessionRequest request;
   request.set_name(name);
-  v1::SessionSnapshot response;
-  const grpc::Status status = stub_->ExportSession(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Call<v1::ExportSessionRequest, v1::SessionSnapshot>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->ExportSession(c, r, o); }, request,
+      true);
 }
 
 RpcResult<v1::Session> ContactClient::ImportSession(const v1::SessionSnapshot& snapshot,
@@ -71,34 +106,79 @@ RpcResult<v1::Session> ContactClient::ImportSession(const v1::SessionSnapshot& s
   v1::ImportSessionRequest request;
   *request.mutable_snapshot() = snapshot;
   request.set_session_id(session_id);
-  v1::Session response;
-  const grpc::Status status = stub_->ImportSession(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Call<v1::ImportSessionRequest, v1::Session>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->ImportSession(c, r, o); }, request,
+      false);
 }
 
-RpcResult<v1::ApplyResponse> ContactClient::Apply(
-    const std::string& session, const google::protobuf::RepeatedPtrField<v1::Step>& steps,
-    const google::protobuf::FieldMask& step_mask, const std::string& request_id) {
+RpcResult<v1::ApplyResponse> ContactClient::Apply(const std::string& session,
+                                                  const RepeatedPtrField<v1::Step>& steps,
+                                                  const FieldMask& step_mask,
+                                                  const std::string& request_id) {
   v1::ApplyRequest request;
   request.set_session(session);
   *request.mutable_steps() = steps;
   *request.mutable_step_mask() = step_mask;
   request.set_request_id(request_id);
-  v1::ApplyResponse response;
-  const grpc::Status status = stub_->Apply(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Apply(request);
+}
+
+RpcResult<v1::ApplyResponse> ContactClient::Apply(const std::string& session, const v1::Step& step,
+                                                  const FieldMask& step_mask,
+                                                  const std::string& request_id) {
+  RepeatedPtrField<v1::Step> steps;
+  *steps.Add() = step;
+  return Apply(session, steps, step_mask, request_id);
+}
+
+RpcResult<v1::ApplyResponse> ContactClient::Apply(const v1::ApplyRequest& request) {
+  return Call<v1::ApplyRequest, v1::ApplyResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->Apply(c, r, o); }, request,
+      !request.request_id().empty());
+}
+
+RpcResult<std::vector<v1::StreamApplyResponse>> ContactClient::StreamApply(
+    const std::vector<v1::ApplyRequest>& requests, const StreamObserver& on_response) {
+  auto context = NewContext();
+  auto stream = stub_->StreamApply(context.get());
+  std::jthread writer([&] {
+    v1::StreamApplyRequest message;
+    for (const v1::ApplyRequest& request : requests) {
+      *message.mutable_apply() = request;
+      if (!stream->Write(message)) return;  // the stream ended; Finish tells why
+    }
+    stream->WritesDone();
+  });
+  std::vector<v1::StreamApplyResponse> responses;
+  v1::StreamApplyResponse response;
+  while (stream->Read(&response)) {
+    if (on_response) on_response(responses.size(), response);
+    responses.push_back(response);
+  }
+  writer.join();
+  const grpc::Status status = stream->Finish();
+  if (!status.ok()) return status;
+  return responses;
 }
 
 RpcResult<v1::QueryResponse> ContactClient::Query(const std::string& session,
-                                                  const google::protobuf::FieldMask& read_mask,
+                                                  const FieldMask& read_mask,
                                                   const std::vector<double>& radii) {
   v1::QueryRequest request;
   request.set_session(session);
   *request.mutable_read_mask() = read_mask;
   request.mutable_radii()->Add(radii.begin(), radii.end());
-  v1::QueryResponse response;
-  const grpc::Status status = stub_->Query(NewContext().get(), request, &response);
-  return ToResult(status, &response);
+  return Query(request);
+}
+
+RpcResult<v1::QueryResponse> ContactClient::Query(const v1::QueryRequest& request) {
+  return Call<v1::QueryRequest, v1::QueryResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->Query(c, r, o); }, request, true);
+}
+
+RpcResult<v1::TransformResponse> ContactClient::Transform(const v1::TransformRequest& request) {
+  return Call<v1::TransformRequest, v1::TransformResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->Transform(c, r, o); }, request, true);
 }
 
 }  // namespace mdr::client

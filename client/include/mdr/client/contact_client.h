@@ -1,74 +1,94 @@
-// A typed client for mdr.v1.ContactService: one method per RPC, a deadline on every call, and
-// errors returned as values (the gRPC code and the server's "field: message").
+// A typed client for mdr.v1.ContactService: one method per RPC, a deadline on every call, retries
+// of idempotent calls on UNAVAILABLE, and errors returned as values (the gRPC code and the
+// server's "field: message").
 #pragma once
 
 #include <grpcpp/channel.h>
 #include <grpcpp/support/status.h>
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
-#include <utility>
-#include <variant>
 #include <vector>
 
+#include "mdr/client/rpc_result.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
 
 namespace mdr::client {
 
-// The response of a call, or the status that explains why there is none.
-template <typename T>
-class RpcResult {
- public:
-  RpcResult(T value) : data_(std::move(value)) {}               // NOLINT: implicit by design
-  RpcResult(grpc::Status status) : data_(std::move(status)) {}  // NOLINT: implicit by design
-
-  bool ok() const { return std::holds_alternative<T>(data_); }
-  // OK when there is a value.
-  const grpc::Status& status() const {
-    return ok() ? grpc::Status::OK : std::get<grpc::Status>(data_);
-  }
-  const T& value() const& { return std::get<T>(data_); }
-  T&& value() && { return std::get<T>(std::move(data_)); }
-  const T* operator->() const { return &value(); }
-  const T& operator*() const& { return value(); }
-
- private:
-  std::variant<T, grpc::Status> data_;
+struct ClientOptions {
+  // Deadline of every call (of a whole stream for StreamApply), from the moment it starts.
+  std::chrono::milliseconds timeout = std::chrono::seconds(30);
+  // Attempts of an idempotent call that fails with UNAVAILABLE (GetSession, ListSessions,
+  // ExportSession, Query, Transform, and Apply with a request_id), >= 1.
+  int max_attempts = 3;
+  // Wait before the second attempt; doubled for every further one.
+  std::chrono::milliseconds initial_backoff = std::chrono::milliseconds(100);
 };
 
 class ContactClient {
  public:
   explicit ContactClient(std::shared_ptr<grpc::ChannelInterface> channel,
-                         std::chrono::milliseconds timeout = std::chrono::seconds(30));
+                         ClientOptions options = {});
+  ContactClient(std::shared_ptr<grpc::ChannelInterface> channel, std::chrono::milliseconds timeout);
 
-  // Empty session_id: the server picks one.
-  RpcResult<v1::Session> CreateSession(const v1::Scene& scene, const std::string& session_id = "");
+  const ClientOptions& options() const { return options_; }
+
+  // Empty session_id: the server picks one. Unset limits take the server's.
+  RpcResult<v1::Session> CreateSession(const v1::Scene& scene, const std::string& session_id = "",
+                                       const v1::SessionLimits& limits = {});
   RpcResult<v1::Session> GetSession(const std::string& name);
   // One page of sessions in name order; pass the previous page's next_page_token.
   RpcResult<v1::ListSessionsResponse> ListSessions(int page_size = 0,
                                                    const std::string& page_token = "");
+  // Every session, following the pages.
+  RpcResult<std::vector<v1::Session>> ListAllSessions();
   grpc::Status DeleteSession(const std::string& name);
   RpcResult<v1::SessionSnapshot> ExportSession(const std::string& name);
   RpcResult<v1::Session> ImportSession(const v1::SessionSnapshot& snapshot,
                                        const std::string& session_id = "");
+
   // Applies the steps as one atomic batch; step_mask selects the per-step results (empty: none).
-  // A non-empty request_id makes a retry of the same batch safe.
+  // A non-empty request_id makes the call idempotent, so it is retried on UNAVAILABLE.
   RpcResult<v1::ApplyResponse> Apply(const std::string& session,
                                      const google::protobuf::RepeatedPtrField<v1::Step>& steps,
                                      const google::protobuf::FieldMask& step_mask = {},
                                      const std::string& request_id = "");
-  // The outputs selected by read_mask (empty: the state); radii for "springs".
+  // One step.
+  RpcResult<v1::ApplyResponse> Apply(const std::string& session, const v1::Step& step,
+                                     const google::protobuf::FieldMask& step_mask = {},
+                                     const std::string& request_id = "");
+  // The request as given (session, steps, step_mask, request_id).
+  RpcResult<v1::ApplyResponse> Apply(const v1::ApplyRequest& request);
+
+  // Sends every request as one message of a StreamApply stream (pipelined: a second thread
+  // writes while this one reads) and returns the responses in order; each has its own status.
+  // on_response, if set, sees each response as it arrives. The stream's own error (deadline,
+  // UNAVAILABLE on shutdown) is the result's status.
+  using StreamObserver = std::function<void(std::size_t index, const v1::StreamApplyResponse&)>;
+  RpcResult<std::vector<v1::StreamApplyResponse>> StreamApply(
+      const std::vector<v1::ApplyRequest>& requests, const StreamObserver& on_response = {});
+
+  // The outputs selected by read_mask (empty: the state); radii for "springs" and tractions.
   RpcResult<v1::QueryResponse> Query(const std::string& session,
                                      const google::protobuf::FieldMask& read_mask = {},
                                      const std::vector<double>& radii = {});
+  RpcResult<v1::QueryResponse> Query(const v1::QueryRequest& request);
+
+  // Stateless MDR <-> Jäger transformation.
+  RpcResult<v1::TransformResponse> Transform(const v1::TransformRequest& request);
 
  private:
-  // A context whose deadline is now + timeout_ (deadlines are system_clock time points).
+  // A context whose deadline is now + timeout (deadlines are system_clock time points).
   std::unique_ptr<grpc::ClientContext> NewContext() const;
+  // Calls rpc(context, request, response) once, or up to max_attempts times on UNAVAILABLE when
+  // idempotent.
+  template <typename Request, typename Response, typename Rpc>
+  RpcResult<Response> Call(Rpc rpc, const Request& request, bool idempotent);
 
   std::unique_ptr<v1::ContactService::Stub> stub_;
-  std::chrono::milliseconds timeout_;
+  ClientOptions options_;
 };
 
 }  // namespace mdr::client

@@ -1,0 +1,27 @@
+// Runs a scene file against the service: creates a session, applies the steps and the path
+// segment by segment (in batches within the session's limit), records the states, the energy of
+// every cycle and the profiles at hold points, and deletes the session unless asked to keep it.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+#include "mdr/client/contact_client.h"
+#include "mdr/client/scene_file.h"
+#include "mdr/v1/scene_file.pb.h"
+
+namespace mdr::client {
+
+struct RunOptions {
+  // Keep the session after the run (its name is in RunReport.session).
+  bool keep_session = false;
+  // Called after every batch with the steps done and the total.
+  std::function<void(std::uint64_t done, std::uint64_t total)> progress;
+};
+
+// Errors point at the scene file: "scene.sphere.radius: ... (file:line)" for the scene,
+// "path[2] (step 4 of 40): tangential_force: ... (file:line)" for a step.
+RpcResult<v1::RunReport> RunScene(ContactClient& client, const SceneDocument& document,
+                                  const RunOptions& options = {});
+
+}  // namespace mdr::client

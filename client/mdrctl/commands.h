@@ -1,0 +1,60 @@
+// The subcommands of mdrctl. Each returns the process exit code and reports errors on stderr as
+// "mdrctl: field: message".
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "report_format.h"
+
+namespace mdrctl {
+
+// Options every subcommand shares.
+struct Common {
+  // mdrd address; empty: an in-process server that lives as long as the command.
+  std::string server;
+  double timeout_seconds = 60;
+  Format format = Format::kTable;
+  bool tls = false;
+  std::string root_certificates_file;
+  std::string client_certificate_file;
+  std::string client_key_file;
+  std::string token;
+};
+
+struct RunArgs {
+  std::string scene;
+  std::string plot_dir;
+  bool keep_session = false;
+};
+int Run(const Common& common, const RunArgs& args);
+
+int SessionCreate(const Common& common, const std::string& scene, const std::string& id);
+int SessionGet(const Common& common, const std::string& name);
+int SessionList(const Common& common);
+int SessionDelete(const Common& common, const std::string& name);
+
+struct ApplyArgs {
+  std::string session;
+  // Steps as YAML/JSON mappings, e.g. "{normal_force: 100}".
+  std::vector<std::string> steps;
+  std::string request_id;
+  // One StreamApply message per step instead of one batch.
+  bool stream = false;
+};
+int Apply(const Common& common, const ApplyArgs& args);
+
+struct QueryArgs {
+  std::string session;
+  std::vector<std::string> read_mask;
+  std::vector<double> radii;
+};
+int Query(const Common& common, const QueryArgs& args);
+
+// The snapshot as JSON, to `output` or stdout when empty.
+int Export(const Common& common, const std::string& name, const std::string& output);
+int Import(const Common& common, const std::string& snapshot_file, const std::string& id);
+// A TransformRequest in YAML or JSON.
+int Transform(const Common& common, const std::string& request_file);
+
+}  // namespace mdrctl

@@ -1,0 +1,171 @@
+#include "plot.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace mdrctl {
+namespace {
+
+namespace fs = std::filesystem;
+using mdr::v1::RunReport;
+
+// A gnuplot single-quoted string.
+std::string Quoted(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::string ShellQuoted(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::string Title(const RunReport& report, const std::string& what) {
+  return Quoted(report.title().empty() ? what : report.title() + ": " + what);
+}
+
+void WriteSteps(const RunReport& report, const fs::path& file) {
+  std::ofstream out(file);
+  out.precision(12);
+  out << "# step ux[m] F_x[N] F_N[N] delta[m] a[m] W[J]\n";
+  for (const auto& row : report.rows()) {
+    const auto& s = row.state();
+    out << row.step() << ' ' << s.tangential_displacement() << ' ' << s.tangential_force() << ' '
+        << s.normal_force() << ' ' << s.depth() << ' ' << s.contact_radius() << ' '
+        << s.dissipated_energy() << '\n';
+  }
+}
+
+// One gnuplot data block per record (separated by two blank lines: "index i").
+void WriteRecords(const RunReport& report, const fs::path& file) {
+  std::ofstream out(file);
+  out.precision(12);
+  for (const auto& record : report.records()) {
+    out << "# " << record.name() << ": x[m] u[m] w[m] tau[Pa]\n";
+    for (int i = 0; i < record.radii_size(); ++i) {
+      out << record.radii(i) << ' ' << record.springs().tangential_displacement(i) << ' '
+          << record.springs().normal_displacement(i) << ' '
+          << (i < record.tractions_size() ? record.tractions(i).value() : 0.0) << '\n';
+    }
+    out << "\n\n";
+  }
+}
+
+// The Jäger weight F(r) of each record as a step function (two points per interval).
+void WriteWeights(const RunReport& report, const fs::path& file) {
+  std::ofstream out(file);
+  out.precision(12);
+  for (const auto& record : report.records()) {
+    out << "# " << record.name() << ": r[m] F\n";
+    for (const auto& interval : record.jager_weights().intervals()) {
+      out << interval.r_begin() << ' ' << interval.weight() << '\n'
+          << interval.r_end() << ' ' << interval.weight() << '\n';
+    }
+    out << "\n\n";
+  }
+}
+
+// "plot" over every record's block of `data` for which `has` holds.
+template <typename Has>
+std::string PlotRecords(const RunReport& report, const fs::path& data, const std::string& using_,
+                        Has has) {
+  std::string plot;
+  for (int i = 0; i < report.records_size(); ++i) {
+    if (!has(report.records(i))) continue;
+    plot += (plot.empty() ? "plot " : ", ") + Quoted(data.string()) + " index " +
+            std::to_string(i) + " using " + using_ + " with lines lw 2 title " +
+            Quoted(report.records(i).name());
+  }
+  return plot + "\n";
+}
+
+struct Script {
+  std::ostringstream text;
+  std::vector<std::string> pngs;
+
+  void Begin(const fs::path& png, const std::string& title, const std::string& xlabel,
+             const std::string& ylabel) {
+    pngs.push_back(png.string());
+    text << "set output " << Quoted(png.string()) << "\nset title " << title << "\nset xlabel "
+         << Quoted(xlabel) << "\nset ylabel " << Quoted(ylabel) << "\n";
+  }
+};
+
+void AddStepPlots(const RunReport& report, const fs::path& dir, Script* script) {
+  const std::string steps = Quoted((dir / "steps.dat").string());
+  script->Begin(dir / "hysteresis.png", Title(report, "F_x over u_x"), "u_x [µm]", "F_x [N]");
+  script->text << "plot " << steps << " using ($2*1e6):3 with lines lw 2 title 'F_x'\n";
+  script->Begin(dir / "forces.png", Title(report, "forces over the loading path"), "step",
+                "force [N]");
+  script->text << "plot " << steps << " using 1:3 with lines lw 2 title 'F_x', " << steps
+               << " using 1:4 with lines lw 2 title 'F_N'\n";
+}
+
+void AddRecordPlots(const RunReport& report, const fs::path& dir, Script* script) {
+  if (report.records().empty()) return;
+  const fs::path records = dir / "records.dat";
+  script->Begin(dir / "profiles.png", Title(report, "spring displacements u(x)"), "x [mm]",
+                "u [µm]");
+  script->text << PlotRecords(report, records, "($1*1e3):($2*1e6)", [](auto&) { return true; });
+  const auto has_tractions = [](const RunReport::Record& r) { return r.tractions_size() > 0; };
+  if (std::any_of(report.records().begin(), report.records().end(), has_tractions)) {
+    script->Begin(dir / "tractions.png", Title(report, "tangential traction"), "r [mm]",
+                  "tau [MPa]");
+    script->text << PlotRecords(report, records, "($1*1e3):($4*1e-6)", has_tractions);
+  }
+  const auto has_weights = [](const RunReport::Record& r) {
+    return r.jager_weights().intervals_size() > 0;
+  };
+  if (std::any_of(report.records().begin(), report.records().end(), has_weights)) {
+    script->Begin(dir / "weights.png", Title(report, "Jäger weight F(r)"), "r [mm]", "F");
+    script->text << PlotRecords(report, dir / "weights.dat", "($1*1e3):2", has_weights);
+  }
+}
+
+}  // namespace
+
+mdr::Status CheckGnuplot() {
+  const char* path = std::getenv("PATH");
+  std::istringstream dirs(path == nullptr ? "" : path);
+  std::string dir;
+  while (std::getline(dirs, dir, ':')) {
+    if (!dir.empty() && ::access((fs::path(dir) / "gnuplot").c_str(), X_OK) == 0) {
+      return mdr::OkStatus();
+    }
+  }
+  return mdr::FailedPrecondition("--plot",
+                                 "gnuplot is not installed (not found on PATH); install it, e.g. "
+                                 "apt-get install gnuplot-nox, or run without --plot");
+}
+
+mdr::Result<std::vector<std::string>> WritePlots(const RunReport& report, const std::string& dir) {
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error) return mdr::InvalidArgument("--plot", "cannot create " + dir + ": " + error.message());
+  const fs::path root = fs::absolute(dir);
+  WriteSteps(report, root / "steps.dat");
+  WriteRecords(report, root / "records.dat");
+  WriteWeights(report, root / "weights.dat");
+  Script script;
+  script.text << "set terminal pngcairo size 900,600 enhanced font ',11'\nset grid\n"
+              << "set key top left\n";
+  AddStepPlots(report, root, &script);
+  AddRecordPlots(report, root, &script);
+  const fs::path script_file = root / "plots.gp";
+  std::ofstream(script_file) << script.text.str();
+  const std::string command = "gnuplot " + ShellQuoted(script_file.string());
+  if (std::system(command.c_str()) != 0) {
+    return mdr::FailedPrecondition("--plot", "gnuplot failed on " + script_file.string());
+  }
+  return script.pngs;
+}
+
+}  // namespace mdrctl

@@ -1,0 +1,20 @@
+// --plot DIR: PNG plots of a run with gnuplot (hysteresis loop F_x over ux, F_x and F_N over the
+// step, the profiles recorded at hold points, tractions and Jäger weights where recorded).
+#pragma once
+
+#include <string>
+
+#include "mdr/core/status.h"
+#include "mdr/v1/scene_file.pb.h"
+
+namespace mdrctl {
+
+// OK when gnuplot is on PATH; otherwise an error saying so (checked before a run starts).
+mdr::Status CheckGnuplot();
+
+// Writes the data files, the gnuplot script and the PNGs into dir (created if missing); returns
+// the PNG paths written.
+mdr::Result<std::vector<std::string>> WritePlots(const mdr::v1::RunReport& report,
+                                                 const std::string& dir);
+
+}  // namespace mdrctl

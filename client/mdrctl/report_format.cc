@@ -1,0 +1,313 @@
+#include "report_format.h"
+
+#include <google/protobuf/duration.pb.h>
+#include <google/protobuf/text_format.h>
+#include <google/protobuf/timestamp.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <google/protobuf/util/time_util.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace mdrctl {
+namespace {
+
+using google::protobuf::FieldDescriptor;
+using google::protobuf::Message;
+using mdr::v1::ContactState;
+using mdr::v1::RunReport;
+using mdr::v1::SceneFile;
+
+std::string Number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.10g", value);
+  return text;
+}
+
+// Rows of cells under a header; the first column is right-aligned (a step or cycle number).
+struct Table {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+
+  void Print(Format format, std::FILE* out) const {
+    if (format == Format::kCsv) {
+      PrintCsvRow(header, out);
+      for (const auto& row : rows) PrintCsvRow(row, out);
+      return;
+    }
+    std::vector<std::size_t> widths(header.size(), 0);
+    widths[0] = 5;
+    for (std::size_t i = 1; i < header.size(); ++i) widths[i] = 18;
+    for (const auto* row : AllRows()) {
+      for (std::size_t i = 0; i < row->size(); ++i)
+        widths[i] = std::max(widths[i], (*row)[i].size());
+    }
+    for (const auto* row : AllRows()) PrintTableRow(*row, widths, out);
+  }
+
+ private:
+  std::vector<const std::vector<std::string>*> AllRows() const {
+    std::vector<const std::vector<std::string>*> all{&header};
+    for (const auto& row : rows) all.push_back(&row);
+    return all;
+  }
+  static void PrintTableRow(const std::vector<std::string>& row,
+                            const std::vector<std::size_t>& widths, std::FILE* out) {
+    std::fprintf(out, "%*s", static_cast<int>(widths[0]), row[0].c_str());
+    for (std::size_t i = 1; i < row.size(); ++i) {
+      const bool last = i + 1 == row.size();
+      std::fprintf(out, "  %-*s", last ? 0 : static_cast<int>(widths[i]), row[i].c_str());
+    }
+    std::fprintf(out, "\n");
+  }
+  static void PrintCsvRow(const std::vector<std::string>& row, std::FILE* out) {
+    for (std::size_t i = 0; i < row.size(); ++i) {
+      std::fprintf(out, "%s%s", i == 0 ? "" : ",", row[i].c_str());
+    }
+    std::fprintf(out, "\n");
+  }
+};
+
+struct Column {
+  const char* header;    // table
+  const char* csv_name;  // CSV
+  double (*value)(const ContactState&);
+};
+
+Column ColumnFor(SceneFile::Output output) {
+  switch (output) {
+    case SceneFile::DEPTH:
+      return {"delta [m]", "depth", [](const ContactState& s) { return s.depth(); }};
+    case SceneFile::TANGENTIAL_DISPLACEMENT:
+      return {"ux [m]", "tangential_displacement",
+              [](const ContactState& s) { return s.tangential_displacement(); }};
+    case SceneFile::NORMAL_FORCE:
+      return {"F_N [N]", "normal_force", [](const ContactState& s) { return s.normal_force(); }};
+    case SceneFile::TANGENTIAL_FORCE:
+      return {"F_x [N]", "tangential_force",
+              [](const ContactState& s) { return s.tangential_force(); }};
+    case SceneFile::CONTACT_RADIUS:
+      return {"a [m]", "contact_radius", [](const ContactState& s) { return s.contact_radius(); }};
+    case SceneFile::DISSIPATED_ENERGY:
+      return {"W [J]", "dissipated_energy",
+              [](const ContactState& s) { return s.dissipated_energy(); }};
+    default:  // FRICTION_LIMIT; ValidateSceneFile rejects OUTPUT_UNSPECIFIED
+      return {"mu*F_N [N]", "friction_limit",
+              [](const ContactState& s) { return s.friction_limit(); }};
+  }
+}
+
+std::vector<Column> ColumnsFor(const SceneFile& file) {
+  std::vector<Column> columns;
+  for (int output : file.outputs()) columns.push_back(ColumnFor(SceneFile::Output(output)));
+  if (columns.empty()) {
+    for (auto output :
+         {SceneFile::DEPTH, SceneFile::TANGENTIAL_DISPLACEMENT, SceneFile::NORMAL_FORCE,
+          SceneFile::TANGENTIAL_FORCE, SceneFile::CONTACT_RADIUS}) {
+      columns.push_back(ColumnFor(output));
+    }
+  }
+  return columns;
+}
+
+Table StateTable(const std::vector<Column>& columns, Format format) {
+  Table table;
+  table.header.push_back("step");
+  for (const Column& column : columns) {
+    table.header.push_back(format == Format::kCsv ? column.csv_name : column.header);
+  }
+  return table;
+}
+
+std::vector<std::string> StateRow(std::uint64_t step, const std::vector<Column>& columns,
+                                  const ContactState& state) {
+  std::vector<std::string> row{std::to_string(step)};
+  for (const Column& column : columns) row.push_back(Number(column.value(state)));
+  return row;
+}
+
+// Sections after the first: a blank line and a title ("# title" in CSV).
+void PrintSectionTitle(const std::string& title, Format format, std::FILE* out) {
+  std::fprintf(out, format == Format::kCsv ? "\n# %s\n" : "\n%s\n", title.c_str());
+}
+
+void PrintCycleEnergies(const RunReport& report, Format format, std::FILE* out) {
+  if (report.cycle_energies().empty()) return;
+  PrintSectionTitle("Energy dissipated per cycle", format, out);
+  Table table;
+  table.header = format == Format::kCsv
+                     ? std::vector<std::string>{"cycle", "segment", "dissipated_energy"}
+                     : std::vector<std::string>{"cycle", "segment", "W [J]"};
+  for (const auto& energy : report.cycle_energies()) {
+    table.rows.push_back(
+        {std::to_string(energy.cycle()), energy.origin(), Number(energy.dissipated_energy())});
+  }
+  table.Print(format, out);
+}
+
+void PrintRecord(const RunReport::Record& record, Format format, std::FILE* out) {
+  PrintSectionTitle("Record \"" + record.name() + "\" after step " + std::to_string(record.step()) +
+                        " (a = " + Number(record.state().contact_radius()) + " m)",
+                    format, out);
+  for (const std::string& note : record.unavailable()) {
+    std::fprintf(out, format == Format::kCsv ? "# not available: %s\n" : "not available: %s\n",
+                 note.c_str());
+  }
+  const bool tractions = record.tractions_size() == record.radii_size();
+  Table table;
+  table.header = format == Format::kCsv ? std::vector<std::string>{"i", "x", "u", "w"}
+                                        : std::vector<std::string>{"i", "x [m]", "u [m]", "w [m]"};
+  if (tractions) table.header.push_back(format == Format::kCsv ? "tau" : "tau [Pa]");
+  for (int i = 0; i < record.radii_size(); ++i) {
+    table.rows.push_back({std::to_string(i), Number(record.radii(i)),
+                          Number(record.springs().tangential_displacement(i)),
+                          Number(record.springs().normal_displacement(i))});
+    if (tractions) table.rows.back().push_back(Number(record.tractions(i).value()));
+  }
+  table.Print(format, out);
+}
+
+// "name: value" lines of every set field, recursively ("state.normal_force").
+void Flatten(const Message& message, const std::string& prefix,
+             std::vector<std::vector<std::string>>* rows);
+
+std::string ScalarValue(const Message& message, const FieldDescriptor* field, int index) {
+  const auto* reflection = message.GetReflection();
+  const bool repeated = field->is_repeated();
+  switch (field->cpp_type()) {
+    case FieldDescriptor::CPPTYPE_DOUBLE:
+      return Number(repeated ? reflection->GetRepeatedDouble(message, field, index)
+                             : reflection->GetDouble(message, field));
+    case FieldDescriptor::CPPTYPE_STRING:
+      return repeated ? reflection->GetRepeatedString(message, field, index)
+                      : reflection->GetString(message, field);
+    case FieldDescriptor::CPPTYPE_ENUM:
+      return repeated ? reflection->GetRepeatedEnum(message, field, index)->name()
+                      : reflection->GetEnum(message, field)->name();
+    default: {
+      std::string text;
+      google::protobuf::TextFormat::PrintFieldValueToString(message, field, repeated ? index : -1,
+                                                            &text);
+      return text;
+    }
+  }
+}
+
+std::string TimeValue(const Message& message) {
+  using google::protobuf::util::TimeUtil;
+  if (const auto* time = dynamic_cast<const google::protobuf::Timestamp*>(&message)) {
+    return TimeUtil::ToString(*time);
+  }
+  if (const auto* duration = dynamic_cast<const google::protobuf::Duration*>(&message)) {
+    return TimeUtil::ToString(*duration);
+  }
+  return "";
+}
+
+void FlattenField(const Message& message, const FieldDescriptor* field, const std::string& path,
+                  int index, std::vector<std::vector<std::string>>* rows) {
+  const auto* reflection = message.GetReflection();
+  if (field->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE) {
+    rows->push_back({path, ScalarValue(message, field, index)});
+    return;
+  }
+  const Message& child = field->is_repeated()
+                             ? reflection->GetRepeatedMessage(message, field, index)
+                             : reflection->GetMessage(message, field);
+  const std::string time = TimeValue(child);
+  if (!time.empty()) {
+    rows->push_back({path, time});
+  } else {
+    Flatten(child, path, rows);
+  }
+}
+
+void Flatten(const Message& message, const std::string& prefix,
+             std::vector<std::vector<std::string>>* rows) {
+  std::vector<const FieldDescriptor*> fields;
+  message.GetReflection()->ListFields(message, &fields);
+  for (const FieldDescriptor* field : fields) {
+    const std::string path = prefix.empty() ? field->name() : prefix + "." + field->name();
+    if (!field->is_repeated()) {
+      FlattenField(message, field, path, -1, rows);
+      continue;
+    }
+    const int size = message.GetReflection()->FieldSize(message, field);
+    for (int i = 0; i < size; ++i) {
+      FlattenField(message, field, path + "[" + std::to_string(i) + "]", i, rows);
+    }
+  }
+}
+
+}  // namespace
+
+std::string ToJson(const Message& message) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  options.preserve_proto_field_names = true;
+  std::string json;
+  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+  return json;
+}
+
+void PrintReport(const RunReport& report, const SceneFile& file, Format format, std::FILE* out) {
+  if (format == Format::kJson) {
+    std::fputs(ToJson(report).c_str(), out);
+    return;
+  }
+  const std::vector<Column> columns = ColumnsFor(file);
+  Table table = StateTable(columns, format);
+  for (const auto& row : report.rows())
+    table.rows.push_back(StateRow(row.step(), columns, row.state()));
+  table.Print(format, out);
+  PrintCycleEnergies(report, format, out);
+  for (const auto& record : report.records()) PrintRecord(record, format, out);
+}
+
+void PrintApplyResponse(const mdr::v1::ApplyResponse& response, Format format, std::FILE* out) {
+  if (format == Format::kJson) {
+    std::fputs(ToJson(response).c_str(), out);
+    return;
+  }
+  const std::vector<Column> columns = ColumnsFor(SceneFile());
+  Table table = StateTable(columns, format);
+  for (int i = 0; i < response.step_results_size(); ++i) {
+    table.rows.push_back(StateRow(i + 1, columns, response.step_results(i).state()));
+  }
+  table.Print(format, out);
+}
+
+void PrintSessions(const std::vector<mdr::v1::Session>& sessions, Format format, std::FILE* out) {
+  if (format == Format::kJson) {
+    mdr::v1::ListSessionsResponse all;
+    for (const auto& session : sessions) *all.add_sessions() = session;
+    std::fputs(ToJson(all).c_str(), out);
+    return;
+  }
+  Table table;
+  table.header = {"steps", "name", "F_N [N]", "F_x [N]", "expire_time"};
+  if (format == Format::kCsv)
+    table.header = {"steps", "name", "normal_force", "tangential_force", "expire_time"};
+  for (const auto& session : sessions) {
+    table.rows.push_back({std::to_string(session.state().applied_steps()), session.name(),
+                          Number(session.state().normal_force()),
+                          Number(session.state().tangential_force()),
+                          session.has_expire_time() ? TimeValue(session.expire_time()) : "never"});
+  }
+  table.Print(format, out);
+}
+
+void PrintMessage(const Message& message, Format format, std::FILE* out) {
+  if (format == Format::kJson) {
+    std::fputs(ToJson(message).c_str(), out);
+    return;
+  }
+  std::vector<std::vector<std::string>> rows;
+  Flatten(message, "", &rows);
+  for (const auto& row : rows) {
+    std::fprintf(out, format == Format::kCsv ? "%s,%s\n" : "%-40s  %s\n", row[0].c_str(),
+                 row[1].c_str());
+  }
+}
+
+}  // namespace mdrctl

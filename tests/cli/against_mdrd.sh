@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# mdrctl against a real mdrd started here on a free port: run, every session subcommand, apply as
+# a batch and as a stream, query, export and import (the imported session continues identically).
+set -euo pipefail
+mdrd=$1
+mdrctl=$2
+examples=$3
+dir=$(mktemp -d)
+: >"$dir/mdrd.log"
+"$mdrd" --listen 127.0.0.1:0 --log-level info >"$dir/mdrd.log" 2>&1 &
+mdrd_pid=$!
+trap 'kill $mdrd_pid 2>/dev/null || true; wait $mdrd_pid 2>/dev/null || true; rm -rf "$dir"' EXIT
+port=""
+for _ in $(seq 100); do
+  port=$(sed -n 's/.*event=serving .*port=\([0-9]*\).*/\1/p' "$dir/mdrd.log")
+  [[ -n $port ]] && break
+  sleep 0.1
+done
+[[ -n $port ]] || { echo "mdrd did not start:"; cat "$dir/mdrd.log"; exit 1; }
+ctl() { "$mdrctl" "$@" --server "127.0.0.1:$port"; }
+expect() {  # expect REGEX TEXT
+  grep -Eq -- "$1" <<<"$2" || { echo "expected /$1/ in:"; echo "$2"; exit 1; }
+  echo "ok: $1"
+}
+
+out=$(ctl run "$examples/fretting_mindlin_deresiewicz.yaml")
+expect '^ +2 +path\[1\] +1\.07238163[56]e-06$' "$out"
+
+out=$(ctl session create "$examples/hertz_cattaneo_mindlin.json" --id h1)
+expect '^name +sessions/h1$' "$out"
+out=$(ctl apply h1 '{normal_force: 100}' '{tangential_force: 15}')
+expect '^ +2 +3\.482909884e-06 +4\.694965814e-07 +100 +15 ' "$out"
+out=$(ctl apply h1 --stream '{tangential_force: 10}' '{tangential_force: 15}' --format csv)
+expect '^2,3\.482909884e-06,[0-9.e-]+,100,15,' "$out"
+out=$(ctl session get sessions/h1)
+expect '^state\.applied_steps +4$' "$out"
+out=$(ctl session list --format csv)
+expect '^4,sessions/h1,100,15,' "$out"
+out=$(ctl query h1 --mask state.tangential_force,energy --format json)
+expect '"tangential_force": 15' "$out"
+expect '"dissipated_energy": [0-9]' "$out"
+
+ctl export h1 -o "$dir/h1.json"
+out=$(ctl import "$dir/h1.json" --id h1-copy)
+expect '^name +sessions/h1-copy$' "$out"
+a=$(ctl apply h1 '{tangential_force: -15}' --format json)
+b=$(ctl apply h1-copy '{tangential_force: -15}' --format json)
+[[ "$(grep -v compute_seconds <<<"$a")" == "$(grep -v compute_seconds <<<"$b")" ]] ||
+  { echo "imported session differs:"; diff <(echo "$a") <(echo "$b"); exit 1; }
+echo "ok: imported session continues identically"
+
+out=$(ctl session delete h1)
+expect '^deleted sessions/h1$' "$out"
+if err=$(ctl session get h1 2>&1); then echo "get after delete succeeded"; exit 1; fi
+expect '^mdrctl: .*sessions/h1' "$err"
+out=$(ctl session list)
+expect 'sessions/h1-copy' "$out"

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# mdrctl run SCENE --plot DIR writes non-empty PNG files (hysteresis, forces, profiles, tractions,
+# weights). Exit 77 (CTest: skipped) only when gnuplot is not installed.
+set -euo pipefail
+mdrctl=$1
+scene=$2
+if ! command -v gnuplot >/dev/null; then
+  echo "SKIPPED: gnuplot is not installed (apt-get install gnuplot-nox)"
+  exit 77
+fi
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+"$mdrctl" run "$scene" --plot "$dir/plots" >/dev/null
+for name in hysteresis forces profiles tractions weights; do
+  png="$dir/plots/$name.png"
+  [[ -s $png ]] || { echo "missing or empty: $name.png"; ls -l "$dir/plots"; exit 1; }
+  magic=$(head -c 8 "$png" | od -An -tx1 | tr -d ' \n')
+  [[ $magic == 89504e470d0a1a0a ]] || { echo "$name.png is not a PNG ($magic)"; exit 1; }
+  echo "ok $name.png $(stat -c %s "$png") bytes"
+done
