@@ -1,0 +1,848 @@
+// mdr_load: load test of mdrd's ContactService beside a no-op echo service with the same message
+// shapes (echo.proto), both served in this process on loopback ports and measured in the same
+// run, so the ratio apply/echo says what the service adds to the framework's own cost (absolute
+// figures on a shared machine vary by tens of percent, the ratio much less):
+//   build/release/tests/bench/mdr_load [--seconds S] [--rounds R] [--window W] [--json FILE]
+//
+// Workload: H1, a steel sphere R = 10 mm on steel (E = 210 GPa, nu = 0.3 for both), mu = 0.3,
+// loaded to F_N = 100 N; then Mindlin-Deresiewicz cycling at constant F_N: the tangential
+// displacement follows a triangle wave between -0.6 and +0.6 mu kappa delta, 8 steps per half
+// cycle, every session at its own phase (partial slip, so the contact memory stays bounded).
+//
+// Scenarios, each with 1, 10 and 100 sessions:
+// - "apply batch N": unary Apply through mdr_client with N steps per call (N = 1, 10, 100, 1000;
+//   N = 1 is the one-step-per-call case), beside a unary echo of the same request and response.
+// - "stream window W": StreamApply with one step per message and at most W messages in flight
+//   per stream, beside the echo stream (through the generated stub: a window bounded in time
+//   needs the stream's reader and writer).
+// Client threads: min(sessions, 8). Thread t drives sessions t, t + T, t + 2T, ... in turn
+// (round-robin), one call at a time (unary) or over one stream (a writer and a reader thread), on
+// its own channel and TCP connection, like independent test rigs. So at most 8 unary calls are in
+// flight: 100 sessions mean 100 session states on the server, not 100 concurrent calls.
+// Bounded: each side (apply, echo) of a scenario runs for --seconds of wall time (default 1.5, at
+// most 2), split into --rounds (default 3) that alternate apply and echo so that a drift of the
+// machine hits both alike; 15 scenarios, about 50 s in all. Throughputs are the median over the
+// rounds; latencies percentiles over every call: per call (unary), per message from write to
+// answer (stream, including the wait behind the messages ahead of it in the window). The server's
+// own compute time per step (ApplyResponse.compute_seconds) is reported beside them.
+#include <grpc/grpc.h>
+#include <grpcpp/create_channel.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/security/credentials.h>
+#include <grpcpp/security/server_credentials.h>
+#include <grpcpp/server_builder.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <functional>
+#include <latch>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <semaphore>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "echo.grpc.pb.h"
+#include "mdr/client/contact_client.h"
+#include "mdr/core/material.h"
+#include "mdr/service/server.h"
+#include "mdr/v1/contact_service.grpc.pb.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using mdr::v1::ApplyRequest;
+using mdr::v1::ApplyResponse;
+using mdr::v1::StreamApplyRequest;
+using mdr::v1::StreamApplyResponse;
+using Steps = google::protobuf::RepeatedPtrField<mdr::v1::Step>;
+
+constexpr int kMaxClientThreads = 8;
+constexpr std::array kSessionCounts{1, 10, 100};
+constexpr std::array kBatchSizes{1, 10, 100, 1000};
+constexpr int kStepsPerHalfCycle = 8;
+constexpr int kCyclePeriod = 2 * kStepsPerHalfCycle;
+constexpr double kCycleAmplitude = 0.6;  // of mu kappa delta, the full-slip displacement
+constexpr auto kCallTimeout = std::chrono::seconds(30);
+
+// H1 (tests/bench/core_bench.cc, reference-values.md).
+constexpr double kSphereRadius = 0.01;
+constexpr double kYoungsModulus = 210e9;
+constexpr double kPoissonRatio = 0.3;
+constexpr double kFriction = 0.3;
+constexpr double kNormalForce = 100;
+
+[[noreturn]] void Fail(const std::string& what) {
+  std::fprintf(stderr, "mdr_load: %s\n", what.c_str());
+  std::exit(EXIT_FAILURE);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The echo service: answers with canned responses of a real Apply, like StreamApplyReactor for
+// the stream (reads ahead while one write is in flight, at most 8 answers queued).
+
+class EchoStreamReactor final
+    : public grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse> {
+ public:
+  explicit EchoStreamReactor(const StreamApplyResponse& canned) : canned_(canned) {
+    StartRead(&request_);
+  }
+
+  void OnReadDone(bool ok) override {
+    bool write = false, read = false, finish = false;
+    {
+      std::lock_guard lock(mutex_);
+      if (!ok) {
+        reads_done_ = true;
+        finish = !writing_ && pending_ == 0;
+      } else {
+        ++pending_;
+        write = !writing_;
+        writing_ = true;
+        read = pending_ < kMaxPending;
+        reading_ = read;
+      }
+    }
+    Continue(write, read, finish);
+  }
+
+  void OnWriteDone(bool ok) override {
+    bool write = false, read = false, finish = false;
+    {
+      std::lock_guard lock(mutex_);
+      --pending_;
+      writing_ = ok && pending_ > 0;
+      write = writing_;
+      read = ok && !reads_done_ && !reading_ && pending_ < kMaxPending;
+      if (read) reading_ = true;
+      finish = !writing_ && (!ok || (reads_done_ && pending_ == 0));
+    }
+    Continue(write, read, finish);
+  }
+
+  void OnDone() override { delete this; }
+
+ private:
+  void Continue(bool write, bool read, bool finish) {
+    if (write) StartWrite(&canned_);
+    if (read) StartRead(&request_);
+    if (finish) Finish(grpc::Status::OK);
+  }
+
+  static constexpr int kMaxPending = 8;
+  const StreamApplyResponse& canned_;
+  StreamApplyRequest request_;
+  std::mutex mutex_;
+  int pending_ = 0;
+  bool writing_ = false, reading_ = true, reads_done_ = false;
+};
+
+class EchoService final : public mdr::bench::Echo::CallbackService {
+ public:
+  explicit EchoService(const ApplyResponse& canned) : canned_apply_(canned) {
+    canned_stream_.mutable_status();
+    *canned_stream_.mutable_result() = canned;
+  }
+
+  grpc::ServerUnaryReactor* EchoApply(grpc::CallbackServerContext* context, const ApplyRequest*,
+                                      ApplyResponse* response) override {
+    *response = canned_apply_;
+    grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+    reactor->Finish(grpc::Status::OK);
+    return reactor;
+  }
+
+  grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse>* EchoStream(
+      grpc::CallbackServerContext*) override {
+    return new EchoStreamReactor(canned_stream_);
+  }
+
+ private:
+  const ApplyResponse canned_apply_;
+  StreamApplyResponse canned_stream_;
+};
+
+std::unique_ptr<grpc::Server> StartEchoServer(EchoService& service, int* port) {
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), port);
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (server == nullptr || *port == 0) Fail("cannot start the echo server on 127.0.0.1");
+  return server;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The workload: H1 sessions and their cycling steps.
+
+mdr::v1::Scene HertzScene() {
+  mdr::v1::Scene scene;
+  scene.mutable_sphere()->set_radius(kSphereRadius);
+  mdr::v1::ElasticPair* pair = scene.mutable_elastic_pair();
+  pair->set_youngs_modulus_1(kYoungsModulus);
+  pair->set_poisson_ratio_1(kPoissonRatio);
+  pair->set_youngs_modulus_2(kYoungsModulus);
+  pair->set_poisson_ratio_2(kPoissonRatio);
+  scene.set_friction(kFriction);
+  return scene;
+}
+
+double HertzKappa() {
+  const auto material =
+      mdr::ElasticPair(kYoungsModulus, kPoissonRatio, kYoungsModulus, kPoissonRatio);
+  if (!material.ok()) Fail("H1 material: " + material.status().ToString());
+  return material->kappa();
+}
+
+// Displacement at a phase of the triangle wave: -amplitude at phase 0, +amplitude at half cycle.
+double CyclingDisplacement(double amplitude, int phase) {
+  const int rise = phase < kStepsPerHalfCycle ? phase : kCyclePeriod - phase;
+  return amplitude * (2.0 * rise / kStepsPerHalfCycle - 1.0);
+}
+
+// The batches of every size for every starting phase, built once so that the measured loops
+// only send them.
+class CyclingSteps {
+ public:
+  explicit CyclingSteps(double amplitude) {
+    for (const int size : kBatchSizes) {
+      for (int phase = 0; phase < kCyclePeriod; ++phase) {
+        Steps& batch = batches_[size][phase];
+        for (int i = 0; i < size; ++i) {
+          batch.Add()->set_displacement(CyclingDisplacement(amplitude, (phase + i) % kCyclePeriod));
+        }
+      }
+    }
+  }
+
+  const Steps& Batch(int size, int phase) const { return batches_.at(size)[phase]; }
+
+ private:
+  std::map<int, std::array<Steps, kCyclePeriod>> batches_;
+};
+
+// A session and where it is in its cycle; each measurement gives it to exactly one thread.
+struct SessionCursor {
+  std::string name;
+  int phase = 0;
+  void Advance(int steps) { phase = (phase + steps) % kCyclePeriod; }
+};
+
+struct Workload {
+  std::vector<SessionCursor> sessions;
+  double depth = 0;      // delta at F_N, m
+  double kappa = 0;      // E*/G*
+  double amplitude = 0;  // m
+};
+
+SessionCursor CreateLoadedSession(mdr::client::ContactClient& client, double* depth) {
+  auto session = client.CreateSession(HertzScene());
+  if (!session.ok()) Fail("CreateSession: " + session.status().error_message());
+  Steps load;
+  load.Add()->set_normal_force(kNormalForce);
+  auto loaded = client.Apply(session->name(), load);
+  if (!loaded.ok()) Fail("Apply F_N: " + loaded.status().error_message());
+  *depth = loaded->state().depth();
+  return {session->name()};
+}
+
+Workload CreateWorkload(mdr::client::ContactClient& client, int session_count) {
+  Workload workload;
+  for (int i = 0; i < session_count; ++i) {
+    workload.sessions.push_back(CreateLoadedSession(client, &workload.depth));
+  }
+  workload.kappa = HertzKappa();
+  workload.amplitude = kCycleAmplitude * kFriction * workload.kappa * workload.depth;
+  return workload;
+}
+
+// A real response of one cycling step, for the echo to answer with.
+ApplyResponse OneCyclingStep(mdr::client::ContactClient& client, SessionCursor& session,
+                             const CyclingSteps& steps) {
+  auto response = client.Apply(session.name, steps.Batch(1, session.phase));
+  if (!response.ok()) Fail("Apply: " + response.status().error_message());
+  session.Advance(1);
+  return std::move(response).value();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Running threads against a deadline and summarising what they measured.
+
+struct ThreadTally {
+  std::vector<double> latencies_us;
+  std::int64_t calls = 0;
+  std::int64_t steps = 0;
+  double compute_seconds = 0;  // ApplyResponse.compute_seconds summed (0 for the echo)
+};
+
+// What the threads of one round did in `seconds` of wall time.
+struct Round {
+  std::vector<ThreadTally> tallies;
+  double seconds = 0;
+  std::int64_t steps() const {
+    std::int64_t steps = 0;
+    for (const ThreadTally& tally : tallies) steps += tally.steps;
+    return steps;
+  }
+};
+
+// One side (apply or echo) of a scenario over its rounds: rates are the median over the rounds,
+// latencies percentiles of every call of every round.
+struct RunFigures {
+  int threads = 0;
+  int rounds = 0;
+  double seconds = 0;
+  std::int64_t calls = 0;
+  std::int64_t steps = 0;
+  double steps_per_second = 0;
+  double calls_per_second = 0;
+  double p50_us = 0;
+  double p99_us = 0;
+  double compute_seconds = 0;
+  double compute_ns_per_step() const { return compute_seconds / steps * 1e9; }
+};
+
+// Nearest-rank percentile of sorted values.
+double Percentile(const std::vector<double>& sorted, double fraction) {
+  const auto rank = static_cast<std::size_t>(std::ceil(fraction * sorted.size()));
+  return sorted[std::clamp<std::size_t>(rank, 1, sorted.size()) - 1];
+}
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t middle = values.size() / 2;
+  return values.size() % 2 ? values[middle] : (values[middle - 1] + values[middle]) / 2;
+}
+
+RunFigures Summarise(const std::vector<Round>& rounds) {
+  RunFigures figures{.threads = static_cast<int>(rounds.front().tallies.size()),
+                     .rounds = static_cast<int>(rounds.size())};
+  std::vector<double> latencies, steps_per_second, calls_per_second;
+  for (const Round& round : rounds) {
+    std::int64_t round_calls = 0;
+    for (const ThreadTally& tally : round.tallies) {
+      round_calls += tally.calls;
+      figures.compute_seconds += tally.compute_seconds;
+      latencies.insert(latencies.end(), tally.latencies_us.begin(), tally.latencies_us.end());
+    }
+    figures.seconds += round.seconds;
+    figures.calls += round_calls;
+    figures.steps += round.steps();
+    steps_per_second.push_back(round.steps() / round.seconds);
+    calls_per_second.push_back(round_calls / round.seconds);
+  }
+  if (latencies.empty()) Fail("a measurement completed no call");
+  std::sort(latencies.begin(), latencies.end());
+  figures.p50_us = Percentile(latencies, 0.50);
+  figures.p99_us = Percentile(latencies, 0.99);
+  figures.steps_per_second = Median(steps_per_second);
+  figures.calls_per_second = Median(calls_per_second);
+  return figures;
+}
+
+// Sessions of thread `thread` out of `threads`: every threads-th, starting at its index.
+std::vector<SessionCursor*> SessionsOfThread(std::span<SessionCursor> sessions, int thread,
+                                             int threads) {
+  std::vector<SessionCursor*> own;
+  for (std::size_t i = thread; i < sessions.size(); i += threads) own.push_back(&sessions[i]);
+  return own;
+}
+
+using ThreadBody = std::function<ThreadTally(int thread, std::span<SessionCursor* const> sessions,
+                                             Clock::time_point deadline)>;
+
+// Runs min(sessions, 8) threads from a common start until `seconds` have passed.
+Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const ThreadBody& body) {
+  const int threads = std::min<int>(sessions.size(), kMaxClientThreads);
+  std::vector<ThreadTally> tallies(threads);
+  std::latch ready(threads + 1);
+  Clock::time_point start, deadline;
+  {
+    std::vector<std::jthread> workers;
+    for (int t = 0; t < threads; ++t) {
+      workers.emplace_back([&, t] {
+        const std::vector<SessionCursor*> own = SessionsOfThread(sessions, t, threads);
+        ready.arrive_and_wait();
+        tallies[t] = body(t, own, deadline);
+      });
+    }
+    start = Clock::now();
+    deadline =
+        start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+    ready.arrive_and_wait();
+  }  // joins
+  return {std::move(tallies), std::chrono::duration<double>(Clock::now() - start).count()};
+}
+
+void RecordCall(ThreadTally& tally, Clock::time_point start, int steps, double compute_seconds) {
+  tally.latencies_us.push_back(
+      std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+  ++tally.calls;
+  tally.steps += steps;
+  tally.compute_seconds += compute_seconds;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Unary calls: Apply through mdr_client, the echo through its stub with the same request.
+
+struct CallOutcome {
+  grpc::Status status;
+  double compute_seconds = 0;  // server-side, as the response states
+};
+
+using UnaryCall =
+    std::function<CallOutcome(int thread, const std::string& session, const Steps& steps)>;
+
+// applies_steps: the call applies the steps (Apply), so the sessions' cycles advance; the echo
+// applies nothing and leaves them where the server has them.
+constexpr bool kAppliesSteps = true;
+constexpr bool kAppliesNothing = false;
+
+ThreadBody UnaryBody(const UnaryCall& call, const CyclingSteps& steps, int batch,
+                     bool applies_steps) {
+  return [&call, &steps, batch, applies_steps](int thread, std::span<SessionCursor* const> sessions,
+                                               Clock::time_point deadline) {
+    ThreadTally tally;
+    for (std::size_t next = 0; Clock::now() < deadline; ++next) {
+      SessionCursor& session = *sessions[next % sessions.size()];
+      const Clock::time_point start = Clock::now();
+      const CallOutcome outcome = call(thread, session.name, steps.Batch(batch, session.phase));
+      RecordCall(tally, start, batch, outcome.compute_seconds);
+      if (!outcome.status.ok()) {
+        Fail("unary call on " + session.name + ": " + outcome.status.error_message());
+      }
+      if (applies_steps) session.Advance(batch);
+    }
+    return tally;
+  };
+}
+
+// What mdr::client::ContactClient::Apply sends, sent to the echo.
+CallOutcome EchoApply(mdr::bench::Echo::Stub& echo, const std::string& session,
+                      const Steps& steps) {
+  ApplyRequest request;
+  request.set_session(session);
+  *request.mutable_steps() = steps;
+  request.mutable_step_mask();
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + kCallTimeout);
+  ApplyResponse response;
+  return {echo.EchoApply(&context, request, &response)};
+}
+
+CallOutcome ClientApply(mdr::client::ContactClient& client, const std::string& session,
+                        const Steps& steps) {
+  auto response = client.Apply(session, steps);
+  if (!response.ok()) return {response.status()};
+  return {grpc::Status::OK, response->compute_seconds()};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Streams: one step per message, at most `window` messages written and not yet answered.
+
+using StreamReaderWriter = grpc::ClientReaderWriter<StreamApplyRequest, StreamApplyResponse>;
+using StreamOpener =
+    std::function<std::unique_ptr<StreamReaderWriter>(int thread, grpc::ClientContext* context)>;
+
+std::int64_t NanosSinceEpoch() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+// The send times of the messages in flight, by sequence number modulo the window.
+class SendTimes {
+ public:
+  explicit SendTimes(int window) : slots_(window) {}
+  void Stamp(std::int64_t sequence) {
+    slots_[sequence % slots_.size()].store(NanosSinceEpoch(), std::memory_order_release);
+  }
+  double MicrosSince(std::int64_t sequence) const {
+    const std::int64_t sent = slots_[sequence % slots_.size()].load(std::memory_order_acquire);
+    return (NanosSinceEpoch() - sent) / 1e3;
+  }
+
+ private:
+  std::vector<std::atomic<std::int64_t>> slots_;
+};
+
+// One stream of a client thread: a writer keeps at most `window` messages unanswered until the
+// deadline, while the thread that owns it reads the answers.
+class WindowedStream {
+ public:
+  WindowedStream(std::unique_ptr<StreamReaderWriter> stream, int window)
+      : stream_(std::move(stream)), credits_(window), send_times_(window) {}
+
+  // Writes one step per message, to the sessions in turn, then half-closes.
+  void WriteUntil(Clock::time_point deadline, std::span<SessionCursor* const> sessions,
+                  const CyclingSteps& steps, bool applies_steps) {
+    StreamApplyRequest request;
+    for (; credits_.try_acquire_until(deadline); ++written_) {
+      SessionCursor& session = *sessions[written_ % sessions.size()];
+      request.mutable_apply()->set_session(session.name);
+      *request.mutable_apply()->mutable_steps() = steps.Batch(1, session.phase);
+      send_times_.Stamp(written_);
+      if (!stream_->Write(request)) break;
+      if (applies_steps) session.Advance(1);
+    }
+    stream_->WritesDone();
+  }
+
+  // Reads every answer until the server ends the stream.
+  ThreadTally ReadAnswers() {
+    ThreadTally tally;
+    StreamApplyResponse response;
+    while (stream_->Read(&response)) {
+      if (response.status().code() != 0) Fail("stream message: " + response.status().message());
+      RecordAnswer(tally, response);
+      credits_.release();
+    }
+    return tally;
+  }
+
+  // After the writer has finished: the stream ended OK and every message was answered.
+  void CheckComplete(const ThreadTally& tally) {
+    const grpc::Status status = stream_->Finish();
+    if (!status.ok()) Fail("stream: " + status.error_message());
+    if (tally.calls != written_) {
+      Fail("stream: " + std::to_string(written_ - tally.calls) + " messages unanswered");
+    }
+  }
+
+ private:
+  void RecordAnswer(ThreadTally& tally, const StreamApplyResponse& response) const {
+    tally.latencies_us.push_back(send_times_.MicrosSince(tally.calls));
+    tally.compute_seconds += response.result().compute_seconds();
+    ++tally.calls;
+    ++tally.steps;
+  }
+
+  std::unique_ptr<StreamReaderWriter> stream_;
+  std::counting_semaphore<> credits_;
+  SendTimes send_times_;
+  std::int64_t written_ = 0;  // by the writer; read by the owner after joining it
+};
+
+ThreadBody StreamBody(const StreamOpener& open, const CyclingSteps& steps, int window,
+                      bool applies_steps) {
+  return [&open, &steps, window, applies_steps](
+             int thread, std::span<SessionCursor* const> sessions, Clock::time_point deadline) {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + kCallTimeout);
+    WindowedStream stream(open(thread, &context), window);
+    std::jthread writer([&] { stream.WriteUntil(deadline, sessions, steps, applies_steps); });
+    const ThreadTally tally = stream.ReadAnswers();
+    writer.join();
+    stream.CheckComplete(tally);
+    return tally;
+  };
+}
+
+// ---------------------------------------------------------------------------------------------
+// The scenarios.
+
+// One channel (TCP connection) per client thread; a local subchannel pool keeps channels to the
+// same address from sharing one connection.
+std::shared_ptr<grpc::Channel> ConnectLoopback(int port) {
+  grpc::ChannelArguments arguments;
+  arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  auto channel = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(port),
+                                           grpc::InsecureChannelCredentials(), arguments);
+  if (!channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(5))) {
+    Fail("cannot connect to 127.0.0.1:" + std::to_string(port));
+  }
+  return channel;
+}
+
+struct LoadTargets {
+  std::vector<mdr::client::ContactClient> contact_clients;                    // one per thread
+  std::vector<std::unique_ptr<mdr::v1::ContactService::Stub>> contact_stubs;  // streams
+  std::vector<std::unique_ptr<mdr::bench::Echo::Stub>> echo_stubs;
+};
+
+LoadTargets ConnectClients(int contact_port, int echo_port) {
+  LoadTargets targets;
+  for (int t = 0; t < kMaxClientThreads; ++t) {
+    auto contact_channel = ConnectLoopback(contact_port);
+    targets.contact_clients.emplace_back(contact_channel, kCallTimeout);
+    targets.contact_stubs.push_back(mdr::v1::ContactService::NewStub(contact_channel));
+    targets.echo_stubs.push_back(mdr::bench::Echo::NewStub(ConnectLoopback(echo_port)));
+  }
+  return targets;
+}
+
+struct ScenarioResult {
+  std::string scenario;
+  int sessions = 0;
+  RunFigures apply;
+  RunFigures echo;
+  double ratio() const { return apply.steps_per_second / echo.steps_per_second; }
+};
+
+struct LoadSettings {
+  double seconds = 1.5;  // per side of a scenario, split into `rounds`
+  int rounds = 3;
+  int window = 32;
+  std::string json_path;
+};
+
+class LoadRun {
+ public:
+  LoadRun(LoadTargets& targets, Workload& workload, const CyclingSteps& steps,
+          const LoadSettings& settings)
+      : targets_(targets),
+        workload_(workload),
+        settings_(settings),
+        steps_(steps),
+        apply_([this](int t, const std::string& session, const Steps& steps) {
+          return ClientApply(targets_.contact_clients[t], session, steps);
+        }),
+        echo_apply_([this](int t, const std::string& session, const Steps& steps) {
+          return EchoApply(*targets_.echo_stubs[t], session, steps);
+        }),
+        open_apply_stream_([this](int t, grpc::ClientContext* context) {
+          return targets_.contact_stubs[t]->StreamApply(context);
+        }),
+        open_echo_stream_([this](int t, grpc::ClientContext* context) {
+          return targets_.echo_stubs[t]->EchoStream(context);
+        }) {}
+
+  ScenarioResult UnaryBatch(int sessions, int batch) {
+    return Compare("apply batch " + std::to_string(batch), sessions,
+                   UnaryBody(apply_, steps_, batch, kAppliesSteps),
+                   UnaryBody(echo_apply_, steps_, batch, kAppliesNothing));
+  }
+
+  ScenarioResult Stream(int sessions) {
+    return Compare("stream window " + std::to_string(settings_.window), sessions,
+                   StreamBody(open_apply_stream_, steps_, settings_.window, kAppliesSteps),
+                   StreamBody(open_echo_stream_, steps_, settings_.window, kAppliesNothing));
+  }
+
+  // Untimed: the first calls on every connection and session.
+  void WarmUp() {
+    const double seconds = std::min(settings_.seconds, 0.2);
+    RunConcurrently(workload_.sessions, seconds, UnaryBody(apply_, steps_, 1, kAppliesSteps));
+    RunConcurrently(workload_.sessions, seconds,
+                    UnaryBody(echo_apply_, steps_, 1, kAppliesNothing));
+  }
+
+ private:
+  // Apply and echo in alternating rounds, so that a drift of the machine hits both alike.
+  ScenarioResult Compare(const std::string& scenario, int sessions, const ThreadBody& apply,
+                         const ThreadBody& echo) {
+    const std::span<SessionCursor> used = std::span(workload_.sessions).first(sessions);
+    const double seconds = settings_.seconds / settings_.rounds;
+    std::vector<Round> apply_rounds, echo_rounds;
+    for (int round = 0; round < settings_.rounds; ++round) {
+      apply_rounds.push_back(RunConcurrently(used, seconds, apply));
+      echo_rounds.push_back(RunConcurrently(used, seconds, echo));
+    }
+    return {scenario, sessions, Summarise(apply_rounds), Summarise(echo_rounds)};
+  }
+
+  LoadTargets& targets_;
+  Workload& workload_;
+  const LoadSettings& settings_;
+  const CyclingSteps& steps_;
+  const UnaryCall apply_, echo_apply_;
+  const StreamOpener open_apply_stream_, open_echo_stream_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Output: a table on stdout and the figures as JSON.
+
+void PrintTableHeader() {
+  std::printf("%-17s %8s %7s %9s %9s %12s %9s %9s %12s %7s %9s\n", "scenario", "sessions",
+              "threads", "p50 [us]", "p99 [us]", "steps/s", "echo p50", "echo p99", "echo steps/s",
+              "ratio", "ns/step*");
+}
+
+void PrintRow(const ScenarioResult& r) {
+  std::printf("%-17s %8d %7d %9.1f %9.1f %12.0f %9.1f %9.1f %12.0f %7.2f %9.0f\n",
+              r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
+              r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us, r.echo.steps_per_second,
+              r.ratio(), r.apply.compute_ns_per_step());
+  std::fflush(stdout);
+}
+
+void AddFigure(nlohmann::json& figures, const ScenarioResult& r, const std::string& metric,
+               double value, const std::string& unit) {
+  figures.push_back(
+      {{"name", r.scenario + "/sessions:" + std::to_string(r.sessions) + "/" + metric},
+       {"scenario", r.scenario},
+       {"sessions", r.sessions},
+       {"metric", metric},
+       {"value", value},
+       {"unit", unit}});
+}
+
+void AddRunFigures(nlohmann::json& figures, const ScenarioResult& r, const std::string& prefix,
+                   const RunFigures& run) {
+  AddFigure(figures, r, prefix + "p50_latency", run.p50_us, "us");
+  AddFigure(figures, r, prefix + "p99_latency", run.p99_us, "us");
+  AddFigure(figures, r, prefix + "throughput", run.steps_per_second, "steps/s");
+  AddFigure(figures, r, prefix + "call_rate", run.calls_per_second, "calls/s");
+  AddFigure(figures, r, prefix + "calls", static_cast<double>(run.calls), "calls");
+  AddFigure(figures, r, prefix + "seconds", run.seconds, "s");
+  AddFigure(figures, r, prefix + "rounds", run.rounds, "rounds");
+}
+
+void AddServiceFigures(nlohmann::json& figures, const ScenarioResult& r) {
+  AddFigure(figures, r, "client_threads", r.apply.threads, "threads");
+  AddFigure(figures, r, "server_compute_per_step", r.apply.compute_ns_per_step(), "ns/step");
+  AddFigure(figures, r, "ratio", r.ratio(), "1");
+}
+
+nlohmann::json FiguresJson(const std::vector<ScenarioResult>& results) {
+  nlohmann::json figures = nlohmann::json::array();
+  for (const ScenarioResult& r : results) {
+    AddServiceFigures(figures, r);
+    AddRunFigures(figures, r, "", r.apply);
+    AddRunFigures(figures, r, "echo_", r.echo);
+  }
+  return figures;
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return text;
+}
+
+nlohmann::json ContextJson(const Workload& workload, const LoadSettings& settings,
+                           const ApplyResponse& canned) {
+  return {{"date", UtcNow()},
+          {"host_cpus", std::thread::hardware_concurrency()},
+          {"grpc_version", grpc::Version()},
+          {"seconds_per_side", settings.seconds},
+          {"rounds", settings.rounds},
+          {"stream_window", settings.window},
+          {"client_threads", "min(sessions, 8), sessions round-robin, one channel each"},
+          {"scene",
+           "H1: sphere R = 0.01 m, steel on steel (E = 210e9 Pa, nu = 0.3), mu = 0.3, energy "
+           "tracked (the default)"},
+          {"normal_force_n", kNormalForce},
+          {"depth_m", workload.depth},
+          {"kappa", workload.kappa},
+          {"cycle", "triangle wave +-0.6 mu kappa delta, 8 steps per half cycle"},
+          {"cycle_amplitude_m", workload.amplitude},
+          {"apply_response_bytes", canned.ByteSizeLong()}};
+}
+
+void WriteJson(const std::string& path, const nlohmann::json& report) {
+  std::ofstream out(path);
+  out << report.dump(2) << "\n";
+  if (!out) Fail("cannot write " + path);
+}
+
+// The state of a session after the run: the cycling stayed in partial slip.
+void PrintSessionCheck(mdr::client::ContactClient& client, const SessionCursor& session) {
+  auto query = client.Query(session.name);
+  if (!query.ok()) Fail("Query: " + query.status().error_message());
+  const mdr::v1::ContactState& state = query->state();
+  std::printf(
+      "check %s: %llu steps applied, F_N = %.6g N, |F_x| = %.3g mu F_N, %llu memory "
+      "vertices\n",
+      session.name.c_str(), static_cast<unsigned long long>(state.applied_steps()),
+      state.normal_force(), std::abs(state.tangential_force()) / state.friction_limit(),
+      static_cast<unsigned long long>(state.memory_vertices()));
+}
+
+void PrintPreamble(const Workload& workload, const LoadSettings& settings, int contact_port,
+                   int echo_port) {
+  std::printf(
+      "mdr_load: H1 at F_N = %g N (delta = %.6g m), cycling +-%.6g m (0.6 mu kappa delta); "
+      "%g s per side in %d rounds, stream window %d; servers on 127.0.0.1:%d (mdr), :%d (echo)\n",
+      kNormalForce, workload.depth, workload.amplitude, settings.seconds, settings.rounds,
+      settings.window, contact_port, echo_port);
+}
+
+LoadSettings ParseSettings(int argc, char** argv) {
+  LoadSettings settings;
+  CLI::App app{"mdr_load: ContactService load test against an echo baseline on loopback"};
+  app.add_option("--seconds", settings.seconds,
+                 "wall time of each side (apply, echo) of a scenario, over all its rounds")
+      ->check(CLI::Range(0.05, 2.0));
+  app.add_option("--rounds", settings.rounds, "alternating apply/echo rounds per scenario")
+      ->check(CLI::Range(1, 10));
+  app.add_option("--window", settings.window, "stream messages in flight per stream")
+      ->check(CLI::Range(1, 1024));
+  app.add_option("--json", settings.json_path, "write every figure to this JSON file");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    std::exit(app.exit(error));
+  }
+  return settings;
+}
+
+std::vector<ScenarioResult> RunScenarios(LoadRun& run) {
+  std::vector<ScenarioResult> results;
+  PrintTableHeader();
+  for (const int sessions : kSessionCounts) {
+    for (const int batch : kBatchSizes) {
+      results.push_back(run.UnaryBatch(sessions, batch));
+      PrintRow(results.back());
+    }
+    results.push_back(run.Stream(sessions));
+    PrintRow(results.back());
+  }
+  std::printf(
+      "ratio: apply steps/s / echo steps/s; * server compute per step "
+      "(ApplyResponse.compute_seconds)\n");
+  return results;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const LoadSettings settings = ParseSettings(argc, argv);
+  spdlog::set_level(spdlog::level::warn);  // the in-process server logs every session at info
+  const Clock::time_point begin = Clock::now();
+
+  mdr::service::ServerOptions options;
+  options.listen_address = "127.0.0.1:0";
+  auto contact_server = mdr::service::ContactServer::Start(options);
+  if (!contact_server.ok()) Fail(contact_server.status().ToString());
+  const int contact_port = (*contact_server)->port();
+
+  mdr::client::ContactClient setup_client(ConnectLoopback(contact_port), kCallTimeout);
+  Workload workload = CreateWorkload(setup_client, kSessionCounts.back());
+  const CyclingSteps steps(workload.amplitude);
+  const ApplyResponse canned = OneCyclingStep(setup_client, workload.sessions[0], steps);
+
+  EchoService echo_service(canned);
+  int echo_port = 0;
+  std::unique_ptr<grpc::Server> echo_server = StartEchoServer(echo_service, &echo_port);
+  LoadTargets targets = ConnectClients(contact_port, echo_port);
+
+  PrintPreamble(workload, settings, contact_port, echo_port);
+  LoadRun run(targets, workload, steps, settings);
+  run.WarmUp();
+  const std::vector<ScenarioResult> results = RunScenarios(run);
+  PrintSessionCheck(setup_client, workload.sessions[0]);
+  std::printf("total %.1f s\n", std::chrono::duration<double>(Clock::now() - begin).count());
+
+  if (!settings.json_path.empty()) {
+    WriteJson(settings.json_path, {{"tool", "mdr_load"},
+                                   {"context", ContextJson(workload, settings, canned)},
+                                   {"figures", FiguresJson(results)}});
+  }
+  echo_server->Shutdown(std::chrono::system_clock::now());
+  (*contact_server)->Shutdown(std::chrono::system_clock::now());
+  return EXIT_SUCCESS;
+}
