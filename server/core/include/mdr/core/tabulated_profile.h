@@ -27,7 +27,10 @@ namespace mdr {
 
 struct TabulatedOptions {
   enum class Interpolation {
-    kSteffen,      // monotone between samples, C1; exact for parabolas (no overshoot of data)
+    // Monotone between samples, C1, no overshoot of the data. Its end condition sets f'(0) from the
+    // first secant, a slight conical tip on a smooth profile (sampled sphere, relative error of g:
+    // 4e-4, 1e-7, 2e-10 for 50, 200, 1000 samples).
+    kSteffen,
     kCubicSpline,  // natural cubic spline, C2; may overshoot noisy data
   };
   Interpolation interpolation = Interpolation::kSteffen;
