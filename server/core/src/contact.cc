@@ -21,13 +21,6 @@ constexpr std::size_t kMaxGridSize = std::size_t{1} << 22;
 // uniform along the path when it is reached.
 constexpr int kMaxBisections = 13;
 
-std::string Format(double v) {
-  std::ostringstream out;
-  out.precision(10);
-  out << v;
-  return out.str();
-}
-
 // Largest |u_a(z) - u_b(z)| over the vertices of both memories (both are polylines).
 double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory& b) {
   double diff = 0;
@@ -123,9 +116,10 @@ Status Contact::CheckGridReach(double depth1) const {
   if (grid == nullptr || !(depth1 > 0)) return OkStatus();
   const double radius = config_.profile->RadiusAtDepth(depth1);
   if (radius <= grid->max_radius()) return OkStatus();
-  return FailedPrecondition(
-      "grid_max_radius", "the contact radius " + Format(radius) + " m at depth " + Format(depth1) +
-                             " m exceeds the grid's radius " + Format(grid->max_radius()) + " m");
+  return FailedPrecondition("grid_max_radius", "the contact radius " + FormatNumber(radius) +
+                                                   " m at depth " + FormatNumber(depth1) +
+                                                   " m exceeds the grid's radius " +
+                                                   FormatNumber(grid->max_radius()) + " m");
 }
 
 Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& snapshot) {
@@ -283,8 +277,8 @@ Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) co
   const double limit = config_.friction * NormalForceAtDepth(depth1);
   if (!(std::abs(fx) <= limit * (1 + 1e-12))) {
     return FailedPrecondition("tangential_force",
-                              "|F_x| = " + Format(std::abs(fx)) +
-                                  " N exceeds the friction limit mu F_N = " + Format(limit) +
+                              "|F_x| = " + FormatNumber(std::abs(fx)) +
+                                  " N exceeds the friction limit mu F_N = " + FormatNumber(limit) +
                                   " N at the step's end (no tangential force without contact)");
   }
   if (limit == 0) return ux_;  // F_x = 0 holds for any ux: keep it

@@ -23,13 +23,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 constexpr std::size_t kMinSamples = 4;
 
-std::string Format(double v) {
-  std::ostringstream out;
-  out.precision(10);
-  out << v;
-  return out.str();
-}
-
 // The cubic with values y0, y1 and slopes d0, d1 at the ends of [x0, x0 + h], in monomial form
 // in t = (x - x0)/h. Both f (between samples) and g (between grid nodes) are such cubics.
 struct Cubic {
@@ -159,17 +152,17 @@ Status ValidateSamples(const std::vector<double>& radii, const std::vector<doubl
     if (Status s = RequireFinite("heights" + index, heights[i]); !s.ok()) return s;
     if (i > 0 && !(radii[i] > radii[i - 1])) {
       return InvalidArgument("radii" + index, "must be > radii[" + std::to_string(i - 1) +
-                                                  "] = " + Format(radii[i - 1]) +
+                                                  "] = " + FormatNumber(radii[i - 1]) +
                                                   " (strictly increasing), got " +
-                                                  Format(radii[i]));
+                                                  FormatNumber(radii[i]));
     }
   }
   if (radii[0] != 0) {
-    return InvalidArgument("radii[0]",
-                           "must be 0 (the profile starts on the axis), got " + Format(radii[0]));
+    return InvalidArgument(
+        "radii[0]", "must be 0 (the profile starts on the axis), got " + FormatNumber(radii[0]));
   }
   if (heights[0] != 0) {
-    return InvalidArgument("heights[0]", "f(0) must be 0, got " + Format(heights[0]));
+    return InvalidArgument("heights[0]", "f(0) must be 0, got " + FormatNumber(heights[0]));
   }
   return OkStatus();
 }
@@ -270,9 +263,9 @@ Status RequireIncreasing(TabulatedProfile::Grid& grid) {
   for (std::size_t i = 0; i < grid.x.size(); ++i) {
     const bool falls = grid.slope[i] < -slack || (i > 0 && grid.g[i] < grid.g[i - 1]);
     if (falls || !std::isfinite(grid.g[i])) {
-      return InvalidArgument("heights",
-                             "the equivalent profile g(x) decreases at x = " + Format(grid.x[i]) +
-                                 ": the contact would not be a disc");
+      return InvalidArgument(
+          "heights", "the equivalent profile g(x) decreases at x = " + FormatNumber(grid.x[i]) +
+                         ": the contact would not be a disc");
     }
     grid.slope[i] = std::max(grid.slope[i], 0.0);
   }
@@ -460,8 +453,8 @@ Result<ProfilePtr> MakeTabulatedProfile(std::vector<double> radii, std::vector<d
   if (!builder.Build()) {
     return ResourceExhausted("max_grid_nodes",
                              "g needs more than " + std::to_string(options.max_grid_nodes) +
-                                 " grid nodes to reach the tolerance " + Format(options.tolerance) +
-                                 "; ask for a larger tolerance");
+                                 " grid nodes to reach the tolerance " +
+                                 FormatNumber(options.tolerance) + "; ask for a larger tolerance");
   }
   TabulatedProfile::Grid& grid = builder.grid();
   if (Status s = RequireIncreasing(grid); !s.ok()) return s;

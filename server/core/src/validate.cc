@@ -4,37 +4,35 @@
 #include <sstream>
 
 namespace mdr {
-namespace {
 
-std::string Format(double v) {
+std::string FormatNumber(double value) {
   std::ostringstream out;
   out.precision(10);
-  out << v;
+  out << value;
   return out.str();
 }
 
-}  // namespace
-
 Status RequireFinite(const std::string& field, double value) {
   if (std::isfinite(value)) return OkStatus();
-  return InvalidArgument(field, "must be a finite number, got " + Format(value));
+  return InvalidArgument(field, "must be a finite number, got " + FormatNumber(value));
 }
 
 Status RequirePositive(const std::string& field, double value) {
   if (std::isfinite(value) && value > 0) return OkStatus();
-  return InvalidArgument(field, "must be finite and > 0, got " + Format(value));
+  return InvalidArgument(field, "must be finite and > 0, got " + FormatNumber(value));
 }
 
 Status RequireNonNegative(const std::string& field, double value) {
   if (std::isfinite(value) && value >= 0) return OkStatus();
-  return InvalidArgument(field, "must be finite and >= 0, got " + Format(value));
+  return InvalidArgument(field, "must be finite and >= 0, got " + FormatNumber(value));
 }
 
 Status RequireInRange(const std::string& field, double value, double lo, double hi, bool lo_open) {
   const bool above_lo = lo_open ? value > lo : value >= lo;
   if (std::isfinite(value) && above_lo && value <= hi) return OkStatus();
-  return InvalidArgument(field, "must be in " + std::string(lo_open ? "(" : "[") + Format(lo) +
-                                    ", " + Format(hi) + "], got " + Format(value));
+  return InvalidArgument(field, "must be in " + std::string(lo_open ? "(" : "[") +
+                                    FormatNumber(lo) + ", " + FormatNumber(hi) + "], got " +
+                                    FormatNumber(value));
 }
 
 }  // namespace mdr

@@ -7,6 +7,9 @@
 
 namespace mdr {
 
+// A number as error messages show it (10 significant digits).
+std::string FormatNumber(double value);
+
 // Finite and strictly positive (moduli, radii, tolerances).
 Status RequirePositive(const std::string& field, double value);
 // Finite and >= 0 (friction coefficient, forces that cannot be negative).
