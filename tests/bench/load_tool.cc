@@ -56,7 +56,7 @@
 #include <thread>
 #include <vector>
 
-#include "echo.grpc.pb.h"
+#include "echo_service.h"
 #include "mdr/client/contact_client.h"
 #include "mdr/core/material.h"
 #include "mdr/service/server.h"
@@ -91,92 +91,7 @@ constexpr double kNormalForce = 100;
   std::exit(EXIT_FAILURE);
 }
 
-// ---------------------------------------------------------------------------------------------
-// The echo service: answers with canned responses of a real Apply, like StreamApplyReactor for
-// the stream (reads ahead while one write is in flight, at most 8 answers queued).
-
-class EchoStreamReactor final
-    : public grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse> {
- public:
-  explicit EchoStreamReactor(const StreamApplyResponse& canned) : canned_(canned) {
-    StartRead(&request_);
-  }
-
-  void OnReadDone(bool ok) override {
-    bool write = false, read = false, finish = false;
-    {
-      std::lock_guard lock(mutex_);
-      if (!ok) {
-        reads_done_ = true;
-        finish = !writing_ && pending_ == 0;
-      } else {
-        ++pending_;
-        write = !writing_;
-        writing_ = true;
-        read = pending_ < kMaxPending;
-        reading_ = read;
-      }
-    }
-    Continue(write, read, finish);
-  }
-
-  void OnWriteDone(bool ok) override {
-    bool write = false, read = false, finish = false;
-    {
-      std::lock_guard lock(mutex_);
-      --pending_;
-      writing_ = ok && pending_ > 0;
-      write = writing_;
-      read = ok && !reads_done_ && !reading_ && pending_ < kMaxPending;
-      if (read) reading_ = true;
-      finish = !writing_ && (!ok || (reads_done_ && pending_ == 0));
-    }
-    Continue(write, read, finish);
-  }
-
-  void OnDone() override { delete this; }
-
- private:
-  void Continue(bool write, bool read, bool finish) {
-    if (write) StartWrite(&canned_);
-    if (read) StartRead(&request_);
-    if (finish) Finish(grpc::Status::OK);
-  }
-
-  static constexpr int kMaxPending = 8;
-  const StreamApplyResponse& canned_;
-  StreamApplyRequest request_;
-  std::mutex mutex_;
-  int pending_ = 0;
-  bool writing_ = false, reading_ = true, reads_done_ = false;
-};
-
-class EchoService final : public mdr::bench::Echo::CallbackService {
- public:
-  explicit EchoService(const ApplyResponse& canned) : canned_apply_(canned) {
-    canned_stream_.mutable_status();
-    *canned_stream_.mutable_result() = canned;
-  }
-
-  grpc::ServerUnaryReactor* EchoApply(grpc::CallbackServerContext* context, const ApplyRequest*,
-                                      ApplyResponse* response) override {
-    *response = canned_apply_;
-    grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-    reactor->Finish(grpc::Status::OK);
-    return reactor;
-  }
-
-  grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse>* EchoStream(
-      grpc::CallbackServerContext*) override {
-    return new EchoStreamReactor(canned_stream_);
-  }
-
- private:
-  const ApplyResponse canned_apply_;
-  StreamApplyResponse canned_stream_;
-};
-
-std::unique_ptr<grpc::Server> StartEchoServer(EchoService& service, int* port) {
+std::unique_ptr<grpc::Server> StartEchoServer(mdr::bench::EchoService& service, int* port) {
   grpc::ServerBuilder builder;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), port);
   builder.RegisterService(&service);
@@ -825,7 +740,7 @@ int main(int argc, char** argv) {
   const CyclingSteps steps(workload.amplitude);
   const ApplyResponse canned = OneCyclingStep(setup_client, workload.sessions[0], steps);
 
-  EchoService echo_service(canned);
+  mdr::bench::EchoService echo_service(canned);
   int echo_port = 0;
   std::unique_ptr<grpc::Server> echo_server = StartEchoServer(echo_service, &echo_port);
   LoadTargets targets = ConnectClients(contact_port, echo_port);

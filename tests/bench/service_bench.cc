@@ -22,7 +22,7 @@
 #include <thread>
 #include <vector>
 
-#include "echo.grpc.pb.h"
+#include "echo_service.h"
 #include "mdr/service/server.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
 
@@ -30,70 +30,6 @@ namespace {
 
 using Request = mdr::v1::StreamApplyRequest;
 using Response = mdr::v1::StreamApplyResponse;
-
-// Echo: reads ahead like StreamApplyReactor (one write in flight, a bounded queue) and answers
-// each message with a canned response.
-class EchoReactor final : public grpc::ServerBidiReactor<Request, Response> {
- public:
-  explicit EchoReactor(const Response& canned) : canned_(canned) { StartRead(&request_); }
-
-  void OnReadDone(bool ok) override {
-    bool write = false, read = false, finish = false;
-    {
-      std::lock_guard lock(mutex_);
-      if (!ok) {
-        reads_done_ = true;
-        finish = !writing_ && pending_ == 0;
-      } else {
-        ++pending_;
-        write = !writing_;
-        writing_ = true;
-        read = pending_ < kMaxPending;
-        reading_ = read;
-      }
-    }
-    if (write) StartWrite(&canned_);
-    if (read) StartRead(&request_);
-    if (finish) Finish(grpc::Status::OK);
-  }
-
-  void OnWriteDone(bool ok) override {
-    bool write = false, read = false, finish = false;
-    {
-      std::lock_guard lock(mutex_);
-      --pending_;
-      writing_ = ok && pending_ > 0;
-      write = writing_;
-      read = ok && !reads_done_ && !reading_ && pending_ < kMaxPending;
-      if (read) reading_ = true;
-      finish = !writing_ && (!ok || (reads_done_ && pending_ == 0));
-    }
-    if (write) StartWrite(&canned_);
-    if (read) StartRead(&request_);
-    if (finish) Finish(grpc::Status::OK);
-  }
-
-  void OnDone() override { delete this; }
-
- private:
-  static constexpr int kMaxPending = 8;
-  const Response& canned_;
-  Request request_;
-  std::mutex mutex_;
-  int pending_ = 0;
-  bool writing_ = false, reading_ = true, reads_done_ = false;
-};
-
-class EchoService final : public mdr::bench::Echo::CallbackService {
- public:
-  explicit EchoService(Response canned) : canned_(std::move(canned)) {}
-  grpc::ServerBidiReactor<Request, Response>* EchoStream(grpc::CallbackServerContext*) override {
-    return new EchoReactor(canned_);
-  }
-
- private:
-  const Response canned_;
-};
 
 using StreamOpener = std::function<std::unique_ptr<grpc::ClientReaderWriter<Request, Response>>(
     grpc::ClientContext*)>;
@@ -183,10 +119,10 @@ int main(int argc, char** argv) {
   backward.mutable_apply()->mutable_steps(0)->set_displacement_increment(-1e-10);
 
   // The echo answers with a real response of this session.
-  Response canned;
+  mdr::bench::EchoService echo_service(loaded);
+  Response canned;  // what the echo answers each message with, for the size printed below
   canned.mutable_status();
   *canned.mutable_result() = loaded;
-  EchoService echo_service(canned);
   grpc::ServerBuilder builder;
   int echo_port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &echo_port);
