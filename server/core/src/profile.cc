@@ -53,8 +53,7 @@ double IntegratePowerOfHypotenuse(double r, double span, double beta) {
 class PowerLawProfile final : public Profile {
  public:
   PowerLawProfile(double coefficient, double exponent, std::string name)
-      : coefficient_(coefficient),
-        n_(exponent),
+      : n_(exponent),
         k_(PowerLawScale(coefficient, exponent)),
         name_(std::move(name)) {}
 
@@ -91,7 +90,7 @@ class PowerLawProfile final : public Profile {
   std::string Describe() const override { return name_; }
 
  private:
-  double coefficient_, n_, k_;
+  double n_, k_;
   std::string name_;
 };
 
