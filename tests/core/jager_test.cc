@@ -169,34 +169,13 @@ std::vector<ProfilePtr> Profiles() {
           *MakeFlatPunch(1e-3)};
 }
 
-// Random piecewise-linear (delta, ux) histories: lift-off, re-contact, reversals and gross slip,
-// alternating with ring-downs (reversals of decaying amplitude at a slowly varying depth) that
-// nest many memory vertices.
-struct History {
-  std::mt19937_64 rng;
-  double d0, slip;
-  int step = 0;
-  double ring_depth = 0;
-  std::pair<double, double> Next() {
-    std::uniform_real_distribution<double> u(0, 1);
-    const int phase = step++ % 40;
-    if (phase >= 20) {
-      const int k = phase - 20;
-      if (k == 0) ring_depth = d0 * (0.6 + 0.6 * u(rng));
-      return {ring_depth * (1 + 0.05 * std::sin(k)), 1.2 * slip * std::pow(-0.8, k)};
-    }
-    const double depth = d0 * (u(rng) < 0.05 ? -0.1 * u(rng) : 0.3 + 1.2 * u(rng));
-    return {depth, slip * (3 * u(rng) - 1.5)};
-  }
-};
-
 TEST(JagerDecompositionTest, RoundTripIsExactAndTheRebuiltStateEvolvesAlike) {
   unsigned seed = 0;
   for (const ProfilePtr& profile : Profiles()) {
     SCOPED_TRACE(profile->Describe());
     Contact c = MakeContact(profile, *RigidOnHalfSpace(1e9, 0.3), 0.4, /*energy=*/false);
     const double d0 = 1e-6, m = c.mu_kappa();
-    History history{.rng = std::mt19937_64(++seed), .d0 = d0, .slip = m * d0};
+    testing::RandomHistory history{.rng = std::mt19937_64(++seed), .d0 = d0, .slip = m * d0};
     int rebuilt_states = 0;
     for (int i = 0; i < 300; ++i) {
       auto [depth, ux] = history.Next();

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+#include <utility>
 
 #include "mdr/core/contact.h"
 
@@ -34,6 +36,28 @@ inline double EnergyPerCycleRatio(double n, double s) {
   const long double b = 4 * s * (2 + std::expm1l(N / (N + 1) * log_rest));
   return static_cast<double>(a - b);
 }
+
+// Random piecewise-linear (delta, ux) histories: lift-off, re-contact, reversals and gross slip,
+// alternating with ring-downs (reversals of decaying amplitude at a slowly varying depth) that
+// nest many memory vertices. `half_period` steps of each kind in turn.
+struct RandomHistory {
+  std::mt19937_64 rng;
+  double d0, slip;
+  int half_period = 20;
+  int step = 0;
+  double ring_depth = 0;
+  std::pair<double, double> Next() {
+    std::uniform_real_distribution<double> u(0, 1);
+    const int phase = step++ % (2 * half_period);
+    if (phase >= half_period) {
+      const int k = phase - half_period;
+      if (k == 0) ring_depth = d0 * (0.6 + 0.6 * u(rng));
+      return {ring_depth * (1 + 0.05 * std::sin(k)), 1.2 * slip * std::pow(-0.8, k)};
+    }
+    const double depth = d0 * (u(rng) < 0.05 ? -0.1 * u(rng) : 0.3 + 1.2 * u(rng));
+    return {depth, slip * (3 * u(rng) - 1.5)};
+  }
+};
 
 inline Contact MakeContact(ProfilePtr profile, EffectiveMaterial material, double mu,
                            bool energy = true) {

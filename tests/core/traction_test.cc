@@ -204,27 +204,6 @@ TEST(TractionTest, FlatPunchStickTractionAndGrossSlip) {
   }
 }
 
-// Random piecewise-linear (delta, ux) histories: lift-off, re-contact, reversals and gross slip,
-// alternating with ring-downs (reversals of decaying amplitude at a slowly varying depth) that
-// nest many memory vertices.
-struct History {
-  std::mt19937_64 rng;
-  double d0, slip;
-  int step = 0;
-  double ring_depth = 0;
-  std::pair<double, double> Next() {
-    std::uniform_real_distribution<double> u(0, 1);
-    const int phase = step++ % 24;
-    if (phase >= 12) {
-      const int k = phase - 12;
-      if (k == 0) ring_depth = d0 * (0.6 + 0.6 * u(rng));
-      return {ring_depth * (1 + 0.05 * std::sin(k)), 1.2 * slip * std::pow(-0.8, k)};
-    }
-    const double depth = d0 * (u(rng) < 0.05 ? -0.1 * u(rng) : 0.3 + 1.2 * u(rng));
-    return {depth, slip * (3 * u(rng) - 1.5)};
-  }
-};
-
 std::vector<ProfilePtr> RouteProfiles() {
   return {*MakeSphere(0.01), *MakeCone(0.2), *MakePowerLaw(1e9, 4), *MakePowerLaw(1e-3, 0.5),
           *MakeFlatPunch(1e-3)};
@@ -236,7 +215,8 @@ TEST(TractionTest, RoutesAgreeOverRandomHistories) {
     SCOPED_TRACE(profile->Describe());
     Contact c = MakeContact(profile, *RigidOnHalfSpace(1e9, 0.3), 0.4, /*energy=*/false);
     const double d0 = 1e-6;
-    History history{.rng = std::mt19937_64(++seed), .d0 = d0, .slip = c.mu_kappa() * d0};
+    testing::RandomHistory history{
+        .rng = std::mt19937_64(++seed), .d0 = d0, .slip = c.mu_kappa() * d0, .half_period = 12};
     double worst = 0;
     int states = 0;
     for (int i = 0; i < 60; ++i) {
@@ -287,7 +267,8 @@ TEST(TractionTest, IntegratedTractionsGiveTheForces) {
   Contact punch = MakeContact(*MakeFlatPunch(1e-3), *RigidOnHalfSpace(1e9, 0.3), 0.4);
   ASSERT_TRUE(punch.MoveTo(1e-6, 0.5 * punch.mu_kappa() * 1e-6).ok());
   Contact power = MakeContact(*MakePowerLaw(1e9, 4), *RigidOnHalfSpace(1e9, 0.3), 0.4);
-  History history{.rng = std::mt19937_64(7), .d0 = 2e-7, .slip = power.mu_kappa() * 2e-7};
+  testing::RandomHistory history{
+      .rng = std::mt19937_64(7), .d0 = 2e-7, .slip = power.mu_kappa() * 2e-7, .half_period = 12};
   for (int i = 0; i < 23; ++i) {
     auto [depth, ux] = history.Next();
     ASSERT_TRUE(power.MoveTo(std::abs(depth), ux).ok());
