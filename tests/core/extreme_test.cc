@@ -176,3 +176,30 @@ TEST(ExtremeTest, LiftOffWhoseTangentialRateEqualsTheBoundRateDissipatesNothing)
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+TEST(ExtremeTest, ForceStepAfterLongSlidingStaysCheapAndExact) {
+  // Found by the request fuzzer: after sliding 851 m (|ux| ~ 1e10 times mu kappa delta), a curved
+  // force path ran to the bisection cap for minutes, because a root in ux carried eps |ux| of
+  // noise. The solver's unknown is now the increment.
+  Contact c = testing::SteelSphere();
+  ASSERT_TRUE(c.Apply(testing::NormalForceStep(100)).ok());
+  ASSERT_TRUE(c.Apply(testing::TangentialForceStep(-5)).ok());
+  ASSERT_TRUE(c.MoveTo(1.6241224783242103e-07, 851.3675989857666).ok());
+  Step step;
+  step.normal = NormalControl::kForce;
+  step.normal_value = 80.54688743967563;
+  step.tangential = TangentialControl::kForce;
+  step.tangential_value = -10.499999999068677;
+  StepReport report;
+  ASSERT_TRUE(c.Apply(step, &report).ok());
+  EXPECT_TRUE(testing::RelNear(c.tangential_force(), -10.499999999068677, 1e-12));
+  EXPECT_TRUE(testing::RelNear(c.normal_force(), 80.54688743967563, 1e-12));
+  EXPECT_LE(report.substeps, 16);
+  EXPECT_LE(report.path_error, c.config().force_path_tolerance);
+}
+
+}  // namespace
+}  // namespace mdr

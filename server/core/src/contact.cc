@@ -246,14 +246,13 @@ double Contact::normal_displacement_at(double x) const {
   return depth() - config_.profile->G(x);
 }
 
-double Contact::LinearStep(double depth1, double ux1) {
+double Contact::LinearStep(double depth1, double ux1, double dux) {
   double per_modulus = 0;
   if (auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_)) [[likely]] {
     const Profile* energy_profile = config_.track_energy ? config_.profile.get() : nullptr;
-    per_modulus = exact->Step(depth1, ux1 - ux_, mu_kappa(), energy_profile);
+    per_modulus = exact->Step(depth1, dux, mu_kappa(), energy_profile);
   } else {
-    per_modulus =
-        std::get<GridMemory>(memory_).Step(depth1, ux1 - ux_, mu_kappa(), config_.track_energy);
+    per_modulus = std::get<GridMemory>(memory_).Step(depth1, dux, mu_kappa(), config_.track_energy);
   }
   ux_ = ux1;
   const double dissipated = config_.material.g_star * per_modulus;
@@ -261,19 +260,19 @@ double Contact::LinearStep(double depth1, double ux1) {
   return dissipated;
 }
 
-double Contact::TangentialForceAfterStep(double depth1, double ux1) const {
+double Contact::TangentialForceAfterStep(double depth1, double dux) const {
   double integral = 0;
   if (const GridMemory* grid = grid_memory()) {
-    integral = grid->IntegralUAfterStep(depth1, ux1 - ux_, mu_kappa());
+    integral = grid->IntegralUAfterStep(depth1, dux, mu_kappa());
   } else {
     PiecewiseLinearMemory memory = this->memory();
-    memory.Step(depth1, ux1 - ux_, mu_kappa(), nullptr);
+    memory.Step(depth1, dux, mu_kappa(), nullptr);
     integral = memory.IntegralU(*config_.profile);
   }
   return 2 * config_.material.g_star * integral;
 }
 
-Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) const {
+Result<double> Contact::SolveTangentialIncrement(double depth1, double fx) const {
   const double limit = config_.friction * NormalForceAtDepth(depth1);
   if (!(std::abs(fx) <= limit * (1 + 1e-12))) {
     return FailedPrecondition("tangential_force",
@@ -281,13 +280,15 @@ Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) co
                                   " N exceeds the friction limit mu F_N = " + FormatNumber(limit) +
                                   " N at the step's end (no tangential force without contact)");
   }
-  if (limit == 0) return ux_;  // F_x = 0 holds for any ux: keep it
+  if (limit == 0) return 0.0;  // F_x = 0 holds for any ux: keep it
+  // The unknown is the increment, not ux itself: after long sliding |ux| can exceed the memory's
+  // scale mu kappa delta by many orders, and a root in ux would carry eps |ux| of noise.
   const double m = mu_kappa();
   const GridMemory* grid = grid_memory();
-  const double lo = ux_ + (grid ? grid->GrossSlipIncrement(depth1, m, -1)
-                                : memory().GrossSlipIncrement(depth1, m, -1));
-  const double hi = ux_ + (grid ? grid->GrossSlipIncrement(depth1, m, +1)
-                                : memory().GrossSlipIncrement(depth1, m, +1));
+  const double lo =
+      grid ? grid->GrossSlipIncrement(depth1, m, -1) : memory().GrossSlipIncrement(depth1, m, -1);
+  const double hi =
+      grid ? grid->GrossSlipIncrement(depth1, m, +1) : memory().GrossSlipIncrement(depth1, m, +1);
   if (fx >= limit) return hi;  // onset of gross slip
   if (fx <= -limit) return lo;
 
@@ -297,9 +298,9 @@ Result<double> Contact::SolveTangentialDisplacement(double depth1, double fx) co
   } trial{this, depth1, fx};
   gsl_function f;
   f.params = &trial;
-  f.function = [](double ux1, void* p) {
+  f.function = [](double dux, void* p) {
     const auto* t = static_cast<const Trial*>(p);
-    return t->contact->TangentialForceAfterStep(t->depth1, ux1) - t->fx;
+    return t->contact->TangentialForceAfterStep(t->depth1, dux) - t->fx;
   };
   const double f_lo = f.function(lo, f.params), f_hi = f.function(hi, f.params);
   if (f_lo >= 0) return lo;
@@ -326,7 +327,7 @@ Status Contact::MoveTo(double depth, double tangential_displacement, StepReport*
   if (grid_memory() != nullptr) {
     if (Status s = CheckGridReach(depth); !s.ok()) return s;
   }
-  last_dissipated_ = LinearStep(depth, tangential_displacement);
+  last_dissipated_ = LinearStep(depth, tangential_displacement, tangential_displacement - ux_);
   if (report) *report = {1, 0, last_dissipated_};
   return OkStatus();
 }
@@ -356,6 +357,11 @@ Status Contact::Apply(const Step& step, StepReport* report) {
     }
   }
   if (Status s = RequireFinite(normal_field, depth1); !s.ok()) return s;
+  // Finite inputs can still overflow (a depth of 1e200 m). |F_x| <= mu F_N, so checking the
+  // closed-form friction limit here keeps both forces finite without a force query per step.
+  if (!std::isfinite(NormalForceAtDepth(depth1) * std::max(config_.friction, 1.0))) {
+    return InvalidArgument(normal_field, "the normal force at this depth overflows a double");
+  }
   if (Status s = CheckGridReach(depth1); !s.ok()) return s;
 
   Contact trial = *this;
@@ -371,15 +377,19 @@ Status Contact::Apply(const Step& step, StepReport* report) {
       tangential_force ? !depth_changes
                        : (step.normal != NormalControl::kForce || !depth_changes || ux1 == ux_);
   if (straight) {
-    double target_ux = ux1;
+    double dux = ux1 - ux_;
     if (tangential_force) {
-      Result<double> solved = SolveTangentialDisplacement(depth1, step.tangential_value);
+      Result<double> solved = SolveTangentialIncrement(depth1, step.tangential_value);
       if (!solved.ok()) return solved.status();
-      target_ux = *solved;
+      dux = *solved;
     }
-    local = {1, 0, trial.LinearStep(depth1, target_ux)};
+    local = {1, 0, trial.LinearStep(depth1, tangential_force ? ux_ + dux : ux1, dux)};
   } else if (Status s = trial.ApplyCurvedPath(step, depth1, &local); !s.ok()) {
     return s;
+  }
+  if (!std::isfinite(trial.dissipated_energy())) {
+    return InvalidArgument(tangential_field,
+                           "the energy dissipated by this step overflows a double");
   }
   if (trial.memory().vertex_count() > config_.max_memory_vertices) {
     return ResourceExhausted("max_memory_vertices",
@@ -410,13 +420,15 @@ Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepRepor
   auto advance = [&](Contact& contact, double s, double* dissipated) -> Status {
     const double d = depth_at(s);
     double ux = ux0 + s * (ux_target - ux0);
+    double dux = ux - contact.ux_;
     if (step.tangential == TangentialControl::kForce) {
       Result<double> solved =
-          contact.SolveTangentialDisplacement(d, fx0 + s * (step.tangential_value - fx0));
+          contact.SolveTangentialIncrement(d, fx0 + s * (step.tangential_value - fx0));
       if (!solved.ok()) return solved.status();
-      ux = *solved;
+      dux = *solved;
+      ux = contact.ux_ + dux;
     }
-    *dissipated += contact.LinearStep(d, ux);
+    *dissipated += contact.LinearStep(d, ux, dux);
     return OkStatus();
   };
   const double scale = std::max(mu_kappa() * std::max(depth0, depth_target), 1e-300);

@@ -148,16 +148,19 @@ class Contact {
 
  private:
   explicit Contact(ContactConfig config) : config_(std::move(config)) {}
-  // Exact linear step to (depth1, ux1); returns dissipation (J) if tracked.
-  double LinearStep(double depth1, double ux1);
+  // Exact linear step to (depth1, ux1) with tangential increment dux (given with ux1, not
+  // derived from it, so that an increment survives a large |ux| exactly); returns the
+  // dissipation (J) if tracked.
+  double LinearStep(double depth1, double ux1, double dux);
   // FailedPrecondition if the grid method's contact would outgrow the grid at depth1.
   Status CheckGridReach(double depth1) const;
-  // F_x after a linear step to (depth1, ux1), the state unchanged.
-  double TangentialForceAfterStep(double depth1, double ux1) const;
+  // F_x after a linear step to depth1 with tangential increment dux, the state unchanged.
+  double TangentialForceAfterStep(double depth1, double dux) const;
   // Largest |u_a - u_b| between two contacts of this config (curved-path refinement).
   static double MemoryDifference(const Contact& a, const Contact& b);
-  // The ux1 that gives tangential force fx at depth1 after a linear step from the current state.
-  Result<double> SolveTangentialDisplacement(double depth1, double fx) const;
+  // The increment dux that gives tangential force fx at depth1 after a linear step from the
+  // current state.
+  Result<double> SolveTangentialIncrement(double depth1, double fx) const;
   Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report);
 
   static inline const PiecewiseLinearMemory kNoExactMemory{};
