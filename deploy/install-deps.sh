@@ -7,13 +7,13 @@ set -euo pipefail
 
 RUNTIME_PACKAGES=(
   ca-certificates libgrpc++1.51 libgrpc29 libprotobuf32 libgsl27 libgslcblas0 libspdlog1.10 libfmt9
-  libabsl20220623 libc-ares2 libre2-9 libssl3 python3 python3-grpcio
+  libabsl20220623 libc-ares2 libre2-9 libssl3 libsqlite3-0 python3 python3-grpcio
 )
 BUILD_PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   libgrpc++-dev protobuf-compiler-grpc protobuf-compiler libprotobuf-dev
   libeigen3-dev libgsl-dev libspdlog-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libcli11-dev nlohmann-json3-dev libyaml-cpp-dev
+  libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev openssl
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml gnuplot-nox
 )
 if [ "${1:-}" = "--runtime" ]; then

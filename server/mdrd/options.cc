@@ -14,6 +14,10 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
   mdr::service::ServerOptions& server = options->server;
   mdr::service::ServiceLimits& limits = server.limits;
   double idle_timeout_seconds = std::chrono::duration<double>(limits.session_idle_timeout).count();
+  mdr::service::JournalOptions& journal = server.journal;
+  std::string journal_sync = mdr::service::JournalSyncName(journal.sync);
+  bool no_journal = false;
+  mdr::service::TlsOptions& tls = server.tls;
 
   app.add_option("--listen", server.listen_address, "Address to listen on (host:port; port 0: any)")
       ->envname("MDR_LISTEN")
@@ -53,6 +57,41 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_SHUTDOWN_GRACE")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--journal", journal.path,
+                 "SQLite journal of the sessions, restored at start (empty: none)")
+      ->envname("MDR_JOURNAL")
+      ->capture_default_str();
+  app.add_flag("--no-journal", no_journal,
+               "Keep sessions in memory only (a restart loses them); wins over --journal")
+      ->envname("MDR_NO_JOURNAL");
+  app.add_option("--journal-sync", journal_sync,
+                 "When a journal commit reaches the disk: off (never fsync), normal (fsync at "
+                 "checkpoints: a power loss may lose the last batches), full (fsync every "
+                 "commit: nothing acknowledged is lost). All survive a crash of mdrd itself")
+      ->envname("MDR_JOURNAL_SYNC")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"off", "normal", "full"}));
+  app.add_option("--journal-snapshot-every", journal.snapshot_every,
+                 "Batches per session between journal snapshots (compaction)")
+      ->envname("MDR_JOURNAL_SNAPSHOT_EVERY")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--tls-cert", tls.cert_file, "PEM certificate chain: serve TLS (with --tls-key)")
+      ->envname("MDR_TLS_CERT");
+  app.add_option("--tls-key", tls.key_file, "PEM private key of --tls-cert")
+      ->envname("MDR_TLS_KEY");
+  app.add_option("--tls-client-ca", tls.client_ca_file,
+                 "PEM CA certificates: require client certificates signed by them (mutual TLS)")
+      ->envname("MDR_TLS_CLIENT_CA");
+  app.add_option("--tokens-file", server.tokens_file,
+                 "Bearer tokens, one name:token per line: every call must carry "
+                 "'authorization: Bearer <token>' and sees only its own sessions (unset: no "
+                 "authentication)")
+      ->envname("MDR_TOKENS_FILE");
+  app.add_option("--max-sessions-per-token", limits.max_sessions_per_token,
+                 "Sessions one token may hold at most (0: only --max-sessions)")
+      ->envname("MDR_MAX_SESSIONS_PER_TOKEN")
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -60,19 +99,31 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
   }
   limits.session_idle_timeout = std::chrono::duration_cast<std::chrono::milliseconds>(
       std::chrono::duration<double>(idle_timeout_seconds));
+  if (no_journal) journal.path.clear();
+  mdr::service::ParseJournalSync(journal_sync, &journal.sync);  // checked above
   return std::nullopt;
 }
 
 void LogEffectiveOptions(const Options& options) {
-  const mdr::service::ServiceLimits& limits = options.server.limits;
+  const mdr::service::ServerOptions& server = options.server;
+  const mdr::service::ServiceLimits& limits = server.limits;
   spdlog::info(
       "event=config listen={} log_level={} max_sessions={} max_steps_per_batch={} "
       "max_memory_vertices={} session_idle_timeout_s={} max_message_bytes={} "
-      "shutdown_grace_s={}",
-      options.server.listen_address, options.log_level, limits.max_sessions,
-      limits.max_steps_per_batch, limits.max_memory_vertices,
+      "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} tls={} "
+      "mtls={} auth={} max_sessions_per_token={}",
+      server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
+      limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
-      options.shutdown_grace_seconds);
+      options.shutdown_grace_seconds, server.journal.path.empty() ? "-" : server.journal.path,
+      mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
+      !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
+      !server.tokens_file.empty(), limits.max_sessions_per_token);
+  if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
+    spdlog::warn(
+        "event=config_warning warning=\"bearer tokens without --tls-cert travel in clear text; "
+        "use TLS or a TLS-terminating proxy on an untrusted network\"");
+  }
 }
 
 }  // namespace mdrd

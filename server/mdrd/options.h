@@ -12,6 +12,7 @@ namespace mdrd {
 inline mdr::service::ServerOptions DefaultServerOptions() {
   mdr::service::ServerOptions options;
   options.listen_address = "0.0.0.0:50051";
+  options.journal.path = "mdr-journal.sqlite";  // in the working directory
   return options;
 }
 

@@ -103,7 +103,7 @@ def check_health_probe(root, mdrd):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     address = f"127.0.0.1:{port}"
-    server = subprocess.Popen([mdrd, "--listen", address, "--log-level", "warn"])
+    server = subprocess.Popen([mdrd, "--listen", address, "--no-journal", "--log-level", "warn"])
     try:
         probe = [sys.executable, os.path.join(root, "deploy", "health_probe.py"), address]
         for _ in range(50):

@@ -64,13 +64,15 @@ def generate_stubs(proto_dir, out_dir):
 
 
 class Mdrd:
-    """mdrd on a free port; the port and the effective configuration are read from its log."""
+    """mdrd on a free port without a journal (each run starts empty); the port and the effective
+    configuration are read from its log."""
 
     def __init__(self, mdrd, extra_args=(), env=None):
         environment = dict(os.environ)
         environment.update(env or {})
         self.process = subprocess.Popen(
-            [mdrd, "--listen", "127.0.0.1:0", "--shutdown-grace", "5", *extra_args],
+            [mdrd, "--listen", "127.0.0.1:0", "--no-journal", "--shutdown-grace", "5",
+             *extra_args],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=environment)
         self.lines = queue.Queue()
         self.log = []

@@ -8,6 +8,13 @@
 
 namespace mdr::service {
 
+grpc::Status CallerOf(const grpc::CallbackServerContext* context,
+                      const Authenticator* authenticator, Principal* caller) {
+  caller->reset();
+  if (authenticator == nullptr) return grpc::Status::OK;
+  return authenticator->Authenticate(context->client_metadata(), caller);
+}
+
 ContactOperations::Interruption InterruptionOf(grpc::CallbackServerContext* context) {
   return [context]() -> grpc::Status {
     if (std::chrono::system_clock::now() > context->deadline()) {

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -54,7 +56,83 @@ Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
 }  // namespace
 
 ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hooks)
-    : limits_(limits), hooks_(std::move(hooks)), sessions_(limits.max_sessions) {}
+    : limits_(limits),
+      hooks_(std::move(hooks)),
+      sessions_(limits.max_sessions, limits.max_sessions_per_token) {}
+
+grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
+  std::unique_ptr<Journal> journal;
+  if (grpc::Status status = Journal::Open(options, &journal); !status.ok()) return status;
+  std::vector<JournaledSession> journaled;
+  if (grpc::Status status = journal->Load(&journaled); !status.ok()) return status;
+  std::size_t batches = 0;
+  for (const JournaledSession& entry : journaled) {
+    std::shared_ptr<Session> session;
+    if (grpc::Status status = Restore(entry, &session); !status.ok()) {
+      return GrpcError(status.error_code(), "journal",
+                       "cannot restore " + entry.name + " from \"" + options.path +
+                           "\": " + status.error_message());
+    }
+    if (!sessions_.AddRestored(std::move(session))) {
+      return GrpcError(grpc::StatusCode::DATA_LOSS, "journal", entry.name + " appears twice");
+    }
+    batches += entry.batches.size();
+  }
+  journal_ = std::move(journal);
+  sessions_.AttachJournal(journal_.get());
+  spdlog::info("event=journal_restored path={} sync={} sessions={} replayed_batches={}",
+               options.path, JournalSyncName(options.sync), journaled.size(), batches);
+  return grpc::Status::OK;
+}
+
+grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
+                                        std::shared_ptr<Session>* session) const {
+  std::optional<SessionState> state;
+  if (grpc::Status status = StateOf(journaled.snapshot, &state); !status.ok()) return status;
+  state->owner = journaled.owner;
+  state->create_time = journaled.create_time;
+  state->journal_sequence = journaled.snapshot_sequence;
+  state->journal_snapshot_sequence = journaled.snapshot_sequence;
+  state->completed = journaled.completed;
+  auto restored = std::make_shared<Session>(journaled.name, std::move(*state));
+  // Replayed exactly as first applied: same steps, same step mask (so the responses remembered
+  // for request ids are the same), no deadline and no response limit.
+  for (const JournaledBatch& batch : journaled.batches) {
+    const std::uint64_t expected = journaled.snapshot_sequence +
+                                   static_cast<std::uint64_t>(&batch - journaled.batches.data()) +
+                                   1;
+    if (batch.sequence != expected) {
+      return GrpcError(grpc::StatusCode::DATA_LOSS, "",
+                       "batch " + std::to_string(expected) + " is missing");
+    }
+    Result<OutputSelection> step_outputs = SelectStepOutputs(batch.request.step_mask());
+    v1::ApplyResponse response;
+    grpc::Status status = ToGrpcStatus(step_outputs.status());
+    if (status.ok()) {
+      status = restored->Apply(batch.request, *step_outputs, nullptr,
+                               std::numeric_limits<std::size_t>::max(), &response);
+    }
+    if (status.ok() && response.replayed()) {
+      status = GrpcError(grpc::StatusCode::DATA_LOSS, "", "its request_id was already applied");
+    }
+    if (!status.ok()) {
+      return GrpcError(status.error_code(), "",
+                       "batch " + std::to_string(batch.sequence) + ": " + status.error_message());
+    }
+  }
+  *session = std::move(restored);
+  return grpc::Status::OK;
+}
+
+void ContactOperations::CompactJournal() {
+  if (journal_ == nullptr) return;
+  for (const std::shared_ptr<Session>& session : sessions_.All()) {
+    if (grpc::Status status = session->CompactJournal(); !status.ok()) {
+      spdlog::warn("event=journal_compaction_failed session={} error=\"{}\"", session->name(),
+                   status.error_message());
+    }
+  }
+}
 
 Result<ContactConfig> ContactOperations::SessionConfig(const v1::Scene& scene,
                                                        const std::string& prefix) const {
@@ -63,18 +141,19 @@ Result<ContactConfig> ContactOperations::SessionConfig(const v1::Scene& scene,
   return config;
 }
 
-grpc::Status ContactOperations::AddSession(const std::string& id_field,
+grpc::Status ContactOperations::AddSession(const Principal& caller, const std::string& id_field,
                                            const std::string& session_id, SessionState state,
                                            v1::Session* response, const char* verb) {
   std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Create(id_field, session_id, std::move(state), &session);
+  grpc::Status status = sessions_.Create(id_field, session_id, caller, std::move(state), &session);
   if (!status.ok()) return status;
   session->ReadResource(response);
   spdlog::info("event=session_{} session={} sessions={}", verb, session->name(), sessions_.size());
   return grpc::Status::OK;
 }
 
-grpc::Status ContactOperations::CreateSession(const v1::CreateSessionRequest& request,
+grpc::Status ContactOperations::CreateSession(const Principal& caller,
+                                              const v1::CreateSessionRequest& request,
                                               v1::Session* response) {
   const v1::Session& resource = request.session();
   Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
@@ -83,20 +162,23 @@ grpc::Status ContactOperations::CreateSession(const v1::CreateSessionRequest& re
   if (!config.ok()) return ToGrpcStatus(config.status());
   Result<Contact> contact = Contact::Create(std::move(config).value());
   if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("session.scene"));
-  return AddSession("session_id", request.session_id(),
-                    {resource.scene(), *limits, std::move(contact).value(), 0}, response,
+  SessionState state{
+      .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
+  return AddSession(caller, "session_id", request.session_id(), std::move(state), response,
                     "created");
 }
 
-grpc::Status ContactOperations::GetSession(const v1::GetSessionRequest& request,
+grpc::Status ContactOperations::GetSession(const Principal& caller,
+                                           const v1::GetSessionRequest& request,
                                            v1::Session* response) {
   std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("name", request.name(), &session);
+  grpc::Status status = sessions_.Find("name", request.name(), caller, &session);
   if (status.ok()) session->ReadResource(response);
   return status;
 }
 
-grpc::Status ContactOperations::ListSessions(const v1::ListSessionsRequest& request,
+grpc::Status ContactOperations::ListSessions(const Principal& caller,
+                                             const v1::ListSessionsRequest& request,
                                              v1::ListSessionsResponse* response) {
   if (Status s = RequireNonNegative("page_size", request.page_size()); !s.ok()) {
     return ToGrpcStatus(s);
@@ -109,31 +191,32 @@ grpc::Status ContactOperations::ListSessions(const v1::ListSessionsRequest& requ
       request.page_size() == 0 ? kDefaultPageSize : std::min(request.page_size(), kMaxPageSize);
   bool more = false;
   const auto page =
-      sessions_.ListAfter(request.page_token(), static_cast<std::size_t>(page_size), &more);
+      sessions_.ListAfter(request.page_token(), static_cast<std::size_t>(page_size), caller, &more);
   for (const auto& session : page) session->ReadResource(response->add_sessions());
   if (more && !page.empty()) response->set_next_page_token(page.back()->name());
   return grpc::Status::OK;
 }
 
-grpc::Status ContactOperations::DeleteSession(const v1::DeleteSessionRequest& request) {
-  grpc::Status status = sessions_.Erase("name", request.name());
+grpc::Status ContactOperations::DeleteSession(const Principal& caller,
+                                              const v1::DeleteSessionRequest& request) {
+  grpc::Status status = sessions_.Erase("name", request.name(), caller);
   if (status.ok()) {
     spdlog::info("event=session_deleted session={} sessions={}", request.name(), sessions_.size());
   }
   return status;
 }
 
-grpc::Status ContactOperations::ExportSession(const v1::ExportSessionRequest& request,
+grpc::Status ContactOperations::ExportSession(const Principal& caller,
+                                              const v1::ExportSessionRequest& request,
                                               v1::SessionSnapshot* response) {
   std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("name", request.name(), &session);
+  grpc::Status status = sessions_.Find("name", request.name(), caller, &session);
   if (status.ok()) session->Export(response);
   return status;
 }
 
-grpc::Status ContactOperations::ImportSession(const v1::ImportSessionRequest& request,
-                                              v1::Session* response) {
-  const v1::SessionSnapshot& snapshot = request.snapshot();
+grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
+                                        std::optional<SessionState>* state) const {
   if (snapshot.version() != Session::kSnapshotVersion) {
     return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "snapshot.version",
                      "must be " + std::to_string(Session::kSnapshotVersion) +
@@ -157,13 +240,23 @@ grpc::Status ContactOperations::ImportSession(const v1::ImportSessionRequest& re
   Result<Contact> contact =
       Contact::Restore(std::move(config).value(), ToCoreSnapshot(snapshot.contact()));
   if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("snapshot.contact"));
-  return AddSession(
-      "session_id", request.session_id(),
-      {snapshot.scene(), *limits, std::move(contact).value(), snapshot.applied_steps()}, response,
-      "imported");
+  state->emplace(SessionState{.scene = snapshot.scene(),
+                              .limits = *limits,
+                              .contact = std::move(contact).value(),
+                              .applied_steps = snapshot.applied_steps()});
+  return grpc::Status::OK;
 }
 
-grpc::Status ContactOperations::Apply(const v1::ApplyRequest& request,
+grpc::Status ContactOperations::ImportSession(const Principal& caller,
+                                              const v1::ImportSessionRequest& request,
+                                              v1::Session* response) {
+  std::optional<SessionState> state;
+  if (grpc::Status status = StateOf(request.snapshot(), &state); !status.ok()) return status;
+  return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,
+                    "imported");
+}
+
+grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
                                       const Interruption& interruption,
                                       v1::ApplyResponse* response) {
   if (request.steps().empty()) {
@@ -173,7 +266,8 @@ grpc::Status ContactOperations::Apply(const v1::ApplyRequest& request,
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
   if (!step_outputs.ok()) return ToGrpcStatus(step_outputs.status());
   std::shared_ptr<Session> session;
-  if (grpc::Status status = sessions_.Find("session", request.session(), &session); !status.ok()) {
+  if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
+      !status.ok()) {
     return status;
   }
   const Session::StepGuard guard = [&](int step_index) {
@@ -187,14 +281,15 @@ grpc::Status ContactOperations::Apply(const v1::ApplyRequest& request,
   return session->Apply(request, *step_outputs, guard, max_response_bytes, response);
 }
 
-grpc::Status ContactOperations::Query(const v1::QueryRequest& request,
+grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest& request,
                                       v1::QueryResponse* response) {
   Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
   if (!selection.ok()) return ToGrpcStatus(selection.status());
   Result<RadialSampling> sampling = QuerySampling(request, *selection);
   if (!sampling.ok()) return ToGrpcStatus(sampling.status());
   std::shared_ptr<Session> session;
-  if (grpc::Status status = sessions_.Find("session", request.session(), &session); !status.ok()) {
+  if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
+      !status.ok()) {
     return status;
   }
   return session->Query(*selection, *sampling, hooks_.output_counters, response);

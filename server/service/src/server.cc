@@ -5,9 +5,51 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <fstream>
+#include <sstream>
 
 namespace mdr::service {
 namespace {
+
+Result<std::string> ReadPemFile(const std::string& flag, const std::string& path) {
+  std::ifstream file(path);
+  std::ostringstream text;
+  if (file) text << file.rdbuf();
+  if (!file || text.str().empty()) {
+    return FailedPrecondition(flag, "cannot read \"" + path + "\" (a PEM file)");
+  }
+  return text.str();
+}
+
+// Plaintext without certificate files, else TLS, with client certificates required and verified
+// when a client CA is given. Errors name the flag.
+Result<std::shared_ptr<grpc::ServerCredentials>> ServerCredentials(const TlsOptions& tls) {
+  if (tls.cert_file.empty() && tls.key_file.empty() && tls.client_ca_file.empty()) {
+    return grpc::InsecureServerCredentials();
+  }
+  if (tls.cert_file.empty() || tls.key_file.empty()) {
+    return InvalidArgument(tls.cert_file.empty() ? "tls-cert" : "tls-key",
+                           "--tls-cert and --tls-key go together (--tls-client-ca needs both)");
+  }
+  Result<std::string> cert = ReadPemFile("tls-cert", tls.cert_file);
+  if (!cert.ok()) return cert.status();
+  Result<std::string> key = ReadPemFile("tls-key", tls.key_file);
+  if (!key.ok()) return key.status();
+  grpc::SslServerCredentialsOptions options(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
+  options.pem_key_cert_pairs.push_back({*key, *cert});
+  if (!tls.client_ca_file.empty()) {
+    Result<std::string> client_ca = ReadPemFile("tls-client-ca", tls.client_ca_file);
+    if (!client_ca.ok()) return client_ca.status();
+    options.pem_root_certs = *client_ca;
+    options.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  return grpc::SslServerCredentials(options);
+}
+
+// A grpc::Status of the set-up (journal) as the core Status Start returns.
+Status SetupError(const grpc::Status& status) {
+  return FailedPrecondition("", status.error_message());
+}
 
 // Often enough that an idle session is gone soon after its timeout (lookups already treat it
 // as gone), rarely enough to cost nothing.
@@ -18,16 +60,34 @@ std::chrono::milliseconds SweepPeriod(std::chrono::milliseconds idle_timeout) {
 
 }  // namespace
 
-ContactServer::ContactServer(const ServerOptions& options)
-    : operations_(options.limits, options.test_hooks), service_(operations_) {}
+ContactServer::ContactServer(const ServerOptions& options,
+                             std::optional<Authenticator> authenticator)
+    : operations_(options.limits, options.test_hooks),
+      authenticator_(std::move(authenticator)),
+      service_(operations_, authenticator_ ? &*authenticator_ : nullptr) {}
 
 Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions& options) {
   if (Status s = ValidateServiceLimits(options.limits); !s.ok()) return s;
-  std::unique_ptr<ContactServer> server(new ContactServer(options));
+  Result<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials(options.tls);
+  if (!credentials.ok()) return credentials.status();
+  std::optional<Authenticator> authenticator;
+  if (!options.tokens_file.empty()) {
+    Result<Authenticator> loaded = Authenticator::FromFile(options.tokens_file);
+    if (!loaded.ok()) return loaded.status();
+    authenticator = std::move(loaded).value();
+  }
+  std::unique_ptr<ContactServer> server(new ContactServer(options, std::move(authenticator)));
+  if (!options.journal.path.empty()) {
+    if (options.journal.snapshot_every < 1) {
+      return InvalidArgument("journal-snapshot-every", "must be >= 1, got 0");
+    }
+    if (grpc::Status status = server->operations_.OpenJournal(options.journal); !status.ok()) {
+      return SetupError(status);
+    }
+  }
   grpc::ServerBuilder builder;
   if (!options.listen_address.empty()) {
-    builder.AddListeningPort(options.listen_address, grpc::InsecureServerCredentials(),
-                             &server->port_);
+    builder.AddListeningPort(options.listen_address, *credentials, &server->port_);
   }
   builder.SetMaxReceiveMessageSize(options.limits.max_message_bytes);
   builder.SetMaxSendMessageSize(options.limits.max_message_bytes);
@@ -62,6 +122,7 @@ void ContactServer::Shutdown(std::chrono::system_clock::time_point deadline) {
   server_->Wait();
   sweeper_.request_stop();
   if (sweeper_.joinable()) sweeper_.join();
+  operations_.CompactJournal();
   shut_down_ = true;
 }
 

@@ -1,6 +1,7 @@
 #include "mdr/service/session.h"
 
 #include <google/protobuf/util/time_util.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <optional>
@@ -25,8 +26,9 @@ class Stopwatch {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
-// Identifies what a request asked for, so a request_id reused for other steps is caught.
-std::size_t Fingerprint(const v1::ApplyRequest& request) {
+// Identifies what a request asked for, so a request_id reused for other steps is caught. Kept in
+// the journal: libstdc++'s string hash is the same in every process.
+std::uint64_t Fingerprint(const v1::ApplyRequest& request) {
   v1::ApplyRequest content;
   *content.mutable_steps() = request.steps();
   *content.mutable_step_mask() = request.step_mask();
@@ -49,13 +51,41 @@ void CompletedRequests::Add(Entry entry) {
 
 Session::Session(std::string name, SessionState state)
     : name_(std::move(name)),
+      owner_(std::move(state.owner)),
       scene_(std::move(state.scene)),
       limits_(std::move(state.limits)),
       idle_timeout_(IdleTimeout(limits_)),
-      create_time_(TimeUtil::GetCurrentTime()),
+      create_time_(state.create_time.value_or(TimeUtil::GetCurrentTime())),
       last_used_(Clock::now().time_since_epoch().count()),
       contact_(std::move(state.contact)),
-      applied_steps_(state.applied_steps) {}
+      applied_steps_(state.applied_steps),
+      journal_sequence_(state.journal_sequence),
+      journal_snapshot_sequence_(state.journal_snapshot_sequence) {
+  for (JournaledRequest& completed : state.completed) completed_.Add(std::move(completed));
+}
+
+void Session::AttachJournal(Journal* journal) {
+  std::lock_guard lock(mutex_);
+  journal_ = journal;
+}
+
+grpc::Status Session::CompactJournal() {
+  std::lock_guard lock(mutex_);
+  if (journal_ == nullptr || journal_snapshot_sequence_ == journal_sequence_) {
+    return grpc::Status::OK;
+  }
+  return CompactJournalLocked();
+}
+
+grpc::Status Session::CompactJournalLocked() {
+  v1::SessionSnapshot snapshot;
+  ExportLocked(&snapshot);
+  const std::vector<JournaledRequest> completed(completed_.entries().begin(),
+                                                completed_.entries().end());
+  grpc::Status status = journal_->Compact(name_, journal_sequence_, snapshot, completed);
+  if (status.ok()) journal_snapshot_sequence_ = journal_sequence_;
+  return status;
+}
 
 grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                             const StepGuard& guard, std::size_t max_response_bytes,
@@ -67,7 +97,7 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
             std::to_string(limits_.max_steps_per_batch()) + " per batch; split the batch");
   }
   const bool deduplicated = !request.request_id().empty();
-  const std::size_t fingerprint = deduplicated ? Fingerprint(request) : 0;
+  const std::uint64_t fingerprint = deduplicated ? Fingerprint(request) : 0;
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
   if (deduplicated) {
@@ -89,6 +119,14 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
   }
   response->set_compute_seconds(stopwatch.Seconds());
   if (deduplicated) completed_.Add({request.request_id(), fingerprint, *response});
+  if (journal_ != nullptr &&
+      journal_sequence_ - journal_snapshot_sequence_ >= journal_->options().snapshot_every) {
+    // The batch is journaled either way; a failed compaction only leaves more to replay.
+    if (grpc::Status status = CompactJournalLocked(); !status.ok()) {
+      spdlog::warn("event=journal_compaction_failed session={} error=\"{}\"", name_,
+                   status.error_message());
+    }
+  }
   Touch();  // a long batch counts as use until its end
   return grpc::Status::OK;
 }
@@ -96,10 +134,11 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
 grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                                const StepGuard& guard, std::size_t max_response_bytes,
                                v1::ApplyResponse* response) {
-  // A single step is atomic in the core; a longer batch runs on a copy that is committed at the
-  // end, so a failing step (or an expired deadline) leaves the session as it was.
+  // A single step is atomic in the core; a longer batch (or any batch that the journal must
+  // accept before it counts) runs on a copy that is committed at the end, so a failing step, an
+  // expired deadline or a failed journal write leaves the session as it was.
   std::optional<Contact> copy;
-  if (request.steps_size() > 1) copy.emplace(contact_);
+  if (request.steps_size() > 1 || journal_ != nullptr) copy.emplace(contact_);
   Contact& target = copy ? *copy : contact_;
   std::uint64_t applied = applied_steps_;
   double path_error = 0;
@@ -126,6 +165,13 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
                          std::to_string(max_response_bytes) +
                          "; select fewer fields or split the batch (nothing was applied)");
   }
+  if (journal_ != nullptr) {
+    if (grpc::Status status = journal_->AddBatch(name_, journal_sequence_ + 1, request);
+        !status.ok()) {
+      return status;
+    }
+  }
+  ++journal_sequence_;
   if (copy) contact_ = std::move(*copy);
   applied_steps_ = applied;
   WriteState(contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
@@ -164,10 +210,14 @@ void Session::ReadResource(v1::Session* resource) const {
 }
 
 void Session::Export(v1::SessionSnapshot* snapshot) const {
+  std::lock_guard lock(mutex_);
+  ExportLocked(snapshot);
+}
+
+void Session::ExportLocked(v1::SessionSnapshot* snapshot) const {
   snapshot->set_version(kSnapshotVersion);
   snapshot->set_source_name(name_);
   *snapshot->mutable_limits() = limits_;
-  std::lock_guard lock(mutex_);
   *snapshot->mutable_scene() = WithEffectiveOptions(scene_, contact_.config());
   ToProtoSnapshot(contact_.Snapshot(), snapshot->mutable_contact());
   snapshot->set_applied_steps(applied_steps_);

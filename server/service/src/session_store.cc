@@ -1,5 +1,8 @@
 #include "mdr/service/session_store.h"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
 #include <cstdio>
 #include <mutex>
 #include <utility>
@@ -34,28 +37,72 @@ bool SessionStore::IsSessionName(const std::string& name) {
   return name.starts_with(prefix) && IsValidSessionId(name.substr(prefix.size()));
 }
 
-SessionStore::SessionStore(std::size_t max_sessions)
-    : max_sessions_(max_sessions), id_generator_(std::random_device{}()) {}
+SessionStore::SessionStore(std::size_t max_sessions, std::size_t max_sessions_per_owner)
+    : max_sessions_(max_sessions),
+      max_sessions_per_owner_(max_sessions_per_owner),
+      id_generator_(std::random_device{}()) {}
 
-grpc::Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
-                                  SessionState state, std::shared_ptr<Session>* session) {
-  if (!session_id.empty() && !IsValidSessionId(session_id)) {
-    return GrpcError(
-        grpc::StatusCode::INVALID_ARGUMENT, id_field,
-        "must be 1-63 characters of [a-z0-9-] starting with a letter, got \"" + session_id + "\"");
+template <typename Predicate>
+std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
+  std::vector<std::string> erased;
+  const auto now = Session::Clock::now();
+  for (auto it = sessions_.begin(); it != sessions_.end();) {
+    if (!which(*it->second) || !it->second->IsExpired(now)) {
+      ++it;
+      continue;
+    }
+    if (journal_ != nullptr) {
+      // Gone from memory either way; a session the journal keeps comes back at the next start
+      // and expires again.
+      if (grpc::Status status = journal_->RemoveSession(it->first); !status.ok()) {
+        spdlog::warn("event=journal_error session={} error=\"{}\"", it->first,
+                     status.error_message());
+      }
+    }
+    erased.push_back(it->first);
+    it = sessions_.erase(it);
   }
-  std::unique_lock lock(mutex_);
+  return erased;
+}
+
+grpc::Status SessionStore::CheckRoomLocked(const Principal& caller) {
   if (sessions_.size() >= max_sessions_) {
     // Expired sessions the sweeper has not reached yet do not count.
-    std::erase_if(sessions_, [now = Session::Clock::now()](const auto& entry) {
-      return entry.second->IsExpired(now);
-    });
+    EraseExpiredLocked([](const Session&) { return true; });
   }
   if (sessions_.size() >= max_sessions_) {
     return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
                      "the server holds its maximum of " + std::to_string(max_sessions_) +
                          " sessions (--max-sessions); delete unused ones");
   }
+  if (!caller || max_sessions_per_owner_ == 0) return grpc::Status::OK;
+  auto owned = [&] {
+    return static_cast<std::size_t>(std::count_if(
+        sessions_.begin(), sessions_.end(),
+        [&](const Map::value_type& entry) { return entry.second->owner() == *caller; }));
+  };
+  if (owned() >= max_sessions_per_owner_) {
+    EraseExpiredLocked([&](const Session& session) { return session.owner() == *caller; });
+  }
+  if (owned() >= max_sessions_per_owner_) {
+    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
+                     "your token holds its maximum of " + std::to_string(max_sessions_per_owner_) +
+                         " sessions (--max-sessions-per-token); delete unused ones");
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
+                                  const Principal& caller, SessionState state,
+                                  std::shared_ptr<Session>* session) {
+  if (!session_id.empty() && !IsValidSessionId(session_id)) {
+    return GrpcError(
+        grpc::StatusCode::INVALID_ARGUMENT, id_field,
+        "must be 1-63 characters of [a-z0-9-] starting with a letter, got \"" + session_id + "\"");
+  }
+  state.owner = caller.value_or("");
+  std::unique_lock lock(mutex_);
+  if (grpc::Status status = CheckRoomLocked(caller); !status.ok()) return status;
   std::string name = kCollection + session_id;
   if (session_id.empty()) {
     do {
@@ -63,19 +110,28 @@ grpc::Status SessionStore::Create(const std::string& id_field, const std::string
     } while (sessions_.contains(name));
   }
   if (auto it = sessions_.find(name); it != sessions_.end()) {
+    // Names are global: a name taken by someone else's session is taken for the caller too.
     if (!it->second->IsExpired(Session::Clock::now())) {
       return GrpcError(grpc::StatusCode::ALREADY_EXISTS, id_field, name + " already exists");
     }
-    sessions_.erase(it);
+    sessions_.erase(it);  // the journal entry is replaced below
   }
   auto created = std::make_shared<Session>(name, std::move(state));
+  if (journal_ != nullptr) {
+    v1::SessionSnapshot snapshot;
+    created->Export(&snapshot);
+    grpc::Status status =
+        journal_->AddSession(name, created->owner(), created->create_time(), snapshot);
+    if (!status.ok()) return status;
+    created->AttachJournal(journal_);
+  }
   sessions_.emplace(name, created);
   *session = std::move(created);
   return grpc::Status::OK;
 }
 
 grpc::Status SessionStore::Find(const std::string& field, const std::string& name,
-                                std::shared_ptr<Session>* session) {
+                                const Principal& caller, std::shared_ptr<Session>* session) {
   if (!IsSessionName(name)) {
     return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, field,
                      "must be a session name \"sessions/{session_id}\", got \"" + name + "\"");
@@ -83,7 +139,7 @@ grpc::Status SessionStore::Find(const std::string& field, const std::string& nam
   {
     std::shared_lock lock(mutex_);
     auto it = sessions_.find(name);
-    if (it == sessions_.end()) return NotFound(field, name);
+    if (it == sessions_.end() || !it->second->VisibleTo(caller)) return NotFound(field, name);
     if (!it->second->IsExpired(Session::Clock::now())) {
       it->second->Touch();
       *session = it->second;
@@ -91,47 +147,66 @@ grpc::Status SessionStore::Find(const std::string& field, const std::string& nam
     }
   }
   std::unique_lock lock(mutex_);
-  if (auto it = sessions_.find(name);
-      it != sessions_.end() && it->second->IsExpired(Session::Clock::now())) {
-    sessions_.erase(it);
-  }
+  EraseExpiredLocked([&](const Session& expired) { return expired.name() == name; });
   return NotFound(field, name);
 }
 
-grpc::Status SessionStore::Erase(const std::string& field, const std::string& name) {
+grpc::Status SessionStore::Erase(const std::string& field, const std::string& name,
+                                 const Principal& caller) {
   std::shared_ptr<Session> session;
-  if (grpc::Status status = Find(field, name, &session); !status.ok()) return status;
+  if (grpc::Status status = Find(field, name, caller, &session); !status.ok()) return status;
   std::unique_lock lock(mutex_);
   // A concurrent delete may have won; deleting twice reports NOT_FOUND once.
-  if (sessions_.erase(name) == 0) return NotFound(field, name);
+  auto it = sessions_.find(name);
+  if (it == sessions_.end() || it->second != session) return NotFound(field, name);
+  if (journal_ != nullptr) {
+    if (grpc::Status status = journal_->RemoveSession(name); !status.ok()) return status;
+  }
+  sessions_.erase(it);
   return grpc::Status::OK;
 }
 
 std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string& after,
                                                               std::size_t page_size,
+                                                              const Principal& caller,
                                                               bool* more) const {
   std::vector<std::shared_ptr<Session>> page;
   const auto now = Session::Clock::now();
+  auto listed = [&](const Session& session) {
+    return session.VisibleTo(caller) && !session.IsExpired(now);
+  };
   std::shared_lock lock(mutex_);
   auto it = after.empty() ? sessions_.begin() : sessions_.upper_bound(after);
   for (; it != sessions_.end() && page.size() < page_size; ++it) {
-    if (!it->second->IsExpired(now)) page.push_back(it->second);
+    if (listed(*it->second)) page.push_back(it->second);
   }
-  while (it != sessions_.end() && it->second->IsExpired(now)) ++it;
+  while (it != sessions_.end() && !listed(*it->second)) ++it;
   *more = it != sessions_.end();
   return page;
 }
 
 std::vector<std::string> SessionStore::EraseExpired() {
-  std::vector<std::string> erased;
-  const auto now = Session::Clock::now();
   std::unique_lock lock(mutex_);
-  std::erase_if(sessions_, [&](const auto& entry) {
-    if (!entry.second->IsExpired(now)) return false;
-    erased.push_back(entry.first);
-    return true;
-  });
-  return erased;
+  return EraseExpiredLocked([](const Session&) { return true; });
+}
+
+bool SessionStore::AddRestored(std::shared_ptr<Session> session) {
+  std::unique_lock lock(mutex_);
+  const std::string name = session->name();
+  return sessions_.emplace(name, std::move(session)).second;
+}
+
+void SessionStore::AttachJournal(Journal* journal) {
+  std::unique_lock lock(mutex_);
+  journal_ = journal;
+  for (const auto& [name, session] : sessions_) session->AttachJournal(journal);
+}
+
+std::vector<std::shared_ptr<Session>> SessionStore::All() const {
+  std::vector<std::shared_ptr<Session>> all;
+  std::shared_lock lock(mutex_);
+  for (const auto& [name, session] : sessions_) all.push_back(session);
+  return all;
 }
 
 std::size_t SessionStore::size() const {

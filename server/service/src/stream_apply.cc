@@ -35,12 +35,19 @@ std::size_t StreamRegistry::size() const {
 }
 
 StreamApplyReactor::StreamApplyReactor(grpc::CallbackServerContext* context,
-                                       ContactOperations& operations, StreamRegistry& registry)
+                                       ContactOperations& operations,
+                                       const Authenticator* authenticator, StreamRegistry& registry)
     : context_(context),
       operations_(operations),
       registry_(registry),
       interruption_(InterruptionOf(context)) {
   // No reaction runs before the handler returns this reactor, so the flags need no lock yet.
+  if (grpc::Status status = CallerOf(context, authenticator, &caller_); !status.ok()) {
+    LogCall("StreamApply", "", RequestIdOf(context), status, 0);
+    finished_ = true;
+    Finish(status);
+    return;
+  }
   reading_ = true;
   StartRead(&request_);
   if (!registry_.Add(this)) Drain();
@@ -112,7 +119,8 @@ v1::StreamApplyResponse StreamApplyReactor::Answer() {
   const auto start = std::chrono::steady_clock::now();
   v1::StreamApplyResponse response;
   const v1::ApplyRequest& apply = request_.apply();
-  const grpc::Status status = operations_.Apply(apply, interruption_, response.mutable_result());
+  const grpc::Status status =
+      operations_.Apply(caller_, apply, interruption_, response.mutable_result());
   if (status.ok()) {
     response.mutable_status();  // present, code OK
   } else {

@@ -1,6 +1,6 @@
-// Per-call helpers shared by the unary handlers and the StreamApply reactor: the batch
-// interruption check from the call's deadline and cancellation, the request id for logs, and the
-// structured (key=value) call log.
+// Per-call helpers shared by the unary handlers and the StreamApply reactor: the caller's
+// principal, the batch interruption check from the call's deadline and cancellation, the request
+// id for logs, and the structured (key=value) call log.
 #pragma once
 
 #include <grpcpp/server_context.h>
@@ -8,9 +8,15 @@
 
 #include <string>
 
+#include "mdr/service/auth.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::service {
+
+// The caller of a call: nullopt without an authenticator (authentication off), else the
+// principal of its bearer token (UNAUTHENTICATED without a valid one).
+grpc::Status CallerOf(const grpc::CallbackServerContext* context,
+                      const Authenticator* authenticator, Principal* caller);
 
 // DEADLINE_EXCEEDED once the call's deadline has passed, CANCELLED once the client cancelled.
 ContactOperations::Interruption InterruptionOf(grpc::CallbackServerContext* context);

@@ -1,7 +1,9 @@
-// The gRPC adapter: each handler hands its request to ContactOperations and finishes the call
-// with the result; StreamApply runs a StreamApplyReactor. No physics and no validation rules here.
+// The gRPC adapter: each handler authenticates the caller (with an Authenticator), hands its
+// request to ContactOperations and finishes the call with the result; StreamApply runs a
+// StreamApplyReactor. No physics and no validation rules here.
 #pragma once
 
+#include "mdr/service/auth.h"
 #include "mdr/service/operations.h"
 #include "mdr/service/stream_apply.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
@@ -10,7 +12,9 @@ namespace mdr::service {
 
 class ContactServiceImpl final : public v1::ContactService::CallbackService {
  public:
-  explicit ContactServiceImpl(ContactOperations& operations) : operations_(operations) {}
+  // authenticator: null when authentication is off (every caller is anonymous).
+  ContactServiceImpl(ContactOperations& operations, const Authenticator* authenticator)
+      : operations_(operations), authenticator_(authenticator) {}
 
   grpc::ServerUnaryReactor* CreateSession(grpc::CallbackServerContext* context,
                                           const v1::CreateSessionRequest* request,
@@ -48,6 +52,7 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
 
  private:
   ContactOperations& operations_;
+  const Authenticator* const authenticator_;
   StreamRegistry streams_;
 };
 

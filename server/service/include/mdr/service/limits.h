@@ -13,6 +13,8 @@ namespace mdr::service {
 struct ServiceLimits {
   // Sessions held at most; CreateSession/ImportSession beyond it fail with RESOURCE_EXHAUSTED.
   std::size_t max_sessions = 10000;
+  // Sessions one token (principal) may hold at most, with authentication; 0: only max_sessions.
+  std::size_t max_sessions_per_token = 0;
   // Steps in one Apply request or StreamApply message at most (and the sessions' default).
   std::uint32_t max_steps_per_batch = 10000;
   // Largest scene.options.max_memory_vertices a session may ask for (and its default when

@@ -1,14 +1,19 @@
 // The operations of ContactService independent of the transport: validate a request, find the
 // session, run the core, encode the reply, all errors as grpc::Status. The unary handlers and the
-// StreamApply reactor are thin wrappers around this class.
+// StreamApply reactor are thin wrappers around this class. Every session operation is made by a
+// caller (Principal) and sees only the caller's sessions. With a journal (OpenJournal), every
+// change is journaled before it is answered.
 #pragma once
 
 #include <grpcpp/support/status.h>
 
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/outputs.h"
 #include "mdr/service/session_store.h"
@@ -31,18 +36,29 @@ class ContactOperations {
 
   ContactOperations(const ServiceLimits& limits, TestHooks hooks);
 
-  grpc::Status CreateSession(const v1::CreateSessionRequest& request, v1::Session* response);
-  grpc::Status GetSession(const v1::GetSessionRequest& request, v1::Session* response);
-  grpc::Status ListSessions(const v1::ListSessionsRequest& request,
+  // Opens the journal, restores every session in it (snapshot, then its later batches replayed
+  // through Session::Apply) and journals every change from now on. Call before serving. Errors
+  // name the journal and, for a session that cannot be restored, the session.
+  grpc::Status OpenJournal(const JournalOptions& options);
+  // Writes a snapshot of every session with batches since its last one (a clean shutdown).
+  void CompactJournal();
+
+  grpc::Status CreateSession(const Principal& caller, const v1::CreateSessionRequest& request,
+                             v1::Session* response);
+  grpc::Status GetSession(const Principal& caller, const v1::GetSessionRequest& request,
+                          v1::Session* response);
+  grpc::Status ListSessions(const Principal& caller, const v1::ListSessionsRequest& request,
                             v1::ListSessionsResponse* response);
-  grpc::Status DeleteSession(const v1::DeleteSessionRequest& request);
-  grpc::Status ExportSession(const v1::ExportSessionRequest& request,
+  grpc::Status DeleteSession(const Principal& caller, const v1::DeleteSessionRequest& request);
+  grpc::Status ExportSession(const Principal& caller, const v1::ExportSessionRequest& request,
                              v1::SessionSnapshot* response);
-  grpc::Status ImportSession(const v1::ImportSessionRequest& request, v1::Session* response);
+  grpc::Status ImportSession(const Principal& caller, const v1::ImportSessionRequest& request,
+                             v1::Session* response);
   // interruption is checked before every step.
-  grpc::Status Apply(const v1::ApplyRequest& request, const Interruption& interruption,
-                     v1::ApplyResponse* response);
-  grpc::Status Query(const v1::QueryRequest& request, v1::QueryResponse* response);
+  grpc::Status Apply(const Principal& caller, const v1::ApplyRequest& request,
+                     const Interruption& interruption, v1::ApplyResponse* response);
+  grpc::Status Query(const Principal& caller, const v1::QueryRequest& request,
+                     v1::QueryResponse* response);
   // Stateless: no session is read or changed.
   grpc::Status Transform(const v1::TransformRequest& request, v1::TransformResponse* response);
 
@@ -54,11 +70,19 @@ class ContactOperations {
  private:
   // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
   Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix) const;
-  grpc::Status AddSession(const std::string& id_field, const std::string& session_id,
-                          SessionState state, v1::Session* response, const char* verb);
+  // The state a snapshot describes (ImportSession and the journal); errors name
+  // "snapshot.<field>".
+  grpc::Status StateOf(const v1::SessionSnapshot& snapshot,
+                       std::optional<SessionState>* state) const;
+  grpc::Status AddSession(const Principal& caller, const std::string& id_field,
+                          const std::string& session_id, SessionState state, v1::Session* response,
+                          const char* verb);
+  // A journaled session: its snapshot imported, its later batches replayed.
+  grpc::Status Restore(const JournaledSession& journaled, std::shared_ptr<Session>* session) const;
 
   const ServiceLimits limits_;
   const TestHooks hooks_;
+  std::unique_ptr<Journal> journal_;  // before sessions_: they write to it until destroyed
   SessionStore sessions_;
 };
 

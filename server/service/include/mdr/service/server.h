@@ -1,5 +1,6 @@
 // Builds and starts a gRPC server for ContactService; shared by mdrd, mdrctl's embedded mode and
-// the tests. Owns the operations (sessions), the service, the idle-session sweeper and the drain.
+// the tests. Owns the operations (sessions and their journal), the authenticator, the service,
+// the idle-session sweeper and the drain.
 #pragma once
 
 #include <grpcpp/channel.h>
@@ -10,20 +11,38 @@
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "mdr/core/status.h"
+#include "mdr/service/auth.h"
 #include "mdr/service/contact_service.h"
+#include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::service {
 
+// PEM files; all empty: plaintext.
+struct TlsOptions {
+  // The server's certificate chain and private key (both or neither).
+  std::string cert_file;
+  std::string key_file;
+  // CA certificates that client certificates must chain to; set: mutual TLS (a client without a
+  // valid certificate is refused). Needs cert_file.
+  std::string client_ca_file;
+};
+
 struct ServerOptions {
   // "host:port" to listen on (port 0: pick a free one); empty: in-process channels only.
   std::string listen_address;
   ServiceLimits limits;
+  // path empty: sessions are not journaled.
+  JournalOptions journal;
+  TlsOptions tls;
+  // "name:token" lines (Authenticator); empty: no authentication.
+  std::string tokens_file;
   TestHooks test_hooks;
 };
 
@@ -47,15 +66,16 @@ class ContactServer {
 
   // Graceful stop: open StreamApply streams finish (UNAVAILABLE, after answering the message they
   // are working on), new calls are refused, running calls get until the deadline and are then
-  // cancelled.
+  // cancelled; then every journaled session is compacted to a snapshot.
   void Shutdown(std::chrono::system_clock::time_point deadline);
 
  private:
-  explicit ContactServer(const ServerOptions& options);
+  ContactServer(const ServerOptions& options, std::optional<Authenticator> authenticator);
   // Deletes idle sessions every `period` until stopped.
   void SweepExpiredSessions(std::stop_token stop, std::chrono::milliseconds period);
 
   ContactOperations operations_;
+  const std::optional<Authenticator> authenticator_;
   ContactServiceImpl service_;
   std::unique_ptr<grpc::Server> server_;
   std::mutex sweeper_mutex_;

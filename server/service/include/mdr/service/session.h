@@ -1,6 +1,7 @@
-// One contact session: the resource's immutable parts (name, scene, limits, creation time), the
-// contact behind the session's own mutex (calls on one session are serialised), the idle clock,
-// and the responses of its last successful batches by request_id (idempotent retries).
+// One contact session: the resource's immutable parts (name, owner, scene, limits, creation time),
+// the contact behind the session's own mutex (calls on one session are serialised), the idle
+// clock, the responses of its last successful batches by request_id (idempotent retries), and its
+// place in the journal (every committed batch is journaled before the commit).
 #pragma once
 
 #include <google/protobuf/repeated_field.h>
@@ -14,9 +15,12 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/service/journal.h"
 #include "mdr/service/outputs.h"
 #include "mdr/v1/contact_service.pb.h"
 
@@ -27,26 +31,38 @@ class CompletedRequests {
  public:
   static constexpr std::size_t kCapacity = 64;
 
-  struct Entry {
-    std::string request_id;
-    std::size_t fingerprint;  // of the steps and step mask, to detect a reused request_id
-    v1::ApplyResponse response;
-  };
+  // The request id, the fingerprint of the steps and step mask (to detect a reused request_id)
+  // and the response.
+  using Entry = JournaledRequest;
 
   const Entry* Find(const std::string& request_id) const;
   // Forgets the oldest entry beyond kCapacity.
   void Add(Entry entry);
+  const std::deque<Entry>& entries() const { return entries_; }
 
  private:
   std::deque<Entry> entries_;  // oldest first
 };
 
-// Everything a session starts from (a fresh contact, or an imported one).
+// Who makes a call: the principal (token name) when authentication is on; nullopt when it is
+// off, and then every caller sees every session and new sessions belong to no one (owner "").
+using Principal = std::optional<std::string>;
+
+// Everything a session starts from (a fresh contact, an imported or a journaled one).
 struct SessionState {
   v1::Scene scene;
   v1::SessionLimits limits;  // effective
   Contact contact;
   std::uint64_t applied_steps = 0;
+  std::string owner{};
+  // Unset: now.
+  std::optional<google::protobuf::Timestamp> create_time{};
+  // Batches journaled so far (the sequence number of the last one); the journal's snapshot
+  // includes the first journal_snapshot_sequence of them.
+  std::uint64_t journal_sequence = 0;
+  std::uint64_t journal_snapshot_sequence = 0;
+  // The responses remembered for request ids, oldest first.
+  std::vector<JournaledRequest> completed{};
 };
 
 class Session {
@@ -61,7 +77,20 @@ class Session {
   Session(std::string name, SessionState state);
 
   const std::string& name() const { return name_; }
+  const std::string& owner() const { return owner_; }
+  const google::protobuf::Timestamp& create_time() const { return create_time_; }
   const v1::SessionLimits& limits() const { return limits_; }
+  // Whether the caller may see and use this session: its owner, or anyone without
+  // authentication.
+  bool VisibleTo(const Principal& caller) const { return !caller || *caller == owner_; }
+
+  // From now on every committed batch is written to the journal before the commit (a batch the
+  // journal refuses fails with UNAVAILABLE and changes nothing), and the session's snapshot is
+  // rewritten every journal->options().snapshot_every batches. Null: not journaled.
+  void AttachJournal(Journal* journal);
+  // Writes a snapshot of the current state to the journal if batches were journaled since the
+  // last one (a clean shutdown).
+  grpc::Status CompactJournal();
 
   // Applies request.steps atomically: all succeed and are committed, or the first failure is
   // returned (field "steps[i]...") and the session is unchanged. A request_id seen among the
@@ -91,9 +120,12 @@ class Session {
   grpc::Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                         const StepGuard& guard, std::size_t max_response_bytes,
                         v1::ApplyResponse* response);
+  void ExportLocked(v1::SessionSnapshot* snapshot) const;
+  grpc::Status CompactJournalLocked();
   Clock::time_point last_used() const;
 
   const std::string name_;
+  const std::string owner_;
   const v1::Scene scene_;
   const v1::SessionLimits limits_;
   const std::chrono::nanoseconds idle_timeout_;  // 0: never expires
@@ -101,9 +133,12 @@ class Session {
   std::atomic<Clock::rep> last_used_;
 
   mutable std::mutex mutex_;
-  Contact contact_;              // guarded by mutex_
-  std::uint64_t applied_steps_;  // guarded by mutex_
-  CompletedRequests completed_;  // guarded by mutex_
+  Contact contact_;                          // guarded by mutex_
+  std::uint64_t applied_steps_;              // guarded by mutex_
+  CompletedRequests completed_;              // guarded by mutex_
+  Journal* journal_ = nullptr;               // guarded by mutex_
+  std::uint64_t journal_sequence_;           // guarded by mutex_
+  std::uint64_t journal_snapshot_sequence_;  // guarded by mutex_
 };
 
 }  // namespace mdr::service

@@ -1,6 +1,8 @@
 // The thread-safe set of sessions, ordered by name (stable pages for ListSessions). Sessions
 // whose idle timeout ran out are invisible at once and erased by EraseExpired (the server's
-// sweeper) or on the next lookup.
+// sweeper) or on the next lookup. A session is visible only to its owner (Session::VisibleTo):
+// to anyone else it does not exist. With a journal, every session added or erased is journaled
+// (an added one before it becomes visible).
 #pragma once
 
 #include <grpcpp/support/status.h>
@@ -19,25 +21,38 @@ namespace mdr::service {
 
 class SessionStore {
  public:
-  explicit SessionStore(std::size_t max_sessions);
+  // max_sessions_per_owner: sessions one principal may hold at most (0: no such limit; it applies
+  // only with authentication).
+  SessionStore(std::size_t max_sessions, std::size_t max_sessions_per_owner);
 
-  // Creates "sessions/{session_id}"; an empty session_id gets a generated one. Errors:
-  // INVALID_ARGUMENT (session_id, named by id_field), ALREADY_EXISTS, RESOURCE_EXHAUSTED.
+  // Creates "sessions/{session_id}" owned by the caller (see Principal); an empty session_id gets
+  // a generated one. Errors: INVALID_ARGUMENT (session_id, named by id_field), ALREADY_EXISTS,
+  // RESOURCE_EXHAUSTED, UNAVAILABLE (the journal failed; nothing was created).
   grpc::Status Create(const std::string& id_field, const std::string& session_id,
-                      SessionState state, std::shared_ptr<Session>* session);
-  // Finds a live session and restarts its idle timer. NOT_FOUND for an unknown or expired name,
-  // INVALID_ARGUMENT for one not of the form "sessions/{id}"; field names the request field.
-  grpc::Status Find(const std::string& field, const std::string& name,
+                      const Principal& caller, SessionState state,
+                      std::shared_ptr<Session>* session);
+  // Finds a live session visible to the caller and restarts its idle timer. NOT_FOUND for an
+  // unknown, expired or someone else's session, INVALID_ARGUMENT for a name not of the form
+  // "sessions/{id}"; field names the request field.
+  grpc::Status Find(const std::string& field, const std::string& name, const Principal& caller,
                     std::shared_ptr<Session>* session);
-  grpc::Status Erase(const std::string& field, const std::string& name);
+  // As Find, then deletes it (UNAVAILABLE if the journal fails: then it is kept).
+  grpc::Status Erase(const std::string& field, const std::string& name, const Principal& caller);
 
-  // Up to page_size live sessions with names after `after` (empty: from the first), in name
-  // order; *more tells whether further sessions follow.
+  // Up to page_size live sessions visible to the caller with names after `after` (empty: from
+  // the first), in name order; *more tells whether further ones follow.
   std::vector<std::shared_ptr<Session>> ListAfter(const std::string& after, std::size_t page_size,
-                                                  bool* more) const;
+                                                  const Principal& caller, bool* more) const;
 
   // Erases the sessions whose idle timeout ran out; returns their names.
   std::vector<std::string> EraseExpired();
+
+  // Adds a session restored from the journal (not journaled again); false if the name is taken.
+  bool AddRestored(std::shared_ptr<Session> session);
+  // From now on sessions are journaled (the restored ones included); see Session::AttachJournal.
+  void AttachJournal(Journal* journal);
+  // Every session, for a final compaction.
+  std::vector<std::shared_ptr<Session>> All() const;
 
   std::size_t size() const;
 
@@ -45,12 +60,21 @@ class SessionStore {
   static bool IsSessionName(const std::string& name);
 
  private:
+  using Map = std::map<std::string, std::shared_ptr<Session>>;
   std::string GenerateSessionId();
+  // Frees room (expired sessions) and checks the limits for a new session of the caller; the
+  // caller holds mutex_ exclusively.
+  grpc::Status CheckRoomLocked(const Principal& caller);
+  // Erases expired sessions matching `which` (and journals it); returns their names.
+  template <typename Predicate>
+  std::vector<std::string> EraseExpiredLocked(Predicate which);
 
   const std::size_t max_sessions_;
+  const std::size_t max_sessions_per_owner_;
   mutable std::shared_mutex mutex_;
-  std::map<std::string, std::shared_ptr<Session>> sessions_;  // guarded by mutex_
-  std::mt19937_64 id_generator_;                              // guarded by mutex_
+  Map sessions_;                  // guarded by mutex_
+  std::mt19937_64 id_generator_;  // guarded by mutex_
+  Journal* journal_ = nullptr;    // guarded by mutex_
 };
 
 }  // namespace mdr::service

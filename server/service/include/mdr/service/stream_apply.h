@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 
+#include "mdr/service/auth.h"
 #include "mdr/service/operations.h"
 #include "mdr/v1/contact_service.pb.h"
 
@@ -42,8 +43,10 @@ class StreamApplyReactor final
  public:
   static constexpr std::size_t kMaxPendingResponses = 8;
 
+  // An unauthenticated stream ends at once (UNAUTHENTICATED); an authenticated one applies
+  // every message as its caller.
   StreamApplyReactor(grpc::CallbackServerContext* context, ContactOperations& operations,
-                     StreamRegistry& registry);
+                     const Authenticator* authenticator, StreamRegistry& registry);
 
   // Stops reading; the stream ends with UNAVAILABLE once the responses already computed are
   // written. Messages read from now on are not applied.
@@ -70,6 +73,7 @@ class StreamApplyReactor final
   ContactOperations& operations_;
   StreamRegistry& registry_;
   const ContactOperations::Interruption interruption_;
+  Principal caller_;                // set once by the constructor
   v1::StreamApplyRequest request_;  // the read buffer; one read at a time
 
   std::mutex mutex_;

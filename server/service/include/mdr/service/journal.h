@@ -1,0 +1,138 @@
+// The durable record of the sessions: an embedded SQLite database (WAL mode) holding, per live
+// session, a base snapshot (SessionSnapshot, the portable exact state of Export/Import) and the
+// Apply batches accepted since, in order. A session is restored by importing its snapshot and
+// replaying its batches through Session::Apply; compaction replaces the snapshot and deletes the
+// batches it covers. Every write is one transaction and returns once SQLite has committed it
+// (durability against power loss depends on JournalSync). One process at a time: the database is
+// locked exclusively while open.
+#pragma once
+
+#include <google/protobuf/timestamp.pb.h>
+#include <grpcpp/support/status.h>
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "mdr/v1/contact_service.pb.h"
+
+struct sqlite3;
+struct sqlite3_stmt;
+
+namespace mdr::service {
+
+// When a commit reaches the disk (PRAGMA synchronous in WAL mode). Every mode survives a crash
+// of the process (SIGKILL included): a commit is in the operating system's cache before the
+// response is sent.
+enum class JournalSync {
+  // No fsync: a crash of the machine (power loss, kernel panic) may lose recent commits or
+  // corrupt the journal.
+  kOff,
+  // fsync at checkpoints only: a crash of the machine may lose the last commits, the journal stays
+  // consistent.
+  kNormal,
+  // fsync of the write-ahead log at every commit: nothing acknowledged is lost.
+  kFull,
+};
+
+// "off", "normal", "full"; false for anything else.
+bool ParseJournalSync(const std::string& text, JournalSync* sync);
+const char* JournalSyncName(JournalSync sync);
+
+struct JournalOptions {
+  // SQLite database file; empty: no journal (sessions live in memory only).
+  std::string path;
+  JournalSync sync = JournalSync::kNormal;
+  // A session's snapshot is rewritten (and the batches it covers deleted) after this many batches;
+  // also at a clean shutdown. >= 1.
+  std::uint32_t snapshot_every = 1000;
+};
+
+// One accepted batch: the ApplyRequest as received (steps, step_mask, request_id), numbered
+// 1, 2, ... per session.
+struct JournaledBatch {
+  std::uint64_t sequence = 0;
+  v1::ApplyRequest request;
+};
+
+// A response remembered for a request id (CompletedRequests), kept with a snapshot so that a
+// retry after a restart is still recognised.
+struct JournaledRequest {
+  std::string request_id;
+  std::uint64_t fingerprint = 0;
+  v1::ApplyResponse response;
+};
+
+// A live session as journaled: its base snapshot, which includes the batches up to
+// snapshot_sequence, the request ids remembered at that point (oldest first), and the later
+// batches in order.
+struct JournaledSession {
+  std::string name;
+  std::string owner;
+  google::protobuf::Timestamp create_time;
+  std::uint64_t snapshot_sequence = 0;
+  v1::SessionSnapshot snapshot;
+  std::vector<JournaledRequest> completed;
+  std::vector<JournaledBatch> batches;
+};
+
+class Journal {
+ public:
+  // Opens (creating if needed) the database at options.path and takes its lock. Errors
+  // (FAILED_PRECONDITION) say why: unreadable, not a journal, a newer format, in use by another
+  // process.
+  static grpc::Status Open(const JournalOptions& options, std::unique_ptr<Journal>* journal);
+
+  Journal(const Journal&) = delete;
+  Journal& operator=(const Journal&) = delete;
+  ~Journal();
+
+  // Every journaled session with the batches after its snapshot, sessions by name, batches by
+  // sequence. DATA_LOSS for an entry that does not parse.
+  grpc::Status Load(std::vector<JournaledSession>* sessions);
+
+  // The write operations, each one transaction. UNAVAILABLE when SQLite fails (disk full, I/O
+  // error): then nothing was written.
+  // A new session (created or imported) with its initial snapshot as sequence 0; replaces any
+  // entry of the same name.
+  grpc::Status AddSession(const std::string& name, const std::string& owner,
+                          const google::protobuf::Timestamp& create_time,
+                          const v1::SessionSnapshot& snapshot);
+  grpc::Status AddBatch(const std::string& session, std::uint64_t sequence,
+                        const v1::ApplyRequest& request);
+  // Replaces the session's snapshot (and remembered request ids) by one that includes the batches
+  // up to `sequence` and deletes those batches.
+  grpc::Status Compact(const std::string& session, std::uint64_t sequence,
+                       const v1::SessionSnapshot& snapshot,
+                       const std::vector<JournaledRequest>& completed);
+  grpc::Status RemoveSession(const std::string& session);
+
+  const JournalOptions& options() const { return options_; }
+
+ private:
+  explicit Journal(const JournalOptions& options) : options_(options) {}
+  // Runs SQL without results; the SQLite error message otherwise.
+  bool Execute(const char* sql, std::string* error);
+  // Runs a prepared statement to completion and resets it.
+  bool Step(sqlite3_stmt* statement, std::string* error);
+  // Runs `body` in a transaction (committed if it returns true, rolled back otherwise).
+  template <typename Body>
+  grpc::Status InTransaction(const char* what, Body body);
+  grpc::Status WriteError(const char* what, const std::string& error) const;
+
+  const JournalOptions options_;
+  std::mutex mutex_;  // one statement or transaction at a time
+  sqlite3* db_ = nullptr;
+  sqlite3_stmt* insert_session_ = nullptr;
+  sqlite3_stmt* insert_batch_ = nullptr;
+  sqlite3_stmt* update_snapshot_ = nullptr;
+  sqlite3_stmt* delete_batches_up_to_ = nullptr;
+  sqlite3_stmt* delete_session_ = nullptr;
+  sqlite3_stmt* delete_all_batches_ = nullptr;
+  sqlite3_stmt* insert_request_ = nullptr;
+  sqlite3_stmt* delete_requests_ = nullptr;
+};
+
+}  // namespace mdr::service

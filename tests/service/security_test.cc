@@ -1,0 +1,351 @@
+// TLS, mutual TLS and bearer-token authentication: certificates are generated at test time with
+// the openssl command into a temporary directory (a CA, a server certificate for 127.0.0.1, a
+// client certificate, and a client certificate of another CA).
+#include <stdlib.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "mdr/service/auth.h"
+#include "service_test_util.h"
+
+namespace mdr::service_testing {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::IsEmpty;
+
+std::string ReadFile(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+void WriteFile(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// The test PKI, made once for the suite.
+class Certificates {
+ public:
+  Certificates() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "mdr-tls-XXXXXX").string();
+    directory_ = mkdtemp(pattern.data());
+    WriteFile(directory_ / "server.ext", "subjectAltName=IP:127.0.0.1,DNS:localhost\n");
+    WriteFile(directory_ / "client.ext", "extendedKeyUsage=clientAuth\n");
+    const std::string key = " -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes";
+    const std::string script =
+        "cd '" + directory_.string() + "' && " + "openssl req -x509" + key +
+        " -keyout ca.key -out ca.pem -days 2 -subj /CN=mdr-test-ca && " + "openssl req -x509" +
+        key + " -keyout rogue-ca.key -out rogue-ca.pem -days 2 " + "-subj /CN=mdr-rogue-ca && " +
+        Leaf("server", "ca") + " && " + Leaf("client", "ca") + " && " +
+        Leaf("rogue-client", "rogue-ca", "client.ext");
+    ok_ = std::system(("(" + script + ") >'" + Path("openssl.log") + "' 2>&1").c_str()) == 0;
+  }
+  ~Certificates() { std::filesystem::remove_all(directory_); }
+
+  bool ok() const { return ok_; }
+  std::string Path(const std::string& name) const { return (directory_ / name).string(); }
+  std::string Pem(const std::string& name) const { return ReadFile(directory_ / name); }
+
+ private:
+  // A key and a certificate signed by `ca`, named `name`.key/.pem.
+  static std::string Leaf(const std::string& name, const std::string& ca,
+                          const std::string& extensions = "") {
+    const std::string ext = extensions.empty() ? name + ".ext" : extensions;
+    return "openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout " + name +
+           ".key -out " + name + ".csr -subj /CN=" + name + " && openssl x509 -req -in " + name +
+           ".csr -CA " + ca + ".pem -CAkey " + ca + ".key -CAcreateserial -days 2 -out " + name +
+           ".pem -extfile " + ext;
+  }
+
+  std::filesystem::path directory_;
+  bool ok_ = false;
+};
+
+class SecurityTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { certificates_ = new Certificates(); }
+  static void TearDownTestSuite() {
+    delete certificates_;
+    certificates_ = nullptr;
+  }
+  void SetUp() override {
+    ASSERT_TRUE(certificates_->ok()) << "openssl failed; see openssl.log in the temporary dir";
+  }
+
+  void Start(service::ServerOptions options) {
+    options.listen_address = "127.0.0.1:0";
+    auto server = service::ContactServer::Start(options);
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = std::move(server).value();
+  }
+
+  std::unique_ptr<v1::ContactService::Stub> Stub(
+      const std::shared_ptr<grpc::ChannelCredentials>& credentials) const {
+    return v1::ContactService::NewStub(
+        grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()), credentials));
+  }
+
+  static std::shared_ptr<grpc::ChannelCredentials> Tls(const std::string& client = "") {
+    grpc::SslCredentialsOptions options;
+    options.pem_root_certs = certificates_->Pem("ca.pem");
+    if (!client.empty()) {
+      options.pem_private_key = certificates_->Pem(client + ".key");
+      options.pem_cert_chain = certificates_->Pem(client + ".pem");
+    }
+    return grpc::SslCredentials(options);
+  }
+
+  static service::TlsOptions ServerTls(bool mutual) {
+    service::TlsOptions tls;
+    tls.cert_file = certificates_->Path("server.pem");
+    tls.key_file = certificates_->Path("server.key");
+    if (mutual) tls.client_ca_file = certificates_->Path("ca.pem");
+    return tls;
+  }
+
+  static grpc::Status Create(v1::ContactService::Stub& stub, const std::string& id = "") {
+    v1::CreateSessionRequest request;
+    *request.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+    request.set_session_id(id);
+    v1::Session session;
+    return stub.CreateSession(Context(std::chrono::seconds(5)).get(), request, &session);
+  }
+
+  static Certificates* certificates_;
+  std::unique_ptr<service::ContactServer> server_;
+};
+
+Certificates* SecurityTest::certificates_ = nullptr;
+
+TEST_F(SecurityTest, TlsServesTlsClientsAndRefusesPlaintext) {
+  service::ServerOptions options;
+  options.tls = ServerTls(/*mutual=*/false);
+  Start(options);
+  EXPECT_TRUE(Create(*Stub(Tls())).ok());
+  EXPECT_EQ(Create(*Stub(grpc::InsecureChannelCredentials())).error_code(),
+            grpc::StatusCode::UNAVAILABLE);
+}
+
+TEST_F(SecurityTest, MutualTlsRefusesClientsWithoutAValidCertificate) {
+  service::ServerOptions options;
+  options.tls = ServerTls(/*mutual=*/true);
+  Start(options);
+  EXPECT_TRUE(Create(*Stub(Tls("client"))).ok());
+  EXPECT_EQ(Create(*Stub(Tls())).error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(Create(*Stub(Tls("rogue-client"))).error_code(), grpc::StatusCode::UNAVAILABLE);
+}
+
+TEST_F(SecurityTest, StartNamesTheTlsSettingThatIsWrong) {
+  service::ServerOptions options;
+  options.listen_address = "127.0.0.1:0";
+  options.tls = ServerTls(/*mutual=*/false);
+  options.tls.cert_file = certificates_->Path("missing.pem");
+  auto server = service::ContactServer::Start(options);
+  ASSERT_FALSE(server.ok());
+  EXPECT_EQ(server.status().field(), "tls-cert");
+  EXPECT_THAT(server.status().message(), HasSubstr("missing.pem"));
+
+  options.tls = ServerTls(/*mutual=*/true);
+  options.tls.key_file.clear();
+  server = service::ContactServer::Start(options);
+  ASSERT_FALSE(server.ok());
+  EXPECT_EQ(server.status().field(), "tls-key");
+}
+
+// Bearer tokens: over TLS with the client's standard call credentials, and over plaintext with
+// the metadata set by hand (gRPC sends call credentials only over secure channels).
+class AuthTest : public SecurityTest {
+ protected:
+  static constexpr char kAliceToken[] = "alice-secret-0123456789";
+  static constexpr char kBobToken[] = "bob-secret-0123456789abc";
+
+  void StartWithTokens(std::size_t max_sessions_per_token = 0) {
+    const std::string tokens = certificates_->Path("tokens");
+    WriteFile(tokens,
+              std::string("# test principals\nalice:") + kAliceToken + "\nbob:" + kBobToken + "\n");
+    service::ServerOptions options;
+    options.tokens_file = tokens;
+    options.limits.max_sessions_per_token = max_sessions_per_token;
+    Start(options);
+    stub_ = Stub(grpc::InsecureChannelCredentials());
+  }
+
+  // A context that carries `authorization` (none when empty).
+  static std::unique_ptr<grpc::ClientContext> As(const std::string& authorization) {
+    auto context = Context(std::chrono::seconds(5));
+    if (!authorization.empty()) context->AddMetadata("authorization", authorization);
+    return context;
+  }
+  static std::string Bearer(const std::string& token) { return "Bearer " + token; }
+
+  grpc::Status CreateAs(const std::string& authorization, const std::string& id) {
+    v1::CreateSessionRequest request;
+    *request.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+    request.set_session_id(id);
+    v1::Session session;
+    return stub_->CreateSession(As(authorization).get(), request, &session);
+  }
+
+  std::vector<std::string> ListAs(const std::string& authorization) {
+    v1::ListSessionsResponse response;
+    EXPECT_TRUE(stub_->ListSessions(As(authorization).get(), {}, &response).ok());
+    std::vector<std::string> names;
+    for (const v1::Session& session : response.sessions()) names.push_back(session.name());
+    return names;
+  }
+
+  std::unique_ptr<v1::ContactService::Stub> stub_;
+};
+
+TEST_F(AuthTest, CallsWithoutAValidTokenAreUnauthenticated) {
+  StartWithTokens();
+  for (const std::string& authorization :
+       {std::string(), Bearer("alice-secret-012345678X"), Bearer(""), std::string(kAliceToken),
+        "Basic " + std::string(kAliceToken), Bearer(kAliceToken) + " "}) {
+    SCOPED_TRACE("authorization \"" + authorization + "\"");
+    grpc::Status status = CreateAs(authorization, "");
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    EXPECT_THAT(status.error_message(), HasSubstr("Bearer <token>"));
+    EXPECT_THAT(status.error_message(), ::testing::Not(HasSubstr(kAliceToken)));
+    v1::TransformResponse transform;
+    EXPECT_EQ(stub_->Transform(As(authorization).get(), {}, &transform).error_code(),
+              grpc::StatusCode::UNAUTHENTICATED);
+    auto stream_context = As(authorization);
+    auto stream = stub_->StreamApply(stream_context.get());
+    stream->WritesDone();
+    v1::StreamApplyResponse response;
+    EXPECT_FALSE(stream->Read(&response));
+    EXPECT_EQ(stream->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+  EXPECT_EQ(server_->session_count(), 0u);
+  EXPECT_TRUE(CreateAs(Bearer(kAliceToken), "").ok());
+}
+
+TEST_F(AuthTest, SessionsBelongToTheTokenThatCreatedThem) {
+  StartWithTokens();
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(alice, "mine").ok());
+  ASSERT_TRUE(CreateAs(bob, "his").ok());
+  EXPECT_THAT(ListAs(alice), ::testing::ElementsAre("sessions/mine"));
+  EXPECT_THAT(ListAs(bob), ::testing::ElementsAre("sessions/his"));
+
+  const std::string name = "sessions/mine";
+  v1::GetSessionRequest get;
+  get.set_name(name);
+  v1::Session session;
+  EXPECT_TRUE(stub_->GetSession(As(alice).get(), get, &session).ok());
+  grpc::Status status = stub_->GetSession(As(bob).get(), get, &session);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_THAT(status.error_message(), HasSubstr("does not exist"));
+
+  v1::ApplyResponse applied;
+  EXPECT_EQ(stub_->Apply(As(bob).get(), ApplyRequestFor(name, {DepthStep(kDepth)}), &applied)
+                .error_code(),
+            grpc::StatusCode::NOT_FOUND);
+  v1::QueryRequest query;
+  query.set_session(name);
+  v1::QueryResponse queried;
+  EXPECT_EQ(stub_->Query(As(bob).get(), query, &queried).error_code(), grpc::StatusCode::NOT_FOUND);
+  v1::ExportSessionRequest export_request;
+  export_request.set_name(name);
+  v1::SessionSnapshot snapshot;
+  EXPECT_EQ(stub_->ExportSession(As(bob).get(), export_request, &snapshot).error_code(),
+            grpc::StatusCode::NOT_FOUND);
+  v1::DeleteSessionRequest delete_request;
+  delete_request.set_name(name);
+  google::protobuf::Empty empty;
+  EXPECT_EQ(stub_->DeleteSession(As(bob).get(), delete_request, &empty).error_code(),
+            grpc::StatusCode::NOT_FOUND);
+
+  // A stream of bob's gets NOT_FOUND per message for alice's session and works on his own.
+  auto stream_context = As(bob);
+  auto stream = stub_->StreamApply(stream_context.get());
+  v1::StreamApplyRequest message;
+  *message.mutable_apply() = ApplyRequestFor(name, {DepthStep(kDepth)});
+  ASSERT_TRUE(stream->Write(message));
+  *message.mutable_apply() = ApplyRequestFor("sessions/his", {DepthStep(kDepth)});
+  ASSERT_TRUE(stream->Write(message));
+  stream->WritesDone();
+  v1::StreamApplyResponse response;
+  ASSERT_TRUE(stream->Read(&response));
+  EXPECT_EQ(response.status().code(), grpc::StatusCode::NOT_FOUND);
+  ASSERT_TRUE(stream->Read(&response));
+  EXPECT_EQ(response.status().code(), grpc::StatusCode::OK);
+  EXPECT_TRUE(stream->Finish().ok());
+
+  // Alice's session is untouched by all of it.
+  ASSERT_TRUE(stub_->GetSession(As(alice).get(), get, &session).ok());
+  EXPECT_EQ(session.state().applied_steps(), 0u);
+  EXPECT_TRUE(stub_->DeleteSession(As(alice).get(), delete_request, &empty).ok());
+}
+
+TEST_F(AuthTest, MaxSessionsPerTokenCountsEachTokenAlone) {
+  StartWithTokens(/*max_sessions_per_token=*/2);
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(alice, "").ok());
+  ASSERT_TRUE(CreateAs(alice, "").ok());
+  grpc::Status status = CreateAs(alice, "");
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("--max-sessions-per-token"));
+  EXPECT_TRUE(CreateAs(bob, "").ok());
+}
+
+TEST_F(AuthTest, TokensTravelAsCallCredentialsOverTls) {
+  const std::string tokens = certificates_->Path("tokens-tls");
+  WriteFile(tokens, std::string("alice:") + kAliceToken + "\n");
+  service::ServerOptions options;
+  options.tokens_file = tokens;
+  options.tls = ServerTls(/*mutual=*/true);
+  Start(options);
+  auto with_token = Stub(
+      grpc::CompositeChannelCredentials(Tls("client"), grpc::AccessTokenCredentials(kAliceToken)));
+  EXPECT_TRUE(Create(*with_token).ok());
+  EXPECT_EQ(Create(*Stub(Tls("client"))).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+}
+
+TEST(Authenticator, ParsesTokensFilesAndNamesTheBadLine) {
+  auto parsed = service::Authenticator::FromText(
+      "# comment\n\nalice:0123456789abcdef\r\nbob.ci:fedcba9876543210-x\n");
+  ASSERT_TRUE(parsed.ok()) << parsed.status().ToString();
+  EXPECT_EQ(parsed->size(), 2u);
+
+  const std::pair<const char*, const char*> bad[] = {
+      {"alice 0123456789abcdef\n", "line 1: expected"},
+      {"\nalice:short\n", "line 2: the token must be at least 16"},
+      {"al ice:0123456789abcdef\n", "line 1: the name"},
+      {"alice:0123456789abcdef\nalice:0123456789abcdeg\n", "line 2: the name \"alice\" appears"},
+      {"alice:0123456789abcdef\nbob:0123456789abcdef\n", "line 2: this token is already"},
+      {"# nobody\n", "no \"name:token\" line"},
+  };
+  for (const auto& [text, message] : bad) {
+    SCOPED_TRACE(text);
+    auto result = service::Authenticator::FromText(text);
+    ASSERT_FALSE(result.ok());
+    EXPECT_EQ(result.status().field(), "tokens-file");
+    EXPECT_THAT(result.status().message(), HasSubstr(message));
+    EXPECT_THAT(result.status().message(), ::testing::Not(HasSubstr("0123456789abcdef")));
+  }
+  auto missing = service::Authenticator::FromFile("/nonexistent/tokens");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().field(), "tokens-file");
+}
+
+TEST(Authenticator, ConstantTimeEqualsIsEquality) {
+  EXPECT_TRUE(service::ConstantTimeEquals("0123456789abcdef", "0123456789abcdef"));
+  EXPECT_FALSE(service::ConstantTimeEquals("0123456789abcdeX", "0123456789abcdef"));
+  EXPECT_FALSE(service::ConstantTimeEquals("X123456789abcdef", "0123456789abcdef"));
+  EXPECT_FALSE(service::ConstantTimeEquals("0123456789abcde", "0123456789abcdef"));
+  EXPECT_FALSE(service::ConstantTimeEquals("0123456789abcdef0", "0123456789abcdef"));
+  // A repetition of the token is not the token.
+  EXPECT_FALSE(service::ConstantTimeEquals("abcdabcd", "abcd"));
+  EXPECT_FALSE(service::ConstantTimeEquals("", "abcd"));
+  EXPECT_TRUE(service::ConstantTimeEquals("", ""));
+}
+
+}  // namespace
+}  // namespace mdr::service_testing
