@@ -1,8 +1,8 @@
 #include "mdr/client/loading_path.h"
 
-#include <cmath>
-#include <cstdio>
 #include <string>
+
+#include "mdr/core/validate.h"
 
 namespace mdr::client {
 namespace {
@@ -26,11 +26,7 @@ Status ValidateCycles(const Cycles& cycles) {
                            "must be DEPTH, NORMAL_FORCE, TANGENTIAL_DISPLACEMENT or "
                            "TANGENTIAL_FORCE");
   }
-  if (!std::isfinite(cycles.amplitude()) || cycles.amplitude() <= 0) {
-    char got[32];
-    std::snprintf(got, sizeof got, "%g", cycles.amplitude());
-    return InvalidArgument("cycles.amplitude", std::string("must be finite and > 0, got ") + got);
-  }
+  if (Status s = RequirePositive("cycles.amplitude", cycles.amplitude()); !s.ok()) return s;
   if (cycles.count() == 0) return InvalidArgument("cycles.count", "must be >= 1");
   return OkStatus();
 }
