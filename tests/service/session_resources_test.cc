@@ -1,5 +1,6 @@
 // Sessions as resources: pagination, export/import with bit-identical continuation, idle expiry.
 #include <algorithm>
+#include <functional>
 #include <random>
 #include <thread>
 
@@ -100,6 +101,31 @@ class RandomHistory {
   std::mt19937_64 random_;
 };
 
+// Applies the same batches of `history` to a session here (through `apply_here`) and to its
+// imported copy on another server: every response, all doubles included, must match bit for
+// bit. `check` sees each response.
+using ApplyHere = std::function<grpc::Status(const std::vector<v1::Step>&,
+                                             const std::vector<std::string>&, v1::ApplyResponse*)>;
+void ExpectSameContinuation(const ApplyHere& apply_here, v1::ContactService::Stub& there,
+                            const std::string& imported, RandomHistory& history, int batches,
+                            const std::function<void(const v1::ApplyResponse&)>& check = {}) {
+  const std::vector<std::string> every_field = {"state", "substeps", "path_error",
+                                                "dissipated_energy"};
+  for (int batch = 0; batch < batches; ++batch) {
+    const std::vector<v1::Step> steps = history.Batch(10);
+    v1::ApplyResponse here, there_response;
+    ASSERT_TRUE(apply_here(steps, every_field, &here).ok());
+    ASSERT_TRUE(
+        there.Apply(Context().get(), ApplyRequestFor(imported, steps, every_field), &there_response)
+            .ok());
+    here.clear_compute_seconds();
+    there_response.clear_compute_seconds();
+    // Serialised doubles compare bit for bit.
+    ASSERT_EQ(here.SerializeAsString(), there_response.SerializeAsString()) << "batch " << batch;
+    if (check) check(here);
+  }
+}
+
 TEST_F(SessionResourcesTest, ImportedSessionContinuesBitIdentically) {
   // A loose path tolerance keeps the curved force paths to a few sub-steps each.
   v1::Scene scene = SteelSphereOnSteelFlat();
@@ -143,21 +169,10 @@ TEST_F(SessionResourcesTest, ImportedSessionContinuesBitIdentically) {
   EXPECT_EQ(imported.name(), "sessions/moved");
   EXPECT_EQ(imported.state().SerializeAsString(), StateOf(original).SerializeAsString());
 
-  for (int batch = 0; batch < 10; ++batch) {
-    const std::vector<v1::Step> steps = history.Batch(10);
-    const std::vector<std::string> every_field = {"state", "substeps", "path_error",
-                                                  "dissipated_energy"};
-    v1::ApplyResponse here, there;
-    ASSERT_TRUE(Apply(original, steps, &here, every_field).ok());
-    ASSERT_TRUE(
-        other_stub
-            ->Apply(Context().get(), ApplyRequestFor(imported.name(), steps, every_field), &there)
-            .ok());
-    here.clear_compute_seconds();
-    there.clear_compute_seconds();
-    // Serialised doubles compare bit for bit.
-    ASSERT_EQ(here.SerializeAsString(), there.SerializeAsString()) << "batch " << batch;
-  }
+  ASSERT_NO_FATAL_FAILURE(ExpectSameContinuation(
+      [&](const std::vector<v1::Step>& steps, const std::vector<std::string>& mask,
+          v1::ApplyResponse* response) { return Apply(original, steps, response, mask); },
+      *other_stub, imported.name(), history, 10));
   v1::ExportSessionRequest export_request;
   export_request.set_name(imported.name());
   v1::SessionSnapshot continued;
@@ -210,21 +225,11 @@ TEST_F(SessionResourcesTest, ImportedGridSessionContinuesBitIdentically) {
   status = other_stub->ImportSession(Context().get(), import_request, &imported);
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_EQ(imported.state().SerializeAsString(), StateOf(original).SerializeAsString());
-  for (int batch = 0; batch < 5; ++batch) {
-    const std::vector<v1::Step> steps = history.Batch(10);
-    const std::vector<std::string> every_field = {"state", "substeps", "path_error",
-                                                  "dissipated_energy"};
-    v1::ApplyResponse here, there;
-    ASSERT_TRUE(Apply(original, steps, &here, every_field).ok());
-    ASSERT_TRUE(
-        other_stub
-            ->Apply(Context().get(), ApplyRequestFor(imported.name(), steps, every_field), &there)
-            .ok());
-    here.clear_compute_seconds();
-    there.clear_compute_seconds();
-    ASSERT_EQ(here.SerializeAsString(), there.SerializeAsString()) << "batch " << batch;
-    EXPECT_GT(here.error_estimate().grid_spacing(), 0);
-  }
+  ASSERT_NO_FATAL_FAILURE(ExpectSameContinuation(
+      [&](const std::vector<v1::Step>& steps, const std::vector<std::string>& mask,
+          v1::ApplyResponse* response) { return Apply(original, steps, response, mask); },
+      *other_stub, imported.name(), history, 5,
+      [](const v1::ApplyResponse& here) { EXPECT_GT(here.error_estimate().grid_spacing(), 0); }));
   v1::ExportSessionRequest export_request;
   export_request.set_name(imported.name());
   v1::SessionSnapshot continued;
