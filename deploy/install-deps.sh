@@ -14,7 +14,8 @@ BUILD_PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc protobuf-compiler libprotobuf-dev
   libeigen3-dev libgsl-dev libspdlog-dev libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev openssl
-  python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml gnuplot-nox
+  python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml python3-matplotlib
+  gnuplot-nox
 )
 if [ "${1:-}" = "--runtime" ]; then
   PACKAGES=("${RUNTIME_PACKAGES[@]}")

@@ -17,6 +17,13 @@ foreach(installed include/mdr/client/contact_client.h include/mdr/v1/contact_ser
     message(FATAL_ERROR "not installed: ${installed}")
   endif()
 endforeach()
+# The Python package: installed where Debian's python3 looks for a package under this prefix
+# (for the default prefix /usr/local that is on sys.path), and importable from there.
+if(PYTHON_DIR)
+  run("python package" /usr/bin/python3 -c
+      "import site, sys; d = sys.argv[1]; assert d in site.getsitepackages([sys.argv[2]]), d; sys.path.insert(0, d); import mdr, mdr.v1.contact_service_pb2_grpc; assert mdr.__file__.startswith(d), mdr.__file__; print(mdr.__file__)"
+      ${prefix}/${PYTHON_DIR} ${prefix})
+endif()
 run("configure" ${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -G ${GENERATOR}
     -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${prefix})
 run("build" ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
