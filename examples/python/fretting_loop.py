@@ -2,6 +2,7 @@
 """Mindlin-Deresiewicz fretting loop of a steel sphere on a steel flat (reference H1): F_x over
 u_x for two cycles of +-15 N at F_N = 100 N, and the shear traction at the loop's two turning
 points, plotted into a PNG. Usage: fretting_loop.py [OUT.png] (default fretting_loop.png)."""
+import os
 import sys
 
 import matplotlib
@@ -12,10 +13,11 @@ import numpy as np
 import mdr
 
 out = sys.argv[1] if len(sys.argv) > 1 else "fretting_loop.png"
+scene_file = os.path.join(os.path.dirname(__file__), "..", "fretting_mindlin_deresiewicz.yaml")
 force = np.concatenate([np.linspace(0, 15, 26), np.linspace(15, -15, 51)[1:],
                         np.linspace(-15, 15, 51)[1:]])
 with mdr.Client.embedded() as client, \
-        client.session("examples/fretting_mindlin_deresiewicz.yaml") as s:
+        client.session(scene_file) as s:
     s.apply({"normal_force": 100})
     loop = s.apply([{"tangential_force": f} for f in force])
     a = loop.state.contact_radius
