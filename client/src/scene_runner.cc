@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/client/error_details.h"
 #include "mdr/client/loading_path.h"
 
 namespace mdr::client {
@@ -18,15 +19,6 @@ constexpr std::uint32_t kDefaultSamples = 101;
 
 grpc::Status InvalidArgument(const std::string& message) {
   return {grpc::StatusCode::INVALID_ARGUMENT, message};
-}
-
-// Splits the service's "field: message"; field is empty when the message names none.
-std::pair<std::string, std::string> SplitField(const std::string& message) {
-  static const std::regex kFieldMessage(
-      R"(^([a-z_]+(?:\[[0-9]+\])?(?:\.[a-z_0-9]+(?:\[[0-9]+\])?)*): (.*)$)");
-  std::smatch match;
-  if (!std::regex_match(message, match, kFieldMessage)) return {"", message};
-  return {match[1], match[2]};
 }
 
 // Where a batch of steps comes from: file.steps at `offset`, or path[segment] (step offset + i
@@ -169,7 +161,7 @@ class Runner {
 
   // A CreateSession error in the file's terms: the request's "session.scene..." is "scene...".
   grpc::Status SceneError(const grpc::Status& status) const {
-    auto [field, message] = SplitField(status.error_message());
+    auto [field, message] = ReadErrorDetails(status);
     if (field.starts_with("session.")) field = field.substr(std::string("session.").size());
     if (field.empty()) return status;
     return {status.error_code(), document_.Error(field, message).ToString()};
@@ -179,7 +171,7 @@ class Runner {
   // segment.
   grpc::Status StepError(const grpc::Status& status, const BatchOrigin& origin) const {
     static const std::regex kStep(R"(^steps\[([0-9]+)\]\.?(.*)$)");
-    auto [field, message] = SplitField(status.error_message());
+    auto [field, message] = ReadErrorDetails(status);
     std::smatch match;
     if (!std::regex_match(field, match, kStep)) return status;
     const std::uint64_t index = origin.offset + std::stoull(match[1]);

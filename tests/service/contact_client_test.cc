@@ -8,11 +8,13 @@
 
 #include <memory>
 
+#include "mdr/client/error_details.h"
 #include "mdr/service/server.h"
 
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 class ContactClientTest : public ::testing::Test {
  protected:
@@ -116,6 +118,31 @@ TEST_F(ContactClientTest, ErrorsCarryCodeAndFieldMessage) {
   ASSERT_FALSE(session.ok());
   EXPECT_EQ(session.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(session.status().error_message(), HasSubstr("session.scene.cone.slope_angle: "));
+  const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(session.status());
+  EXPECT_EQ(details.field, "session.scene.cone.slope_angle");
+  EXPECT_THAT(details.description, Not(HasSubstr("slope_angle: ")));
+}
+
+// Every code carries its field in the details (ErrorInfo), not only INVALID_ARGUMENT.
+TEST_F(ContactClientTest, ErrorDetailsNameTheFieldForEveryCode) {
+  auto session = client_->CreateSession(RigidConeOnPolymer());
+  ASSERT_TRUE(session.ok());
+  mdr::v1::Step load;
+  load.set_normal_force(1);
+  ASSERT_TRUE(client_->Apply(session->name(), load).ok());
+  mdr::v1::Step too_far;
+  too_far.set_tangential_force(10);  // above mu F_N = 0.5 N
+  auto applied = client_->Apply(session->name(), too_far);
+  ASSERT_EQ(applied.code(), grpc::StatusCode::FAILED_PRECONDITION);
+  mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(applied.status());
+  EXPECT_EQ(details.field, "steps[0].tangential_force");
+  EXPECT_THAT(details.description, HasSubstr("friction limit"));
+
+  auto missing = client_->GetSession("sessions/none-such");
+  ASSERT_EQ(missing.code(), grpc::StatusCode::NOT_FOUND);
+  details = mdr::client::ReadErrorDetails(missing.status());
+  EXPECT_EQ(details.field, "name");
+  EXPECT_FALSE(details.description.empty());
 }
 
 }  // namespace

@@ -36,12 +36,15 @@ def _code_of(number: int) -> grpc.StatusCode:
 
 
 def _field_of(status: status_pb2.Status) -> str:
-    """The field from a BadRequest detail, if the status carries one."""
+    """The field from the status's details (BadRequest, or ErrorInfo's metadata "field")."""
+    field = ""
     for detail in status.details:
-        bad_request = error_details_pb2.BadRequest()
+        bad_request, info = error_details_pb2.BadRequest(), error_details_pb2.ErrorInfo()
         if detail.Unpack(bad_request) and bad_request.field_violations:
             return bad_request.field_violations[0].field
-    return ""
+        if detail.Unpack(info):
+            field = info.metadata.get("field", field)
+    return field
 
 
 def _split(field: str, text: str) -> str:

@@ -2,6 +2,9 @@
 
 #include <grpcpp/support/error_details.h>
 
+#include <cstddef>
+#include <iterator>
+
 #include "google/rpc/error_details.pb.h"
 
 namespace mdr::service {
@@ -23,20 +26,38 @@ grpc::StatusCode ToGrpcCode(StatusCode code) {
   return grpc::StatusCode::INTERNAL;  // a code added to the core but not mapped here
 }
 
+// google.rpc.Code names, ErrorInfo.reason of every error.
+const char* CodeName(grpc::StatusCode code) {
+  static constexpr const char* kNames[] = {
+      "OK",        "CANCELLED",         "UNKNOWN",           "INVALID_ARGUMENT", "DEADLINE_EXCEEDED",
+      "NOT_FOUND", "ALREADY_EXISTS",    "PERMISSION_DENIED", "RESOURCE_EXHAUSTED",
+      "FAILED_PRECONDITION", "ABORTED", "OUT_OF_RANGE",      "UNIMPLEMENTED",    "INTERNAL",
+      "UNAVAILABLE", "DATA_LOSS",       "UNAUTHENTICATED"};
+  const auto index = static_cast<std::size_t>(code);
+  return index < std::size(kNames) ? kNames[index] : "UNKNOWN";
+}
+
 }  // namespace
 
 grpc::Status GrpcError(grpc::StatusCode code, const std::string& field,
                        const std::string& message) {
   const std::string text = field.empty() ? message : field + ": " + message;
-  if (code != grpc::StatusCode::INVALID_ARGUMENT || field.empty()) return {code, text};
-  google::rpc::BadRequest bad_request;
-  google::rpc::BadRequest::FieldViolation* violation = bad_request.add_field_violations();
-  violation->set_field(field);
-  violation->set_description(message);
+  if (code == grpc::StatusCode::OK) return grpc::Status::OK;
   google::rpc::Status rich;
   rich.set_code(code);
   rich.set_message(text);
-  rich.add_details()->PackFrom(bad_request);
+  if (code == grpc::StatusCode::INVALID_ARGUMENT && !field.empty()) {  // first, as before
+    google::rpc::BadRequest bad_request;
+    google::rpc::BadRequest::FieldViolation* violation = bad_request.add_field_violations();
+    violation->set_field(field);
+    violation->set_description(message);
+    rich.add_details()->PackFrom(bad_request);
+  }
+  google::rpc::ErrorInfo info;
+  info.set_reason(CodeName(code));
+  info.set_domain(kErrorDomain);
+  if (!field.empty()) (*info.mutable_metadata())[kFieldKey] = field;
+  rich.add_details()->PackFrom(info);
   grpc::Status status;
   grpc::SetErrorDetails(rich, &status);
   return status;

@@ -1,6 +1,8 @@
 // Errors of the service layer as grpc::Status, in the form "field: message". The one place where
-// an error becomes a gRPC status: INVALID_ARGUMENT errors also carry a google.rpc.BadRequest in
-// their binary error details (grpc::ExtractErrorDetails into a google::rpc::Status).
+// an error becomes a gRPC status. Every error carries, in its binary error details
+// (grpc::ExtractErrorDetails into a google::rpc::Status), a google.rpc.ErrorInfo (reason: the
+// code's name, domain "mdr.v1", metadata "field": the offending field when there is one);
+// INVALID_ARGUMENT errors naming a field also carry a google.rpc.BadRequest.
 #pragma once
 
 #include <grpcpp/support/status.h>
@@ -11,6 +13,10 @@
 #include "mdr/core/status.h"
 
 namespace mdr::service {
+
+// ErrorInfo.domain of this API's errors and the metadata key of the offending field.
+inline constexpr char kErrorDomain[] = "mdr.v1";
+inline constexpr char kFieldKey[] = "field";
 
 // An error of the service itself or of the core, by gRPC code: message "field: message" (just
 // "message" when field is empty) and, for INVALID_ARGUMENT with a field, a BadRequest detail.
