@@ -11,6 +11,7 @@
 
 #include "mdr/core/validate.h"
 #include "mdr/service/conversion.h"
+#include "mdr/service/log_value.h"
 #include "mdr/service/status.h"
 #include "mdr/service/transform.h"
 
@@ -128,8 +129,8 @@ void ContactOperations::CompactJournal() {
   if (journal_ == nullptr) return;
   for (const std::shared_ptr<Session>& session : sessions_.All()) {
     if (grpc::Status status = session->CompactJournal(); !status.ok()) {
-      spdlog::warn("event=journal_compaction_failed session={} error=\"{}\"", session->name(),
-                   status.error_message());
+      spdlog::warn("event=journal_compaction_failed session={} error={}", LogValue(session->name()),
+                   Quoted(status.error_message(), kMaxLoggedErrorBytes));
     }
   }
 }
@@ -148,13 +149,18 @@ grpc::Status ContactOperations::AddSession(const Principal& caller, const std::s
   grpc::Status status = sessions_.Create(id_field, session_id, caller, std::move(state), &session);
   if (!status.ok()) return status;
   session->ReadResource(response);
-  spdlog::info("event=session_{} session={} sessions={}", verb, session->name(), sessions_.size());
+  spdlog::info("event=session_{} session={} sessions={}", verb, LogValue(session->name()),
+               sessions_.size());
   return grpc::Status::OK;
 }
 
 grpc::Status ContactOperations::CreateSession(const Principal& caller,
                                               const v1::CreateSessionRequest& request,
                                               v1::Session* response) {
+  if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
+      !status.ok()) {
+    return status;
+  }
   const v1::Session& resource = request.session();
   Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
   if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("session.limits"));
@@ -201,7 +207,8 @@ grpc::Status ContactOperations::DeleteSession(const Principal& caller,
                                               const v1::DeleteSessionRequest& request) {
   grpc::Status status = sessions_.Erase("name", request.name(), caller);
   if (status.ok()) {
-    spdlog::info("event=session_deleted session={} sessions={}", request.name(), sessions_.size());
+    spdlog::info("event=session_deleted session={} sessions={}", LogValue(request.name()),
+                 sessions_.size());
   }
   return status;
 }
@@ -250,6 +257,10 @@ grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
 grpc::Status ContactOperations::ImportSession(const Principal& caller,
                                               const v1::ImportSessionRequest& request,
                                               v1::Session* response) {
+  if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
+      !status.ok()) {
+    return status;
+  }
   std::optional<SessionState> state;
   if (grpc::Status status = StateOf(request.snapshot(), &state); !status.ok()) return status;
   return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,

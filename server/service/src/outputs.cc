@@ -8,6 +8,7 @@
 #include "mdr/core/jager.h"
 #include "mdr/core/tabulated_profile.h"
 #include "mdr/service/conversion.h"
+#include "mdr/service/log_value.h"
 
 namespace mdr::service {
 namespace {
@@ -132,7 +133,7 @@ Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
     }
     if (!matched) {
       return InvalidArgument(mask_field + ".paths[" + std::to_string(i) + "]",
-                             "\"" + path + "\" is not a field of " + message_name +
+                             Quoted(path) + " is not a field of " + message_name +
                                  "; valid: " + TopLevelPaths(leaves) +
                                  " or one of their fields (e.g. \"state.normal_force\")");
     }

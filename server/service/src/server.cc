@@ -7,6 +7,9 @@
 #include <algorithm>
 #include <fstream>
 #include <sstream>
+#include <vector>
+
+#include "mdr/service/log_value.h"
 
 namespace mdr::service {
 namespace {
@@ -131,7 +134,7 @@ void ContactServer::SweepExpiredSessions(std::stop_token stop, std::chrono::mill
   while (!sweeper_wakeup_.wait_for(lock, stop, period, [] { return false; })) {
     if (stop.stop_requested()) return;
     for (const std::string& name : operations_.EraseExpiredSessions()) {
-      spdlog::info("event=session_expired session={}", name);
+      spdlog::info("event=session_expired session={}", LogValue(name));
     }
   }
 }
