@@ -45,11 +45,14 @@ Status CheckSnapshotMethod(const v1::ContactSnapshot& contact, Method method) {
 }
 
 Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
-                                     const OutputSelection& selection) {
+                                     const OutputSelection& selection, int max_message_bytes) {
   if (selection.any_radial() && request.radii().empty()) {
     return InvalidArgument("radii",
                            "required (at least one radius) when read_mask selects springs, "
                            "tractions or pressure");
+  }
+  if (Status s = CheckRadiiCount(request.radii_size(), selection, max_message_bytes); !s.ok()) {
+    return s;
   }
   return ToRadialSampling(request.radii(), request.traction_route());
 }
@@ -296,7 +299,7 @@ grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRe
                                       v1::QueryResponse* response) {
   Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
   if (!selection.ok()) return ToGrpcStatus(selection.status());
-  Result<RadialSampling> sampling = QuerySampling(request, *selection);
+  Result<RadialSampling> sampling = QuerySampling(request, *selection, limits_.max_message_bytes);
   if (!sampling.ok()) return ToGrpcStatus(sampling.status());
   std::shared_ptr<Session> session;
   if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
@@ -309,7 +312,7 @@ grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRe
 grpc::Status ContactOperations::Transform(const v1::TransformRequest& request,
                                           v1::TransformResponse* response) {
   const auto start = std::chrono::steady_clock::now();
-  if (Status status = RunTransform(request, limits_.max_memory_vertices, response); !status.ok()) {
+  if (Status status = RunTransform(request, limits_, response); !status.ok()) {
     response->Clear();
     return ToGrpcStatus(status);
   }
