@@ -4,9 +4,11 @@
 // newline or " level=info event=forged" in a client value can neither start a line nor add a key.
 // Also: bounded messages for huge names, and the request checks of the issue (Durations, radii,
 // scene scales), each asserted by its field and text.
+#include <grpcpp/generic/generic_stub.h>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
+#include <future>
 #include <memory>
 #include <regex>
 #include <sstream>
@@ -208,6 +210,36 @@ TEST_F(LogSafetyTest, FieldMaskPathsAreQuotedBoundedInErrors) {
 }
 
 // Issue #12's request checks, each by its field and text.
+
+// The status of a unary call with raw request bytes.
+grpc::Status RawUnaryCall(const std::shared_ptr<grpc::Channel>& channel, const std::string& method,
+                          const std::string& bytes) {
+  grpc::GenericStub stub(channel);
+  grpc::Slice slice(bytes);
+  const grpc::ByteBuffer request(&slice, 1);
+  grpc::ByteBuffer response;
+  std::promise<grpc::Status> done;
+  auto context = Context();
+  stub.UnaryCall(context.get(), method, grpc::StubOptions(), &request, &response,
+                 [&done](grpc::Status status) { done.set_value(std::move(status)); });
+  return done.get_future().get();
+}
+
+TEST_F(ServiceTest, UnparseableRequestBytesAreInvalidArgumentNamingTheMethod) {
+  // Field 1 (name) announces 5 bytes but carries 2.
+  const grpc::Status status = RawUnaryCall(channel_, "/mdr.v1.ContactService/GetSession",
+                                           std::string("\x0a\x05"
+                                                       "ab",
+                                                       4));
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_THAT(status.error_message(),
+              HasSubstr("the request bytes of /mdr.v1.ContactService/GetSession do not parse"));
+  // Parsable bytes still reach the handler; an unknown method stays UNIMPLEMENTED.
+  ExpectInvalidArgument(RawUnaryCall(channel_, "/mdr.v1.ContactService/GetSession", "\x0a\x01x"),
+                        "name");
+  EXPECT_EQ(RawUnaryCall(channel_, "/mdr.v1.ContactService/NoSuchMethod", "").error_code(),
+            grpc::StatusCode::UNIMPLEMENTED);
+}
 
 TEST_F(ServiceTest, IdleTimeoutMustBeANormalizedDuration) {
   v1::CreateSessionRequest request;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mdr/service/log_value.h"
+#include "mdr/service/request_parse_errors.h"
 
 namespace mdr::service {
 namespace {
@@ -153,6 +154,9 @@ Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions&
   builder.SetMaxReceiveMessageSize(options.limits.max_message_bytes);
   builder.SetMaxSendMessageSize(options.limits.max_message_bytes);
   builder.RegisterService(&server->service_);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(UnparseableRequestInterceptorFactory());
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || (!options.listen_address.empty() && server->port_ == 0)) {
     // The TLS files were checked above; what gRPC may still refuse is named as a possibility.
