@@ -59,5 +59,30 @@ TEST(MaterialTest, RejectsOutOfRangeWithFieldAndRange) {
   EXPECT_NE(RigidOnHalfSpace(1e9, 0.6).status().message().find("(-1, 0.5]"), std::string::npos);
 }
 
+// Moduli whose effective E* or G* would not be finite and normal are refused under their own
+// field, with the usable range; every modulus in that range gives finite, positive E* and G*.
+TEST(MaterialTest, ModuliBeyondTheSceneScaleAreNamedNotTheirDerivedModuli) {
+  const double tiny = 5e-324;
+  for (const Status& s :
+       {RigidOnHalfSpace(tiny, 0.3).status(), RigidOnHalfSpace(1e300, 0.3).status(),
+        ElasticPair(tiny, 0.3, 1e9, 0.3).status(), ElasticPair(1e9, 0.3, 1e101, 0.3).status()}) {
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.field().find("modulus"), std::string::npos) << s.field();
+    EXPECT_NE(s.message().find("must be in [1e-100, 1e+100]"), std::string::npos) << s.message();
+  }
+  EXPECT_EQ(ElasticPair(tiny, 0.3, 1e9, 0.3).status().field(), "youngs_modulus_1");
+  const double nu_near_minus_one = std::nextafter(-1.0, 0.0);
+  for (double modulus : {1e-100, 1e100}) {
+    for (double nu : {nu_near_minus_one, 0.0, 0.5}) {
+      for (const Result<EffectiveMaterial>& m :
+           {RigidOnHalfSpace(modulus, nu), ElasticPair(modulus, nu, modulus, nu)}) {
+        ASSERT_TRUE(m.ok());
+        EXPECT_TRUE(std::isnormal(m->e_star) && m->e_star > 0) << modulus << " " << nu;
+        EXPECT_TRUE(std::isnormal(m->g_star) && m->g_star > 0) << modulus << " " << nu;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mdr

@@ -94,5 +94,28 @@ TEST(ProfileTest, RejectsInvalidParameters) {
   EXPECT_EQ(MakeFlatPunch(std::nan("")).status().field(), "radius");
 }
 
+// A scale so small or large that the profile's derived quantities overflow is refused at the
+// scene, naming the parameter and the usable range (issue #12: a 5e-324 sphere radius was blamed
+// on a later normal force as "got -nan").
+TEST(ProfileTest, RejectsScalesWhoseDerivedQuantitiesOverflow) {
+  for (const Status& s : {MakeSphere(5e-324).status(), MakeSphere(1e101).status(),
+                          MakeFlatPunch(1e-101).status(), MakePowerLaw(1e-200, 2).status()}) {
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.message().find("must be in [1e-100, 1e+100]"), std::string::npos) << s.message();
+  }
+  EXPECT_EQ(MakeSphere(5e-324).status().field(), "radius");
+  EXPECT_EQ(MakePowerLaw(1e-200, 2).status().field(), "coefficient");
+  const Status cone = MakeCone(5e-324).status();
+  EXPECT_EQ(cone.field(), "slope_angle");
+  EXPECT_NE(cone.message().find("must be in [1e-100, pi/2) rad"), std::string::npos);
+  // At the ends of the range the depth at a force and back are finite.
+  for (double radius : {1e-100, 1e100}) {
+    ProfilePtr sphere = *MakeSphere(radius);
+    const double depth = sphere->DepthAtNormalForcePerModulus(1e-9);
+    EXPECT_TRUE(std::isfinite(depth) && depth > 0) << radius;
+    EXPECT_TRUE(std::isfinite(sphere->NormalForcePerModulus(depth))) << radius;
+  }
+}
+
 }  // namespace
 }  // namespace mdr

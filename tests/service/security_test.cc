@@ -1,7 +1,11 @@
 // TLS, mutual TLS and bearer-token authentication: certificates are generated at test time with
 // the openssl command into a temporary directory (a CA, a server certificate for 127.0.0.1, a
 // client certificate, and a client certificate of another CA).
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <stdlib.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -155,6 +159,91 @@ TEST_F(SecurityTest, StartNamesTheTlsSettingThatIsWrong) {
   server = service::ContactServer::Start(options);
   ASSERT_FALSE(server.ok());
   EXPECT_EQ(server.status().field(), "tls-key");
+}
+
+// Each bad TLS file is named at start-up by its flag and what is wrong with it, not reported as a
+// listen failure.
+class TlsFilesTest : public SecurityTest {
+ protected:
+  static Status StartWith(const service::TlsOptions& tls) {
+    service::ServerOptions options;
+    options.listen_address = "127.0.0.1:0";
+    options.tls = tls;
+    auto server = service::ContactServer::Start(options);
+    return server.ok() ? OkStatus() : server.status();
+  }
+  std::string Garbage(const std::string& name) const {
+    WriteFile(certificates_->Path(name), "-----BEGIN CERTIFICATE-----\nnot base64 at all\n");
+    return certificates_->Path(name);
+  }
+};
+
+TEST_F(TlsFilesTest, CertificateOfAnotherKeyIsNamed) {
+  service::TlsOptions tls = ServerTls(/*mutual=*/false);
+  tls.key_file = certificates_->Path("client.key");
+  const Status status = StartWith(tls);
+  EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(status.field(), "tls-cert");
+  EXPECT_THAT(status.message(), HasSubstr("does not match --tls-key"));
+  EXPECT_THAT(status.message(), HasSubstr("client.key"));
+  EXPECT_THAT(status.message(), ::testing::Not(HasSubstr("listen")));
+}
+
+TEST_F(TlsFilesTest, GarbageCertificateIsNamed) {
+  service::TlsOptions tls = ServerTls(/*mutual=*/false);
+  tls.cert_file = Garbage("garbage-cert.pem");
+  const Status status = StartWith(tls);
+  EXPECT_EQ(status.field(), "tls-cert");
+  EXPECT_THAT(status.message(), HasSubstr("garbage-cert.pem\" is not a PEM certificate"));
+}
+
+TEST_F(TlsFilesTest, GarbageOrMissingKeyIsNamed) {
+  service::TlsOptions tls = ServerTls(/*mutual=*/false);
+  tls.key_file = Garbage("garbage-key.pem");
+  Status status = StartWith(tls);
+  EXPECT_EQ(status.field(), "tls-key");
+  EXPECT_THAT(status.message(), HasSubstr("garbage-key.pem\" is not a PEM private key"));
+  // A certificate where the key belongs is no key either.
+  tls.key_file = certificates_->Path("server.pem");
+  status = StartWith(tls);
+  EXPECT_EQ(status.field(), "tls-key");
+  EXPECT_THAT(status.message(), HasSubstr("is not a PEM private key"));
+}
+
+TEST_F(TlsFilesTest, GarbageClientCaIsNamed) {
+  service::TlsOptions tls = ServerTls(/*mutual=*/true);
+  tls.client_ca_file = Garbage("garbage-ca.pem");
+  const Status status = StartWith(tls);
+  EXPECT_EQ(status.field(), "tls-client-ca");
+  EXPECT_THAT(status.message(), HasSubstr("garbage-ca.pem\" is not a PEM certificate bundle"));
+}
+
+TEST_F(TlsFilesTest, ValidFilesThenAPortInUseIsAListenError) {
+  // A listening socket without SO_REUSEPORT: gRPC (which sets it) cannot bind the same port.
+  const int socket_fd = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(socket_fd, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof address;
+  ASSERT_EQ(bind(socket_fd, reinterpret_cast<sockaddr*>(&address), length), 0);
+  ASSERT_EQ(listen(socket_fd, 1), 0);
+  ASSERT_EQ(getsockname(socket_fd, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  const std::string taken = "127.0.0.1:" + std::to_string(ntohs(address.sin_port));
+
+  service::ServerOptions options;
+  options.listen_address = taken;
+  options.tls = ServerTls(/*mutual=*/true);
+  auto server = service::ContactServer::Start(options);
+  ASSERT_FALSE(server.ok());
+  EXPECT_EQ(server.status().field(), "listen");
+  EXPECT_THAT(server.status().message(), HasSubstr("cannot listen on \"" + taken + "\""));
+  EXPECT_THAT(server.status().message(), HasSubstr("port in use"));
+  options.tls = {};
+  server = service::ContactServer::Start(options);
+  ASSERT_FALSE(server.ok());
+  EXPECT_THAT(server.status().message(), HasSubstr("(malformed address or port in use)"));
+  close(socket_fd);
 }
 
 // Bearer tokens: over TLS with the client's standard call credentials, and over plaintext with

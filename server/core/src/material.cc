@@ -13,7 +13,7 @@ Status ValidatePoissonRatio(const std::string& field, double nu) {
 }  // namespace
 
 Result<EffectiveMaterial> RigidOnHalfSpace(double shear_modulus, double poisson_ratio) {
-  if (Status s = RequirePositive("shear_modulus", shear_modulus); !s.ok()) return s;
+  if (Status s = RequireSceneScale("shear_modulus", shear_modulus); !s.ok()) return s;
   if (Status s = ValidatePoissonRatio("poisson_ratio", poisson_ratio); !s.ok()) return s;
   return EffectiveMaterial{2 * shear_modulus / (1 - poisson_ratio),
                            4 * shear_modulus / (2 - poisson_ratio)};
@@ -21,9 +21,9 @@ Result<EffectiveMaterial> RigidOnHalfSpace(double shear_modulus, double poisson_
 
 Result<EffectiveMaterial> ElasticPair(double youngs_modulus_1, double poisson_ratio_1,
                                       double youngs_modulus_2, double poisson_ratio_2) {
-  if (Status s = RequirePositive("youngs_modulus_1", youngs_modulus_1); !s.ok()) return s;
+  if (Status s = RequireSceneScale("youngs_modulus_1", youngs_modulus_1); !s.ok()) return s;
   if (Status s = ValidatePoissonRatio("poisson_ratio_1", poisson_ratio_1); !s.ok()) return s;
-  if (Status s = RequirePositive("youngs_modulus_2", youngs_modulus_2); !s.ok()) return s;
+  if (Status s = RequireSceneScale("youngs_modulus_2", youngs_modulus_2); !s.ok()) return s;
   if (Status s = ValidatePoissonRatio("poisson_ratio_2", poisson_ratio_2); !s.ok()) return s;
   auto normal_compliance = [](double e, double nu) { return (1 - nu * nu) / e; };
   auto shear_compliance = [](double e, double nu) {

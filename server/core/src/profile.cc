@@ -133,23 +133,24 @@ double Profile::NormalForcePerModulus(double depth) const {
 }
 
 Result<ProfilePtr> MakePowerLaw(double coefficient, double exponent) {
-  if (Status s = RequirePositive("coefficient", coefficient); !s.ok()) return s;
+  if (Status s = RequireSceneScale("coefficient", coefficient); !s.ok()) return s;
   if (Status s = RequireInRange("exponent", exponent, 0.3, 10); !s.ok()) return s;
   return ProfilePtr(std::make_shared<PowerLawProfile>(coefficient, exponent,
                                                       PowerLawName(coefficient, exponent)));
 }
 
 Result<ProfilePtr> MakeSphere(double radius) {
-  if (Status s = RequirePositive("radius", radius); !s.ok()) return s;
+  if (Status s = RequireSceneScale("radius", radius); !s.ok()) return s;
   std::ostringstream name;
   name << "sphere R = " << radius << " m";
   return ProfilePtr(std::make_shared<PowerLawProfile>(1 / (2 * radius), 2.0, name.str()));
 }
 
 Result<ProfilePtr> MakeCone(double slope_angle) {
-  if (Status s = RequireInRange("slope_angle", slope_angle, 0, kPi / 2, /*lo_open=*/true);
-      !s.ok() || slope_angle == kPi / 2) {
-    return s.ok() ? InvalidArgument("slope_angle", "must be in (0, pi/2) rad, got pi/2") : s;
+  // tan(theta) is the profile's scale, as a radius is a sphere's; it is finite below pi/2.
+  if (!(slope_angle >= kMinSceneScale && slope_angle < kPi / 2)) {
+    return InvalidArgument("slope_angle", "must be in [" + FormatNumber(kMinSceneScale) +
+                                              ", pi/2) rad, got " + FormatNumber(slope_angle));
   }
   std::ostringstream name;
   name << "cone slope " << slope_angle << " rad";
@@ -157,7 +158,7 @@ Result<ProfilePtr> MakeCone(double slope_angle) {
 }
 
 Result<ProfilePtr> MakeFlatPunch(double radius) {
-  if (Status s = RequirePositive("radius", radius); !s.ok()) return s;
+  if (Status s = RequireSceneScale("radius", radius); !s.ok()) return s;
   return ProfilePtr(std::make_shared<FlatPunchProfile>(radius));
 }
 

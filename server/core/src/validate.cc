@@ -27,6 +27,15 @@ Status RequireNonNegative(const std::string& field, double value) {
   return InvalidArgument(field, "must be finite and >= 0, got " + FormatNumber(value));
 }
 
+Status RequireSceneScale(const std::string& field, double value) {
+  if (Status s = RequirePositive(field, value); !s.ok()) return s;
+  if (value >= kMinSceneScale && value <= kMaxSceneScale) return OkStatus();
+  return InvalidArgument(field, "must be in [" + FormatNumber(kMinSceneScale) + ", " +
+                                    FormatNumber(kMaxSceneScale) +
+                                    "] (beyond it the quantities derived from it overflow), got " +
+                                    FormatNumber(value));
+}
+
 Status RequireInRange(const std::string& field, double value, double lo, double hi, bool lo_open) {
   const bool above_lo = lo_open ? value > lo : value >= lo;
   if (std::isfinite(value) && above_lo && value <= hi) return OkStatus();

@@ -4,6 +4,7 @@
 
 #include <chrono>
 
+#include "mdr/service/log_value.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -84,13 +85,14 @@ void LogCall(const char* method, const std::string& session, const std::string& 
              const grpc::Status& status, double seconds) {
   const auto level = status.ok() ? spdlog::level::debug : spdlog::level::info;
   if (!spdlog::should_log(level)) return;
+  const std::string shown_session = session.empty() ? "-" : LogValue(session);
   if (status.ok()) {
     spdlog::log(level, "rpc={} session={} request_id={} code=OK seconds={:.6f}", method,
-                session.empty() ? "-" : session, request_id, seconds);
+                shown_session, LogValue(request_id), seconds);
   } else {
-    spdlog::log(level, "rpc={} session={} request_id={} code={} seconds={:.6f} error=\"{}\"",
-                method, session.empty() ? "-" : session, request_id, CodeName(status.error_code()),
-                seconds, status.error_message());
+    spdlog::log(level, "rpc={} session={} request_id={} code={} seconds={:.6f} error={}", method,
+                shown_session, LogValue(request_id), CodeName(status.error_code()), seconds,
+                Quoted(status.error_message(), kMaxLoggedErrorBytes));
   }
 }
 

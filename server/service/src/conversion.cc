@@ -106,6 +106,19 @@ std::string ScenePath(const std::string& config_field) {
   return "scene." + config_field;
 }
 
+// The core checks the effective moduli ("material.e_star", "material.g_star") it was given; they
+// are derived, not request fields, so such an error names the material the request set. (The
+// moduli's own range keeps them finite and positive, so this is a safety net.)
+Status NamedAsInRequest(const Status& status, const v1::Scene& scene) {
+  if (!status.field().starts_with("material.")) return status;
+  const std::string material = scene.material_case() == v1::Scene::kElasticPair
+                                   ? "scene.elastic_pair"
+                                   : "scene.rigid_on_half_space";
+  return Status(status.code(), material,
+                "the effective " + status.field().substr(std::string("material.").size()) +
+                    " derived from these moduli " + status.message());
+}
+
 // Unset options keep the core's defaults; the vertex limit defaults to at most the server's.
 Status ApplyOptions(const v1::ContactOptions& options, std::size_t max_memory_vertices,
                     ContactConfig* config) {
@@ -191,7 +204,9 @@ Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_me
     return status;
   }
   if (Status status = ApplyMethod(scene, &config); !status.ok()) return status;
-  if (Status status = ValidateContactConfig(config); !status.ok()) return ToSceneStatus(status);
+  if (Status status = ValidateContactConfig(config); !status.ok()) {
+    return ToSceneStatus(NamedAsInRequest(status, scene));
+  }
   return config;
 }
 

@@ -2,6 +2,7 @@
 
 #include <google/protobuf/util/time_util.h>
 
+#include <cstdint>
 #include <string>
 
 #include "mdr/core/validate.h"
@@ -9,6 +10,28 @@
 namespace mdr::service {
 
 using google::protobuf::util::TimeUtil;
+
+namespace {
+
+// A duration as the API takes it: non-negative and normalized, as google.protobuf.Duration
+// defines it (seconds in [0, 315576000000], nanos in [0, 999999999]); anything else is refused
+// rather than normalized, so an invalid Duration is never echoed back.
+Status ValidateDuration(const std::string& field, const google::protobuf::Duration& duration) {
+  if (duration.seconds() < 0 || duration.seconds() > TimeUtil::kDurationMaxSeconds) {
+    return InvalidArgument(field + ".seconds", "must be in [0, " +
+                                                   std::to_string(TimeUtil::kDurationMaxSeconds) +
+                                                   "], got " + std::to_string(duration.seconds()));
+  }
+  constexpr std::int32_t kMaxNanos = 999'999'999;
+  if (duration.nanos() < 0 || duration.nanos() > kMaxNanos) {
+    return InvalidArgument(field + ".nanos", "must be in [0, " + std::to_string(kMaxNanos) +
+                                                 "] (whole seconds go in seconds), got " +
+                                                 std::to_string(duration.nanos()));
+  }
+  return OkStatus();
+}
+
+}  // namespace
 
 Status ValidateServiceLimits(const ServiceLimits& limits) {
   if (limits.max_sessions < 1) return InvalidArgument("max-sessions", "must be >= 1, got 0");
@@ -47,6 +70,7 @@ Result<v1::SessionLimits> ResolveSessionLimits(const v1::SessionLimits& requeste
         TimeUtil::MillisecondsToDuration(server.session_idle_timeout.count());
   }
   if (requested.has_idle_timeout()) {
+    if (Status s = ValidateDuration("idle_timeout", requested.idle_timeout()); !s.ok()) return s;
     const double seconds =
         static_cast<double>(TimeUtil::DurationToNanoseconds(requested.idle_timeout())) * 1e-9;
     Status s = server_seconds > 0 ? RequireInRange("idle_timeout", seconds, 0, server_seconds,

@@ -11,6 +11,7 @@
 
 #include "mdr/core/validate.h"
 #include "mdr/service/conversion.h"
+#include "mdr/service/log_value.h"
 #include "mdr/service/status.h"
 #include "mdr/service/transform.h"
 
@@ -44,11 +45,14 @@ Status CheckSnapshotMethod(const v1::ContactSnapshot& contact, Method method) {
 }
 
 Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
-                                     const OutputSelection& selection) {
+                                     const OutputSelection& selection, int max_message_bytes) {
   if (selection.any_radial() && request.radii().empty()) {
     return InvalidArgument("radii",
                            "required (at least one radius) when read_mask selects springs, "
                            "tractions or pressure");
+  }
+  if (Status s = CheckRadiiCount(request.radii_size(), selection, max_message_bytes); !s.ok()) {
+    return s;
   }
   return ToRadialSampling(request.radii(), request.traction_route());
 }
@@ -128,8 +132,8 @@ void ContactOperations::CompactJournal() {
   if (journal_ == nullptr) return;
   for (const std::shared_ptr<Session>& session : sessions_.All()) {
     if (grpc::Status status = session->CompactJournal(); !status.ok()) {
-      spdlog::warn("event=journal_compaction_failed session={} error=\"{}\"", session->name(),
-                   status.error_message());
+      spdlog::warn("event=journal_compaction_failed session={} error={}", LogValue(session->name()),
+                   Quoted(status.error_message(), kMaxLoggedErrorBytes));
     }
   }
 }
@@ -148,13 +152,18 @@ grpc::Status ContactOperations::AddSession(const Principal& caller, const std::s
   grpc::Status status = sessions_.Create(id_field, session_id, caller, std::move(state), &session);
   if (!status.ok()) return status;
   session->ReadResource(response);
-  spdlog::info("event=session_{} session={} sessions={}", verb, session->name(), sessions_.size());
+  spdlog::info("event=session_{} session={} sessions={}", verb, LogValue(session->name()),
+               sessions_.size());
   return grpc::Status::OK;
 }
 
 grpc::Status ContactOperations::CreateSession(const Principal& caller,
                                               const v1::CreateSessionRequest& request,
                                               v1::Session* response) {
+  if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
+      !status.ok()) {
+    return status;
+  }
   const v1::Session& resource = request.session();
   Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
   if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("session.limits"));
@@ -201,7 +210,8 @@ grpc::Status ContactOperations::DeleteSession(const Principal& caller,
                                               const v1::DeleteSessionRequest& request) {
   grpc::Status status = sessions_.Erase("name", request.name(), caller);
   if (status.ok()) {
-    spdlog::info("event=session_deleted session={} sessions={}", request.name(), sessions_.size());
+    spdlog::info("event=session_deleted session={} sessions={}", LogValue(request.name()),
+                 sessions_.size());
   }
   return status;
 }
@@ -250,6 +260,10 @@ grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
 grpc::Status ContactOperations::ImportSession(const Principal& caller,
                                               const v1::ImportSessionRequest& request,
                                               v1::Session* response) {
+  if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
+      !status.ok()) {
+    return status;
+  }
   std::optional<SessionState> state;
   if (grpc::Status status = StateOf(request.snapshot(), &state); !status.ok()) return status;
   return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,
@@ -285,7 +299,7 @@ grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRe
                                       v1::QueryResponse* response) {
   Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
   if (!selection.ok()) return ToGrpcStatus(selection.status());
-  Result<RadialSampling> sampling = QuerySampling(request, *selection);
+  Result<RadialSampling> sampling = QuerySampling(request, *selection, limits_.max_message_bytes);
   if (!sampling.ok()) return ToGrpcStatus(sampling.status());
   std::shared_ptr<Session> session;
   if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
@@ -298,7 +312,7 @@ grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRe
 grpc::Status ContactOperations::Transform(const v1::TransformRequest& request,
                                           v1::TransformResponse* response) {
   const auto start = std::chrono::steady_clock::now();
-  if (Status status = RunTransform(request, limits_.max_memory_vertices, response); !status.ok()) {
+  if (Status status = RunTransform(request, limits_, response); !status.ok()) {
     response->Clear();
     return ToGrpcStatus(status);
   }

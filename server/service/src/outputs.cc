@@ -1,6 +1,7 @@
 #include "mdr/service/outputs.h"
 
 #include <algorithm>
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
@@ -8,6 +9,7 @@
 #include "mdr/core/jager.h"
 #include "mdr/core/tabulated_profile.h"
 #include "mdr/service/conversion.h"
+#include "mdr/service/log_value.h"
 
 namespace mdr::service {
 namespace {
@@ -132,7 +134,7 @@ Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
     }
     if (!matched) {
       return InvalidArgument(mask_field + ".paths[" + std::to_string(i) + "]",
-                             "\"" + path + "\" is not a field of " + message_name +
+                             Quoted(path) + " is not a field of " + message_name +
                                  "; valid: " + TopLevelPaths(leaves) +
                                  " or one of their fields (e.g. \"state.normal_force\")");
     }
@@ -239,7 +241,53 @@ Status WritePressure(const Contact& contact, const RadialSampling& sampling,
   return OkStatus();
 }
 
+// The most bytes one RadialValue adds to a response: every field set, plus the repeated field's
+// tag and length prefix.
+std::size_t MaxRadialValueBytes() {
+  constexpr std::size_t kTagAndLengthBytes = 3;
+  v1::RadialValue widest;
+  widest.set_radius(1);
+  widest.set_abel(1);
+  widest.set_jager(1);
+  widest.set_value(1);
+  widest.set_route(v1::TRACTION_ROUTE_JAGER);
+  widest.set_error_estimate(1);
+  return widest.ByteSizeLong() + kTagAndLengthBytes;
+}
+
+// The bytes one radius adds to a response with these radial outputs (packed doubles for the
+// springs, a RadialValue for tractions and pressure).
+std::size_t BytesPerRadius(const OutputSelection& selection) {
+  static const std::size_t radial_value_bytes = MaxRadialValueBytes();
+  std::size_t bytes = 0;
+  if (selection.has(Output::kSpringTangentialDisplacement)) bytes += sizeof(double);
+  if (selection.has(Output::kSpringNormalDisplacement)) bytes += sizeof(double);
+  if (selection.has(Output::kTractions)) bytes += radial_value_bytes;
+  if (selection.has(Output::kPressure)) bytes += radial_value_bytes;
+  return bytes;
+}
+
 }  // namespace
+
+std::size_t MaxRadii(const OutputSelection& selection, int max_message_bytes) {
+  // Room for the state, the error estimate and the other small fields of the response.
+  constexpr std::size_t kOtherFieldsBytes = 1024;
+  const std::size_t per_radius = BytesPerRadius(selection);
+  const auto message_bytes = static_cast<std::size_t>(std::max(max_message_bytes, 0));
+  if (per_radius == 0) return std::numeric_limits<std::size_t>::max();
+  if (message_bytes <= kOtherFieldsBytes) return 0;
+  return (message_bytes - kOtherFieldsBytes) / per_radius;
+}
+
+Status CheckRadiiCount(int count, const OutputSelection& selection, int max_message_bytes) {
+  const std::size_t max_radii = MaxRadii(selection, max_message_bytes);
+  if (static_cast<std::size_t>(count) <= max_radii) return OkStatus();
+  return InvalidArgument("radii", "at most " + std::to_string(max_radii) +
+                                      " radii fit in one response of the selected outputs "
+                                      "(--max-message-bytes " +
+                                      std::to_string(max_message_bytes) + "), got " +
+                                      std::to_string(count) + "; split the request");
+}
 
 double ProfileTolerance(const Profile& profile) {
   const auto* tabulated = dynamic_cast<const TabulatedProfile*>(&profile);

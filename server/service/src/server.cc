@@ -2,11 +2,20 @@
 
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
+#include <openssl/bio.h>
+#include <openssl/err.h>
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <fstream>
 #include <sstream>
+#include <vector>
+
+#include "mdr/service/log_value.h"
+#include "mdr/service/request_parse_errors.h"
 
 namespace mdr::service {
 namespace {
@@ -19,6 +28,57 @@ Result<std::string> ReadPemFile(const std::string& flag, const std::string& path
     return FailedPrecondition(flag, "cannot read \"" + path + "\" (a PEM file)");
   }
   return text.str();
+}
+
+// OpenSSL objects freed when they go out of scope.
+using Bio = std::unique_ptr<BIO, decltype(&BIO_free)>;
+using Certificate = std::unique_ptr<X509, decltype(&X509_free)>;
+using PrivateKey = std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)>;
+
+Bio MemoryBio(const std::string& pem) {
+  return Bio(BIO_new_mem_buf(pem.data(), static_cast<int>(pem.size())), &BIO_free);
+}
+
+// The PEM certificates in `pem`, in order; empty when the first block is missing or malformed.
+std::vector<Certificate> ParseCertificates(const std::string& pem) {
+  std::vector<Certificate> certificates;
+  Bio bio = MemoryBio(pem);
+  while (X509* certificate = PEM_read_bio_X509(bio.get(), nullptr, nullptr, nullptr)) {
+    certificates.emplace_back(certificate, &X509_free);
+  }
+  ERR_clear_error();  // the read that ended the loop
+  return certificates;
+}
+
+// The files are checked here, so that a bad one is named at start-up instead of surfacing as a
+// listen failure from gRPC: the chain and the CA bundle hold PEM certificates, the key is a PEM
+// private key, and it is the key of the chain's first certificate.
+Status CheckTlsFiles(const TlsOptions& tls, const std::string& cert_pem, const std::string& key_pem,
+                     const std::string& client_ca_pem) {
+  const std::vector<Certificate> chain = ParseCertificates(cert_pem);
+  if (chain.empty()) {
+    return FailedPrecondition("tls-cert", "\"" + tls.cert_file + "\" is not a PEM certificate");
+  }
+  // No passphrase: an encrypted key fails here instead of OpenSSL prompting on the terminal.
+  pem_password_cb* no_passphrase = [](char*, int, int, void*) { return 0; };
+  PrivateKey key(PEM_read_bio_PrivateKey(MemoryBio(key_pem).get(), nullptr, no_passphrase, nullptr),
+                 &EVP_PKEY_free);
+  ERR_clear_error();
+  if (key == nullptr) {
+    return FailedPrecondition(
+        "tls-key", "\"" + tls.key_file + "\" is not a PEM private key (or is encrypted)");
+  }
+  if (X509_check_private_key(chain.front().get(), key.get()) != 1) {
+    ERR_clear_error();
+    return FailedPrecondition("tls-cert", "the certificate in \"" + tls.cert_file +
+                                              "\" does not match --tls-key \"" + tls.key_file +
+                                              "\"");
+  }
+  if (!tls.client_ca_file.empty() && ParseCertificates(client_ca_pem).empty()) {
+    return FailedPrecondition("tls-client-ca",
+                              "\"" + tls.client_ca_file + "\" is not a PEM certificate bundle");
+  }
+  return OkStatus();
 }
 
 // Plaintext without certificate files, else TLS, with client certificates required and verified
@@ -35,11 +95,13 @@ Result<std::shared_ptr<grpc::ServerCredentials>> ServerCredentials(const TlsOpti
   if (!cert.ok()) return cert.status();
   Result<std::string> key = ReadPemFile("tls-key", tls.key_file);
   if (!key.ok()) return key.status();
+  Result<std::string> client_ca = std::string();
+  if (!tls.client_ca_file.empty()) client_ca = ReadPemFile("tls-client-ca", tls.client_ca_file);
+  if (!client_ca.ok()) return client_ca.status();
+  if (Status s = CheckTlsFiles(tls, *cert, *key, *client_ca); !s.ok()) return s;
   grpc::SslServerCredentialsOptions options(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
   options.pem_key_cert_pairs.push_back({*key, *cert});
   if (!tls.client_ca_file.empty()) {
-    Result<std::string> client_ca = ReadPemFile("tls-client-ca", tls.client_ca_file);
-    if (!client_ca.ok()) return client_ca.status();
     options.pem_root_certs = *client_ca;
     options.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
   }
@@ -92,10 +154,17 @@ Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions&
   builder.SetMaxReceiveMessageSize(options.limits.max_message_bytes);
   builder.SetMaxSendMessageSize(options.limits.max_message_bytes);
   builder.RegisterService(&server->service_);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(UnparseableRequestInterceptorFactory());
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || (!options.listen_address.empty() && server->port_ == 0)) {
+    // The TLS files were checked above; what gRPC may still refuse is named as a possibility.
+    const bool tls = !options.tls.cert_file.empty();
     return FailedPrecondition("listen", "cannot listen on \"" + options.listen_address +
-                                            "\" (malformed address or port in use)");
+                                            (tls ? "\" (malformed address, port in use, or a TLS "
+                                                   "setting gRPC refused: see its log above)"
+                                                 : "\" (malformed address or port in use)"));
   }
   if (options.limits.session_idle_timeout.count() > 0) {
     const auto period = SweepPeriod(options.limits.session_idle_timeout);
@@ -131,7 +200,7 @@ void ContactServer::SweepExpiredSessions(std::stop_token stop, std::chrono::mill
   while (!sweeper_wakeup_.wait_for(lock, stop, period, [] { return false; })) {
     if (stop.stop_requested()) return;
     for (const std::string& name : operations_.EraseExpiredSessions()) {
-      spdlog::info("event=session_expired session={}", name);
+      spdlog::info("event=session_expired session={}", LogValue(name));
     }
   }
 }

@@ -9,6 +9,7 @@
 
 #include "mdr/service/conversion.h"
 #include "mdr/service/limits.h"
+#include "mdr/service/log_value.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -123,8 +124,8 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
       journal_sequence_ - journal_snapshot_sequence_ >= journal_->options().snapshot_every) {
     // The batch is journaled either way; a failed compaction only leaves more to replay.
     if (grpc::Status status = CompactJournalLocked(); !status.ok()) {
-      spdlog::warn("event=journal_compaction_failed session={} error=\"{}\"", name_,
-                   status.error_message());
+      spdlog::warn("event=journal_compaction_failed session={} error={}", LogValue(name_),
+                   Quoted(status.error_message(), kMaxLoggedErrorBytes));
     }
   }
   Touch();  // a long batch counts as use until its end

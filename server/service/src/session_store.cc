@@ -7,6 +7,7 @@
 #include <mutex>
 #include <utility>
 
+#include "mdr/service/log_value.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -14,6 +15,7 @@ namespace {
 
 constexpr char kCollection[] = "sessions/";
 constexpr std::size_t kMaxSessionIdLength = 63;
+constexpr char kSessionIdForm[] = "1-63 characters of [a-z0-9-] starting with a letter";
 
 // RFC 1034 style, as the API design guide recommends: [a-z][a-z0-9-]{0,62}.
 bool IsValidSessionId(const std::string& id) {
@@ -31,6 +33,13 @@ grpc::Status NotFound(const std::string& field, const std::string& name) {
 }
 
 }  // namespace
+
+grpc::Status SessionStore::CheckSessionId(const std::string& field, const std::string& session_id) {
+  if (session_id.empty() || IsValidSessionId(session_id)) return grpc::Status::OK;
+  return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, field,
+                   std::string("must be empty (a generated id) or ") + kSessionIdForm + ", got " +
+                       Quoted(session_id));
+}
 
 bool SessionStore::IsSessionName(const std::string& name) {
   const std::string prefix = kCollection;
@@ -55,8 +64,8 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
       // Gone from memory either way; a session the journal keeps comes back at the next start
       // and expires again.
       if (grpc::Status status = journal_->RemoveSession(it->first); !status.ok()) {
-        spdlog::warn("event=journal_error session={} error=\"{}\"", it->first,
-                     status.error_message());
+        spdlog::warn("event=journal_error session={} error={}", LogValue(it->first),
+                     Quoted(status.error_message(), kMaxLoggedErrorBytes));
       }
     }
     erased.push_back(it->first);
@@ -95,11 +104,7 @@ grpc::Status SessionStore::CheckRoomLocked(const Principal& caller) {
 grpc::Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
                                   const Principal& caller, SessionState state,
                                   std::shared_ptr<Session>* session) {
-  if (!session_id.empty() && !IsValidSessionId(session_id)) {
-    return GrpcError(
-        grpc::StatusCode::INVALID_ARGUMENT, id_field,
-        "must be 1-63 characters of [a-z0-9-] starting with a letter, got \"" + session_id + "\"");
-  }
+  if (grpc::Status status = CheckSessionId(id_field, session_id); !status.ok()) return status;
   state.owner = caller.value_or("");
   std::unique_lock lock(mutex_);
   if (grpc::Status status = CheckRoomLocked(caller); !status.ok()) return status;
@@ -134,7 +139,9 @@ grpc::Status SessionStore::Find(const std::string& field, const std::string& nam
                                 const Principal& caller, std::shared_ptr<Session>* session) {
   if (!IsSessionName(name)) {
     return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, field,
-                     "must be a session name \"sessions/{session_id}\", got \"" + name + "\"");
+                     std::string("must be a session name \"sessions/{session_id}\" whose "
+                                 "session_id is ") +
+                         kSessionIdForm + ", got " + Quoted(name));
   }
   {
     std::shared_lock lock(mutex_);

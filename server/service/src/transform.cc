@@ -27,11 +27,6 @@ Status ToSamplesStatus(const Status& status) {
 
 Result<PiecewiseLinearMemory> SuperpositionMemory(
     const v1::CattaneoMindlinSuperposition& superposition, const ContactConfig& config) {
-  if (superposition.terms_size() > kMaxTransformTerms) {
-    return ResourceExhausted("superposition.terms", std::to_string(superposition.terms_size()) +
-                                                        " terms exceed the limit of " +
-                                                        std::to_string(kMaxTransformTerms));
-  }
   Result<std::vector<CattaneoMindlinTerm>> terms = ToCoreTerms(superposition, *config.profile);
   if (!terms.ok()) return terms.status().WithFieldPrefix("superposition");
   Result<PiecewiseLinearMemory> memory =
@@ -57,11 +52,6 @@ std::vector<CattaneoMindlinTerm> CellTerms(const std::vector<double>& x, const P
 Result<PiecewiseLinearMemory> SampledMemory(const v1::SampledDisplacement& samples,
                                             const ContactConfig& config,
                                             v1::SampledWeight* sampled_weight) {
-  if (samples.x_size() > kMaxTransformSamples) {
-    return ResourceExhausted("samples.x", std::to_string(samples.x_size()) +
-                                              " samples exceed the limit of " +
-                                              std::to_string(kMaxTransformSamples));
-  }
   const std::vector<double> x(samples.x().begin(), samples.x().end());
   const std::vector<double> u(samples.u().begin(), samples.u().end());
   SampledWeightOptions options;
@@ -96,11 +86,31 @@ Result<PiecewiseLinearMemory> InputMemory(const v1::TransformRequest& request,
       "input", "required: set superposition (terms to memory) or samples (u(x) to weights)");
 }
 
+// The sizes of the request, before any work: the terms or samples (the work grows with their
+// product with the memory) and the radii (their tractions must fit in the response).
+Status CheckRequestSize(const v1::TransformRequest& request, int max_message_bytes) {
+  if (request.superposition().terms_size() > kMaxTransformTerms) {
+    return ResourceExhausted("superposition.terms",
+                             std::to_string(request.superposition().terms_size()) +
+                                 " terms exceed the limit of " +
+                                 std::to_string(kMaxTransformTerms));
+  }
+  if (request.samples().x_size() > kMaxTransformSamples) {
+    return ResourceExhausted("samples.x", std::to_string(request.samples().x_size()) +
+                                              " samples exceed the limit of " +
+                                              std::to_string(kMaxTransformSamples));
+  }
+  OutputSelection tractions;
+  tractions.add(Output::kTractions);
+  return CheckRadiiCount(request.radii_size(), tractions, max_message_bytes);
+}
+
 }  // namespace
 
-Status RunTransform(const v1::TransformRequest& request, std::size_t max_memory_vertices,
+Status RunTransform(const v1::TransformRequest& request, const ServiceLimits& limits,
                     v1::TransformResponse* response) {
-  Result<ContactConfig> config = ToContactConfig(request.scene(), max_memory_vertices);
+  if (Status s = CheckRequestSize(request, limits.max_message_bytes); !s.ok()) return s;
+  Result<ContactConfig> config = ToContactConfig(request.scene(), limits.max_memory_vertices);
   if (!config.ok()) return config.status();
   Result<RadialSampling> sampling = ToRadialSampling(request.radii(), request.traction_route());
   if (!sampling.ok()) return sampling.status();

@@ -16,6 +16,13 @@ Status RequirePositive(const std::string& field, double value);
 Status RequireNonNegative(const std::string& field, double value);
 // Finite (displacements, tangential forces).
 Status RequireFinite(const std::string& field, double value);
+// The range of a scale that defines a scene (a radius in m, a modulus in Pa, a power-law
+// coefficient): beyond it the quantities derived from it (1/R, E* and G*, depths at a force,
+// pressures) overflow or lose all precision, so it is refused at the scene, not at a later step.
+inline constexpr double kMinSceneScale = 1e-100;
+inline constexpr double kMaxSceneScale = 1e100;
+// Finite and > 0 (RequirePositive's message), then in [kMinSceneScale, kMaxSceneScale].
+Status RequireSceneScale(const std::string& field, double value);
 // Finite and in [lo, hi] (or (lo, hi] when lo_open); the message states the range.
 Status RequireInRange(const std::string& field, double value, double lo, double hi,
                       bool lo_open = false);

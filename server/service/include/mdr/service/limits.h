@@ -31,7 +31,8 @@ struct ServiceLimits {
 Status ValidateServiceLimits(const ServiceLimits& limits);
 
 // The effective limits of a new session: unset (0) fields take the server's, set ones must not
-// exceed them. Errors name the field bare ("max_steps_per_batch", "idle_timeout").
+// exceed them. Errors name the field bare ("max_steps_per_batch", "idle_timeout",
+// "idle_timeout.nanos" for a Duration that is not normalized).
 Result<v1::SessionLimits> ResolveSessionLimits(const v1::SessionLimits& requested,
                                                const ServiceLimits& server);
 

@@ -96,6 +96,13 @@ struct RadialSampling {
   TractionOptions traction_options;
 };
 
+// The most radii whose selected radial outputs (springs, tractions, pressure) fit in a response
+// of max_message_bytes; no limit (SIZE_MAX) when none is selected. Derived from the encoded size
+// of the outputs, so a request within it never fails for the size of its response.
+std::size_t MaxRadii(const OutputSelection& selection, int max_message_bytes);
+// INVALID_ARGUMENT naming "radii" and MaxRadii when count exceeds it; checked before any work.
+Status CheckRadiiCount(int count, const OutputSelection& selection, int max_message_bytes);
+
 // The error estimates of the scene's approximations: ErrorEstimate.grid_spacing of the grid
 // method and profile_tolerance of a tabulated profile.
 void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimate);

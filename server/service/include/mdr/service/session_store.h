@@ -58,6 +58,10 @@ class SessionStore {
 
   // Whether name has the form "sessions/{session_id}" with a valid id.
   static bool IsSessionName(const std::string& name);
+  // INVALID_ARGUMENT naming `field` unless session_id is empty (Create generates one) or a valid
+  // id; the message quotes a bounded prefix of it. Create checks it too; callers check it before
+  // any other work on the request.
+  static grpc::Status CheckSessionId(const std::string& field, const std::string& session_id);
 
  private:
   using Map = std::map<std::string, std::shared_ptr<Session>>;

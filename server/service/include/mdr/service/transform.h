@@ -6,18 +6,21 @@
 #include <cstddef>
 
 #include "mdr/core/status.h"
+#include "mdr/service/limits.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
 
 // Most terms of a superposition and samples of a sampled u(x): the memory is built term by term,
-// so the work grows with their product.
+// so the work grows with their product. contact_service.proto states both (CattaneoMindlin-
+// Superposition.terms, SampledDisplacement.x); keep them equal.
 inline constexpr int kMaxTransformTerms = 10000;
 inline constexpr int kMaxTransformSamples = 10000;
 
-// Fills everything but compute_seconds. max_memory_vertices is the server's limit, as for
-// sessions (the scene is validated like a session's).
-Status RunTransform(const v1::TransformRequest& request, std::size_t max_memory_vertices,
+// Fills everything but compute_seconds. The sizes of the request (terms, samples, radii against
+// the response's size) are checked before any work; the scene is validated like a session's,
+// against the server's max_memory_vertices.
+Status RunTransform(const v1::TransformRequest& request, const ServiceLimits& limits,
                     v1::TransformResponse* response);
 
 }  // namespace mdr::service
