@@ -205,6 +205,7 @@ TEST_F(JournalTest, RequestIdsAnsweredBeforeARestartAreNotAppliedAgain) {
     SCOPED_TRACE("snapshot_every " + std::to_string(snapshot_every));
     const JournalOptions options = Options(snapshot_every);
     std::filesystem::remove(options.path);
+    std::filesystem::remove(options.path + ".commit");
     const v1::ApplyRequest request = ApplyRequestFor(
         "sessions/s", {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N)}, {"state"}, "r-1");
     v1::ApplyResponse first;
