@@ -605,8 +605,10 @@ void Journal::ReadBatches(JournaledSession* session, std::vector<std::string>* d
     first_dropped = session->snapshot_sequence + session->batches.size() + 1;
   }
   if (problem.empty()) return;
-  damage->push_back("session " + session->name + ": batches " + std::to_string(first_dropped) +
-                    (last_dropped > first_dropped ? "-" + std::to_string(last_dropped) : "") +
+  damage->push_back("session " + session->name + ": " +
+                    (last_dropped > first_dropped ? "batches " + std::to_string(first_dropped) +
+                                                        "-" + std::to_string(last_dropped)
+                                                  : "batch " + std::to_string(first_dropped)) +
                     " dropped (" + problem + "); restored as of batch " +
                     std::to_string(session->snapshot_sequence + session->batches.size()));
 }

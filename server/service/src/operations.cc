@@ -79,7 +79,8 @@ grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
       // journal entry untouched, until it is deleted or a fixed mdrd restores it.
       spdlog::error("event=session_unavailable session={} path={} reason=\"{}\"", entry.name,
                     options.path, status.error_message());
-      session = std::make_shared<Session>(entry.name, Unavailable(std::move(entry), status));
+      const std::string name = entry.name;
+      session = std::make_shared<Session>(name, Unavailable(std::move(entry), status));
       ++unavailable;
     }
     sessions_.AddRestored(std::move(session));  // names are unique: the journal's primary key
