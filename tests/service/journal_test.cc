@@ -594,7 +594,7 @@ TEST_F(JournalTest, ATruncatedWriteAheadLogIsDetected) {
   const JournalOptions image = CrashImage(&expected);
   const std::string log = image.path + "-wal";
   std::filesystem::resize_file(log, std::filesystem::file_size(log) - 100);  // the last batch
-  auto recovered = ExpectRefusedThenRecovered(image, "are missing");
+  auto recovered = ExpectRefusedThenRecovered(image, " missing: the database ends at commit");
   // Restored as of the commit before: "x" without its last batch, "y" whole.
   ExpectSameSnapshot(Export(*recovered, "sessions/y"), expected[1]);
   EXPECT_LT(Export(*recovered, "sessions/x").applied_steps(), expected[0].applied_steps());
@@ -607,7 +607,7 @@ TEST_F(JournalTest, FlippedBytesInTheWriteAheadLogAreDetected) {
   const JournalOptions image = CrashImage(&expected);
   const std::string log = image.path + "-wal";
   FlipByte(log, std::filesystem::file_size(log) * 3 / 4);
-  auto recovered = ExpectRefusedThenRecovered(image, "are missing");
+  auto recovered = ExpectRefusedThenRecovered(image, " missing: the database ends at commit");
   EXPECT_LT(Export(*recovered, "sessions/x").applied_steps(), expected[0].applied_steps());
 }
 

@@ -419,13 +419,15 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
                       " commits: the journal was lost (to start a new journal on purpose, move "
                       "the .commit file aside with it)");
   } else if (*recorded > commits_) {
-    damage->push_back(
-        "commits " + std::to_string(commits_ + 1) + "-" + std::to_string(*recorded) +
-        " are missing: the database ends at commit " + std::to_string(commits_) + " but commit " +
-        std::to_string(*recorded) +
-        " was made (a truncated or damaged write-ahead log, or a machine crash under "
-        "--journal-sync off/normal); every session's later batches, sessions created and "
-        "deletions in them are lost");
+    const std::string lost = *recorded == commits_ + 1
+                                 ? "commit " + std::to_string(*recorded) + " is"
+                                 : "commits " + std::to_string(commits_ + 1) + "-" +
+                                       std::to_string(*recorded) + " are";
+    damage->push_back(lost + " missing: the database ends at commit " + std::to_string(commits_) +
+                      " but commit " + std::to_string(*recorded) +
+                      " was made (a truncated or damaged write-ahead log, or a machine crash "
+                      "under --journal-sync off/normal); the batches, sessions and deletions "
+                      "they recorded are lost");
   }
 }
 
