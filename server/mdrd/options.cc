@@ -122,8 +122,7 @@ void LogEffectiveOptions(const Options& options) {
       std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
       options.shutdown_grace_seconds, server.journal.path.empty() ? "-" : server.journal.path,
       mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
-      server.journal.recover,
-      !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
+      server.journal.recover, !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
       !server.tokens_file.empty(), limits.max_sessions_per_token);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(

@@ -157,10 +157,11 @@ class JournalTest : public ::testing::Test {
                            std::mt19937_64& random) {
     const std::string name = Create(operations, id);
     v1::ApplyResponse response;
-    ASSERT_TRUE(Apply(operations,
-                      ApplyRequestFor(name, {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N)}),
-                      &response)
-                    .ok());
+    ASSERT_TRUE(
+        Apply(operations,
+              ApplyRequestFor(name, {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N)}),
+              &response)
+            .ok());
     ApplyRandomBatches(operations, name, batches, random);
   }
 
@@ -248,7 +249,8 @@ class JournalTest : public ::testing::Test {
     const std::vector<std::uintmax_t> files_before = sizes();
     grpc::Status refused = OpenStatus(options);
     EXPECT_EQ(refused.error_code(), grpc::StatusCode::DATA_LOSS);
-    EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("\"" + options.path + "\" is damaged"));
+    EXPECT_THAT(refused.error_message(),
+                ::testing::HasSubstr("\"" + options.path + "\" is damaged"));
     EXPECT_THAT(refused.error_message(), ::testing::HasSubstr(what));
     EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("--journal-recover"));
     EXPECT_EQ(sizes(), files_before);
@@ -479,9 +481,8 @@ TEST_F(JournalTest, ASessionThatCannotBeRestoredIsKeptAsideAndTheOthersComeBack)
   {
     std::unique_ptr<Journal> journal;
     ASSERT_TRUE(Journal::Open(options, &journal).ok());
-    ASSERT_TRUE(journal
-                    ->AddSession("sessions/bad", "", google::protobuf::Timestamp(), refused)
-                    .ok());
+    ASSERT_TRUE(
+        journal->AddSession("sessions/bad", "", google::protobuf::Timestamp(), refused).ok());
   }
   for (int restart = 0; restart < 2; ++restart) {
     auto restored = Open(options);
@@ -504,7 +505,8 @@ TEST_F(JournalTest, ASessionThatCannotBeRestoredIsKeptAsideAndTheOthersComeBack)
     EXPECT_EQ(list.sessions(1).unavailable_reason(), bad.unavailable_reason());
 
     v1::ApplyResponse applied;
-    grpc::Status apply = Apply(*restored, ApplyRequestFor("sessions/bad", {DepthStep(kDepth)}), &applied);
+    grpc::Status apply =
+        Apply(*restored, ApplyRequestFor("sessions/bad", {DepthStep(kDepth)}), &applied);
     v1::QueryRequest query;
     query.set_session("sessions/bad");
     v1::QueryResponse queried;
@@ -675,8 +677,8 @@ TEST_F(JournalTest, ImportChecksTheCountersOfASnapshot) {
   grpc::Status status = import(snapshot);
   ExpectInvalidArgument(status, "snapshot.applied_steps");
   EXPECT_THAT(status.error_message(), ::testing::HasSubstr("[0, 9007199254740992]"));
-  for (double energy : {-1e-9, std::numeric_limits<double>::quiet_NaN(),
-                        std::numeric_limits<double>::infinity()}) {
+  for (double energy :
+       {-1e-9, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
     snapshot = valid;
     snapshot.mutable_contact()->set_last_step_dissipated_energy(energy);
     ExpectInvalidArgument(import(snapshot), "snapshot.contact.last_step_dissipated_energy");
@@ -714,7 +716,8 @@ TEST_F(JournalTest, TheStepCounterCannotWrap) {
   grpc::Status status =
       Apply(operations, ApplyRequestFor("sessions/full", {DepthStep(kDepth)}), &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
-  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("steps[0]: the session has applied its maximum of 2^53 steps"));
+  EXPECT_THAT(status.error_message(),
+              ::testing::HasSubstr("steps[0]: the session has applied its maximum of 2^53 steps"));
   ExpectSameSnapshot(Export(operations, "sessions/full"), [&] {
     v1::SessionSnapshot expected = snapshot;
     expected.set_source_name("sessions/full");

@@ -282,8 +282,7 @@ ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
   return core;
 }
 
-Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot,
-                             std::uint64_t max_applied_steps) {
+Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t max_applied_steps) {
   if (Status s = RequireNonNegative("snapshot.contact.last_step_dissipated_energy",
                                     snapshot.contact().last_step_dissipated_energy());
       !s.ok()) {

@@ -42,6 +42,7 @@ CREATE TABLE batches(
   sequence INTEGER NOT NULL,
   request_id TEXT NOT NULL,
   request BLOB NOT NULL,
+  commit_number INTEGER NOT NULL,
   checksum INTEGER NOT NULL,
   PRIMARY KEY(session, sequence)
 ) WITHOUT ROWID;
@@ -54,6 +55,9 @@ CREATE TABLE requests(
   checksum INTEGER NOT NULL,
   PRIMARY KEY(session, position)
 ) WITHOUT ROWID;
+-- The commit counter: the last commit's number is the larger of commits.count (advanced by every
+-- other write) and the largest batches.commit_number (a batch carries its own commit's number, so
+-- the hot path writes one page, not two).
 CREATE TABLE commits(
   id INTEGER PRIMARY KEY CHECK(id = 1),
   count INTEGER NOT NULL
@@ -132,8 +136,15 @@ std::uint64_t SessionChecksum(std::string_view name, std::string_view owner,
       .value();
 }
 std::uint64_t BatchChecksum(std::string_view session, std::uint64_t sequence,
-                            std::string_view request_id, std::string_view request) {
-  return RowChecksum().Add(session).Add(sequence).Add(request_id).Add(request).value();
+                            std::string_view request_id, std::string_view request,
+                            std::uint64_t commit_number) {
+  return RowChecksum()
+      .Add(session)
+      .Add(sequence)
+      .Add(request_id)
+      .Add(request)
+      .Add(commit_number)
+      .value();
 }
 std::uint64_t RequestChecksum(std::string_view session, std::uint64_t position,
                               std::string_view request_id, std::uint64_t fingerprint,
@@ -182,9 +193,7 @@ bool CreatePrivately(const std::string& path, std::string* error) {
   return true;
 }
 
-bool IsCorruption(int code) {
-  return (code & 0xFF) == SQLITE_CORRUPT;
-}
+bool IsCorruption(int code) { return (code & 0xFF) == SQLITE_CORRUPT; }
 
 // Finalizes on scope exit (statements prepared for one use).
 class Statement {
@@ -238,7 +247,8 @@ grpc::Status Damaged(const std::string& path, const std::vector<std::string>& da
   return GrpcError(grpc::StatusCode::DATA_LOSS, "journal",
                    "\"" + path + "\" is damaged: " + Join(damage) +
                        ". Nothing was changed; start mdrd with --journal-recover to restore what "
-                       "is intact (the damaged files are kept as \"" + path + ".damaged\")");
+                       "is intact (the damaged files are kept as \"" +
+                       path + ".damaged\")");
 }
 
 }  // namespace
@@ -330,11 +340,11 @@ grpc::Status Journal::Connect(std::vector<std::string>* damage) {
     }
   } else if (version != kFormatVersion) {
     Execute("ROLLBACK", &error);
-    return Unusable(path, "journal format " + std::to_string(version) +
-                              " is not this mdrd's (" + std::to_string(kFormatVersion) +
-                              (version < kFormatVersion
-                                   ? "); export its sessions with the mdrd that wrote it"
-                                   : ", a newer mdrd wrote it)"));
+    return Unusable(
+        path, "journal format " + std::to_string(version) + " is not this mdrd's (" +
+                  std::to_string(kFormatVersion) +
+                  (version < kFormatVersion ? "); export its sessions with the mdrd that wrote it"
+                                            : ", a newer mdrd wrote it)"));
   } else {
     CheckSchema(damage);
     CheckIntegrity(damage);
@@ -386,7 +396,9 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
     return;
   }
   {
-    Statement read(db_, "SELECT count FROM commits WHERE id = 1");
+    Statement read(db_,
+                   "SELECT max(count, (SELECT ifnull(max(commit_number), 0) FROM batches)) FROM "
+                   "commits WHERE id = 1");
     if (!read.ok() || sqlite3_step(read.get()) != SQLITE_ROW) {
       if (read.ok()) damage->push_back("its commit counter is missing");
       return;  // a missing table is reported by CheckSchema
@@ -399,7 +411,8 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
     // Written right after the schema; only a crash in between leaves it empty, before any
     // commit.
     if (commits_ > 0) {
-      damage->push_back("\"" + side_path + "\" is missing or empty, so lost commits cannot be "
+      damage->push_back("\"" + side_path +
+                        "\" is missing or empty, so lost commits cannot be "
                         "ruled out (copy a journal together with its .commit file)");
     }
     return;
@@ -419,10 +432,10 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
                       " commits: the journal was lost (to start a new journal on purpose, move "
                       "the .commit file aside with it)");
   } else if (*recorded > commits_) {
-    const std::string lost = *recorded == commits_ + 1
-                                 ? "commit " + std::to_string(*recorded) + " is"
-                                 : "commits " + std::to_string(commits_ + 1) + "-" +
-                                       std::to_string(*recorded) + " are";
+    const std::string lost =
+        *recorded == commits_ + 1
+            ? "commit " + std::to_string(*recorded) + " is"
+            : "commits " + std::to_string(commits_ + 1) + "-" + std::to_string(*recorded) + " are";
     damage->push_back(lost + " missing: the database ends at commit " + std::to_string(commits_) +
                       " but commit " + std::to_string(*recorded) +
                       " was made (a truncated or damaged write-ahead log, or a machine crash "
@@ -441,8 +454,8 @@ grpc::Status Journal::Prepare() {
        "INSERT OR REPLACE INTO sessions(name, owner, create_time_seconds, create_time_nanos, "
        "snapshot_sequence, snapshot, checksum) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)"},
       {&insert_batch_,
-       "INSERT INTO batches(session, sequence, request_id, request, checksum) "
-       "VALUES(?1, ?2, ?3, ?4, ?5)"},
+       "INSERT INTO batches(session, sequence, request_id, request, commit_number, checksum) "
+       "VALUES(?1, ?2, ?3, ?4, ?5, ?6)"},
       {&update_snapshot_,
        "UPDATE sessions SET snapshot_sequence = ?2, snapshot = ?3, checksum = ?4 WHERE name = ?1"},
       {&delete_batches_up_to_, "DELETE FROM batches WHERE session = ?1 AND sequence <= ?2"},
@@ -470,7 +483,8 @@ void Journal::Disconnect(bool keep_log) {
     sqlite3_finalize(*statement);
     *statement = nullptr;
   }
-  if (db_ != nullptr && keep_log) sqlite3_db_config(db_, SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
+  if (db_ != nullptr && keep_log)
+    sqlite3_db_config(db_, SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
   sqlite3_close(db_);
   db_ = nullptr;
   if (commit_file_ >= 0) ::close(commit_file_);
@@ -513,7 +527,8 @@ void Journal::ReadSessions(std::vector<JournaledSession>* sessions,
     if (ColumnInteger(read.get(), 6) != SessionChecksum(session.name, session.owner,
                                                         session.create_time,
                                                         session.snapshot_sequence, snapshot)) {
-      damage->push_back("session " + session.name + " dropped (its entry's checksum does not match)");
+      damage->push_back("session " + session.name +
+                        " dropped (its entry's checksum does not match)");
     } else if (!session.snapshot.ParseFromArray(snapshot.data(),
                                                 static_cast<int>(snapshot.size()))) {
       damage->push_back("session " + session.name + " dropped (its snapshot does not parse)");
@@ -548,9 +563,8 @@ void Journal::ReadRequests(JournaledSession* session, std::vector<std::string>* 
     request.request_id = ColumnText(read.get(), 1);
     request.fingerprint = ColumnInteger(read.get(), 2);
     const std::string_view response = ColumnBlob(read.get(), 3);
-    if (ColumnInteger(read.get(), 4) != RequestChecksum(session->name, position,
-                                                        request.request_id, request.fingerprint,
-                                                        response)) {
+    if (ColumnInteger(read.get(), 4) != RequestChecksum(session->name, position, request.request_id,
+                                                        request.fingerprint, response)) {
       problem = "checksum of request " + request.request_id + " does not match";
     } else if (!request.response.ParseFromArray(response.data(),
                                                 static_cast<int>(response.size()))) {
@@ -568,8 +582,8 @@ void Journal::ReadRequests(JournaledSession* session, std::vector<std::string>* 
 
 void Journal::ReadBatches(JournaledSession* session, std::vector<std::string>* damage) {
   Statement read(db_,
-                 "SELECT sequence, request_id, request, checksum FROM batches WHERE session = ?1 "
-                 "AND sequence > ?2 ORDER BY sequence");
+                 "SELECT sequence, request_id, request, commit_number, checksum FROM batches "
+                 "WHERE session = ?1 AND sequence > ?2 ORDER BY sequence");
   if (!read.ok()) return;  // a missing table: reported by CheckSchema
   BindText(read.get(), 1, session->name);
   BindInteger(read.get(), 2, session->snapshot_sequence);
@@ -590,8 +604,8 @@ void Journal::ReadBatches(JournaledSession* session, std::vector<std::string>* d
     if (sequence != expected) {
       problem = "batch " + std::to_string(expected) + " is missing";
       first_dropped = expected;
-    } else if (ColumnInteger(read.get(), 3) !=
-               BatchChecksum(session->name, sequence, request_id, bytes)) {
+    } else if (ColumnInteger(read.get(), 4) != BatchChecksum(session->name, sequence, request_id,
+                                                             bytes, ColumnInteger(read.get(), 3))) {
       problem = "the checksum of batch " + std::to_string(sequence) + " does not match";
     } else if (!batch.request.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
       problem = "batch " + std::to_string(sequence) + " does not parse";
@@ -674,9 +688,9 @@ grpc::Status Journal::WriteSession(const JournaledSession& session, std::string*
     BindText(insert_request_, 3, request.request_id);
     BindInteger(insert_request_, 4, request.fingerprint);
     BindBlob(insert_request_, 5, response);
-    BindInteger(insert_request_, 6,
-                RequestChecksum(session.name, position, request.request_id, request.fingerprint,
-                                response));
+    BindInteger(
+        insert_request_, 6,
+        RequestChecksum(session.name, position, request.request_id, request.fingerprint, response));
     if (!Step(insert_request_, error)) return Unusable(options_.path, *error);
   }
   for (const JournaledBatch& batch : session.batches) {
@@ -685,8 +699,10 @@ grpc::Status Journal::WriteSession(const JournaledSession& session, std::string*
     BindInteger(insert_batch_, 2, batch.sequence);
     BindText(insert_batch_, 3, batch.request.request_id());
     BindBlob(insert_batch_, 4, request);
-    BindInteger(insert_batch_, 5,
-                BatchChecksum(session.name, batch.sequence, batch.request.request_id(), request));
+    BindInteger(insert_batch_, 5, 0);  // a rebuilt journal's counter starts at 0
+    BindInteger(
+        insert_batch_, 6,
+        BatchChecksum(session.name, batch.sequence, batch.request.request_id(), request, 0));
     if (!Step(insert_batch_, error)) return Unusable(options_.path, *error);
   }
   return grpc::Status::OK;
@@ -700,81 +716,88 @@ grpc::Status Journal::AddSession(const std::string& name, const std::string& own
   session.owner = owner;
   session.create_time = create_time;
   session.snapshot = snapshot;
-  return InTransaction("record the new session", [&](std::string* error) {
-    BindText(delete_all_batches_, 1, name);
-    BindText(delete_requests_, 1, name);
-    return Step(delete_all_batches_, error) && Step(delete_requests_, error) &&
-           WriteSession(session, error).ok();
-  });
+  return InTransaction("record the new session", /*row_carries_commit=*/false,
+                       [&](std::uint64_t, std::string* error) {
+                         BindText(delete_all_batches_, 1, name);
+                         BindText(delete_requests_, 1, name);
+                         return Step(delete_all_batches_, error) && Step(delete_requests_, error) &&
+                                WriteSession(session, error).ok();
+                       });
 }
 
 grpc::Status Journal::AddBatch(const std::string& session, std::uint64_t sequence,
                                const v1::ApplyRequest& request) {
   const std::string bytes = request.SerializeAsString();
-  const std::uint64_t checksum = BatchChecksum(session, sequence, request.request_id(), bytes);
-  return InTransaction("record the batch", [&](std::string* error) {
-    BindText(insert_batch_, 1, session);
-    BindInteger(insert_batch_, 2, sequence);
-    BindText(insert_batch_, 3, request.request_id());
-    BindBlob(insert_batch_, 4, bytes);
-    BindInteger(insert_batch_, 5, checksum);
-    return Step(insert_batch_, error);
-  });
+  return InTransaction("record the batch", /*row_carries_commit=*/true,
+                       [&](std::uint64_t commit, std::string* error) {
+                         BindText(insert_batch_, 1, session);
+                         BindInteger(insert_batch_, 2, sequence);
+                         BindText(insert_batch_, 3, request.request_id());
+                         BindBlob(insert_batch_, 4, bytes);
+                         BindInteger(insert_batch_, 5, commit);
+                         BindInteger(
+                             insert_batch_, 6,
+                             BatchChecksum(session, sequence, request.request_id(), bytes, commit));
+                         return Step(insert_batch_, error);
+                       });
 }
 
 grpc::Status Journal::Compact(const std::string& session, std::uint64_t sequence,
                               const v1::SessionSnapshot& snapshot,
                               const std::vector<JournaledRequest>& completed) {
   const std::string bytes = snapshot.SerializeAsString();
-  return InTransaction("compact the session", [&](std::string* error) {
-    // The row's other columns, for its checksum.
-    Statement read(db_,
-                   "SELECT owner, create_time_seconds, create_time_nanos FROM sessions WHERE "
-                   "name = ?1");
-    BindText(read.get(), 1, session);
-    if (sqlite3_step(read.get()) != SQLITE_ROW) {
-      *error = "the session has no entry";
-      return false;
-    }
-    google::protobuf::Timestamp create_time;
-    create_time.set_seconds(sqlite3_column_int64(read.get(), 1));
-    create_time.set_nanos(sqlite3_column_int(read.get(), 2));
-    const std::string owner = ColumnText(read.get(), 0);
-    BindText(update_snapshot_, 1, session);
-    BindInteger(update_snapshot_, 2, sequence);
-    BindBlob(update_snapshot_, 3, bytes);
-    BindInteger(update_snapshot_, 4, SessionChecksum(session, owner, create_time, sequence, bytes));
-    BindText(delete_batches_up_to_, 1, session);
-    BindInteger(delete_batches_up_to_, 2, sequence);
-    BindText(delete_requests_, 1, session);
-    if (!Step(update_snapshot_, error) || !Step(delete_batches_up_to_, error) ||
-        !Step(delete_requests_, error)) {
-      return false;
-    }
-    for (std::size_t position = 0; position < completed.size(); ++position) {
-      const std::string response = completed[position].response.SerializeAsString();
-      BindText(insert_request_, 1, session);
-      BindInteger(insert_request_, 2, position);
-      BindText(insert_request_, 3, completed[position].request_id);
-      BindInteger(insert_request_, 4, completed[position].fingerprint);
-      BindBlob(insert_request_, 5, response);
-      BindInteger(insert_request_, 6,
-                  RequestChecksum(session, position, completed[position].request_id,
-                                  completed[position].fingerprint, response));
-      if (!Step(insert_request_, error)) return false;
-    }
-    return true;
-  });
+  return InTransaction(
+      "compact the session", /*row_carries_commit=*/false, [&](std::uint64_t, std::string* error) {
+        // The row's other columns, for its checksum.
+        Statement read(db_,
+                       "SELECT owner, create_time_seconds, create_time_nanos FROM sessions WHERE "
+                       "name = ?1");
+        BindText(read.get(), 1, session);
+        if (sqlite3_step(read.get()) != SQLITE_ROW) {
+          *error = "the session has no entry";
+          return false;
+        }
+        google::protobuf::Timestamp create_time;
+        create_time.set_seconds(sqlite3_column_int64(read.get(), 1));
+        create_time.set_nanos(sqlite3_column_int(read.get(), 2));
+        const std::string owner = ColumnText(read.get(), 0);
+        BindText(update_snapshot_, 1, session);
+        BindInteger(update_snapshot_, 2, sequence);
+        BindBlob(update_snapshot_, 3, bytes);
+        BindInteger(update_snapshot_, 4,
+                    SessionChecksum(session, owner, create_time, sequence, bytes));
+        BindText(delete_batches_up_to_, 1, session);
+        BindInteger(delete_batches_up_to_, 2, sequence);
+        BindText(delete_requests_, 1, session);
+        if (!Step(update_snapshot_, error) || !Step(delete_batches_up_to_, error) ||
+            !Step(delete_requests_, error)) {
+          return false;
+        }
+        for (std::size_t position = 0; position < completed.size(); ++position) {
+          const std::string response = completed[position].response.SerializeAsString();
+          BindText(insert_request_, 1, session);
+          BindInteger(insert_request_, 2, position);
+          BindText(insert_request_, 3, completed[position].request_id);
+          BindInteger(insert_request_, 4, completed[position].fingerprint);
+          BindBlob(insert_request_, 5, response);
+          BindInteger(insert_request_, 6,
+                      RequestChecksum(session, position, completed[position].request_id,
+                                      completed[position].fingerprint, response));
+          if (!Step(insert_request_, error)) return false;
+        }
+        return true;
+      });
 }
 
 grpc::Status Journal::RemoveSession(const std::string& session) {
-  return InTransaction("record the deletion", [&](std::string* error) {
-    BindText(delete_session_, 1, session);
-    BindText(delete_all_batches_, 1, session);
-    BindText(delete_requests_, 1, session);
-    return Step(delete_session_, error) && Step(delete_all_batches_, error) &&
-           Step(delete_requests_, error);
-  });
+  return InTransaction("record the deletion", /*row_carries_commit=*/false,
+                       [&](std::uint64_t, std::string* error) {
+                         BindText(delete_session_, 1, session);
+                         BindText(delete_all_batches_, 1, session);
+                         BindText(delete_requests_, 1, session);
+                         return Step(delete_session_, error) && Step(delete_all_batches_, error) &&
+                                Step(delete_requests_, error);
+                       });
 }
 
 bool Journal::RecordCommits(std::string* error) {
@@ -808,12 +831,13 @@ bool Journal::Step(sqlite3_stmt* statement, std::string* error) {
 // in the side file (after the commit, so the side file is never ahead of a commit that a crash of
 // the process could lose).
 template <typename Body>
-grpc::Status Journal::InTransaction(const char* what, Body body) {
+grpc::Status Journal::InTransaction(const char* what, bool row_carries_commit, Body body) {
   std::lock_guard lock(mutex_);
   std::string error;
   if (!Step(begin_, &error)) return WriteError(what, error);
   BindInteger(count_commit_, 1, commits_ + 1);
-  if (body(&error) && Step(count_commit_, &error) && Step(commit_, &error)) {
+  if (body(commits_ + 1, &error) && (row_carries_commit || Step(count_commit_, &error)) &&
+      Step(commit_, &error)) {
     ++commits_;
     if (!RecordCommits(&error)) {
       // The commit stands; a side file behind the database is never taken for damage.

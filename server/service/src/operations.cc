@@ -95,8 +95,7 @@ grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
   return grpc::Status::OK;
 }
 
-UnavailableSession ContactOperations::Unavailable(JournaledSession entry,
-                                                  const grpc::Status& why) {
+UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const grpc::Status& why) {
   return UnavailableSession{.owner = std::move(entry.owner),
                             .create_time = std::move(entry.create_time),
                             .scene = std::move(*entry.snapshot.mutable_scene()),
@@ -146,7 +145,7 @@ void ContactOperations::CompactJournal() {
   for (const std::shared_ptr<Session>& session : sessions_.All()) {
     if (grpc::Status status = session->CompactJournal(); !status.ok()) {
       spdlog::error("event=journal_compaction_failed session={} error=\"{}\"", session->name(),
-                   status.error_message());
+                    status.error_message());
     }
   }
 }

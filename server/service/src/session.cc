@@ -145,7 +145,7 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
     // The batch is journaled either way; a failed compaction only leaves more to replay.
     if (grpc::Status status = CompactJournalLocked(); !status.ok()) {
       spdlog::error("event=journal_compaction_failed session={} error=\"{}\"", name_,
-                   status.error_message());
+                    status.error_message());
     }
   }
   Touch();  // a long batch counts as use until its end

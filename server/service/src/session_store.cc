@@ -56,7 +56,7 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
       // and expires again.
       if (grpc::Status status = journal_->RemoveSession(it->first); !status.ok()) {
         spdlog::error("event=journal_error session={} error=\"{}\"", it->first,
-                     status.error_message());
+                      status.error_message());
       }
     }
     erased.push_back(it->first);

@@ -162,17 +162,19 @@ class Journal {
   bool Execute(const char* sql, std::string* error);
   // Runs a prepared statement to completion and resets it.
   bool Step(sqlite3_stmt* statement, std::string* error);
-  // Runs `body` in a transaction (committed if it returns true, rolled back otherwise).
   template <typename Body>
-  grpc::Status InTransaction(const char* what, Body body);
+  // Runs body(commit number, error) in a transaction (committed if it returns true, rolled back
+  // otherwise). The commit counter is advanced in the commits table, or by the body in the batch
+  // row it writes (row_carries_commit).
+  grpc::Status InTransaction(const char* what, bool row_carries_commit, Body body);
   grpc::Status WriteError(const char* what, const std::string& error) const;
 
   const JournalOptions options_;
   std::mutex mutex_;  // one statement or transaction at a time
   std::vector<std::string> recovery_drops_;
   sqlite3* db_ = nullptr;
-  int commit_file_ = -1;        // the side file "<path>.commit"
-  std::uint64_t commits_ = 0;   // the commit counter of the last commit
+  int commit_file_ = -1;              // the side file "<path>.commit"
+  std::uint64_t commits_ = 0;         // the commit counter of the last commit
   bool checkpoint_on_close_ = false;  // opened and checked
   sqlite3_stmt* begin_ = nullptr;
   sqlite3_stmt* commit_ = nullptr;
