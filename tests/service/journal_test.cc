@@ -660,6 +660,25 @@ TEST_F(JournalTest, AMissingBatchIsDetected) {
   EXPECT_EQ(Export(*recovered, "sessions/x").applied_steps(), 2u);  // batch 1: two steps
 }
 
+// A name no session can have (written with a valid checksum) is damage, not a session.
+TEST_F(JournalTest, AnEntryWithoutASessionNameIsDetected) {
+  const JournalOptions options = Options();
+  v1::SessionSnapshot snapshot;
+  {
+    auto operations = Open(options);
+    snapshot = Export(*operations, Create(*operations, "good"));
+  }
+  {
+    std::unique_ptr<Journal> journal;
+    ASSERT_TRUE(Journal::Open(options, &journal).ok());
+    ASSERT_TRUE(
+        journal->AddSession("sessions/../../etc", "", google::protobuf::Timestamp(), snapshot)
+            .ok());
+  }
+  auto recovered = ExpectRefusedThenRecovered(options, "named \"sessions/../../etc\" dropped");
+  EXPECT_EQ(recovered->session_count(), 1u);
+}
+
 TEST_F(JournalTest, ImportChecksTheCountersOfASnapshot) {
   ContactOperations operations{service::ServiceLimits(), service::TestHooks()};
   const std::string name = Create(operations, "source");

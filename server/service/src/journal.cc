@@ -18,6 +18,7 @@
 #include <string_view>
 #include <utility>
 
+#include "mdr/service/session_store.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -524,9 +525,12 @@ void Journal::ReadSessions(std::vector<JournaledSession>* sessions,
     session.create_time.set_nanos(sqlite3_column_int(read.get(), 3));
     session.snapshot_sequence = ColumnInteger(read.get(), 4);
     const std::string_view snapshot = ColumnBlob(read.get(), 5);
-    if (ColumnInteger(read.get(), 6) != SessionChecksum(session.name, session.owner,
-                                                        session.create_time,
-                                                        session.snapshot_sequence, snapshot)) {
+    if (!SessionStore::IsSessionName(session.name)) {
+      damage->push_back("a session entry named \"" + session.name.substr(0, 80) +
+                        "\" dropped (not a session name \"sessions/{session_id}\")");
+    } else if (ColumnInteger(read.get(), 6) !=
+               SessionChecksum(session.name, session.owner, session.create_time,
+                               session.snapshot_sequence, snapshot)) {
       damage->push_back("session " + session.name +
                         " dropped (its entry's checksum does not match)");
     } else if (!session.snapshot.ParseFromArray(snapshot.data(),

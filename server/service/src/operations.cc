@@ -105,10 +105,6 @@ UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const 
 
 grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
                                         std::shared_ptr<Session>* session) const {
-  if (!SessionStore::IsSessionName(journaled.name)) {
-    return GrpcError(grpc::StatusCode::DATA_LOSS, "",
-                     "its name is not of the form \"sessions/{session_id}\"");
-  }
   std::optional<SessionState> state;
   if (grpc::Status status = StateOf(journaled.snapshot, &state); !status.ok()) return status;
   state->owner = journaled.owner;

@@ -109,7 +109,9 @@ class Journal {
 
   // Every journaled session with the batches after its snapshot, sessions by name, batches by
   // sequence. DATA_LOSS naming every damaged entry: a row whose checksum does not match or that
-  // does not parse, a gap in a session's batch numbers, rows of a session that has no entry.
+  // does not parse, a session name that is not "sessions/{session_id}"
+  // (SessionStore::IsSessionName), a gap in a session's batch numbers, rows of a session that has
+  // no entry.
   grpc::Status Load(std::vector<JournaledSession>* sessions);
 
   // What a recovering Open found damaged and dropped (sessions, batch ranges, commits), one
