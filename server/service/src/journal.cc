@@ -396,6 +396,16 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
     damage->push_back("\"" + side_path + "\" cannot be opened (" + std::strerror(errno) + ")");
     return;
   }
+  std::array<unsigned char, 2 * kCommitSlotBytes> slots{};
+  const ssize_t size = ::pread(commit_file_, slots.data(), slots.size(), 0);
+  std::optional<std::uint64_t> recorded;
+  for (int slot = 0; slot < 2; ++slot) {
+    if (size < static_cast<ssize_t>((slot + 1) * kCommitSlotBytes)) break;
+    if (auto commits = DecodeCommitSlot(slots.data() + slot * kCommitSlotBytes)) {
+      recorded = std::max(recorded.value_or(0), *commits);
+    }
+  }
+  side_commits_ = recorded.value_or(0);  // a recovery's counter goes past it
   {
     Statement read(db_,
                    "SELECT max(count, (SELECT ifnull(max(commit_number), 0) FROM batches)) FROM "
@@ -406,26 +416,15 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
     }
     commits_ = ColumnInteger(read.get(), 0);
   }
-  std::array<unsigned char, 2 * kCommitSlotBytes> slots{};
-  const ssize_t size = ::pread(commit_file_, slots.data(), slots.size(), 0);
   if (size <= 0) {
     // Written right after the schema; only a crash in between leaves it empty, before any
     // commit.
     if (commits_ > 0) {
       damage->push_back("\"" + side_path +
-                        "\" is missing or empty, so lost commits cannot be "
-                        "ruled out (copy a journal together with its .commit file)");
+                        "\" is missing or empty, so lost commits cannot be ruled out (copy a "
+                        "journal together with its .commit file)");
     }
-    return;
-  }
-  std::optional<std::uint64_t> recorded;
-  for (int slot = 0; slot < 2; ++slot) {
-    if (size < static_cast<ssize_t>((slot + 1) * kCommitSlotBytes)) break;
-    if (auto commits = DecodeCommitSlot(slots.data() + slot * kCommitSlotBytes)) {
-      recorded = std::max(recorded.value_or(0), *commits);
-    }
-  }
-  if (!recorded) {
+  } else if (!recorded) {
     damage->push_back("\"" + side_path + "\" is damaged (no valid record of the last commit)");
   } else if (*recorded > commits_ && commits_ == 0) {
     damage->push_back("the database is empty but \"" + side_path + "\" records " +
@@ -476,7 +475,7 @@ grpc::Status Journal::Prepare() {
   return grpc::Status::OK;
 }
 
-void Journal::Disconnect(bool keep_log) {
+void Journal::FinalizeStatements() {
   for (sqlite3_stmt** statement :
        {&begin_, &commit_, &rollback_, &count_commit_, &insert_session_, &insert_batch_,
         &update_snapshot_, &delete_batches_up_to_, &delete_session_, &delete_all_batches_,
@@ -484,6 +483,10 @@ void Journal::Disconnect(bool keep_log) {
     sqlite3_finalize(*statement);
     *statement = nullptr;
   }
+}
+
+void Journal::Disconnect(bool keep_log) {
+  FinalizeStatements();
   if (db_ != nullptr && keep_log)
     sqlite3_db_config(db_, SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
   sqlite3_close(db_);
@@ -650,26 +653,66 @@ void Journal::ReadOrphans(const char* table, std::vector<std::string>* damage) {
 }
 
 grpc::Status Journal::Rebuild(const std::vector<JournaledSession>& intact) {
-  Disconnect(/*keep_log=*/true);
   const std::string& path = options_.path;
-  for (const char* suffix : {"", "-wal", "-shm", ".commit"}) {
+  for (const char* suffix : {"", "-wal", ".commit"}) {  // as found, for inspection
     std::error_code error;
     if (!std::filesystem::exists(path + suffix, error)) continue;
-    std::filesystem::rename(path + suffix, path + ".damaged" + suffix, error);
-    if (error) return Unusable(path + suffix, "cannot move it aside: " + error.message());
+    std::filesystem::copy_file(path + suffix, path + ".damaged" + suffix,
+                               std::filesystem::copy_options::overwrite_existing, error);
+    if (error) return Unusable(path + suffix, "cannot copy it aside: " + error.message());
+  }
+  std::string error;
+  if (db_ != nullptr && RewriteInPlace(intact, &error)) return grpc::Status::OK;
+  // Not even rewritable: a new file (what was intact is in `intact` and the copy).
+  spdlog::warn(
+      "event=journal_recovery path={} note=\"rewriting in place failed ({}); starting a "
+      "new file\"",
+      path, error);
+  Disconnect(/*keep_log=*/true);
+  for (const char* suffix : {"", "-wal", "-shm", ".commit"}) {
+    std::error_code ignored;
+    std::filesystem::remove(path + suffix, ignored);
   }
   std::vector<std::string> damage;
   if (grpc::Status status = Connect(&damage); !status.ok()) return status;
-  std::string error;
-  if (!Execute("BEGIN", &error)) return Unusable(path, error);
-  for (const JournaledSession& session : intact) {
-    if (grpc::Status status = WriteSession(session, &error); !status.ok()) {
-      Execute("ROLLBACK", &error);
-      return status;
+  if (!RewriteInPlace(intact, &error)) return Unusable(path, error);
+  return grpc::Status::OK;
+}
+
+// One transaction: a crash before its commit leaves the damaged journal as it was (recovered
+// again at the next start), after it a consistent one. Its counter goes past the side file's, so
+// the side file, written after the commit, is never ahead.
+bool Journal::RewriteInPlace(const std::vector<JournaledSession>& intact, std::string* error) {
+  FinalizeStatements();
+  std::vector<std::pair<std::string, std::string>> objects;  // type, name
+  {
+    Statement read(db_,
+                   "SELECT type, name FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%' AND type "
+                   "IN ('table', 'view', 'trigger')");
+    while (read.ok() && sqlite3_step(read.get()) == SQLITE_ROW) {
+      objects.emplace_back(ColumnText(read.get(), 0), ColumnText(read.get(), 1));
     }
   }
-  if (!Execute("COMMIT", &error)) return Unusable(path, error);
-  return grpc::Status::OK;
+  const std::uint64_t commit = std::max(commits_, side_commits_) + 1;
+  bool written = Execute("BEGIN", error);
+  for (const auto& [type, name] : objects) {
+    std::string quoted;
+    for (char c : name) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    written = written && Execute(("DROP " + type + " IF EXISTS \"" + quoted + "\"").c_str(), error);
+  }
+  written = written && Execute(kSchema, error) && Prepare().ok();
+  for (const JournaledSession& session : intact) {
+    written = written && WriteSession(session, error).ok();
+  }
+  BindInteger(count_commit_, 1, commit);
+  if (written && count_commit_ != nullptr && Step(count_commit_, error) &&
+      Execute("COMMIT", error)) {
+    commits_ = commit;
+    return true;
+  }
+  std::string ignored;
+  Execute("ROLLBACK", &ignored);
+  return false;
 }
 
 grpc::Status Journal::WriteSession(const JournaledSession& session, std::string* error) {

@@ -61,9 +61,9 @@ struct JournalOptions {
   // also at a clean shutdown. >= 1.
   std::uint32_t snapshot_every = 1000;
   // What Open does with a damaged journal: false refuses it (DATA_LOSS naming the damage); true
-  // keeps what is intact, moves the damaged files aside ("<path>.damaged", "-wal" and ".commit"
-  // appended) and writes a consistent journal of the intact sessions (recovery_drops() lists
-  // what was dropped).
+  // keeps what is intact, copies the damaged files aside ("<path>.damaged", "-wal" and ".commit"
+  // appended) and rewrites the journal with the intact sessions in one transaction (a crash
+  // during it leaves the damaged journal as it was); recovery_drops() lists what was dropped.
   bool recover = false;
 };
 
@@ -155,8 +155,11 @@ class Journal {
   void ReadBatches(JournaledSession* session, std::vector<std::string>* damage);
   // Rows of `table` whose session has no entry.
   void ReadOrphans(const char* table, std::vector<std::string>* damage);
-  // Moves the damaged files aside and writes `intact` to a new journal at the path.
+  // Copies the damaged files aside and replaces the journal's content by `intact` (in place, or
+  // in a new file when the old one cannot even be rewritten).
   grpc::Status Rebuild(const std::vector<JournaledSession>& intact);
+  bool RewriteInPlace(const std::vector<JournaledSession>& intact, std::string* error);
+  void FinalizeStatements();
   grpc::Status WriteSession(const JournaledSession& session, std::string* error);
   // Writes the commit counter to the side file (after a commit).
   bool RecordCommits(std::string* error);
@@ -177,6 +180,7 @@ class Journal {
   sqlite3* db_ = nullptr;
   int commit_file_ = -1;              // the side file "<path>.commit"
   std::uint64_t commits_ = 0;         // the commit counter of the last commit
+  std::uint64_t side_commits_ = 0;    // the side file's counter when opened
   bool checkpoint_on_close_ = false;  // opened and checked
   sqlite3_stmt* begin_ = nullptr;
   sqlite3_stmt* commit_ = nullptr;
