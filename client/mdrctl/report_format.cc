@@ -285,14 +285,22 @@ void PrintSessions(const std::vector<mdr::v1::Session>& sessions, Format format,
     return;
   }
   Table table;
-  table.header = {"steps", "name", "F_N [N]", "F_x [N]", "expire_time"};
+  table.header = {"steps", "name", "F_N [N]", "F_x [N]", "expire_time", "availability"};
   if (format == Format::kCsv)
-    table.header = {"steps", "name", "normal_force", "tangential_force", "expire_time"};
+    table.header = {"steps",       "name",        "normal_force", "tangential_force",
+                    "expire_time", "availability"};
   for (const auto& session : sessions) {
+    const std::string expires =
+        session.has_expire_time() ? TimeValue(session.expire_time()) : "never";
+    if (session.availability() == mdr::v1::Session::AVAILABILITY_UNAVAILABLE) {
+      // No state to show: the reason is what the operator needs.
+      table.rows.push_back(
+          {"-", session.name(), "-", "-", expires, "unavailable: " + session.unavailable_reason()});
+      continue;
+    }
     table.rows.push_back({std::to_string(session.state().applied_steps()), session.name(),
                           Number(session.state().normal_force()),
-                          Number(session.state().tangential_force()),
-                          session.has_expire_time() ? TimeValue(session.expire_time()) : "never"});
+                          Number(session.state().tangential_force()), expires, "active"});
   }
   table.Print(format, out);
 }

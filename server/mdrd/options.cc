@@ -76,6 +76,11 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_JOURNAL_SNAPSHOT_EVERY")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_flag("--journal-recover", journal.recover,
+               "Start even if the journal is damaged: restore what is intact, log what was "
+               "dropped, keep the damaged files as <journal>.damaged* and write a consistent "
+               "journal (without it a damaged journal stops mdrd)")
+      ->envname("MDR_JOURNAL_RECOVER");
   app.add_option("--tls-cert", tls.cert_file, "PEM certificate chain: serve TLS (with --tls-key)")
       ->envname("MDR_TLS_CERT");
   app.add_option("--tls-key", tls.key_file, "PEM private key of --tls-cert")
@@ -110,14 +115,14 @@ void LogEffectiveOptions(const Options& options) {
   spdlog::info(
       "event=config listen={} log_level={} max_sessions={} max_steps_per_batch={} "
       "max_memory_vertices={} session_idle_timeout_s={} max_message_bytes={} "
-      "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} tls={} "
-      "mtls={} auth={} max_sessions_per_token={}",
+      "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} "
+      "journal_recover={} tls={} mtls={} auth={} max_sessions_per_token={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
       options.shutdown_grace_seconds, server.journal.path.empty() ? "-" : server.journal.path,
       mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
-      !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
+      server.journal.recover, !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
       !server.tokens_file.empty(), limits.max_sessions_per_token);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(

@@ -1,14 +1,20 @@
 // The session journal: restoring replays every journaled batch bit-identically (state, applied
 // steps, and the responses remembered for request ids), compaction replaces batches by a snapshot
 // without changing what is restored, deleted sessions stay deleted, owners are kept, and one
-// journal serves one process at a time. The crash test against the real mdrd binary is
-// journal_crash_test.py.
+// journal serves one process at a time. A session that cannot be restored is kept aside as
+// unavailable while the others come back; a damaged journal (truncated or flipped write-ahead
+// log, a dropped table, a damaged row, a missing batch) is refused, and with `recover` what is
+// intact is restored and the journal is consistent again. The crash tests against the real mdrd
+// binary are in journal_crash_test.py.
 #include "mdr/service/journal.h"
 
 #include <google/protobuf/util/message_differencer.h>
+#include <sqlite3.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <random>
 
@@ -48,6 +54,12 @@ class JournalTest : public ::testing::Test {
     options.sync = service::JournalSync::kOff;
     options.snapshot_every = snapshot_every;
     return options;
+  }
+
+  static grpc::Status OpenStatus(const JournalOptions& options,
+                                 service::ServiceLimits limits = service::ServiceLimits()) {
+    ContactOperations operations{limits, service::TestHooks()};
+    return operations.OpenJournal(options);
   }
 
   std::unique_ptr<ContactOperations> Open(const JournalOptions& options) {
@@ -140,6 +152,130 @@ class JournalTest : public ::testing::Test {
                                                               << expected.DebugString();
   }
 
+  // A session at 100 N and 15 N (so its memory has vertices) with `batches` more random batches.
+  static void CreateLoaded(ContactOperations& operations, const std::string& id, int batches,
+                           std::mt19937_64& random) {
+    const std::string name = Create(operations, id);
+    v1::ApplyResponse response;
+    ASSERT_TRUE(
+        Apply(operations,
+              ApplyRequestFor(name, {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N)}),
+              &response)
+            .ok());
+    ApplyRandomBatches(operations, name, batches, random);
+  }
+
+  // Runs SQL on the journal behind mdr's back (as a person with the sqlite3 shell would).
+  static void Sql(const std::string& path, const std::string& sql) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    char* error = nullptr;
+    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error), SQLITE_OK)
+        << (error != nullptr ? error : "");
+    sqlite3_free(error);
+    sqlite3_close(db);
+  }
+
+  // The journal's files as a crash of the process leaves them: copied while it is open (the
+  // commits since the last checkpoint are only in the write-ahead log).
+  static void CopyCrashImage(const std::string& from, const std::string& to) {
+    for (const char* suffix : {"", "-wal", ".commit"}) {
+      ASSERT_TRUE(std::filesystem::exists(from + suffix)) << from + suffix;
+      std::filesystem::copy_file(from + suffix, to + suffix,
+                                 std::filesystem::copy_options::overwrite_existing);
+    }
+  }
+
+  // The crash image of a journal with sessions "x" (12 batches) and "y" (3), taken after the
+  // last batch of "x"; the images' options are returned, *expected holds the states then.
+  JournalOptions CrashImage(std::vector<v1::SessionSnapshot>* expected) {
+    const JournalOptions live = Options();
+    JournalOptions image = live;
+    image.path = directory_.File("image.sqlite");
+    std::mt19937_64 random(5);
+    auto operations = Open(live);
+    CreateLoaded(*operations, "y", 3, random);
+    CreateLoaded(*operations, "x", 12, random);
+    expected->push_back(Export(*operations, "sessions/x"));
+    expected->push_back(Export(*operations, "sessions/y"));
+    CopyCrashImage(live.path, image.path);
+    return image;
+  }
+
+  // Batch `sequence`'s request with the lowest bit of its last byte flipped (the last character of
+  // its request id: still a valid ApplyRequest).
+  static void FlipLastBitOfBatch(const std::string& path, int sequence) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* read = nullptr;
+    sqlite3_prepare_v2(db, "SELECT request FROM batches WHERE sequence = ?1", -1, &read, nullptr);
+    sqlite3_bind_int(read, 1, sequence);
+    ASSERT_EQ(sqlite3_step(read), SQLITE_ROW);
+    std::string request(static_cast<const char*>(sqlite3_column_blob(read, 0)),
+                        sqlite3_column_bytes(read, 0));
+    sqlite3_finalize(read);
+    request.back() ^= 1;
+    sqlite3_stmt* write = nullptr;
+    sqlite3_prepare_v2(db, "UPDATE batches SET request = ?1 WHERE sequence = ?2", -1, &write,
+                       nullptr);
+    sqlite3_bind_blob(write, 1, request.data(), static_cast<int>(request.size()), SQLITE_STATIC);
+    sqlite3_bind_int(write, 2, sequence);
+    EXPECT_EQ(sqlite3_step(write), SQLITE_DONE);
+    sqlite3_finalize(write);
+    sqlite3_close(db);
+  }
+
+  static void FlipByte(const std::string& path, std::uintmax_t offset) {
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekg(static_cast<std::streamoff>(offset));
+    const char byte = static_cast<char>(file.get() ^ 0x5A);
+    file.seekp(static_cast<std::streamoff>(offset));
+    file.put(byte);
+  }
+
+  // Refused without recovery (naming the file and `what`), nothing changed; then restored with
+  // recovery, the drop logged, and the rebuilt journal opens without it.
+  std::unique_ptr<ContactOperations> ExpectRefusedThenRecovered(JournalOptions options,
+                                                                const std::string& what) {
+    auto sizes = [&] {
+      std::vector<std::uintmax_t> sizes;
+      for (const char* suffix : {"", "-wal", ".commit"}) {
+        std::error_code missing;  // SQLite creates an empty log: as good as none
+        const std::uintmax_t size = std::filesystem::file_size(options.path + suffix, missing);
+        sizes.push_back(missing ? 0 : size);
+      }
+      return sizes;
+    };
+    const std::vector<std::uintmax_t> files_before = sizes();
+    grpc::Status refused = OpenStatus(options);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::DATA_LOSS);
+    EXPECT_THAT(refused.error_message(),
+                ::testing::HasSubstr("\"" + options.path + "\" is damaged"));
+    EXPECT_THAT(refused.error_message(), ::testing::HasSubstr(what));
+    EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("--journal-recover"));
+    EXPECT_EQ(sizes(), files_before);
+    EXPECT_EQ(OpenStatus(options).error_code(), grpc::StatusCode::DATA_LOSS);  // still refused
+
+    options.recover = true;
+    {
+      std::unique_ptr<Journal> journal;
+      grpc::Status status = Journal::Open(options, &journal);
+      EXPECT_TRUE(status.ok()) << status.error_message();
+      if (journal) {
+        EXPECT_THAT(Join(journal->recovery_drops()), ::testing::HasSubstr(what));
+      }
+    }
+    EXPECT_TRUE(std::filesystem::exists(options.path + ".damaged"));
+    options.recover = false;
+    return Open(options);  // consistent again: opens without recovery
+  }
+
+  static std::string Join(const std::vector<std::string>& items) {
+    std::string joined;
+    for (const std::string& item : items) joined += item + "\n";
+    return joined;
+  }
+
   TemporaryDirectory directory_;
 };
 
@@ -205,6 +341,7 @@ TEST_F(JournalTest, RequestIdsAnsweredBeforeARestartAreNotAppliedAgain) {
     SCOPED_TRACE("snapshot_every " + std::to_string(snapshot_every));
     const JournalOptions options = Options(snapshot_every);
     std::filesystem::remove(options.path);
+    std::filesystem::remove(options.path + ".commit");
     const v1::ApplyRequest request = ApplyRequestFor(
         "sessions/s", {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N)}, {"state"}, "r-1");
     v1::ApplyResponse first;
@@ -320,6 +457,291 @@ TEST_F(JournalTest, NotAJournalIsRefused) {
   grpc::Status status = operations.OpenJournal(options);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_THAT(status.error_message(), ::testing::HasSubstr(options.path));
+}
+
+// A snapshot row that parses but that Contact::Restore refuses (a memory vertex far above the
+// Coulomb bound) beside good sessions: the good ones come back bit for bit, the bad one is
+// listed as unavailable with the reason, refuses the calls that need its state, keeps its
+// journal entry across restarts, counts against the limits, and can be deleted.
+TEST_F(JournalTest, ASessionThatCannotBeRestoredIsKeptAsideAndTheOthersComeBack) {
+  const JournalOptions options = Options();
+  std::mt19937_64 random(3);
+  v1::SessionSnapshot a_before, c_before, refused;
+  {
+    auto operations = Open(options);
+    CreateLoaded(*operations, "a", 6, random);
+    CreateLoaded(*operations, "bad", 2, random);
+    CreateLoaded(*operations, "c", 4, random);
+    a_before = Export(*operations, "sessions/a");
+    c_before = Export(*operations, "sessions/c");
+    refused = Export(*operations, "sessions/bad");
+  }
+  ASSERT_GT(refused.contact().memory_size(), 1);
+  refused.mutable_contact()->mutable_memory(0)->set_u(1.0);  // |u| <= mu kappa depth ~ 1e-6 m
+  {
+    std::unique_ptr<Journal> journal;
+    ASSERT_TRUE(Journal::Open(options, &journal).ok());
+    ASSERT_TRUE(
+        journal->AddSession("sessions/bad", "", google::protobuf::Timestamp(), refused).ok());
+  }
+  for (int restart = 0; restart < 2; ++restart) {
+    auto restored = Open(options);
+    EXPECT_EQ(restored->session_count(), 3u);
+    ExpectSameSnapshot(Export(*restored, "sessions/a"), a_before);
+    ExpectSameSnapshot(Export(*restored, "sessions/c"), c_before);
+
+    v1::GetSessionRequest get;
+    get.set_name("sessions/bad");
+    v1::Session bad;
+    ASSERT_TRUE(restored->GetSession(std::nullopt, get, &bad).ok());
+    EXPECT_EQ(bad.availability(), v1::Session::AVAILABILITY_UNAVAILABLE);
+    EXPECT_THAT(bad.unavailable_reason(), ::testing::HasSubstr("snapshot.contact.memory[0]"));
+    EXPECT_FALSE(bad.has_state());
+    v1::ListSessionsResponse list;
+    ASSERT_TRUE(restored->ListSessions(std::nullopt, v1::ListSessionsRequest(), &list).ok());
+    ASSERT_EQ(list.sessions_size(), 3);
+    EXPECT_EQ(list.sessions(0).availability(), v1::Session::AVAILABILITY_ACTIVE);
+    EXPECT_EQ(list.sessions(1).availability(), v1::Session::AVAILABILITY_UNAVAILABLE);
+    EXPECT_EQ(list.sessions(1).unavailable_reason(), bad.unavailable_reason());
+
+    v1::ApplyResponse applied;
+    grpc::Status apply =
+        Apply(*restored, ApplyRequestFor("sessions/bad", {DepthStep(kDepth)}), &applied);
+    v1::QueryRequest query;
+    query.set_session("sessions/bad");
+    v1::QueryResponse queried;
+    v1::ExportSessionRequest export_request;
+    export_request.set_name("sessions/bad");
+    v1::SessionSnapshot exported;
+    for (const grpc::Status& status :
+         {apply, restored->Query(std::nullopt, query, &queried),
+          restored->ExportSession(std::nullopt, export_request, &exported)}) {
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+      EXPECT_THAT(status.error_message(), ::testing::HasSubstr("sessions/bad is unavailable"));
+      EXPECT_THAT(status.error_message(), ::testing::HasSubstr(bad.unavailable_reason()));
+    }
+  }
+  // Its entry was kept as written.
+  std::vector<JournaledSession> journaled = Load(options);
+  ASSERT_EQ(journaled.size(), 3u);
+  EXPECT_EQ(journaled[1].snapshot.SerializeAsString(), refused.SerializeAsString());
+
+  // It counts against the limits.
+  service::ServiceLimits three;
+  three.max_sessions = 3;
+  ContactOperations full{three, service::TestHooks()};
+  ASSERT_TRUE(full.OpenJournal(options).ok());
+  v1::CreateSessionRequest create;
+  *create.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+  v1::Session created;
+  EXPECT_EQ(full.CreateSession(std::nullopt, create, &created).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  v1::DeleteSessionRequest remove;
+  remove.set_name("sessions/bad");
+  ASSERT_TRUE(full.DeleteSession(std::nullopt, remove).ok());
+  EXPECT_TRUE(full.CreateSession(std::nullopt, create, &created).ok());
+}
+
+TEST_F(JournalTest, DeletingAnUnavailableSessionRemovesItsEntry) {
+  const JournalOptions options = Options();
+  v1::SessionSnapshot refused;
+  {
+    auto operations = Open(options);
+    std::mt19937_64 random(1);
+    CreateLoaded(*operations, "bad", 1, random);
+    refused = Export(*operations, "sessions/bad");
+  }
+  refused.mutable_contact()->mutable_memory(0)->set_u(1.0);
+  {
+    std::unique_ptr<Journal> journal;
+    ASSERT_TRUE(Journal::Open(options, &journal).ok());
+    ASSERT_TRUE(
+        journal->AddSession("sessions/bad", "", google::protobuf::Timestamp(), refused).ok());
+  }
+  {
+    auto restored = Open(options);
+    v1::DeleteSessionRequest remove;
+    remove.set_name("sessions/bad");
+    ASSERT_TRUE(restored->DeleteSession(std::nullopt, remove).ok());
+    EXPECT_EQ(restored->session_count(), 0u);
+  }
+  EXPECT_TRUE(Load(options).empty());
+}
+
+TEST_F(JournalTest, FilesAreCreatedPrivate) {
+  const JournalOptions options = Options();
+  const mode_t previous = umask(0);  // nothing masked: the mode is mdr's own choice
+  auto operations = Open(options);
+  umask(previous);
+  Create(*operations, "p");
+  for (const char* suffix : {"", "-wal", ".commit"}) {
+    struct stat info {};
+    ASSERT_EQ(stat((options.path + suffix).c_str(), &info), 0) << suffix;
+    EXPECT_EQ(info.st_mode & 0777, 0600u) << options.path + suffix;
+  }
+}
+
+TEST_F(JournalTest, ACrashImageIsRestoredAsItIs) {
+  std::vector<v1::SessionSnapshot> expected;
+  const JournalOptions image = CrashImage(&expected);
+  auto restored = Open(image);
+  ExpectSameSnapshot(Export(*restored, "sessions/x"), expected[0]);
+  ExpectSameSnapshot(Export(*restored, "sessions/y"), expected[1]);
+}
+
+// SQLite ends the log at a cut frame and silently drops the commits from there; the side file's
+// commit counter tells.
+TEST_F(JournalTest, ATruncatedWriteAheadLogIsDetected) {
+  std::vector<v1::SessionSnapshot> expected;
+  const JournalOptions image = CrashImage(&expected);
+  const std::string log = image.path + "-wal";
+  std::filesystem::resize_file(log, std::filesystem::file_size(log) - 100);  // the last batch
+  auto recovered = ExpectRefusedThenRecovered(image, " missing: the database ends at commit");
+  // Restored as of the commit before: "x" without its last batch, "y" whole.
+  ExpectSameSnapshot(Export(*recovered, "sessions/y"), expected[1]);
+  EXPECT_LT(Export(*recovered, "sessions/x").applied_steps(), expected[0].applied_steps());
+  EXPECT_TRUE(std::filesystem::exists(image.path + ".damaged-wal"));
+  EXPECT_TRUE(std::filesystem::exists(image.path + ".damaged.commit"));
+}
+
+TEST_F(JournalTest, FlippedBytesInTheWriteAheadLogAreDetected) {
+  std::vector<v1::SessionSnapshot> expected;
+  const JournalOptions image = CrashImage(&expected);
+  const std::string log = image.path + "-wal";
+  FlipByte(log, std::filesystem::file_size(log) * 3 / 4);
+  auto recovered = ExpectRefusedThenRecovered(image, " missing: the database ends at commit");
+  EXPECT_LT(Export(*recovered, "sessions/x").applied_steps(), expected[0].applied_steps());
+}
+
+TEST_F(JournalTest, ADroppedTableIsDetected) {
+  std::vector<v1::SessionSnapshot> expected;
+  const JournalOptions options = Options();
+  {
+    std::mt19937_64 random(5);
+    auto operations = Open(options);
+    CreateLoaded(*operations, "x", 4, random);
+  }
+  Sql(options.path, "DROP TABLE batches");
+  auto recovered = ExpectRefusedThenRecovered(options, "table batches is missing");
+  // The snapshot (the state before the batches) is what is intact.
+  EXPECT_EQ(Export(*recovered, "sessions/x").applied_steps(), 0u);
+}
+
+// A changed byte inside a row that still parses is caught by the row's checksum; recovery keeps
+// the batches before it.
+TEST_F(JournalTest, ADamagedRowIsDetectedByItsChecksum) {
+  const JournalOptions options = Options();
+  v1::SessionSnapshot after_two;
+  {
+    std::mt19937_64 random(5);
+    auto operations = Open(options);
+    const std::string name = "sessions/x";
+    CreateLoaded(*operations, "x", 1, random);
+    after_two = Export(*operations, name);
+    ApplyRandomBatches(*operations, name, 3, random, "later");
+  }
+  // The third batch's request: one bit of its first step's depth flipped (still a valid proto).
+  FlipLastBitOfBatch(options.path, 3);
+  grpc::Status refused = OpenStatus(options);
+  EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("checksum of batch 3 does not match"));
+  auto recovered = ExpectRefusedThenRecovered(options, "batches 3-5 dropped");
+  ExpectSameSnapshot(Export(*recovered, "sessions/x"), after_two);
+}
+
+TEST_F(JournalTest, AMissingBatchIsDetected) {
+  const JournalOptions options = Options();
+  {
+    std::mt19937_64 random(5);
+    auto operations = Open(options);
+    CreateLoaded(*operations, "x", 3, random);
+  }
+  Sql(options.path, "DELETE FROM batches WHERE sequence = 2");
+  auto recovered = ExpectRefusedThenRecovered(options, "batches 2-4 dropped (batch 2 is missing)");
+  EXPECT_EQ(Export(*recovered, "sessions/x").applied_steps(), 2u);  // batch 1: two steps
+}
+
+// A name no session can have (written with a valid checksum) is damage, not a session.
+TEST_F(JournalTest, AnEntryWithoutASessionNameIsDetected) {
+  const JournalOptions options = Options();
+  v1::SessionSnapshot snapshot;
+  {
+    auto operations = Open(options);
+    snapshot = Export(*operations, Create(*operations, "good"));
+  }
+  {
+    std::unique_ptr<Journal> journal;
+    ASSERT_TRUE(Journal::Open(options, &journal).ok());
+    ASSERT_TRUE(
+        journal->AddSession("sessions/../../etc", "", google::protobuf::Timestamp(), snapshot)
+            .ok());
+  }
+  auto recovered = ExpectRefusedThenRecovered(options, "named \"sessions/../../etc\" dropped");
+  EXPECT_EQ(recovered->session_count(), 1u);
+}
+
+TEST_F(JournalTest, ImportChecksTheCountersOfASnapshot) {
+  ContactOperations operations{service::ServiceLimits(), service::TestHooks()};
+  const std::string name = Create(operations, "source");
+  v1::ApplyResponse response;
+  ASSERT_TRUE(Apply(operations, ApplyRequestFor(name, {DepthStep(kDepth)}), &response).ok());
+  const v1::SessionSnapshot valid = Export(operations, name);
+  auto import = [&](const v1::SessionSnapshot& snapshot) {
+    v1::ImportSessionRequest request;
+    *request.mutable_snapshot() = snapshot;
+    v1::Session session;
+    return operations.ImportSession(std::nullopt, request, &session);
+  };
+  v1::SessionSnapshot snapshot = valid;
+  snapshot.set_applied_steps((std::uint64_t{1} << 53) + 1);
+  grpc::Status status = import(snapshot);
+  ExpectInvalidArgument(status, "snapshot.applied_steps");
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("[0, 9007199254740992]"));
+  for (double energy :
+       {-1e-9, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    snapshot = valid;
+    snapshot.mutable_contact()->set_last_step_dissipated_energy(energy);
+    ExpectInvalidArgument(import(snapshot), "snapshot.contact.last_step_dissipated_energy");
+    snapshot = valid;
+    snapshot.mutable_contact()->set_dissipated_energy(energy);
+    EXPECT_THAT(import(snapshot).error_message(),
+                ::testing::HasSubstr("snapshot.contact.dissipated_energy"));
+  }
+  for (const char* source : {"../../etc/passwd", "sessions/", "sessions/Upper", "x"}) {
+    snapshot = valid;
+    snapshot.set_source_name(source);
+    ExpectInvalidArgument(import(snapshot), "snapshot.source_name");
+  }
+  EXPECT_EQ(operations.session_count(), 1u);  // nothing was imported
+  snapshot = valid;
+  snapshot.set_source_name("");
+  EXPECT_TRUE(import(snapshot).ok());
+}
+
+// The step counter stops at 2^53 instead of wrapping; the failed batch changes nothing.
+TEST_F(JournalTest, TheStepCounterCannotWrap) {
+  ContactOperations operations{service::ServiceLimits(), service::TestHooks()};
+  v1::SessionSnapshot snapshot;
+  {
+    const std::string name = Create(operations, "source");
+    snapshot = Export(operations, name);
+  }
+  snapshot.set_applied_steps(std::uint64_t{1} << 53);
+  v1::ImportSessionRequest request;
+  *request.mutable_snapshot() = snapshot;
+  request.set_session_id("full");
+  v1::Session session;
+  ASSERT_TRUE(operations.ImportSession(std::nullopt, request, &session).ok());
+  v1::ApplyResponse response;
+  grpc::Status status =
+      Apply(operations, ApplyRequestFor("sessions/full", {DepthStep(kDepth)}), &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_THAT(status.error_message(),
+              ::testing::HasSubstr("steps[0]: the session has applied its maximum of 2^53 steps"));
+  ExpectSameSnapshot(Export(operations, "sessions/full"), [&] {
+    v1::SessionSnapshot expected = snapshot;
+    expected.set_source_name("sessions/full");
+    return expected;
+  }());
 }
 
 TEST(JournalSync, ParsesItsNames) {

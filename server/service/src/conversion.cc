@@ -297,6 +297,20 @@ ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
   return core;
 }
 
+Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t max_applied_steps) {
+  if (Status s = RequireNonNegative("snapshot.contact.last_step_dissipated_energy",
+                                    snapshot.contact().last_step_dissipated_energy());
+      !s.ok()) {
+    return s;
+  }
+  if (snapshot.applied_steps() > max_applied_steps) {
+    return InvalidArgument("snapshot.applied_steps",
+                           "must be in [0, " + std::to_string(max_applied_steps) + "], got " +
+                               std::to_string(snapshot.applied_steps()));
+  }
+  return OkStatus();
+}
+
 void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto) {
   proto->set_depth(snapshot.depth);
   proto->set_tangential_displacement(snapshot.tangential_displacement);

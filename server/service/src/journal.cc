@@ -1,42 +1,69 @@
 #include "mdr/service/journal.h"
 
+#include <fcntl.h>
+#include <spdlog/spdlog.h>
 #include <sqlite3.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
 
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 
+#include "mdr/service/session_store.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
 namespace {
 
-// PRAGMA user_version of a journal in this format.
-constexpr int kFormatVersion = 1;
+// PRAGMA user_version of a journal in this format (1: without checksums and commit counter).
+constexpr int kFormatVersion = 2;
 
+// Run once on a new journal; an existing one must have exactly these tables (CheckSchema).
 constexpr char kSchema[] = R"sql(
-CREATE TABLE IF NOT EXISTS sessions(
+CREATE TABLE sessions(
   name TEXT PRIMARY KEY,
   owner TEXT NOT NULL,
   create_time_seconds INTEGER NOT NULL,
   create_time_nanos INTEGER NOT NULL,
   snapshot_sequence INTEGER NOT NULL,
-  snapshot BLOB NOT NULL
+  snapshot BLOB NOT NULL,
+  checksum INTEGER NOT NULL
 ) WITHOUT ROWID;
-CREATE TABLE IF NOT EXISTS batches(
+CREATE TABLE batches(
   session TEXT NOT NULL,
   sequence INTEGER NOT NULL,
   request_id TEXT NOT NULL,
   request BLOB NOT NULL,
+  commit_number INTEGER NOT NULL,
+  checksum INTEGER NOT NULL,
   PRIMARY KEY(session, sequence)
 ) WITHOUT ROWID;
-CREATE TABLE IF NOT EXISTS requests(
+CREATE TABLE requests(
   session TEXT NOT NULL,
   position INTEGER NOT NULL,
   request_id TEXT NOT NULL,
   fingerprint INTEGER NOT NULL,
   response BLOB NOT NULL,
+  checksum INTEGER NOT NULL,
   PRIMARY KEY(session, position)
 ) WITHOUT ROWID;
+-- The commit counter: the last commit's number is the larger of commits.count (advanced by every
+-- other write) and the largest batches.commit_number (a batch carries its own commit's number, so
+-- the hot path writes one page, not two).
+CREATE TABLE commits(
+  id INTEGER PRIMARY KEY CHECK(id = 1),
+  count INTEGER NOT NULL
+);
+INSERT INTO commits(id, count) VALUES(1, 0);
 )sql";
 
 const char* SynchronousPragma(JournalSync sync) {
@@ -58,8 +85,8 @@ void BindText(sqlite3_stmt* statement, int index, const std::string& text) {
 void BindBlob(sqlite3_stmt* statement, int index, const std::string& bytes) {
   sqlite3_bind_blob(statement, index, bytes.data(), static_cast<int>(bytes.size()), SQLITE_STATIC);
 }
-void BindSequence(sqlite3_stmt* statement, int index, std::uint64_t sequence) {
-  sqlite3_bind_int64(statement, index, static_cast<sqlite3_int64>(sequence));
+void BindInteger(sqlite3_stmt* statement, int index, std::uint64_t value) {
+  sqlite3_bind_int64(statement, index, static_cast<sqlite3_int64>(value));
 }
 
 std::string ColumnText(sqlite3_stmt* statement, int column) {
@@ -67,12 +94,107 @@ std::string ColumnText(sqlite3_stmt* statement, int column) {
   return text == nullptr ? std::string()
                          : std::string(text, sqlite3_column_bytes(statement, column));
 }
-
-template <typename Message>
-bool ParseColumn(sqlite3_stmt* statement, int column, Message* message) {
-  return message->ParseFromArray(sqlite3_column_blob(statement, column),
-                                 sqlite3_column_bytes(statement, column));
+std::string_view ColumnBlob(sqlite3_stmt* statement, int column) {
+  const auto* bytes = static_cast<const char*>(sqlite3_column_blob(statement, column));
+  return bytes == nullptr ? std::string_view()
+                          : std::string_view(bytes, sqlite3_column_bytes(statement, column));
 }
+std::uint64_t ColumnInteger(sqlite3_stmt* statement, int column) {
+  return static_cast<std::uint64_t>(sqlite3_column_int64(statement, column));
+}
+
+// CRC-32 of a row's columns (each length-prefixed), stored in its `checksum` column: a flipped
+// bit anywhere in a row is caught when it is read, whether or not the page still parses.
+class RowChecksum {
+ public:
+  RowChecksum& Add(std::string_view bytes) {
+    Add(static_cast<std::uint64_t>(bytes.size()));
+    crc_ = crc32_z(crc_, reinterpret_cast<const Bytef*>(bytes.data()), bytes.size());
+    return *this;
+  }
+  RowChecksum& Add(std::uint64_t value) {
+    std::array<Bytef, 8> little_endian;
+    for (int i = 0; i < 8; ++i) little_endian[i] = static_cast<Bytef>(value >> (8 * i));
+    crc_ = crc32_z(crc_, little_endian.data(), little_endian.size());
+    return *this;
+  }
+  std::uint64_t value() const { return crc_; }
+
+ private:
+  uLong crc_ = crc32_z(0, nullptr, 0);
+};
+
+std::uint64_t SessionChecksum(std::string_view name, std::string_view owner,
+                              const google::protobuf::Timestamp& create_time,
+                              std::uint64_t snapshot_sequence, std::string_view snapshot) {
+  return RowChecksum()
+      .Add(name)
+      .Add(owner)
+      .Add(static_cast<std::uint64_t>(create_time.seconds()))
+      .Add(static_cast<std::uint64_t>(create_time.nanos()))
+      .Add(snapshot_sequence)
+      .Add(snapshot)
+      .value();
+}
+std::uint64_t BatchChecksum(std::string_view session, std::uint64_t sequence,
+                            std::string_view request_id, std::string_view request,
+                            std::uint64_t commit_number) {
+  return RowChecksum()
+      .Add(session)
+      .Add(sequence)
+      .Add(request_id)
+      .Add(request)
+      .Add(commit_number)
+      .value();
+}
+std::uint64_t RequestChecksum(std::string_view session, std::uint64_t position,
+                              std::string_view request_id, std::uint64_t fingerprint,
+                              std::string_view response) {
+  return RowChecksum()
+      .Add(session)
+      .Add(position)
+      .Add(request_id)
+      .Add(fingerprint)
+      .Add(response)
+      .value();
+}
+
+// The side file: two fixed-size slots, the counter written to slot (counter % 2), so a write
+// torn by a machine crash leaves the other slot, one commit older, readable.
+constexpr char kCommitMagic[8] = {'M', 'D', 'R', 'J', 'C', 'N', 'T', '1'};
+constexpr std::size_t kCommitSlotBytes = 24;  // magic, counter, CRC-32 of both, zero padding
+
+std::array<unsigned char, kCommitSlotBytes> EncodeCommitSlot(std::uint64_t commits) {
+  std::array<unsigned char, kCommitSlotBytes> slot{};
+  std::memcpy(slot.data(), kCommitMagic, 8);
+  for (int i = 0; i < 8; ++i) slot[8 + i] = static_cast<unsigned char>(commits >> (8 * i));
+  const uLong crc = crc32_z(crc32_z(0, nullptr, 0), slot.data(), 16);
+  for (int i = 0; i < 4; ++i) slot[16 + i] = static_cast<unsigned char>(crc >> (8 * i));
+  return slot;
+}
+
+// The counter in a slot; nullopt for a slot that is empty or damaged.
+std::optional<std::uint64_t> DecodeCommitSlot(const unsigned char* slot) {
+  std::uint64_t commits = 0;
+  for (int i = 7; i >= 0; --i) commits = (commits << 8) | slot[8 + i];
+  const auto expected = EncodeCommitSlot(commits);
+  if (std::memcmp(expected.data(), slot, kCommitSlotBytes) != 0) return std::nullopt;
+  return commits;
+}
+
+// Creates the file with mode 0600 if it does not exist (SQLite gives its -wal and -shm files
+// the database file's mode).
+bool CreatePrivately(const std::string& path, std::string* error) {
+  const int file = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  if (file < 0) {
+    *error = std::strerror(errno);
+    return false;
+  }
+  ::close(file);
+  return true;
+}
+
+bool IsCorruption(int code) { return (code & 0xFF) == SQLITE_CORRUPT; }
 
 // Finalizes on scope exit (statements prepared for one use).
 class Statement {
@@ -81,11 +203,54 @@ class Statement {
   ~Statement() { sqlite3_finalize(statement_); }
   Statement(const Statement&) = delete;
   Statement& operator=(const Statement&) = delete;
+  bool ok() const { return statement_ != nullptr; }
   sqlite3_stmt* get() const { return statement_; }
 
  private:
   sqlite3_stmt* statement_ = nullptr;
 };
+
+// name -> sql of every table and index (SQLite's own excepted).
+std::map<std::string, std::string> SchemaOf(sqlite3* db, std::string* error) {
+  std::map<std::string, std::string> schema;
+  Statement read(db, "SELECT name, sql FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%'");
+  int result = SQLITE_ROW;
+  while (read.ok() && (result = sqlite3_step(read.get())) == SQLITE_ROW) {
+    schema[ColumnText(read.get(), 0)] = ColumnText(read.get(), 1);
+  }
+  if (!read.ok() || result != SQLITE_DONE) *error = sqlite3_errmsg(db);
+  return schema;
+}
+
+// The schema a journal of this format has, from kSchema run on an empty in-memory database.
+std::map<std::string, std::string> ExpectedSchema() {
+  sqlite3* db = nullptr;
+  sqlite3_open(":memory:", &db);
+  sqlite3_exec(db, kSchema, nullptr, nullptr, nullptr);
+  std::string error;
+  std::map<std::string, std::string> schema = SchemaOf(db, &error);
+  sqlite3_close(db);
+  return schema;
+}
+
+std::string Join(const std::vector<std::string>& items) {
+  std::string joined;
+  for (const std::string& item : items) joined += (joined.empty() ? "" : "; ") + item;
+  return joined;
+}
+
+grpc::Status Unusable(const std::string& path, const std::string& why) {
+  return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "journal",
+                   "cannot use \"" + path + "\": " + why);
+}
+
+grpc::Status Damaged(const std::string& path, const std::vector<std::string>& damage) {
+  return GrpcError(grpc::StatusCode::DATA_LOSS, "journal",
+                   "\"" + path + "\" is damaged: " + Join(damage) +
+                       ". Nothing was changed; start mdrd with --journal-recover to restore what "
+                       "is intact (the damaged files are kept as \"" +
+                       path + ".damaged\")");
+}
 
 }  // namespace
 
@@ -113,132 +278,479 @@ const char* JournalSyncName(JournalSync sync) {
 
 grpc::Status Journal::Open(const JournalOptions& options, std::unique_ptr<Journal>* journal) {
   std::unique_ptr<Journal> opened(new Journal(options));
-  auto failure = [&](const std::string& why) {
-    return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "journal",
-                     "cannot use \"" + options.path + "\": " + why);
-  };
-  if (sqlite3_open_v2(options.path.c_str(), &opened->db_,
-                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                      nullptr) != SQLITE_OK) {
-    return failure(opened->db_ != nullptr ? sqlite3_errmsg(opened->db_) : "out of memory");
+  std::vector<std::string> damage;
+  if (grpc::Status status = opened->Connect(&damage); !status.ok()) return status;
+  if (options.recover) {
+    std::vector<JournaledSession> intact;
+    opened->ReadSessions(&intact, &damage);
+    if (!damage.empty()) {
+      if (grpc::Status status = opened->Rebuild(intact); !status.ok()) return status;
+      opened->recovery_drops_ = std::move(damage);
+    }
+  } else if (!damage.empty()) {
+    return Damaged(options.path, damage);
   }
   std::string error;
-  // Exclusive locking before WAL: no shared-memory index, and a second process cannot open the
-  // journal while this one holds it (its first statement fails with "database is locked").
-  if (!opened->Execute("PRAGMA locking_mode=EXCLUSIVE", &error) ||
-      !opened->Execute("PRAGMA journal_mode=WAL", &error) ||
-      !opened->Execute(SynchronousPragma(options.sync), &error) ||
-      !opened->Execute("BEGIN IMMEDIATE", &error)) {
-    return failure(error + " (is another mdrd using it?)");
-  }
-  int version = 0;
-  {
-    Statement read_version(opened->db_, "PRAGMA user_version");
-    if (sqlite3_step(read_version.get()) == SQLITE_ROW) {
-      version = sqlite3_column_int(read_version.get(), 0);
-    }
-  }
-  if (version > kFormatVersion) {
-    opened->Execute("ROLLBACK", &error);
-    return failure("journal format " + std::to_string(version) + " is newer than this mdrd's (" +
-                   std::to_string(kFormatVersion) + ")");
-  }
-  if (!opened->Execute(kSchema, &error) ||
-      !opened->Execute(("PRAGMA user_version=" + std::to_string(kFormatVersion)).c_str(), &error) ||
-      !opened->Execute("COMMIT", &error)) {
-    return failure(error);
-  }
-  const std::pair<sqlite3_stmt**, const char*> statements[] = {
-      {&opened->insert_session_,
-       "INSERT OR REPLACE INTO sessions(name, owner, create_time_seconds, create_time_nanos, "
-       "snapshot_sequence, snapshot) VALUES(?1, ?2, ?3, ?4, 0, ?5)"},
-      {&opened->insert_batch_,
-       "INSERT INTO batches(session, sequence, request_id, request) VALUES(?1, ?2, ?3, ?4)"},
-      {&opened->update_snapshot_,
-       "UPDATE sessions SET snapshot_sequence = ?2, snapshot = ?3 WHERE name = ?1"},
-      {&opened->delete_batches_up_to_, "DELETE FROM batches WHERE session = ?1 AND sequence <= ?2"},
-      {&opened->delete_session_, "DELETE FROM sessions WHERE name = ?1"},
-      {&opened->delete_all_batches_, "DELETE FROM batches WHERE session = ?1"},
-      {&opened->insert_request_,
-       "INSERT INTO requests(session, position, request_id, fingerprint, response) "
-       "VALUES(?1, ?2, ?3, ?4, ?5)"},
-      {&opened->delete_requests_, "DELETE FROM requests WHERE session = ?1"},
-  };
-  for (const auto& [statement, sql] : statements) {
-    if (sqlite3_prepare_v2(opened->db_, sql, -1, statement, nullptr) != SQLITE_OK) {
-      return failure(sqlite3_errmsg(opened->db_));
-    }
-  }
+  if (!opened->RecordCommits(&error)) return Unusable(options.path + ".commit", error);
+  opened->checkpoint_on_close_ = true;
   *journal = std::move(opened);
   return grpc::Status::OK;
 }
 
-Journal::~Journal() {
-  for (sqlite3_stmt* statement :
-       {insert_session_, insert_batch_, update_snapshot_, delete_batches_up_to_, delete_session_,
-        delete_all_batches_, insert_request_, delete_requests_}) {
-    sqlite3_finalize(statement);
+grpc::Status Journal::Connect(std::vector<std::string>* damage) {
+  const std::string& path = options_.path;
+  std::string error;
+  if (!CreatePrivately(path, &error)) return Unusable(path, error);
+  if (sqlite3_open_v2(path.c_str(), &db_,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
+                      nullptr) != SQLITE_OK) {
+    return Unusable(path, db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory");
   }
-  sqlite3_close(db_);
+  // Exclusive locking before WAL: no shared-memory index, and a second process cannot open the
+  // journal while this one holds it (its first statement fails with "database is locked").
+  if (!Execute("PRAGMA locking_mode=EXCLUSIVE", &error) ||
+      !Execute("PRAGMA journal_mode=WAL", &error) ||
+      !Execute(SynchronousPragma(options_.sync), &error) || !Execute("BEGIN IMMEDIATE", &error)) {
+    if (IsCorruption(sqlite3_extended_errcode(db_))) {
+      damage->push_back("the database cannot be read (" + error + ")");
+      return grpc::Status::OK;
+    }
+    return Unusable(path, error + " (is another mdrd using it?)");
+  }
+  int version = 0;
+  {
+    Statement read_version(db_, "PRAGMA user_version");
+    if (sqlite3_step(read_version.get()) == SQLITE_ROW) {
+      version = sqlite3_column_int(read_version.get(), 0);
+    }
+  }
+  if (version == 0) {
+    // A new file, or one that SQLite reads but mdrd never wrote.
+    const bool empty = SchemaOf(db_, &error).empty();
+    if (!error.empty()) {
+      damage->push_back("its schema cannot be read (" + error + ")");
+      return grpc::Status::OK;
+    }
+    if (!empty) {
+      Execute("ROLLBACK", &error);
+      return Unusable(path, "not an mdr journal (it has tables but no journal format version)");
+    }
+    if (!Execute(kSchema, &error) ||
+        !Execute(("PRAGMA user_version=" + std::to_string(kFormatVersion)).c_str(), &error)) {
+      return Unusable(path, error);
+    }
+  } else if (version != kFormatVersion) {
+    Execute("ROLLBACK", &error);
+    return Unusable(
+        path, "journal format " + std::to_string(version) + " is not this mdrd's (" +
+                  std::to_string(kFormatVersion) +
+                  (version < kFormatVersion ? "); export its sessions with the mdrd that wrote it"
+                                            : ", a newer mdrd wrote it)"));
+  } else {
+    CheckSchema(damage);
+    CheckIntegrity(damage);
+  }
+  if (!Execute("COMMIT", &error)) return Unusable(path, error);
+  CheckCommits(damage);
+  return Prepare();
 }
+
+void Journal::CheckSchema(std::vector<std::string>* damage) {
+  static const std::map<std::string, std::string> expected = ExpectedSchema();
+  std::string error;
+  const std::map<std::string, std::string> actual = SchemaOf(db_, &error);
+  if (!error.empty()) {
+    damage->push_back("its schema cannot be read (" + error + ")");
+    return;
+  }
+  for (const auto& [name, sql] : expected) {
+    auto found = actual.find(name);
+    if (found == actual.end()) {
+      damage->push_back("table " + name + " is missing");
+    } else if (found->second != sql) {
+      damage->push_back("table " + name + " is not defined as this format defines it");
+    }
+  }
+  for (const auto& [name, sql] : actual) {
+    if (!expected.contains(name)) damage->push_back("it has an unknown table or index " + name);
+  }
+}
+
+void Journal::CheckIntegrity(std::vector<std::string>* damage) {
+  constexpr int kReported = 5;
+  Statement check(db_, ("PRAGMA quick_check(" + std::to_string(kReported) + ")").c_str());
+  int result = SQLITE_ROW;
+  while ((result = sqlite3_step(check.get())) == SQLITE_ROW) {
+    const std::string finding = ColumnText(check.get(), 0);
+    if (finding != "ok") damage->push_back("integrity check: " + finding);
+  }
+  if (result != SQLITE_DONE) {
+    damage->push_back("the integrity check failed (" + std::string(sqlite3_errmsg(db_)) + ")");
+  }
+}
+
+void Journal::CheckCommits(std::vector<std::string>* damage) {
+  const std::string side_path = options_.path + ".commit";
+  commit_file_ = ::open(side_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  if (commit_file_ < 0) {
+    damage->push_back("\"" + side_path + "\" cannot be opened (" + std::strerror(errno) + ")");
+    return;
+  }
+  std::array<unsigned char, 2 * kCommitSlotBytes> slots{};
+  const ssize_t size = ::pread(commit_file_, slots.data(), slots.size(), 0);
+  std::optional<std::uint64_t> recorded;
+  for (int slot = 0; slot < 2; ++slot) {
+    if (size < static_cast<ssize_t>((slot + 1) * kCommitSlotBytes)) break;
+    if (auto commits = DecodeCommitSlot(slots.data() + slot * kCommitSlotBytes)) {
+      recorded = std::max(recorded.value_or(0), *commits);
+    }
+  }
+  side_commits_ = recorded.value_or(0);  // a recovery's counter goes past it
+  {
+    Statement read(db_,
+                   "SELECT max(count, (SELECT ifnull(max(commit_number), 0) FROM batches)) FROM "
+                   "commits WHERE id = 1");
+    if (!read.ok() || sqlite3_step(read.get()) != SQLITE_ROW) {
+      if (read.ok()) damage->push_back("its commit counter is missing");
+      return;  // a missing table is reported by CheckSchema
+    }
+    commits_ = ColumnInteger(read.get(), 0);
+  }
+  if (size <= 0) {
+    // Written right after the schema; only a crash in between leaves it empty, before any
+    // commit.
+    if (commits_ > 0) {
+      damage->push_back("\"" + side_path +
+                        "\" is missing or empty, so lost commits cannot be ruled out (copy a "
+                        "journal together with its .commit file)");
+    }
+  } else if (!recorded) {
+    damage->push_back("\"" + side_path + "\" is damaged (no valid record of the last commit)");
+  } else if (*recorded > commits_ && commits_ == 0) {
+    damage->push_back("the database is empty but \"" + side_path + "\" records " +
+                      std::to_string(*recorded) +
+                      " commits: the journal was lost (to start a new journal on purpose, move "
+                      "the .commit file aside with it)");
+  } else if (*recorded > commits_) {
+    const std::string lost =
+        *recorded == commits_ + 1
+            ? "commit " + std::to_string(*recorded) + " is"
+            : "commits " + std::to_string(commits_ + 1) + "-" + std::to_string(*recorded) + " are";
+    damage->push_back(lost + " missing: the database ends at commit " + std::to_string(commits_) +
+                      " but commit " + std::to_string(*recorded) +
+                      " was made (a truncated or damaged write-ahead log, or a machine crash "
+                      "under --journal-sync off/normal); the batches, sessions and deletions "
+                      "they recorded are lost");
+  }
+}
+
+grpc::Status Journal::Prepare() {
+  const std::pair<sqlite3_stmt**, const char*> statements[] = {
+      {&begin_, "BEGIN"},
+      {&commit_, "COMMIT"},
+      {&rollback_, "ROLLBACK"},
+      {&count_commit_, "UPDATE commits SET count = ?1 WHERE id = 1"},
+      {&insert_session_,
+       "INSERT OR REPLACE INTO sessions(name, owner, create_time_seconds, create_time_nanos, "
+       "snapshot_sequence, snapshot, checksum) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)"},
+      {&insert_batch_,
+       "INSERT INTO batches(session, sequence, request_id, request, commit_number, checksum) "
+       "VALUES(?1, ?2, ?3, ?4, ?5, ?6)"},
+      {&update_snapshot_,
+       "UPDATE sessions SET snapshot_sequence = ?2, snapshot = ?3, checksum = ?4 WHERE name = ?1"},
+      {&delete_batches_up_to_, "DELETE FROM batches WHERE session = ?1 AND sequence <= ?2"},
+      {&delete_session_, "DELETE FROM sessions WHERE name = ?1"},
+      {&delete_all_batches_, "DELETE FROM batches WHERE session = ?1"},
+      {&insert_request_,
+       "INSERT INTO requests(session, position, request_id, fingerprint, response, checksum) "
+       "VALUES(?1, ?2, ?3, ?4, ?5, ?6)"},
+      {&delete_requests_, "DELETE FROM requests WHERE session = ?1"},
+  };
+  for (const auto& [statement, sql] : statements) {
+    if (sqlite3_prepare_v2(db_, sql, -1, statement, nullptr) != SQLITE_OK) {
+      // A damaged schema: reported by CheckSchema; Rebuild or the refusal follows.
+      *statement = nullptr;
+    }
+  }
+  return grpc::Status::OK;
+}
+
+void Journal::FinalizeStatements() {
+  for (sqlite3_stmt** statement :
+       {&begin_, &commit_, &rollback_, &count_commit_, &insert_session_, &insert_batch_,
+        &update_snapshot_, &delete_batches_up_to_, &delete_session_, &delete_all_batches_,
+        &insert_request_, &delete_requests_}) {
+    sqlite3_finalize(*statement);
+    *statement = nullptr;
+  }
+}
+
+void Journal::Disconnect(bool keep_log) {
+  FinalizeStatements();
+  if (db_ != nullptr && keep_log)
+    sqlite3_db_config(db_, SQLITE_DBCONFIG_NO_CKPT_ON_CLOSE, 1, nullptr);
+  sqlite3_close(db_);
+  db_ = nullptr;
+  if (commit_file_ >= 0) ::close(commit_file_);
+  commit_file_ = -1;
+}
+
+// A journal refused at open is closed as it was found (its log is not checkpointed away).
+Journal::~Journal() { Disconnect(/*keep_log=*/!checkpoint_on_close_); }
 
 grpc::Status Journal::Load(std::vector<JournaledSession>* sessions) {
   std::lock_guard lock(mutex_);
+  std::vector<std::string> damage;
+  ReadSessions(sessions, &damage);
+  if (!damage.empty()) {
+    sessions->clear();
+    return Damaged(options_.path, damage);
+  }
+  return grpc::Status::OK;
+}
+
+void Journal::ReadSessions(std::vector<JournaledSession>* sessions,
+                           std::vector<std::string>* damage) {
   sessions->clear();
-  auto data_loss = [&](const std::string& what) {
-    return GrpcError(grpc::StatusCode::DATA_LOSS, "journal",
-                     "\"" + options_.path + "\": " + what +
-                         " does not parse; move the journal aside to start without it");
-  };
-  Statement read_sessions(db_,
-                          "SELECT name, owner, create_time_seconds, create_time_nanos, "
-                          "snapshot_sequence, snapshot FROM sessions ORDER BY name");
+  Statement read(db_,
+                 "SELECT name, owner, create_time_seconds, create_time_nanos, snapshot_sequence, "
+                 "snapshot, checksum FROM sessions ORDER BY name");
+  if (!read.ok()) {
+    damage->push_back("the sessions cannot be read (" + std::string(sqlite3_errmsg(db_)) + ")");
+    return;
+  }
   int result = SQLITE_ROW;
-  while ((result = sqlite3_step(read_sessions.get())) == SQLITE_ROW) {
-    JournaledSession& session = sessions->emplace_back();
-    session.name = ColumnText(read_sessions.get(), 0);
-    session.owner = ColumnText(read_sessions.get(), 1);
-    session.create_time.set_seconds(sqlite3_column_int64(read_sessions.get(), 2));
-    session.create_time.set_nanos(sqlite3_column_int(read_sessions.get(), 3));
-    session.snapshot_sequence =
-        static_cast<std::uint64_t>(sqlite3_column_int64(read_sessions.get(), 4));
-    if (!ParseColumn(read_sessions.get(), 5, &session.snapshot)) {
-      return data_loss("the snapshot of " + session.name);
+  while ((result = sqlite3_step(read.get())) == SQLITE_ROW) {
+    JournaledSession session;
+    session.name = ColumnText(read.get(), 0);
+    session.owner = ColumnText(read.get(), 1);
+    session.create_time.set_seconds(sqlite3_column_int64(read.get(), 2));
+    session.create_time.set_nanos(sqlite3_column_int(read.get(), 3));
+    session.snapshot_sequence = ColumnInteger(read.get(), 4);
+    const std::string_view snapshot = ColumnBlob(read.get(), 5);
+    if (!SessionStore::IsSessionName(session.name)) {
+      damage->push_back("a session entry named \"" + session.name.substr(0, 80) +
+                        "\" dropped (not a session name \"sessions/{session_id}\")");
+    } else if (ColumnInteger(read.get(), 6) !=
+               SessionChecksum(session.name, session.owner, session.create_time,
+                               session.snapshot_sequence, snapshot)) {
+      damage->push_back("session " + session.name +
+                        " dropped (its entry's checksum does not match)");
+    } else if (!session.snapshot.ParseFromArray(snapshot.data(),
+                                                static_cast<int>(snapshot.size()))) {
+      damage->push_back("session " + session.name + " dropped (its snapshot does not parse)");
+    } else {
+      sessions->push_back(std::move(session));
     }
   }
-  if (result != SQLITE_DONE) return WriteError("read the sessions", sqlite3_errmsg(db_));
-  Statement read_requests(db_,
-                          "SELECT request_id, fingerprint, response FROM requests WHERE "
-                          "session = ?1 ORDER BY position");
-  for (JournaledSession& session : *sessions) {
-    sqlite3_reset(read_requests.get());
-    BindText(read_requests.get(), 1, session.name);
-    while ((result = sqlite3_step(read_requests.get())) == SQLITE_ROW) {
-      JournaledRequest& request = session.completed.emplace_back();
-      request.request_id = ColumnText(read_requests.get(), 0);
-      request.fingerprint =
-          static_cast<std::uint64_t>(sqlite3_column_int64(read_requests.get(), 1));
-      if (!ParseColumn(read_requests.get(), 2, &request.response)) {
-        return data_loss("the response of request " + request.request_id + " of " + session.name);
-      }
-    }
-    if (result != SQLITE_DONE) return WriteError("read the requests", sqlite3_errmsg(db_));
+  if (result != SQLITE_DONE) {
+    damage->push_back("the sessions after " +
+                      (sessions->empty() ? std::string("the first") : sessions->back().name) +
+                      " cannot be read (" + sqlite3_errmsg(db_) + ")");
   }
-  Statement read_batches(db_,
-                         "SELECT sequence, request FROM batches WHERE session = ?1 AND "
-                         "sequence > ?2 ORDER BY sequence");
   for (JournaledSession& session : *sessions) {
-    sqlite3_reset(read_batches.get());
-    BindText(read_batches.get(), 1, session.name);
-    BindSequence(read_batches.get(), 2, session.snapshot_sequence);
-    while ((result = sqlite3_step(read_batches.get())) == SQLITE_ROW) {
-      JournaledBatch& batch = session.batches.emplace_back();
-      batch.sequence = static_cast<std::uint64_t>(sqlite3_column_int64(read_batches.get(), 0));
-      if (!ParseColumn(read_batches.get(), 1, &batch.request)) {
-        return data_loss("batch " + std::to_string(batch.sequence) + " of " + session.name);
-      }
+    ReadRequests(&session, damage);
+    ReadBatches(&session, damage);
+  }
+  ReadOrphans("batches", damage);
+  ReadOrphans("requests", damage);
+}
+
+void Journal::ReadRequests(JournaledSession* session, std::vector<std::string>* damage) {
+  Statement read(db_,
+                 "SELECT position, request_id, fingerprint, response, checksum FROM requests "
+                 "WHERE session = ?1 ORDER BY position");
+  if (!read.ok()) return;  // a missing table: reported by CheckSchema
+  BindText(read.get(), 1, session->name);
+  int result = SQLITE_ROW;
+  std::string problem;
+  while (problem.empty() && (result = sqlite3_step(read.get())) == SQLITE_ROW) {
+    JournaledRequest& request = session->completed.emplace_back();
+    const std::uint64_t position = ColumnInteger(read.get(), 0);
+    request.request_id = ColumnText(read.get(), 1);
+    request.fingerprint = ColumnInteger(read.get(), 2);
+    const std::string_view response = ColumnBlob(read.get(), 3);
+    if (ColumnInteger(read.get(), 4) != RequestChecksum(session->name, position, request.request_id,
+                                                        request.fingerprint, response)) {
+      problem = "checksum of request " + request.request_id + " does not match";
+    } else if (!request.response.ParseFromArray(response.data(),
+                                                static_cast<int>(response.size()))) {
+      problem = "the response of request " + request.request_id + " does not parse";
     }
-    if (result != SQLITE_DONE) return WriteError("read the batches", sqlite3_errmsg(db_));
+  }
+  if (problem.empty() && result != SQLITE_DONE) problem = sqlite3_errmsg(db_);
+  if (!problem.empty()) {
+    session->completed.clear();
+    damage->push_back("session " + session->name +
+                      ": the responses remembered for its request ids dropped (" + problem +
+                      "); a retry of an earlier batch is applied again");
+  }
+}
+
+void Journal::ReadBatches(JournaledSession* session, std::vector<std::string>* damage) {
+  Statement read(db_,
+                 "SELECT sequence, request_id, request, commit_number, checksum FROM batches "
+                 "WHERE session = ?1 AND sequence > ?2 ORDER BY sequence");
+  if (!read.ok()) return;  // a missing table: reported by CheckSchema
+  BindText(read.get(), 1, session->name);
+  BindInteger(read.get(), 2, session->snapshot_sequence);
+  int result = SQLITE_ROW;
+  std::string problem;
+  std::uint64_t first_dropped = 0, last_dropped = 0;
+  while ((result = sqlite3_step(read.get())) == SQLITE_ROW) {
+    const std::uint64_t sequence = ColumnInteger(read.get(), 0);
+    if (!problem.empty()) {  // counting what is dropped after the first damaged batch
+      last_dropped = sequence;
+      continue;
+    }
+    const std::uint64_t expected = session->snapshot_sequence + session->batches.size() + 1;
+    const std::string request_id = ColumnText(read.get(), 1);
+    const std::string_view bytes = ColumnBlob(read.get(), 2);
+    JournaledBatch batch;
+    batch.sequence = sequence;
+    if (sequence != expected) {
+      problem = "batch " + std::to_string(expected) + " is missing";
+      first_dropped = expected;
+    } else if (ColumnInteger(read.get(), 4) != BatchChecksum(session->name, sequence, request_id,
+                                                             bytes, ColumnInteger(read.get(), 3))) {
+      problem = "the checksum of batch " + std::to_string(sequence) + " does not match";
+    } else if (!batch.request.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
+      problem = "batch " + std::to_string(sequence) + " does not parse";
+    } else {
+      session->batches.push_back(std::move(batch));
+      continue;
+    }
+    if (first_dropped == 0) first_dropped = sequence;
+    last_dropped = sequence;
+  }
+  if (problem.empty() && result != SQLITE_DONE) {
+    problem = sqlite3_errmsg(db_);
+    first_dropped = session->snapshot_sequence + session->batches.size() + 1;
+  }
+  if (problem.empty()) return;
+  damage->push_back("session " + session->name + ": " +
+                    (last_dropped > first_dropped ? "batches " + std::to_string(first_dropped) +
+                                                        "-" + std::to_string(last_dropped)
+                                                  : "batch " + std::to_string(first_dropped)) +
+                    " dropped (" + problem + "); restored as of batch " +
+                    std::to_string(session->snapshot_sequence + session->batches.size()));
+}
+
+void Journal::ReadOrphans(const char* table, std::vector<std::string>* damage) {
+  Statement read(db_, (std::string("SELECT session, COUNT(*) FROM ") + table +
+                       " WHERE session NOT IN (SELECT name FROM sessions) GROUP BY session")
+                          .c_str());
+  if (!read.ok()) {
+    damage->push_back(std::string("the ") + table + " cannot be read (" + sqlite3_errmsg(db_) +
+                      ")");
+    return;
+  }
+  while (sqlite3_step(read.get()) == SQLITE_ROW) {
+    damage->push_back(std::to_string(sqlite3_column_int64(read.get(), 1)) + " " + table +
+                      " rows of " + ColumnText(read.get(), 0) +
+                      " dropped (the session has no entry)");
+  }
+}
+
+grpc::Status Journal::Rebuild(const std::vector<JournaledSession>& intact) {
+  const std::string& path = options_.path;
+  for (const char* suffix : {"", "-wal", ".commit"}) {  // as found, for inspection
+    std::error_code error;
+    if (!std::filesystem::exists(path + suffix, error)) continue;
+    std::filesystem::copy_file(path + suffix, path + ".damaged" + suffix,
+                               std::filesystem::copy_options::overwrite_existing, error);
+    if (error) return Unusable(path + suffix, "cannot copy it aside: " + error.message());
+  }
+  std::string error;
+  if (db_ != nullptr && RewriteInPlace(intact, &error)) return grpc::Status::OK;
+  // Not even rewritable: a new file (what was intact is in `intact` and the copy).
+  spdlog::warn(
+      "event=journal_recovery path={} note=\"rewriting in place failed ({}); starting a "
+      "new file\"",
+      path, error);
+  Disconnect(/*keep_log=*/true);
+  for (const char* suffix : {"", "-wal", "-shm", ".commit"}) {
+    std::error_code ignored;
+    std::filesystem::remove(path + suffix, ignored);
+  }
+  std::vector<std::string> damage;
+  if (grpc::Status status = Connect(&damage); !status.ok()) return status;
+  if (!RewriteInPlace(intact, &error)) return Unusable(path, error);
+  return grpc::Status::OK;
+}
+
+// One transaction: a crash before its commit leaves the damaged journal as it was (recovered
+// again at the next start), after it a consistent one. Its counter goes past the side file's, so
+// the side file, written after the commit, is never ahead.
+bool Journal::RewriteInPlace(const std::vector<JournaledSession>& intact, std::string* error) {
+  FinalizeStatements();
+  std::vector<std::pair<std::string, std::string>> objects;  // type, name
+  {
+    Statement read(db_,
+                   "SELECT type, name FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%' AND type "
+                   "IN ('table', 'view', 'trigger')");
+    while (read.ok() && sqlite3_step(read.get()) == SQLITE_ROW) {
+      objects.emplace_back(ColumnText(read.get(), 0), ColumnText(read.get(), 1));
+    }
+  }
+  const std::uint64_t commit = std::max(commits_, side_commits_) + 1;
+  bool written = Execute("BEGIN", error);
+  for (const auto& [type, name] : objects) {
+    std::string quoted;
+    for (char c : name) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+    written = written && Execute(("DROP " + type + " IF EXISTS \"" + quoted + "\"").c_str(), error);
+  }
+  written = written && Execute(kSchema, error) && Prepare().ok();
+  for (const JournaledSession& session : intact) {
+    written = written && WriteSession(session, error).ok();
+  }
+  BindInteger(count_commit_, 1, commit);
+  if (written && count_commit_ != nullptr && Step(count_commit_, error) &&
+      Execute("COMMIT", error)) {
+    commits_ = commit;
+    return true;
+  }
+  std::string ignored;
+  Execute("ROLLBACK", &ignored);
+  return false;
+}
+
+grpc::Status Journal::WriteSession(const JournaledSession& session, std::string* error) {
+  const std::string snapshot = session.snapshot.SerializeAsString();
+  BindText(insert_session_, 1, session.name);
+  BindText(insert_session_, 2, session.owner);
+  sqlite3_bind_int64(insert_session_, 3, session.create_time.seconds());
+  sqlite3_bind_int(insert_session_, 4, session.create_time.nanos());
+  BindInteger(insert_session_, 5, session.snapshot_sequence);
+  BindBlob(insert_session_, 6, snapshot);
+  BindInteger(insert_session_, 7,
+              SessionChecksum(session.name, session.owner, session.create_time,
+                              session.snapshot_sequence, snapshot));
+  if (!Step(insert_session_, error)) return Unusable(options_.path, *error);
+  for (std::size_t position = 0; position < session.completed.size(); ++position) {
+    const JournaledRequest& request = session.completed[position];
+    const std::string response = request.response.SerializeAsString();
+    BindText(insert_request_, 1, session.name);
+    BindInteger(insert_request_, 2, position);
+    BindText(insert_request_, 3, request.request_id);
+    BindInteger(insert_request_, 4, request.fingerprint);
+    BindBlob(insert_request_, 5, response);
+    BindInteger(
+        insert_request_, 6,
+        RequestChecksum(session.name, position, request.request_id, request.fingerprint, response));
+    if (!Step(insert_request_, error)) return Unusable(options_.path, *error);
+  }
+  for (const JournaledBatch& batch : session.batches) {
+    const std::string request = batch.request.SerializeAsString();
+    BindText(insert_batch_, 1, session.name);
+    BindInteger(insert_batch_, 2, batch.sequence);
+    BindText(insert_batch_, 3, batch.request.request_id());
+    BindBlob(insert_batch_, 4, request);
+    BindInteger(insert_batch_, 5, 0);  // a rebuilt journal's counter starts at 0
+    BindInteger(
+        insert_batch_, 6,
+        BatchChecksum(session.name, batch.sequence, batch.request.request_id(), request, 0));
+    if (!Step(insert_batch_, error)) return Unusable(options_.path, *error);
   }
   return grpc::Status::OK;
 }
@@ -246,70 +758,104 @@ grpc::Status Journal::Load(std::vector<JournaledSession>* sessions) {
 grpc::Status Journal::AddSession(const std::string& name, const std::string& owner,
                                  const google::protobuf::Timestamp& create_time,
                                  const v1::SessionSnapshot& snapshot) {
-  const std::string bytes = snapshot.SerializeAsString();
-  return InTransaction("record the new session", [&](std::string* error) {
-    BindText(delete_all_batches_, 1, name);
-    BindText(delete_requests_, 1, name);
-    BindText(insert_session_, 1, name);
-    BindText(insert_session_, 2, owner);
-    sqlite3_bind_int64(insert_session_, 3, create_time.seconds());
-    sqlite3_bind_int(insert_session_, 4, create_time.nanos());
-    BindBlob(insert_session_, 5, bytes);
-    return Step(delete_all_batches_, error) && Step(delete_requests_, error) &&
-           Step(insert_session_, error);
-  });
+  JournaledSession session;
+  session.name = name;
+  session.owner = owner;
+  session.create_time = create_time;
+  session.snapshot = snapshot;
+  return InTransaction("record the new session", /*row_carries_commit=*/false,
+                       [&](std::uint64_t, std::string* error) {
+                         BindText(delete_all_batches_, 1, name);
+                         BindText(delete_requests_, 1, name);
+                         return Step(delete_all_batches_, error) && Step(delete_requests_, error) &&
+                                WriteSession(session, error).ok();
+                       });
 }
 
 grpc::Status Journal::AddBatch(const std::string& session, std::uint64_t sequence,
                                const v1::ApplyRequest& request) {
   const std::string bytes = request.SerializeAsString();
-  std::lock_guard lock(mutex_);
-  BindText(insert_batch_, 1, session);
-  BindSequence(insert_batch_, 2, sequence);
-  BindText(insert_batch_, 3, request.request_id());
-  BindBlob(insert_batch_, 4, bytes);
-  std::string error;
-  if (!Step(insert_batch_, &error)) return WriteError("record the batch", error);
-  return grpc::Status::OK;
+  return InTransaction("record the batch", /*row_carries_commit=*/true,
+                       [&](std::uint64_t commit, std::string* error) {
+                         BindText(insert_batch_, 1, session);
+                         BindInteger(insert_batch_, 2, sequence);
+                         BindText(insert_batch_, 3, request.request_id());
+                         BindBlob(insert_batch_, 4, bytes);
+                         BindInteger(insert_batch_, 5, commit);
+                         BindInteger(
+                             insert_batch_, 6,
+                             BatchChecksum(session, sequence, request.request_id(), bytes, commit));
+                         return Step(insert_batch_, error);
+                       });
 }
 
 grpc::Status Journal::Compact(const std::string& session, std::uint64_t sequence,
                               const v1::SessionSnapshot& snapshot,
                               const std::vector<JournaledRequest>& completed) {
   const std::string bytes = snapshot.SerializeAsString();
-  return InTransaction("compact the session", [&](std::string* error) {
-    BindText(update_snapshot_, 1, session);
-    BindSequence(update_snapshot_, 2, sequence);
-    BindBlob(update_snapshot_, 3, bytes);
-    BindText(delete_batches_up_to_, 1, session);
-    BindSequence(delete_batches_up_to_, 2, sequence);
-    BindText(delete_requests_, 1, session);
-    if (!Step(update_snapshot_, error) || !Step(delete_batches_up_to_, error) ||
-        !Step(delete_requests_, error)) {
-      return false;
-    }
-    for (std::size_t position = 0; position < completed.size(); ++position) {
-      const std::string response = completed[position].response.SerializeAsString();
-      BindText(insert_request_, 1, session);
-      sqlite3_bind_int64(insert_request_, 2, static_cast<sqlite3_int64>(position));
-      BindText(insert_request_, 3, completed[position].request_id);
-      sqlite3_bind_int64(insert_request_, 4,
-                         static_cast<sqlite3_int64>(completed[position].fingerprint));
-      BindBlob(insert_request_, 5, response);
-      if (!Step(insert_request_, error)) return false;
-    }
-    return true;
-  });
+  return InTransaction(
+      "compact the session", /*row_carries_commit=*/false, [&](std::uint64_t, std::string* error) {
+        // The row's other columns, for its checksum.
+        Statement read(db_,
+                       "SELECT owner, create_time_seconds, create_time_nanos FROM sessions WHERE "
+                       "name = ?1");
+        BindText(read.get(), 1, session);
+        if (sqlite3_step(read.get()) != SQLITE_ROW) {
+          *error = "the session has no entry";
+          return false;
+        }
+        google::protobuf::Timestamp create_time;
+        create_time.set_seconds(sqlite3_column_int64(read.get(), 1));
+        create_time.set_nanos(sqlite3_column_int(read.get(), 2));
+        const std::string owner = ColumnText(read.get(), 0);
+        BindText(update_snapshot_, 1, session);
+        BindInteger(update_snapshot_, 2, sequence);
+        BindBlob(update_snapshot_, 3, bytes);
+        BindInteger(update_snapshot_, 4,
+                    SessionChecksum(session, owner, create_time, sequence, bytes));
+        BindText(delete_batches_up_to_, 1, session);
+        BindInteger(delete_batches_up_to_, 2, sequence);
+        BindText(delete_requests_, 1, session);
+        if (!Step(update_snapshot_, error) || !Step(delete_batches_up_to_, error) ||
+            !Step(delete_requests_, error)) {
+          return false;
+        }
+        for (std::size_t position = 0; position < completed.size(); ++position) {
+          const std::string response = completed[position].response.SerializeAsString();
+          BindText(insert_request_, 1, session);
+          BindInteger(insert_request_, 2, position);
+          BindText(insert_request_, 3, completed[position].request_id);
+          BindInteger(insert_request_, 4, completed[position].fingerprint);
+          BindBlob(insert_request_, 5, response);
+          BindInteger(insert_request_, 6,
+                      RequestChecksum(session, position, completed[position].request_id,
+                                      completed[position].fingerprint, response));
+          if (!Step(insert_request_, error)) return false;
+        }
+        return true;
+      });
 }
 
 grpc::Status Journal::RemoveSession(const std::string& session) {
-  return InTransaction("record the deletion", [&](std::string* error) {
-    BindText(delete_session_, 1, session);
-    BindText(delete_all_batches_, 1, session);
-    BindText(delete_requests_, 1, session);
-    return Step(delete_session_, error) && Step(delete_all_batches_, error) &&
-           Step(delete_requests_, error);
-  });
+  return InTransaction("record the deletion", /*row_carries_commit=*/false,
+                       [&](std::uint64_t, std::string* error) {
+                         BindText(delete_session_, 1, session);
+                         BindText(delete_all_batches_, 1, session);
+                         BindText(delete_requests_, 1, session);
+                         return Step(delete_session_, error) && Step(delete_all_batches_, error) &&
+                                Step(delete_requests_, error);
+                       });
+}
+
+bool Journal::RecordCommits(std::string* error) {
+  const auto slot = EncodeCommitSlot(commits_);
+  const off_t offset = static_cast<off_t>((commits_ % 2) * kCommitSlotBytes);
+  if (::pwrite(commit_file_, slot.data(), slot.size(), offset) ==
+      static_cast<ssize_t>(slot.size())) {
+    return true;
+  }
+  *error = std::strerror(errno);
+  return false;
 }
 
 bool Journal::Execute(const char* sql, std::string* error) {
@@ -328,18 +874,32 @@ bool Journal::Step(sqlite3_stmt* statement, std::string* error) {
   return result == SQLITE_DONE;
 }
 
+// Every write: the body and the commit counter's increment in one transaction, then the counter
+// in the side file (after the commit, so the side file is never ahead of a commit that a crash of
+// the process could lose).
 template <typename Body>
-grpc::Status Journal::InTransaction(const char* what, Body body) {
+grpc::Status Journal::InTransaction(const char* what, bool row_carries_commit, Body body) {
   std::lock_guard lock(mutex_);
   std::string error;
-  if (!Execute("BEGIN", &error)) return WriteError(what, error);
-  if (body(&error) && Execute("COMMIT", &error)) return grpc::Status::OK;
+  if (!Step(begin_, &error)) return WriteError(what, error);
+  BindInteger(count_commit_, 1, commits_ + 1);
+  if (body(commits_ + 1, &error) && (row_carries_commit || Step(count_commit_, &error)) &&
+      Step(commit_, &error)) {
+    ++commits_;
+    if (!RecordCommits(&error)) {
+      // The commit stands; a side file behind the database is never taken for damage.
+      spdlog::error("event=journal_error path={}.commit error=\"cannot record commit {}: {}\"",
+                    options_.path, commits_, error);
+    }
+    return grpc::Status::OK;
+  }
   std::string ignored;
-  Execute("ROLLBACK", &ignored);
+  Step(rollback_, &ignored);
   return WriteError(what, error);
 }
 
 grpc::Status Journal::WriteError(const char* what, const std::string& error) const {
+  spdlog::error("event=journal_error path={} error=\"cannot {}: {}\"", options_.path, what, error);
   return GrpcError(grpc::StatusCode::UNAVAILABLE, "",
                    std::string("journal: cannot ") + what + " (" + error + ")");
 }

@@ -67,26 +67,45 @@ ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hook
 grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
   std::unique_ptr<Journal> journal;
   if (grpc::Status status = Journal::Open(options, &journal); !status.ok()) return status;
+  for (const std::string& dropped : journal->recovery_drops()) {
+    spdlog::warn("event=journal_recovery_dropped path={} dropped={}", Quoted(options.path),
+                 Quoted(dropped, kMaxLoggedErrorBytes));
+  }
   std::vector<JournaledSession> journaled;
   if (grpc::Status status = journal->Load(&journaled); !status.ok()) return status;
-  std::size_t batches = 0;
-  for (const JournaledSession& entry : journaled) {
+  std::size_t restored = 0, unavailable = 0, batches = 0;
+  for (JournaledSession& entry : journaled) {
     std::shared_ptr<Session> session;
-    if (grpc::Status status = Restore(entry, &session); !status.ok()) {
-      return GrpcError(status.error_code(), "journal",
-                       "cannot restore " + entry.name + " from \"" + options.path +
-                           "\": " + status.error_message());
+    if (grpc::Status status = Restore(entry, &session); status.ok()) {
+      ++restored;
+      batches += entry.batches.size();
+    } else {
+      // One session that cannot be restored must not keep the others away: it is kept aside,
+      // journal entry untouched, until it is deleted or a fixed mdrd restores it.
+      spdlog::error("event=session_unavailable session={} path={} reason={}", LogValue(entry.name),
+                    Quoted(options.path), Quoted(status.error_message(), kMaxLoggedErrorBytes));
+      const std::string name = entry.name;
+      session = std::make_shared<Session>(name, Unavailable(std::move(entry), status));
+      ++unavailable;
     }
-    if (!sessions_.AddRestored(std::move(session))) {
-      return GrpcError(grpc::StatusCode::DATA_LOSS, "journal", entry.name + " appears twice");
-    }
-    batches += entry.batches.size();
+    sessions_.AddRestored(std::move(session));  // names are unique: the journal's primary key
   }
   journal_ = std::move(journal);
   sessions_.AttachJournal(journal_.get());
-  spdlog::info("event=journal_restored path={} sync={} sessions={} replayed_batches={}",
-               options.path, JournalSyncName(options.sync), journaled.size(), batches);
+  spdlog::info(
+      "event=journal_restored path={} sync={} restored={} unavailable={} replayed_batches={} "
+      "recovered={}",
+      Quoted(options.path), JournalSyncName(options.sync), restored, unavailable, batches,
+      !journal_->recovery_drops().empty());
   return grpc::Status::OK;
+}
+
+UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const grpc::Status& why) {
+  return UnavailableSession{.owner = std::move(entry.owner),
+                            .create_time = std::move(entry.create_time),
+                            .scene = std::move(*entry.snapshot.mutable_scene()),
+                            .limits = std::move(*entry.snapshot.mutable_limits()),
+                            .reason = why.error_message()};
 }
 
 grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
@@ -100,15 +119,9 @@ grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
   state->completed = journaled.completed;
   auto restored = std::make_shared<Session>(journaled.name, std::move(*state));
   // Replayed exactly as first applied: same steps, same step mask (so the responses remembered
-  // for request ids are the same), no deadline and no response limit.
+  // for request ids are the same), no deadline and no response limit. Journal::Load checked that
+  // the batches are numbered without gaps.
   for (const JournaledBatch& batch : journaled.batches) {
-    const std::uint64_t expected = journaled.snapshot_sequence +
-                                   static_cast<std::uint64_t>(&batch - journaled.batches.data()) +
-                                   1;
-    if (batch.sequence != expected) {
-      return GrpcError(grpc::StatusCode::DATA_LOSS, "",
-                       "batch " + std::to_string(expected) + " is missing");
-    }
     Result<OutputSelection> step_outputs = SelectStepOutputs(batch.request.step_mask());
     v1::ApplyResponse response;
     grpc::Status status = ToGrpcStatus(step_outputs.status());
@@ -132,8 +145,8 @@ void ContactOperations::CompactJournal() {
   if (journal_ == nullptr) return;
   for (const std::shared_ptr<Session>& session : sessions_.All()) {
     if (grpc::Status status = session->CompactJournal(); !status.ok()) {
-      spdlog::warn("event=journal_compaction_failed session={} error={}", LogValue(session->name()),
-                   Quoted(status.error_message(), kMaxLoggedErrorBytes));
+      spdlog::error("event=journal_compaction_failed session={} error={}", LogValue(session->name()),
+                    Quoted(status.error_message(), kMaxLoggedErrorBytes));
     }
   }
 }
@@ -221,7 +234,7 @@ grpc::Status ContactOperations::ExportSession(const Principal& caller,
                                               v1::SessionSnapshot* response) {
   std::shared_ptr<Session> session;
   grpc::Status status = sessions_.Find("name", request.name(), caller, &session);
-  if (status.ok()) session->Export(response);
+  if (status.ok()) status = session->Export(response);
   return status;
 }
 
@@ -232,6 +245,14 @@ grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
                      "must be " + std::to_string(Session::kSnapshotVersion) +
                          " (the snapshot format this server reads), got " +
                          std::to_string(snapshot.version()));
+  }
+  if (!snapshot.source_name().empty() && !SessionStore::IsSessionName(snapshot.source_name())) {
+    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "snapshot.source_name",
+                     "must be empty or a session name \"sessions/{session_id}\" (session_id: "
+                     "1-63 characters of [a-z0-9-] starting with a letter)");
+  }
+  if (Status s = CheckSnapshotCounters(snapshot, Session::kMaxAppliedSteps); !s.ok()) {
+    return ToGrpcStatus(s);
   }
   Result<v1::SessionLimits> limits = ResolveSessionLimits(snapshot.limits(), limits_);
   if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("snapshot.limits"));

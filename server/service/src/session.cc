@@ -65,6 +65,26 @@ Session::Session(std::string name, SessionState state)
   for (JournaledRequest& completed : state.completed) completed_.Add(std::move(completed));
 }
 
+Session::Session(std::string name, UnavailableSession unavailable)
+    : name_(std::move(name)),
+      owner_(std::move(unavailable.owner)),
+      scene_(std::move(unavailable.scene)),
+      limits_(std::move(unavailable.limits)),
+      idle_timeout_(0),
+      create_time_(std::move(unavailable.create_time)),
+      unavailable_reason_(std::move(unavailable.reason)),
+      last_used_(Clock::now().time_since_epoch().count()),
+      applied_steps_(0),
+      journal_sequence_(0),
+      journal_snapshot_sequence_(0) {}
+
+grpc::Status Session::RequireAvailable() const {
+  if (available()) return grpc::Status::OK;
+  return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "",
+                   name_ + " is unavailable: it could not be restored from the journal (" +
+                       unavailable_reason_ + "); DeleteSession removes it");
+}
+
 void Session::AttachJournal(Journal* journal) {
   std::lock_guard lock(mutex_);
   journal_ = journal;
@@ -72,7 +92,7 @@ void Session::AttachJournal(Journal* journal) {
 
 grpc::Status Session::CompactJournal() {
   std::lock_guard lock(mutex_);
-  if (journal_ == nullptr || journal_snapshot_sequence_ == journal_sequence_) {
+  if (journal_ == nullptr || !available() || journal_snapshot_sequence_ == journal_sequence_) {
     return grpc::Status::OK;
   }
   return CompactJournalLocked();
@@ -99,6 +119,7 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
   }
   const bool deduplicated = !request.request_id().empty();
   const std::uint64_t fingerprint = deduplicated ? Fingerprint(request) : 0;
+  if (grpc::Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
   if (deduplicated) {
@@ -124,8 +145,8 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
       journal_sequence_ - journal_snapshot_sequence_ >= journal_->options().snapshot_every) {
     // The batch is journaled either way; a failed compaction only leaves more to replay.
     if (grpc::Status status = CompactJournalLocked(); !status.ok()) {
-      spdlog::warn("event=journal_compaction_failed session={} error={}", LogValue(name_),
-                   Quoted(status.error_message(), kMaxLoggedErrorBytes));
+      spdlog::error("event=journal_compaction_failed session={} error={}", LogValue(name_),
+                    Quoted(status.error_message(), kMaxLoggedErrorBytes));
     }
   }
   Touch();  // a long batch counts as use until its end
@@ -139,13 +160,17 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   // accept before it counts) runs on a copy that is committed at the end, so a failing step, an
   // expired deadline or a failed journal write leaves the session as it was.
   std::optional<Contact> copy;
-  if (request.steps_size() > 1 || journal_ != nullptr) copy.emplace(contact_);
-  Contact& target = copy ? *copy : contact_;
+  if (request.steps_size() > 1 || journal_ != nullptr) copy.emplace(*contact_);
+  Contact& target = copy ? *copy : *contact_;
   std::uint64_t applied = applied_steps_;
   double path_error = 0;
   for (int i = 0; i < request.steps_size(); ++i) {
     if (guard) {
       if (grpc::Status status = guard(i); !status.ok()) return status;
+    }
+    if (applied >= kMaxAppliedSteps) {
+      return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "steps[" + std::to_string(i) + "]",
+                       "the session has applied its maximum of 2^53 steps");
     }
     StepReport report;
     if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report); !status.ok()) {
@@ -173,20 +198,21 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
     }
   }
   ++journal_sequence_;
-  if (copy) contact_ = std::move(*copy);
+  if (copy) *contact_ = std::move(*copy);
   applied_steps_ = applied;
-  WriteState(contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
+  WriteState(*contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
   response->mutable_error_estimate()->set_path_error(path_error);
-  WriteApproximationErrors(contact_, response->mutable_error_estimate());
+  WriteApproximationErrors(*contact_, response->mutable_error_estimate());
   return grpc::Status::OK;
 }
 
 grpc::Status Session::Query(const OutputSelection& selection, const RadialSampling& sampling,
                             OutputCounters* counters, v1::QueryResponse* response) const {
+  if (grpc::Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
   if (Status status =
-          WriteQueryOutputs(contact_, applied_steps_, selection, sampling, response, counters);
+          WriteQueryOutputs(*contact_, applied_steps_, selection, sampling, response, counters);
       !status.ok()) {
     response->Clear();
     return ToGrpcStatus(status);
@@ -206,21 +232,29 @@ void Session::ReadResource(v1::Session* resource) const {
         TimeUtil::GetCurrentTime() +
         TimeUtil::NanosecondsToDuration(std::chrono::nanoseconds(remaining).count());
   }
+  if (!available()) {
+    resource->set_availability(v1::Session::AVAILABILITY_UNAVAILABLE);
+    resource->set_unavailable_reason(unavailable_reason_);
+    return;
+  }
+  resource->set_availability(v1::Session::AVAILABILITY_ACTIVE);
   std::lock_guard lock(mutex_);
-  WriteState(contact_, applied_steps_, OutputSelection::FullState(), resource->mutable_state());
+  WriteState(*contact_, applied_steps_, OutputSelection::FullState(), resource->mutable_state());
 }
 
-void Session::Export(v1::SessionSnapshot* snapshot) const {
+grpc::Status Session::Export(v1::SessionSnapshot* snapshot) const {
+  if (grpc::Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   ExportLocked(snapshot);
+  return grpc::Status::OK;
 }
 
 void Session::ExportLocked(v1::SessionSnapshot* snapshot) const {
   snapshot->set_version(kSnapshotVersion);
   snapshot->set_source_name(name_);
   *snapshot->mutable_limits() = limits_;
-  *snapshot->mutable_scene() = WithEffectiveOptions(scene_, contact_.config());
-  ToProtoSnapshot(contact_.Snapshot(), snapshot->mutable_contact());
+  *snapshot->mutable_scene() = WithEffectiveOptions(scene_, contact_->config());
+  ToProtoSnapshot(contact_->Snapshot(), snapshot->mutable_contact());
   snapshot->set_applied_steps(applied_steps_);
 }
 

@@ -64,8 +64,8 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
       // Gone from memory either way; a session the journal keeps comes back at the next start
       // and expires again.
       if (grpc::Status status = journal_->RemoveSession(it->first); !status.ok()) {
-        spdlog::warn("event=journal_error session={} error={}", LogValue(it->first),
-                     Quoted(status.error_message(), kMaxLoggedErrorBytes));
+        spdlog::error("event=journal_error session={} error={}", LogValue(it->first),
+                      Quoted(status.error_message(), kMaxLoggedErrorBytes));
       }
     }
     erased.push_back(it->first);

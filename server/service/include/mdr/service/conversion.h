@@ -6,6 +6,7 @@
 #include <google/protobuf/repeated_field.h>
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,10 @@ Step ToCoreStep(const v1::Step& step);
 
 // The exact contact state, both ways. Out-of-range bounds map to a tag the core rejects.
 ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot);
+// What a SessionSnapshot carries beyond the contact, which Contact::Restore checks (its
+// dissipated_energy included): snapshot.contact.last_step_dissipated_energy finite and >= 0, and
+// snapshot.applied_steps <= max_applied_steps so that the step counter cannot wrap later.
+Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t max_applied_steps);
 void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto);
 
 v1::MemoryBound ToProtoBound(std::uint8_t tag);

@@ -5,6 +5,18 @@
 // batches it covers. Every write is one transaction and returns once SQLite has committed it
 // (durability against power loss depends on JournalSync). One process at a time: the database is
 // locked exclusively while open.
+//
+// Damage is detected, never accepted silently: at open the schema is compared with this format's
+// and PRAGMA quick_check runs; every row carries a CRC-32 of its content and a session's batches
+// are numbered without gaps (checked by Load); and every write transaction increments a commit
+// counter in the database whose last committed value is also written, after the commit, to a
+// small side file "<path>.commit" outside the write-ahead log. SQLite silently ends the log at a
+// truncated or damaged frame, dropping every later commit; the database then looks consistent
+// but older, and only the side file (counter ahead of the database's) tells. A process crash
+// never leaves the side file ahead (it is written after the commit); a machine crash under
+// JournalSync kOff/kNormal may, when the operating system wrote the side file but not the log:
+// commits acknowledged before the crash were then lost, and that is reported. The files are
+// created with mode 0600.
 #pragma once
 
 #include <google/protobuf/timestamp.pb.h>
@@ -48,6 +60,11 @@ struct JournalOptions {
   // A session's snapshot is rewritten (and the batches it covers deleted) after this many batches;
   // also at a clean shutdown. >= 1.
   std::uint32_t snapshot_every = 1000;
+  // What Open does with a damaged journal: false refuses it (DATA_LOSS naming the damage); true
+  // keeps what is intact, copies the damaged files aside ("<path>.damaged", "-wal" and ".commit"
+  // appended) and rewrites the journal with the intact sessions in one transaction (a crash
+  // during it leaves the damaged journal as it was); recovery_drops() lists what was dropped.
+  bool recover = false;
 };
 
 // One accepted batch: the ApplyRequest as received (steps, step_mask, request_id), numbered
@@ -80,9 +97,10 @@ struct JournaledSession {
 
 class Journal {
  public:
-  // Opens (creating if needed) the database at options.path and takes its lock. Errors
-  // (FAILED_PRECONDITION) say why: unreadable, not a journal, a newer format, in use by another
-  // process.
+  // Opens (creating if needed, mode 0600) the database at options.path and takes its lock, then
+  // checks it for damage (see above and JournalOptions::recover). Errors name the file and say
+  // why: FAILED_PRECONDITION (unreadable, not a journal, another format, in use by another
+  // process), DATA_LOSS (damaged; what is wrong, each item).
   static grpc::Status Open(const JournalOptions& options, std::unique_ptr<Journal>* journal);
 
   Journal(const Journal&) = delete;
@@ -90,11 +108,19 @@ class Journal {
   ~Journal();
 
   // Every journaled session with the batches after its snapshot, sessions by name, batches by
-  // sequence. DATA_LOSS for an entry that does not parse.
+  // sequence. DATA_LOSS naming every damaged entry: a row whose checksum does not match or that
+  // does not parse, a session name that is not "sessions/{session_id}"
+  // (SessionStore::IsSessionName), a gap in a session's batch numbers, rows of a session that has
+  // no entry.
   grpc::Status Load(std::vector<JournaledSession>* sessions);
 
-  // The write operations, each one transaction. UNAVAILABLE when SQLite fails (disk full, I/O
-  // error): then nothing was written.
+  // What a recovering Open found damaged and dropped (sessions, batch ranges, commits), one
+  // sentence each; empty when nothing was.
+  const std::vector<std::string>& recovery_drops() const { return recovery_drops_; }
+
+  // The write operations, each one transaction that also advances the commit counter.
+  // UNAVAILABLE (and logged at error level) when SQLite fails (disk full, I/O error): then
+  // nothing was written.
   // A new session (created or imported) with its initial snapshot as sequence 0; replaces any
   // entry of the same name.
   grpc::Status AddSession(const std::string& name, const std::string& owner,
@@ -113,18 +139,53 @@ class Journal {
 
  private:
   explicit Journal(const JournalOptions& options) : options_(options) {}
+  // Opens the database and the side file, creates a new journal's schema, checks an existing
+  // one (damage found is appended to *damage) and prepares the statements.
+  grpc::Status Connect(std::vector<std::string>* damage);
+  void CheckSchema(std::vector<std::string>* damage);
+  void CheckIntegrity(std::vector<std::string>* damage);
+  // Reads the database's commit counter and compares the side file's with it.
+  void CheckCommits(std::vector<std::string>* damage);
+  grpc::Status Prepare();
+  // Finalizes the statements and closes the database (without a checkpoint when `keep_log`).
+  void Disconnect(bool keep_log);
+  // Every intact session; what is damaged is described in *damage and left out.
+  void ReadSessions(std::vector<JournaledSession>* sessions, std::vector<std::string>* damage);
+  void ReadRequests(JournaledSession* session, std::vector<std::string>* damage);
+  void ReadBatches(JournaledSession* session, std::vector<std::string>* damage);
+  // Rows of `table` whose session has no entry.
+  void ReadOrphans(const char* table, std::vector<std::string>* damage);
+  // Copies the damaged files aside and replaces the journal's content by `intact` (in place, or
+  // in a new file when the old one cannot even be rewritten).
+  grpc::Status Rebuild(const std::vector<JournaledSession>& intact);
+  bool RewriteInPlace(const std::vector<JournaledSession>& intact, std::string* error);
+  void FinalizeStatements();
+  grpc::Status WriteSession(const JournaledSession& session, std::string* error);
+  // Writes the commit counter to the side file (after a commit).
+  bool RecordCommits(std::string* error);
   // Runs SQL without results; the SQLite error message otherwise.
   bool Execute(const char* sql, std::string* error);
   // Runs a prepared statement to completion and resets it.
   bool Step(sqlite3_stmt* statement, std::string* error);
-  // Runs `body` in a transaction (committed if it returns true, rolled back otherwise).
   template <typename Body>
-  grpc::Status InTransaction(const char* what, Body body);
+  // Runs body(commit number, error) in a transaction (committed if it returns true, rolled back
+  // otherwise). The commit counter is advanced in the commits table, or by the body in the batch
+  // row it writes (row_carries_commit).
+  grpc::Status InTransaction(const char* what, bool row_carries_commit, Body body);
   grpc::Status WriteError(const char* what, const std::string& error) const;
 
   const JournalOptions options_;
   std::mutex mutex_;  // one statement or transaction at a time
+  std::vector<std::string> recovery_drops_;
   sqlite3* db_ = nullptr;
+  int commit_file_ = -1;              // the side file "<path>.commit"
+  std::uint64_t commits_ = 0;         // the commit counter of the last commit
+  std::uint64_t side_commits_ = 0;    // the side file's counter when opened
+  bool checkpoint_on_close_ = false;  // opened and checked
+  sqlite3_stmt* begin_ = nullptr;
+  sqlite3_stmt* commit_ = nullptr;
+  sqlite3_stmt* rollback_ = nullptr;
+  sqlite3_stmt* count_commit_ = nullptr;
   sqlite3_stmt* insert_session_ = nullptr;
   sqlite3_stmt* insert_batch_ = nullptr;
   sqlite3_stmt* update_snapshot_ = nullptr;

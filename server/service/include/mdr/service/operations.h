@@ -37,8 +37,10 @@ class ContactOperations {
   ContactOperations(const ServiceLimits& limits, TestHooks hooks);
 
   // Opens the journal, restores every session in it (snapshot, then its later batches replayed
-  // through Session::Apply) and journals every change from now on. Call before serving. Errors
-  // name the journal and, for a session that cannot be restored, the session.
+  // through Session::Apply) and journals every change from now on. Call before serving. A
+  // session that cannot be restored is kept as unavailable (logged at error level with the
+  // reason; its journal entry is kept); every other one is restored. Errors (the journal cannot
+  // be opened, or is damaged and options.recover is off) name the journal and what is wrong.
   grpc::Status OpenJournal(const JournalOptions& options);
   // Writes a snapshot of every session with batches since its last one (a clean shutdown).
   void CompactJournal();
@@ -79,6 +81,8 @@ class ContactOperations {
                           const char* verb);
   // A journaled session: its snapshot imported, its later batches replayed.
   grpc::Status Restore(const JournaledSession& journaled, std::shared_ptr<Session>* session) const;
+  // What is kept of a journaled session that Restore refused (`why`).
+  static UnavailableSession Unavailable(JournaledSession entry, const grpc::Status& why);
 
   const ServiceLimits limits_;
   const TestHooks hooks_;

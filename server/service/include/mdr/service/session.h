@@ -65,6 +65,16 @@ struct SessionState {
   std::vector<JournaledRequest> completed{};
 };
 
+// A journaled session whose state could not be restored at start: kept (with its journal entry)
+// so that it is listed with the reason and can be deleted, but without a state to use.
+struct UnavailableSession {
+  std::string owner;
+  google::protobuf::Timestamp create_time;
+  v1::Scene scene;
+  v1::SessionLimits limits;  // as journaled
+  std::string reason;
+};
+
 class Session {
  public:
   using Clock = std::chrono::steady_clock;
@@ -73,8 +83,14 @@ class Session {
   using StepGuard = std::function<grpc::Status(int step_index)>;
   // SessionSnapshot.version written by Export and accepted by ImportSession.
   static constexpr std::uint32_t kSnapshotVersion = 1;
+  // Most steps a session applies in its life (applied_steps stays exact in a double and far from
+  // wrapping); a step beyond fails with FAILED_PRECONDITION.
+  static constexpr std::uint64_t kMaxAppliedSteps = std::uint64_t{1} << 53;
 
   Session(std::string name, SessionState state);
+  // An unavailable session: Apply, Query and Export fail with FAILED_PRECONDITION naming the
+  // reason, it never expires, and the journal entry is never rewritten.
+  Session(std::string name, UnavailableSession unavailable);
 
   const std::string& name() const { return name_; }
   const std::string& owner() const { return owner_; }
@@ -83,6 +99,7 @@ class Session {
   // Whether the caller may see and use this session: its owner, or anyone without
   // authentication.
   bool VisibleTo(const Principal& caller) const { return !caller || *caller == owner_; }
+  bool available() const { return contact_.has_value(); }
 
   // From now on every committed batch is written to the journal before the commit (a batch the
   // journal refuses fails with UNAVAILABLE and changes nothing), and the session's snapshot is
@@ -107,10 +124,10 @@ class Session {
   grpc::Status Query(const OutputSelection& selection, const RadialSampling& sampling,
                      OutputCounters* counters, v1::QueryResponse* response) const;
 
-  // Scene, limits, state, creation and expiry time as the API resource.
+  // Scene, limits, state, creation and expiry time, availability as the API resource.
   void ReadResource(v1::Session* resource) const;
-  // The exact, portable state.
-  void Export(v1::SessionSnapshot* snapshot) const;
+  // The exact, portable state; FAILED_PRECONDITION for an unavailable session.
+  grpc::Status Export(v1::SessionSnapshot* snapshot) const;
 
   // Restarts the idle timer; IsExpired tells whether it ran out (never without an idle timeout).
   void Touch();
@@ -122,6 +139,8 @@ class Session {
                         v1::ApplyResponse* response);
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
   grpc::Status CompactJournalLocked();
+  // FAILED_PRECONDITION naming the reason for an unavailable session; OK otherwise.
+  grpc::Status RequireAvailable() const;
   Clock::time_point last_used() const;
 
   const std::string name_;
@@ -130,10 +149,11 @@ class Session {
   const v1::SessionLimits limits_;
   const std::chrono::nanoseconds idle_timeout_;  // 0: never expires
   const google::protobuf::Timestamp create_time_;
+  const std::string unavailable_reason_;  // empty: available
   std::atomic<Clock::rep> last_used_;
 
   mutable std::mutex mutex_;
-  Contact contact_;                          // guarded by mutex_
+  std::optional<Contact> contact_;           // guarded by mutex_; unset: unavailable
   std::uint64_t applied_steps_;              // guarded by mutex_
   CompletedRequests completed_;              // guarded by mutex_
   Journal* journal_ = nullptr;               // guarded by mutex_
