@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/core/interrupt.h"
 #include "mdr/core/profile.h"
 #include "mdr/core/status.h"
 
@@ -39,6 +40,9 @@ struct TabulatedOptions {
   double tolerance = 1e-10;
   // Largest internal grid; ResourceExhausted if the tolerance needs more nodes.
   std::size_t max_grid_nodes = 1 << 18;
+  // Checked before every evaluation of g while the grid is built: DeadlineExceeded / Cancelled
+  // abandon the construction.
+  Interrupt interrupt{};
 };
 
 class TabulatedProfile final : public Profile {
@@ -79,8 +83,13 @@ class TabulatedProfile final : public Profile {
   std::string description_;
 };
 
+// Most samples a profile may have. The construction costs O(N log N) for samples whose spacing
+// varies smoothly (measured on a loaded 2-core machine for a sampled sphere: 1000 samples 0.05 s,
+// 10 000 samples 0.4-0.9 s, 100 000 samples 11 s; it was O(N^2): 17.6 s for 10 000).
+inline constexpr std::size_t kMaxTabulatedSamples = 100000;
+
 // Samples r_i (radii[0] = 0, strictly increasing, finite) and f(r_i) (heights[0] = 0, finite),
-// at least 4 of each. Errors name the field and index; a profile whose g(x) decreases somewhere
+// at least 4 and at most kMaxTabulatedSamples of each. Errors name the field and index; a profile whose g(x) decreases somewhere
 // is rejected (the contact would not be a disc).
 Result<ProfilePtr> MakeTabulatedProfile(std::vector<double> radii, std::vector<double> heights,
                                         TabulatedOptions options = {});
