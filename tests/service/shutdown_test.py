@@ -81,7 +81,7 @@ def main():
     radii = [r_max * i / (SAMPLES - 1) for i in range(SAMPLES)]
     tabulated.tabulated.radii.extend(radii)
     tabulated.tabulated.heights.extend(
-        r * r / (2 * RADIUS) * (1 + 0.01 * math.sin(r / r_max * 200)) for r in radii)
+        r * r / (2 * RADIUS) * (1 + 1e-3 * math.sin(r / r_max * 20)) for r in radii)
     tabulated.tabulated.tolerance = 1e-12
     grid = scene()
     grid.sphere.radius = RADIUS
