@@ -3,8 +3,10 @@
 // f is interpolated by a C1 piecewise cubic (GSL's monotone Steffen spline, or a natural cubic
 // spline); its MDR form g(x) = x integral_0^{pi/2} f'(x sin t) dt (physics.md, "MDR"; the
 // substitution r = x sin t removes the 1/sqrt singularity) is evaluated by Gauss-Legendre
-// quadrature split at the sample radii, where f' is one quadratic, so it is exact to round-off
-// for the interpolated f. g and g' are stored on an internal grid and interpolated between grid
+// quadrature split at the sample radii, where f' is one quadratic, over the sample intervals
+// near x, and by a convergent series of exact moments over groups of intervals far below x
+// (a tree over the intervals: O(log N) per evaluation), so it is exact to round-off for the
+// interpolated f. g and g' are stored on an internal grid and interpolated between grid
 // nodes by cubic Hermite polynomials; the grid starts at the sample radii and is bisected where
 // that interpolation misses g at an interval midpoint by more than TabulatedOptions::tolerance.
 // What no grid can remove is the difference between the interpolated f and the true shape
