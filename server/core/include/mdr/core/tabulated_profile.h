@@ -91,8 +91,8 @@ class TabulatedProfile final : public Profile {
 inline constexpr std::size_t kMaxTabulatedSamples = 100000;
 
 // Samples r_i (radii[0] = 0, strictly increasing, finite) and f(r_i) (heights[0] = 0, finite),
-// at least 4 and at most kMaxTabulatedSamples of each. Errors name the field and index; a profile whose g(x) decreases somewhere
-// is rejected (the contact would not be a disc).
+// at least 4 and at most kMaxTabulatedSamples of each. Errors name the field and index; a profile
+// whose g(x) decreases somewhere is rejected (the contact would not be a disc).
 Result<ProfilePtr> MakeTabulatedProfile(std::vector<double> radii, std::vector<double> heights,
                                         TabulatedOptions options = {});
 
