@@ -151,6 +151,9 @@ TEST_F(ExecutionTest, CallWhoseDeadlinePassedWhileQueuedIsNotRun) {
       stub_->Apply(Context(std::chrono::milliseconds(200)).get(),
                    ApplyRequestFor(other_session_, {DisplacementStep(1e-8)}), &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  // The server's deadline is the client's timeout counted from when the call arrived, so it
+  // passes up to the transit time later: a wide margin, not a measurement.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
   gate_.Open();
   AwaitQueued(0);
   // Query runs on the session's strand after the expired batch was taken from the queue.
@@ -165,6 +168,7 @@ TEST_F(ExecutionTest, NothingIsCreatedAfterTheClientGaveUp) {
   const grpc::Status status =
       stub_->CreateSession(Context(std::chrono::milliseconds(200)).get(), request, &created);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // as above: the server's deadline
   gate_.Open();
   // ListSessions is inline; the worker is done once a queued call (Query) has answered.
   v1::QueryResponse answer;
