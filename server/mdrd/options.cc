@@ -52,6 +52,25 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_MAX_MESSAGE_BYTES")
       ->capture_default_str()
       ->check(CLI::Range(1024, 1 << 30));
+  app.add_option("--max-state-bytes", limits.max_state_bytes,
+                 "Bytes of session state (grid springs, memory vertices) held at most over all "
+                 "sessions; a create, import or batch beyond fails with RESOURCE_EXHAUSTED (0: "
+                 "unlimited)")
+      ->envname("MDR_MAX_STATE_BYTES")
+      ->capture_default_str();
+  mdr::service::ExecutorOptions& execution = server.execution;
+  app.add_option("--workers", execution.workers,
+                 "Worker threads of the computing calls (Apply, StreamApply messages, Query, "
+                 "Transform, Create/Import/ExportSession); 0: one per core")
+      ->envname("MDR_WORKERS")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t{0}, mdr::service::ExecutorOptions::kMaxWorkers));
+  app.add_option("--max-queued-calls", execution.max_queued,
+                 "Computing calls waiting for a worker at most; beyond, a call is refused at once "
+                 "with UNAVAILABLE (retry with backoff)")
+      ->envname("MDR_MAX_QUEUED_CALLS")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--shutdown-grace", options->shutdown_grace_seconds,
                  "Seconds running calls get to finish after SIGTERM/SIGINT")
       ->envname("MDR_SHUTDOWN_GRACE")
@@ -116,14 +135,16 @@ void LogEffectiveOptions(const Options& options) {
       "event=config listen={} log_level={} max_sessions={} max_steps_per_batch={} "
       "max_memory_vertices={} session_idle_timeout_s={} max_message_bytes={} "
       "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} "
-      "journal_recover={} tls={} mtls={} auth={} max_sessions_per_token={}",
+      "journal_recover={} tls={} mtls={} auth={} max_sessions_per_token={} max_state_bytes={} "
+      "workers={} max_queued_calls={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
       options.shutdown_grace_seconds, server.journal.path.empty() ? "-" : server.journal.path,
       mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
       server.journal.recover, !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
-      !server.tokens_file.empty(), limits.max_sessions_per_token);
+      !server.tokens_file.empty(), limits.max_sessions_per_token, limits.max_state_bytes,
+      server.execution.workers, server.execution.max_queued);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(
         "event=config_warning warning=\"bearer tokens without --tls-cert travel in clear text; "

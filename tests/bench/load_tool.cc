@@ -3,6 +3,7 @@
 // run, so the ratio apply/echo says what the service adds to the framework's own cost (absolute
 // figures on a shared machine vary by tens of percent, the ratio much less):
 //   build/release/tests/bench/mdr_load [--seconds S] [--rounds R] [--window W] [--json FILE]
+//   build/release/tests/bench/mdr_load --execution [--execution-seconds S]   (see below)
 //
 // Workload: H1, a steel sphere R = 10 mm on steel (E = 210 GPa, nu = 0.3 for both), mu = 0.3,
 // loaded to F_N = 100 N; then Mindlin-Deresiewicz cycling at constant F_N: the tangential
@@ -27,6 +28,7 @@
 // own compute time per step (ApplyResponse.compute_seconds) is reported beside them.
 #include <grpc/grpc.h>
 #include <grpcpp/create_channel.h>
+#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/security/server_credentials.h>
@@ -45,6 +47,7 @@
 #include <ctime>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <latch>
 #include <map>
 #include <memory>
@@ -511,6 +514,8 @@ struct LoadSettings {
   int rounds = 3;
   int window = 32;
   std::string json_path;
+  bool execution = false;  // run the execution scenarios instead
+  double execution_seconds = 5;
 };
 
 class LoadRun {
@@ -686,6 +691,235 @@ void PrintPreamble(const Workload& workload, const LoadSettings& settings, int c
       settings.window, contact_port, echo_port);
 }
 
+// ---------------------------------------------------------------------------------------------
+// --execution: the execution model (docs/operations.md) under heavy calls. While N = 4 and 16
+// clients each run heavy calls back to back (a CreateSession with a tabulated profile of
+// kHeavySamples samples, a batch of steps on a grid of kHeavyGridSprings springs, a curved force
+// path bisected to a tight tolerance), one prober measures a health check and a GetSession every
+// kProbePeriod: p50/p99. Then compute-bound throughput: Apply of 1000-step cycling batches with
+// energy tracking on one session by one client against two sessions by two clients.
+
+constexpr int kHeavySamples = 20000;
+constexpr std::uint32_t kHeavyGridSprings = 1 << 20;
+constexpr int kHeavyGridSteps = 20;
+constexpr auto kProbePeriod = std::chrono::milliseconds(10);
+constexpr auto kHeavyTimeout = std::chrono::seconds(120);
+
+mdr::v1::Scene HeavyTabulatedScene() {
+  mdr::v1::Scene scene = HertzScene();
+  mdr::v1::TabulatedProfile* profile = scene.mutable_tabulated();
+  constexpr double kSampledTo = 5e-4;
+  for (int i = 0; i < kHeavySamples; ++i) {
+    const double r = kSampledTo * i / (kHeavySamples - 1);
+    profile->add_radii(r);
+    profile->add_heights(r * r / (2 * kSphereRadius) * (1 + 1e-3 * std::sin(20 * r / kSampledTo)));
+  }
+  return scene;
+}
+
+mdr::v1::Scene HeavyGridScene() {
+  mdr::v1::Scene scene = HertzScene();
+  scene.set_method(mdr::v1::METHOD_GRID);
+  scene.mutable_grid()->set_size(kHeavyGridSprings);
+  scene.mutable_grid()->set_max_radius(1e-3);
+  return scene;
+}
+
+mdr::v1::Scene CurvedPathScene() {
+  mdr::v1::Scene scene = HertzScene();
+  scene.mutable_options()->set_force_path_tolerance(1e-9);
+  return scene;
+}
+
+std::unique_ptr<grpc::ClientContext> DeadlineContext(std::chrono::seconds timeout) {
+  auto context = std::make_unique<grpc::ClientContext>();
+  context->set_deadline(std::chrono::system_clock::now() + timeout);
+  return context;
+}
+
+std::string CreateOrFail(mdr::v1::ContactService::Stub& stub, const mdr::v1::Scene& scene) {
+  mdr::v1::CreateSessionRequest request;
+  *request.mutable_session()->mutable_scene() = scene;
+  mdr::v1::Session session;
+  const grpc::Status status =
+      stub.CreateSession(DeadlineContext(kHeavyTimeout).get(), request, &session);
+  if (!status.ok()) Fail("CreateSession: " + status.error_message());
+  return session.name();
+}
+
+// One client's heavy calls, by kind (client % 3), until `stop`; returns the calls completed.
+int RunHeavyCalls(mdr::v1::ContactService::Stub& stub, int client, const std::atomic<bool>& stop) {
+  const mdr::v1::Scene tabulated = HeavyTabulatedScene();
+  std::string session;
+  ApplyRequest batch;
+  if (client % 3 == 1) {
+    session = CreateOrFail(stub, HeavyGridScene());
+    for (int i = 0; i < kHeavyGridSteps; ++i) {
+      batch.add_steps()->set_depth(3e-6 * (1 + 0.1 * (i % 2)));
+    }
+  } else if (client % 3 == 2) {
+    session = CreateOrFail(stub, CurvedPathScene());
+    // Normal force and displacement change together: a curved path in (delta, ux).
+    mdr::v1::Step* load = batch.add_steps();
+    load->set_normal_force(kNormalForce);
+    load->set_displacement(0);
+    mdr::v1::Step* curved = batch.add_steps();
+    curved->set_normal_force(2 * kNormalForce);
+    curved->set_displacement(1e-7);
+  }
+  batch.set_session(session);
+  int completed = 0;
+  while (!stop) {
+    grpc::Status status;
+    if (client % 3 == 0) {
+      mdr::v1::CreateSessionRequest request;
+      *request.mutable_session()->mutable_scene() = tabulated;
+      mdr::v1::Session created;
+      status = stub.CreateSession(DeadlineContext(kHeavyTimeout).get(), request, &created);
+      if (status.ok()) {
+        mdr::v1::DeleteSessionRequest erase;
+        erase.set_name(created.name());
+        google::protobuf::Empty empty;
+        stub.DeleteSession(DeadlineContext(kHeavyTimeout).get(), erase, &empty);
+      }
+    } else {
+      ApplyResponse response;
+      status = stub.Apply(DeadlineContext(kHeavyTimeout).get(), batch, &response);
+    }
+    if (!status.ok()) Fail("heavy call: " + status.error_message());
+    ++completed;
+  }
+  return completed;
+}
+
+struct ProbeFigures {
+  std::vector<double> health_ms, get_session_ms;
+};
+
+double ProbeMillis(const std::function<grpc::Status(grpc::ClientContext*)>& call) {
+  const Clock::time_point start = Clock::now();
+  const grpc::Status status = call(DeadlineContext(std::chrono::seconds(30)).get());
+  if (!status.ok()) Fail("probe: " + status.error_message());
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// grpc.health.v1.Health/Check through a generic stub (an empty request: the server's status).
+grpc::Status HealthCheck(grpc::GenericStub& stub, grpc::ClientContext* context) {
+  grpc::Slice empty_message("");  // HealthCheckRequest{} encodes to no bytes
+  grpc::ByteBuffer request(&empty_message, 1), response;
+  std::promise<grpc::Status> done;
+  stub.UnaryCall(context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response,
+                 [&done](grpc::Status status) { done.set_value(std::move(status)); });
+  return done.get_future().get();
+}
+
+ProbeFigures ProbeUnderHeavyLoad(int port, int heavy_clients, double seconds) {
+  std::vector<std::unique_ptr<mdr::v1::ContactService::Stub>> stubs;
+  for (int i = 0; i < heavy_clients; ++i) {
+    stubs.push_back(mdr::v1::ContactService::NewStub(ConnectLoopback(port)));
+  }
+  auto probe_channel = ConnectLoopback(port);
+  auto probe_stub = mdr::v1::ContactService::NewStub(probe_channel);
+  grpc::GenericStub health(probe_channel);
+  mdr::v1::GetSessionRequest get;
+  get.set_name(CreateOrFail(*probe_stub, HertzScene()));
+
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> clients;
+  for (int i = 0; i < heavy_clients; ++i) {
+    clients.emplace_back([&, i] { RunHeavyCalls(*stubs[i], i, stop); });
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the heavy calls are running
+  ProbeFigures figures;
+  const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                   std::chrono::duration<double>(seconds));
+  while (Clock::now() < end) {
+    figures.health_ms.push_back(
+        ProbeMillis([&](grpc::ClientContext* c) { return HealthCheck(health, c); }));
+    figures.get_session_ms.push_back(ProbeMillis([&](grpc::ClientContext* c) {
+      mdr::v1::Session session;
+      return probe_stub->GetSession(c, get, &session);
+    }));
+    std::this_thread::sleep_for(kProbePeriod);
+  }
+  stop = true;
+  for (std::thread& client : clients) client.join();
+  return figures;
+}
+
+void PrintProbe(int heavy_clients, const char* what, std::vector<double> millis) {
+  std::sort(millis.begin(), millis.end());
+  std::printf("%2d heavy calls  %-10s  n=%4zu  p50 %8.3f ms  p99 %8.3f ms  max %8.3f ms\n",
+              heavy_clients, what, millis.size(), Percentile(millis, 0.5), Percentile(millis, 0.99),
+              millis.back());
+}
+
+// Steps per second of 1000-step cycling batches (energy on), one client per session.
+double BatchThroughput(int port, int sessions, double seconds, const CyclingSteps& steps) {
+  std::vector<mdr::client::ContactClient> clients;
+  std::vector<std::string> names;
+  for (int i = 0; i < sessions; ++i) {
+    clients.emplace_back(ConnectLoopback(port), kCallTimeout);
+    mdr::v1::Scene scene = HertzScene();
+    scene.mutable_options()->set_track_energy(true);
+    auto session = clients.back().CreateSession(scene);
+    if (!session.ok()) Fail("CreateSession: " + session.status().error_message());
+    Steps load;
+    load.Add()->set_normal_force(kNormalForce);
+    if (!clients.back().Apply(session->name(), load).ok()) Fail("Apply F_N");
+    names.push_back(session->name());
+  }
+  std::atomic<long> total_steps{0};
+  const Clock::time_point start = Clock::now();
+  const Clock::time_point end =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  std::vector<std::thread> threads;
+  for (int i = 0; i < sessions; ++i) {
+    threads.emplace_back([&, i] {
+      while (Clock::now() < end) {
+        const CallOutcome outcome = ClientApply(clients[i], names[i], steps.Batch(1000, 0));
+        if (!outcome.status.ok()) Fail("Apply: " + outcome.status.error_message());
+        total_steps += 1000;
+      }
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  return total_steps / std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+void RunExecutionScenarios(double seconds) {
+  mdr::service::ServerOptions options;
+  options.listen_address = "127.0.0.1:0";
+  options.limits.max_message_bytes = 64 << 20;  // grids of 2^20 springs must stay exportable
+  grpc::EnableDefaultHealthCheckService(true);
+  auto server = mdr::service::ContactServer::Start(options);
+  if (!server.ok()) Fail(server.status().ToString());
+  const int port = (*server)->port();
+  std::printf(
+      "mdr_load --execution: %u hardware threads, workers = one per core; heavy calls: "
+      "tabulated create (%d samples), grid batch (%d steps, %u springs), curved force "
+      "path; probes every %lld ms for %g s\n",
+      std::thread::hardware_concurrency(), kHeavySamples, kHeavyGridSteps, kHeavyGridSprings,
+      static_cast<long long>(kProbePeriod.count()), seconds);
+  for (const int heavy_clients : {4, 16}) {
+    ProbeFigures figures = ProbeUnderHeavyLoad(port, heavy_clients, seconds);
+    PrintProbe(heavy_clients, "health", std::move(figures.health_ms));
+    PrintProbe(heavy_clients, "GetSession", std::move(figures.get_session_ms));
+  }
+  // The cycling amplitude of H1 (as CreateWorkload computes it).
+  mdr::client::ContactClient setup(ConnectLoopback(port), kCallTimeout);
+  double depth = 0;
+  CreateLoadedSession(setup, &depth);
+  const CyclingSteps steps(kCycleAmplitude * kFriction * HertzKappa() * depth);
+  const double one = BatchThroughput(port, 1, seconds, steps);
+  const double two = BatchThroughput(port, 2, seconds, steps);
+  std::printf(
+      "1000-step batches, energy on: 1 session %.0f steps/s, 2 sessions %.0f steps/s, "
+      "ratio %.2f\n",
+      one, two, two / one);
+  (*server)->Shutdown(std::chrono::system_clock::now());
+}
+
 LoadSettings ParseSettings(int argc, char** argv) {
   LoadSettings settings;
   CLI::App app{"mdr_load: ContactService load test against an echo baseline on loopback"};
@@ -697,6 +931,12 @@ LoadSettings ParseSettings(int argc, char** argv) {
   app.add_option("--window", settings.window, "stream messages in flight per stream")
       ->check(CLI::Range(1, 1024));
   app.add_option("--json", settings.json_path, "write every figure to this JSON file");
+  app.add_flag("--execution", settings.execution,
+               "instead: health/GetSession latency under 4 and 16 heavy calls, and 1000-step "
+               "batch throughput on 1 against 2 sessions");
+  app.add_option("--execution-seconds", settings.execution_seconds,
+                 "wall time of each --execution measurement")
+      ->check(CLI::Range(0.5, 60.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -727,6 +967,10 @@ std::vector<ScenarioResult> RunScenarios(LoadRun& run) {
 int main(int argc, char** argv) {
   const LoadSettings settings = ParseSettings(argc, argv);
   spdlog::set_level(spdlog::level::warn);  // the in-process server logs every session at info
+  if (settings.execution) {
+    RunExecutionScenarios(settings.execution_seconds);
+    return EXIT_SUCCESS;
+  }
   const Clock::time_point begin = Clock::now();
 
   mdr::service::ServerOptions options;

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -115,6 +116,35 @@ TEST(TabulatedProfileTest, SampledSphereMatchesHertzCubicSpline200Within1e5) {
 }
 TEST(TabulatedProfileTest, SampledSphereMatchesHertzCubicSpline1000Within5e10) {
   ExpectHertzWithin(1000, TabulatedOptions::Interpolation::kCubicSpline, 5e-10);
+}
+
+// Many samples: g far from the samples comes from the far-field series, not a quadrature per
+// sample interval; it must stay as accurate as the direct sum was (N = 1000: 1.7e-10).
+TEST(TabulatedProfileTest, SampledSphereWith20000SamplesMatchesHertzWithin1e10) {
+  const ProfilePtr p = TabulatedSphere(20000, TabulatedOptions::Interpolation::kSteffen);
+  EXPECT_LE(MeasureHertz(p).g, 1e-10);
+}
+
+TEST(TabulatedProfileTest, ConstructionStopsWhenInterrupted) {
+  const Samples s = Sample(Sphere, kSampledTo, 200);
+  TabulatedOptions options;
+  const std::atomic<bool> cancelled{true};
+  options.interrupt = Interrupt(Interrupt::Clock::time_point::max(), &cancelled);
+  EXPECT_EQ(MakeTabulatedProfile(s.radii, s.heights, options).status().code(),
+            StatusCode::kCancelled);
+  options.interrupt = Interrupt(Interrupt::Clock::now(), nullptr);
+  EXPECT_EQ(MakeTabulatedProfile(s.radii, s.heights, options).status().code(),
+            StatusCode::kDeadlineExceeded);
+}
+
+TEST(TabulatedProfileTest, SampleCountAboveTheLimitIsRejected) {
+  Samples s = Sample(Sphere, kSampledTo, 4);
+  s.radii.resize(kMaxTabulatedSamples + 1);
+  s.heights.resize(kMaxTabulatedSamples + 1);
+  const Status status = MakeTabulatedProfile(s.radii, s.heights).status();
+  EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(status.field(), "radii");
+  EXPECT_NE(status.message().find(std::to_string(kMaxTabulatedSamples)), std::string::npos);
 }
 
 TEST(TabulatedProfileTest, InverseMomentsAndPressureAreConsistent) {

@@ -332,7 +332,7 @@ Status Contact::MoveTo(double depth, double tangential_displacement, StepReport*
   return OkStatus();
 }
 
-Status Contact::Apply(const Step& step, StepReport* report) {
+Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& interrupt) {
   const char* normal_field = NormalField(step.normal);
   const char* tangential_field = TangentialField(step.tangential);
   if (Status s = RequireFinite(normal_field, step.normal_value); !s.ok()) return s;
@@ -384,7 +384,7 @@ Status Contact::Apply(const Step& step, StepReport* report) {
       dux = *solved;
     }
     local = {1, 0, trial.LinearStep(depth1, tangential_force ? ux_ + dux : ux1, dux)};
-  } else if (Status s = trial.ApplyCurvedPath(step, depth1, &local); !s.ok()) {
+  } else if (Status s = trial.ApplyCurvedPath(step, depth1, &local, interrupt); !s.ok()) {
     return s;
   }
   if (!std::isfinite(trial.dissipated_energy())) {
@@ -403,7 +403,8 @@ Status Contact::Apply(const Step& step, StepReport* report) {
   return OkStatus();
 }
 
-Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepReport* report) {
+Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
+                                const Interrupt& interrupt) {
   const double depth0 = depth(), ux0 = ux_;
   const double fn0 = normal_force(), fx0 = tangential_force();
   const double ux_target = step.tangential == TangentialControl::kDisplacement
@@ -439,7 +440,9 @@ Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepRepor
   // clamp is non-expansive), so the estimate of the whole step is the largest local one; it
   // converges at second order in the sub-step length.
   StepReport total;
+  // Up to 2^kMaxBisections intervals: the interrupt is checked at each.
   auto refine = [&](auto&& self, double s0, double s1, int level) -> Status {
+    if (Status s = interrupt.Check(); !s.ok()) return s;
     Contact one = *this, two = *this;
     double d_one = 0, d_two = 0;
     const double mid = 0.5 * (s0 + s1);

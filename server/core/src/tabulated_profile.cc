@@ -5,6 +5,7 @@
 #include <gsl/gsl_interp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -93,29 +94,168 @@ struct GaussRule {
 };
 const GaussRule kGauss12(12);
 
+// Sums of integral_{r_a}^{r_b} w(r) / sqrt(x^2 - r^2) dr over sample pieces far below x, for
+// w = f' and w = r f'' (the two parts of g and g', see SampledShape). A binary tree over the pieces
+// keeps, per node of centre c and half-width h, the moments integral w(r) s^n dr with
+// s = (r - c)/h; for x - c >= 3 h the kernel's Taylor series in s converges at least like 3^-n,
+// so such a node costs kTerms products instead of a quadrature per piece. An evaluation of g then
+// visits O(log N) nodes for samples whose spacing varies smoothly (O(N) before: the N^2 cost of
+// building a profile from N samples).
+class FarField {
+ public:
+  static constexpr int kTerms = 36;  // 3^-36 < 1e-17
+  using Moments = std::array<double, kTerms>;
+
+  FarField(const std::vector<double>& radii, const std::vector<Cubic>& pieces)
+      : radii_(radii), pieces_(pieces) {
+    if (!pieces.empty()) Build(0, pieces.size());
+  }
+
+  // Adds the far field of pieces [0, end) at x to *first (w = f') and *second (w = r f''); calls
+  // near(k) for each piece k < end that is too close to x for the series.
+  template <typename Near>
+  void Add(double x, std::size_t end, double* first, double* second, Near near) const {
+    if (end > 0) Visit(0, x, end, first, second, near);
+  }
+
+ private:
+  static constexpr std::size_t kLeafPieces = 8;
+  struct Node {
+    std::size_t begin, end;  // pieces
+    double centre, half;
+    Moments slope{}, curvature{};     // moments of f' and of r f''
+    std::size_t left = 0, right = 0;  // children; 0: a leaf
+  };
+
+  std::size_t Build(std::size_t begin, std::size_t end) {
+    const std::size_t index = nodes_.size();
+    nodes_.push_back({.begin = begin,
+                      .end = end,
+                      .centre = 0.5 * (radii_[begin] + radii_[end]),
+                      .half = 0.5 * (radii_[end] - radii_[begin])});
+    if (end - begin <= kLeafPieces) {
+      for (std::size_t k = begin; k < end; ++k) AddPieceMoments(k, nodes_[index]);
+      return index;
+    }
+    const std::size_t middle = begin + (end - begin) / 2;
+    const std::size_t left = Build(begin, middle);
+    const std::size_t right = Build(middle, end);
+    Node& node = nodes_[index];
+    node.left = left;
+    node.right = right;
+    for (const std::size_t child : {left, right}) AddShifted(nodes_[child], node);
+    return index;
+  }
+
+  // Exact moments of one piece: f' and r f'' are quadratics in s there.
+  void AddPieceMoments(std::size_t k, Node& node) const {
+    const Cubic& f = pieces_[k];
+    const double c = node.centre, h = node.half;
+    const double t0 = (c - f.x0) / f.h, tau = h / f.h;  // t = t0 + tau s
+    const double slope[3] = {(f.a1 + 2 * f.a2 * t0 + 3 * f.a3 * t0 * t0) / f.h,
+                             (2 * f.a2 + 6 * f.a3 * t0) * tau / f.h, 3 * f.a3 * tau * tau / f.h};
+    const double w0 = (2 * f.a2 + 6 * f.a3 * t0) / (f.h * f.h), w1 = 6 * f.a3 * tau / (f.h * f.h);
+    const double curvature[3] = {c * w0, c * w1 + h * w0, h * w1};  // (c + h s)(w0 + w1 s)
+    const double sa = (radii_[k] - c) / h, sb = (radii_[k + 1] - c) / h;
+    double pa = sa, pb = sb;  // s^(m+1) at both ends, m = n + i
+    double powers_a[kTerms + 3], powers_b[kTerms + 3];
+    for (int m = 0; m < kTerms + 2; ++m) {
+      powers_a[m] = pa;
+      powers_b[m] = pb;
+      pa *= sa;
+      pb *= sb;
+    }
+    for (int n = 0; n < kTerms; ++n) {
+      for (int i = 0; i < 3; ++i) {
+        const double integral = h * (powers_b[n + i] - powers_a[n + i]) / (n + i + 1);
+        node.slope[n] += slope[i] * integral;
+        node.curvature[n] += curvature[i] * integral;
+      }
+    }
+  }
+
+  // Adds a child's moments re-expanded about its parent: s_parent = a s_child + b.
+  static void AddShifted(const Node& child, Node& parent) {
+    const double a = child.half / parent.half, b = (child.centre - parent.centre) / parent.half;
+    // binomial[k] = C(n, k) a^k b^(n-k), row n built from row n - 1.
+    double binomial[kTerms] = {1};
+    for (int n = 0; n < kTerms; ++n) {
+      if (n > 0) {
+        for (int k = n; k > 0; --k) binomial[k] = binomial[k] * b + binomial[k - 1] * a;
+        binomial[0] *= b;
+      }
+      for (int k = 0; k <= n; ++k) {
+        parent.slope[n] += binomial[k] * child.slope[k];
+        parent.curvature[n] += binomial[k] * child.curvature[k];
+      }
+    }
+  }
+
+  template <typename Near>
+  void Visit(std::size_t index, double x, std::size_t end, double* first, double* second,
+             Near near) const {
+    const Node& node = nodes_[index];
+    if (node.begin >= end) return;
+    if (node.end <= end && x - node.centre >= 3 * node.half) {
+      AddSeries(node, x, first, second);
+    } else if (node.left == 0) {
+      for (std::size_t k = node.begin; k < std::min(node.end, end); ++k) near(k);
+    } else {
+      Visit(node.left, x, end, first, second, near);
+      Visit(node.right, x, end, first, second, near);
+    }
+  }
+
+  // 1/sqrt(q(s)), q = x^2 - (c + h s)^2 = q0 + q1 s + q2 s^2: its Taylor coefficients y_n follow
+  // from q y' = -q' y / 2.
+  // Terms follow the convergence ratio h/(x - c) <= 1/3: fewer for nodes farther away.
+  static void AddSeries(const Node& node, double x, double* first, double* second) {
+    const double c = node.centre, h = node.half;
+    const double q0 = (x - c) * (x + c), q1 = -2 * c * h, q2 = -h * h;
+    const double ratio = h / (x - c);
+    const int terms =
+        ratio > 0 ? std::min(kTerms, static_cast<int>(std::ceil(-39.2 / std::log(ratio))) + 1)
+                  : 1;  // 39.2 = -ln(1e-17)
+    const double inverse_q0 = 1 / q0;
+    double previous = 0, y = std::sqrt(inverse_q0);
+    for (int n = 0; n < terms; ++n) {
+      *first += y * node.slope[n];
+      *second += y * node.curvature[n];
+      const double next = ((-0.5 - n) * q1 * y - n * q2 * previous) * inverse_q0 * kInverse[n + 1];
+      previous = y;
+      y = next;
+    }
+  }
+  static constexpr std::array<double, kTerms + 1> kInverse = [] {
+    std::array<double, kTerms + 1> inverse{};
+    for (int n = 1; n <= kTerms; ++n) inverse[n] = 1.0 / n;
+    return inverse;
+  }();
+
+  const std::vector<double>& radii_;
+  const std::vector<Cubic>& pieces_;
+  std::vector<Node> nodes_;
+};
+
 // The interpolated f as one cubic per sample interval.
 class SampledShape {
  public:
   SampledShape(const std::vector<double>& radii, const std::vector<double>& heights,
                const std::vector<double>& slopes)
-      : radii_(radii) {
-    for (std::size_t k = 0; k + 1 < radii.size(); ++k) {
-      pieces_.emplace_back(radii[k], radii[k + 1], heights[k], heights[k + 1], slopes[k],
-                           slopes[k + 1]);
-    }
-  }
+      : radii_(radii), pieces_(Pieces(radii, heights, slopes)), far_field_(radii_, pieces_) {}
   const std::vector<double>& radii() const { return radii_; }
 
   // g(x) = x integral_0^{pi/2} f'(x sin t) dt and
-  // g'(x) = integral_0^{pi/2} [f'(x sin t) + x sin t f''(x sin t)] dt, split at the sample
-  // radii so each part integrates one smooth function (12-point Gauss-Legendre per part).
+  // g'(x) = integral_0^{pi/2} [f'(x sin t) + x sin t f''(x sin t)] dt: the pieces far below x by
+  // the FarField series, the others split at the sample radii so each part integrates one smooth
+  // function (12-point Gauss-Legendre per part).
   std::pair<double, double> EquivalentAt(double x) const {
     if (!(x > 0)) return {0.0, kPi / 2 * pieces_.front().Slope(0)};
     const std::size_t last = std::min<std::size_t>(
         std::lower_bound(radii_.begin(), radii_.end(), x) - radii_.begin() - 1, pieces_.size() - 1);
     double first_moment = 0, second_moment = 0;
-    double t_begin = 0;
-    for (std::size_t k = 0; k <= last; ++k) {
+    const auto near = [&](std::size_t k) {
+      const double t_begin = std::asin(radii_[k] / x);
       const double t_end = k == last ? kPi / 2 : std::asin(radii_[k + 1] / x);
       const double half = 0.5 * (t_end - t_begin), centre = 0.5 * (t_end + t_begin);
       for (std::size_t i = 0; i < kGauss12.size; ++i) {
@@ -124,19 +264,36 @@ class SampledShape {
         first_moment += w * pieces_[k].Slope(r);
         second_moment += w * r * pieces_[k].Curvature(r);
       }
-      t_begin = t_end;
-    }
+    };
+    far_field_.Add(x, last, &first_moment, &second_moment, near);
+    near(last);
     return {x * first_moment, first_moment + second_moment};
   }
 
  private:
+  static std::vector<Cubic> Pieces(const std::vector<double>& radii,
+                                   const std::vector<double>& heights,
+                                   const std::vector<double>& slopes) {
+    std::vector<Cubic> pieces;
+    for (std::size_t k = 0; k + 1 < radii.size(); ++k) {
+      pieces.emplace_back(radii[k], radii[k + 1], heights[k], heights[k + 1], slopes[k],
+                          slopes[k + 1]);
+    }
+    return pieces;
+  }
+
   std::vector<double> radii_;
   std::vector<Cubic> pieces_;
+  FarField far_field_;  // after radii_ and pieces_, which it reads
 };
 
 Status ValidateSamples(const std::vector<double>& radii, const std::vector<double>& heights) {
   if (radii.size() < kMinSamples) {
     return InvalidArgument("radii", "needs at least " + std::to_string(kMinSamples) +
+                                        " samples, got " + std::to_string(radii.size()));
+  }
+  if (radii.size() > kMaxTabulatedSamples) {
+    return InvalidArgument("radii", "allows at most " + std::to_string(kMaxTabulatedSamples) +
                                         " samples, got " + std::to_string(radii.size()));
   }
   if (heights.size() != radii.size()) {
@@ -196,23 +353,24 @@ Result<std::vector<double>> SampleSlopes(const std::vector<double>& radii,
 // a (x - r_k)^(3/2) term into g.
 class GridBuilder {
  public:
-  GridBuilder(const SampledShape& shape, double tolerance, std::size_t max_nodes)
+  GridBuilder(const SampledShape& shape, const TabulatedOptions& options)
       : shape_(shape),
-        tolerance_(tolerance),
-        max_nodes_(max_nodes),
+        tolerance_(options.tolerance),
+        max_nodes_(options.max_grid_nodes),
+        interrupt_(options.interrupt),
         g_max_(shape.EquivalentAt(shape.radii().back()).first) {}
 
-  // Returns false when max_nodes would be exceeded.
-  bool Build() {
+  // ResourceExhausted when max_nodes would be exceeded; the interrupt's status when it fired.
+  Status Build() {
     const std::vector<double>& radii = shape_.radii();
     Node left = At(0);
     for (std::size_t k = 0; k + 1 < radii.size(); ++k) {
       const Node right = At(radii[k + 1]);
-      if (!Refine(left, right, 0)) return false;
+      if (!Refine(left, right, 0)) return stop_;
       left = right;
     }
     Append(left);
-    return true;
+    return OkStatus();
   }
   TabulatedProfile::Grid& grid() { return grid_; }
   double worst_error() const { return worst_error_; }
@@ -230,8 +388,12 @@ class GridBuilder {
     grid_.g.push_back(node.g);
     grid_.slope.push_back(node.slope);
   }
-  // Appends the nodes of [left, right) after refining it.
+  // Appends the nodes of [left, right) after refining it; false (and stop_ set) to stop.
   bool Refine(const Node& left, const Node& right, int depth) {
+    if (Status s = interrupt_.Check(); !s.ok()) {
+      stop_ = s;
+      return false;
+    }
     const Node mid = At(0.5 * (left.x + right.x));
     const Cubic cubic(left.x, right.x, left.g, right.g, left.slope, right.slope);
     const double error = std::abs(cubic.Value(mid.x) - mid.g);
@@ -241,7 +403,12 @@ class GridBuilder {
     if (error <= tolerance_ * scale || depth == kMaxDepth) {
       if (error > 0) worst_error_ = std::max(worst_error_, error / scale);
       Append(left);
-      return grid_.x.size() < max_nodes_;
+      if (grid_.x.size() < max_nodes_) return true;
+      stop_ = ResourceExhausted(
+          "max_grid_nodes", "g needs more than " + std::to_string(max_nodes_) +
+                                " grid nodes to reach the tolerance " + FormatNumber(tolerance_) +
+                                "; ask for a larger tolerance");
+      return false;
     }
     return Refine(left, mid, depth + 1) && Refine(mid, right, depth + 1);
   }
@@ -249,9 +416,11 @@ class GridBuilder {
   const SampledShape& shape_;
   double tolerance_;
   std::size_t max_nodes_;
+  Interrupt interrupt_;
   double g_max_;
   TabulatedProfile::Grid grid_;
   double worst_error_ = 0;
+  Status stop_;  // why Refine stopped
 };
 
 // g must not decrease (the contact must stay a disc, physics.md "MDR"). Slopes within round-off
@@ -449,13 +618,8 @@ Result<ProfilePtr> MakeTabulatedProfile(std::vector<double> radii, std::vector<d
   if (!slopes.ok()) return slopes.status();
   const SampledShape shape(radii, heights, *slopes);
 
-  GridBuilder builder(shape, options.tolerance, options.max_grid_nodes);
-  if (!builder.Build()) {
-    return ResourceExhausted("max_grid_nodes",
-                             "g needs more than " + std::to_string(options.max_grid_nodes) +
-                                 " grid nodes to reach the tolerance " +
-                                 FormatNumber(options.tolerance) + "; ask for a larger tolerance");
-  }
+  GridBuilder builder(shape, options);
+  if (Status s = builder.Build(); !s.ok()) return s;
   TabulatedProfile::Grid& grid = builder.grid();
   if (Status s = RequireIncreasing(grid); !s.ok()) return s;
   const std::size_t nodes = grid.x.size();

@@ -227,6 +227,7 @@ Result<std::vector<RadialValue>> EvaluateAtRadii(const DepthPolyline& springs,
   std::vector<RadialValue> values;
   values.reserve(radii.size());
   for (double r : radii) {
+    if (Status s = options.interrupt.Check(); !s.ok()) return s;
     values.push_back(Evaluate(springs, profile, modulus, r, options, quadrature));
   }
   return values;

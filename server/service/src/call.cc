@@ -16,18 +16,40 @@ grpc::Status CallerOf(const grpc::CallbackServerContext* context,
   return authenticator->Authenticate(context->client_metadata(), caller);
 }
 
-ContactOperations::Interruption InterruptionOf(grpc::CallbackServerContext* context) {
-  return [context]() -> grpc::Status {
-    if (std::chrono::system_clock::now() > context->deadline()) {
-      return GrpcError(grpc::StatusCode::DEADLINE_EXCEEDED, "",
-                       "the deadline passed during the batch; nothing was applied");
-    }
-    if (context->IsCancelled()) {
-      return GrpcError(grpc::StatusCode::CANCELLED, "",
-                       "the call was cancelled during the batch; nothing was applied");
-    }
-    return grpc::Status::OK;
+Interrupt InterruptOf(const grpc::CallbackServerContext* context,
+                      const std::atomic<bool>* call_cancelled,
+                      const std::atomic<bool>* server_stopping) {
+  // gRPC's deadline is on the system clock (infinite: far in the future); the core's is steady.
+  const auto remaining = context->deadline() - std::chrono::system_clock::now();
+  constexpr auto kNoDeadline = std::chrono::hours(24 * 365);
+  const Interrupt::Clock::time_point deadline =
+      remaining > kNoDeadline
+          ? Interrupt::Clock::time_point::max()
+          : Interrupt::Clock::now() +
+                std::chrono::duration_cast<Interrupt::Clock::duration>(remaining);
+  return Interrupt(deadline, call_cancelled, server_stopping);
+}
+
+ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt) {
+  return [interrupt]() -> grpc::Status {
+    const Status status = interrupt.Check();
+    if (status.ok()) return grpc::Status::OK;
+    return GrpcError(status.code() == StatusCode::kDeadlineExceeded
+                         ? grpc::StatusCode::DEADLINE_EXCEEDED
+                         : grpc::StatusCode::CANCELLED,
+                     "",
+                     status.code() == StatusCode::kDeadlineExceeded
+                         ? "the deadline passed during the batch; nothing was applied"
+                         : "the call was cancelled (by the client or a server shutdown) "
+                           "during the batch; nothing was applied");
   };
+}
+
+grpc::Status BusyStatus(const Executor& executor) {
+  return GrpcError(grpc::StatusCode::UNAVAILABLE, "",
+                   "the server is busy: " + std::to_string(executor.max_queued()) +
+                       " calls already wait for its " + std::to_string(executor.workers()) +
+                       " workers (mdrd --max-queued-calls); nothing was run: retry with backoff");
 }
 
 std::string RequestIdOf(const grpc::CallbackServerContext* context,

@@ -1,63 +1,130 @@
 #include "mdr/service/contact_service.h"
 
 #include <chrono>
+#include <memory>
 #include <string>
+#include <utility>
 
 #include "mdr/service/call.h"
+#include "mdr/service/status.h"
 
 namespace mdr::service {
 namespace {
 
-// Handlers run to completion on the calling thread (the work is CPU-bound), so each finishes its
-// reactor before returning it, after one structured log line.
-class UnaryCall {
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A cheap call: runs to completion on gRPC's thread and finishes its reactor before returning
+// it, after one structured log line.
+class InlineCall {
  public:
-  UnaryCall(grpc::CallbackServerContext* context, const char* method, std::string session,
-            const std::string& request_id = "")
+  InlineCall(grpc::CallbackServerContext* context, const char* method, std::string session)
       : context_(context),
         method_(method),
         session_(std::move(session)),
-        request_id_(RequestIdOf(context, request_id)) {}
+        request_id_(RequestIdOf(context)) {}
 
   // Authenticates the caller and, if that succeeds, finishes with operation(caller).
   template <typename Operation>
   grpc::ServerUnaryReactor* Run(const Authenticator* authenticator, Operation operation) const {
     Principal caller;
     grpc::Status status = CallerOf(context_, authenticator, &caller);
-    return Finish(status.ok() ? operation(caller) : status);
-  }
-
- private:
-  grpc::ServerUnaryReactor* Finish(const grpc::Status& status) const {
-    LogCall(method_, session_, request_id_, status,
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+    if (status.ok()) status = operation(caller);
+    LogCall(method_, session_, request_id_, status, SecondsSince(start_));
     grpc::ServerUnaryReactor* reactor = context_->DefaultReactor();
     reactor->Finish(status);
     return reactor;
   }
 
+ private:
   grpc::CallbackServerContext* const context_;
   const char* const method_;
   const std::string session_;
   const std::string request_id_;
-  const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  const Clock::time_point start_ = Clock::now();
+};
+
+// A computing call: its reactor outlives the handler, runs the operation on a worker and is
+// deleted by gRPC's OnDone once finished. OnCancel (client gone, deadline, server shutdown) sets
+// the flag the core's Interrupt reads.
+class QueuedCall final : public grpc::ServerUnaryReactor {
+ public:
+  using Operation = std::function<grpc::Status(const Principal&, const Interrupt&)>;
+
+  QueuedCall(grpc::CallbackServerContext* context, const char* method, std::string session,
+             const std::string& request_id, const std::atomic<bool>& server_stopping)
+      : method_(method),
+        session_(std::move(session)),
+        request_id_(RequestIdOf(context, request_id)),
+        interrupt_(InterruptOf(context, &cancelled_, &server_stopping)) {}
+
+  void OnCancel() override { cancelled_.store(true, std::memory_order_relaxed); }
+  void OnDone() override { delete this; }
+
+  // On a worker: the operation, unless the call was given up while it waited.
+  void Run(const Principal& caller, const Operation& operation) {
+    if (Status waited = interrupt_.Check(); !waited.ok()) {
+      const bool late = waited.code() == StatusCode::kDeadlineExceeded;
+      Complete(GrpcError(late ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED,
+                         "",
+                         late ? "the deadline passed while the call waited for a worker; it was "
+                                "not run"
+                              : "the call was cancelled while it waited for a worker; it was not "
+                                "run"));
+      return;
+    }
+    Complete(operation(caller, interrupt_));
+  }
+
+  void Complete(const grpc::Status& status) {
+    LogCall(method_, session_, request_id_, status, SecondsSince(start_));
+    Finish(status);
+  }
+
+ private:
+  const char* const method_;
+  const std::string session_;
+  const std::string request_id_;
+  const Clock::time_point start_ = Clock::now();
+  std::atomic<bool> cancelled_{false};
+  const Interrupt interrupt_;  // after cancelled_, which it points to
 };
 
 }  // namespace
 
+template <typename Operation>
+grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext* context,
+                                                    const char* method, const std::string& strand,
+                                                    const std::string& request_id,
+                                                    Operation operation) {
+  auto* call = new QueuedCall(context, method, strand, request_id, server_stopping_);
+  Principal caller;
+  if (grpc::Status status = CallerOf(context, authenticator_, &caller); !status.ok()) {
+    call->Complete(status);
+    return call;
+  }
+  const bool queued = executor_.Submit(
+      strand, [call, caller, operation = std::move(operation)] { call->Run(caller, operation); });
+  if (!queued) call->Complete(BusyStatus(executor_));
+  return call;
+}
+
 grpc::ServerUnaryReactor* ContactServiceImpl::CreateSession(grpc::CallbackServerContext* context,
                                                             const v1::CreateSessionRequest* request,
                                                             v1::Session* response) {
-  const UnaryCall call(context, "CreateSession", request->session_id());
-  return call.Run(authenticator_, [&](const Principal& caller) {
-    return operations_.CreateSession(caller, *request, response);
-  });
+  return Queue(context, "CreateSession", "", "",
+               [this, request, response](const Principal& caller, const Interrupt& interrupt) {
+                 return operations_.CreateSession(caller, *request, response, interrupt);
+               });
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::GetSession(grpc::CallbackServerContext* context,
                                                          const v1::GetSessionRequest* request,
                                                          v1::Session* response) {
-  const UnaryCall call(context, "GetSession", request->name());
+  const InlineCall call(context, "GetSession", request->name());
   return call.Run(authenticator_, [&](const Principal& caller) {
     return operations_.GetSession(caller, *request, response);
   });
@@ -66,7 +133,7 @@ grpc::ServerUnaryReactor* ContactServiceImpl::GetSession(grpc::CallbackServerCon
 grpc::ServerUnaryReactor* ContactServiceImpl::ListSessions(grpc::CallbackServerContext* context,
                                                            const v1::ListSessionsRequest* request,
                                                            v1::ListSessionsResponse* response) {
-  const UnaryCall call(context, "ListSessions", "");
+  const InlineCall call(context, "ListSessions", "");
   return call.Run(authenticator_, [&](const Principal& caller) {
     return operations_.ListSessions(caller, *request, response);
   });
@@ -75,7 +142,7 @@ grpc::ServerUnaryReactor* ContactServiceImpl::ListSessions(grpc::CallbackServerC
 grpc::ServerUnaryReactor* ContactServiceImpl::DeleteSession(grpc::CallbackServerContext* context,
                                                             const v1::DeleteSessionRequest* request,
                                                             google::protobuf::Empty* /*response*/) {
-  const UnaryCall call(context, "DeleteSession", request->name());
+  const InlineCall call(context, "DeleteSession", request->name());
   return call.Run(authenticator_, [&](const Principal& caller) {
     return operations_.DeleteSession(caller, *request);
   });
@@ -84,50 +151,53 @@ grpc::ServerUnaryReactor* ContactServiceImpl::DeleteSession(grpc::CallbackServer
 grpc::ServerUnaryReactor* ContactServiceImpl::ExportSession(grpc::CallbackServerContext* context,
                                                             const v1::ExportSessionRequest* request,
                                                             v1::SessionSnapshot* response) {
-  const UnaryCall call(context, "ExportSession", request->name());
-  return call.Run(authenticator_, [&](const Principal& caller) {
-    return operations_.ExportSession(caller, *request, response);
-  });
+  return Queue(context, "ExportSession", request->name(), "",
+               [this, request, response](const Principal& caller, const Interrupt&) {
+                 return operations_.ExportSession(caller, *request, response);
+               });
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::ImportSession(grpc::CallbackServerContext* context,
                                                             const v1::ImportSessionRequest* request,
                                                             v1::Session* response) {
-  const UnaryCall call(context, "ImportSession", request->session_id());
-  return call.Run(authenticator_, [&](const Principal& caller) {
-    return operations_.ImportSession(caller, *request, response);
-  });
+  return Queue(context, "ImportSession", "", "",
+               [this, request, response](const Principal& caller, const Interrupt& interrupt) {
+                 return operations_.ImportSession(caller, *request, response, interrupt);
+               });
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::Apply(grpc::CallbackServerContext* context,
                                                     const v1::ApplyRequest* request,
                                                     v1::ApplyResponse* response) {
-  const UnaryCall call(context, "Apply", request->session(), request->request_id());
-  return call.Run(authenticator_, [&](const Principal& caller) {
-    return operations_.Apply(caller, *request, InterruptionOf(context), response);
-  });
+  return Queue(context, "Apply", request->session(), request->request_id(),
+               [this, request, response](const Principal& caller, const Interrupt& interrupt) {
+                 return operations_.Apply(caller, *request, InterruptionOf(interrupt), response,
+                                          interrupt);
+               });
 }
 
 grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse>*
 ContactServiceImpl::StreamApply(grpc::CallbackServerContext* context) {
-  return new StreamApplyReactor(context, operations_, authenticator_, streams_);
+  return new StreamApplyReactor(context, operations_, authenticator_, streams_, executor_,
+                                server_stopping_);
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::Query(grpc::CallbackServerContext* context,
                                                     const v1::QueryRequest* request,
                                                     v1::QueryResponse* response) {
-  const UnaryCall call(context, "Query", request->session());
-  return call.Run(authenticator_, [&](const Principal& caller) {
-    return operations_.Query(caller, *request, response);
-  });
+  return Queue(context, "Query", request->session(), "",
+               [this, request, response](const Principal& caller, const Interrupt& interrupt) {
+                 return operations_.Query(caller, *request, response, interrupt);
+               });
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::Transform(grpc::CallbackServerContext* context,
                                                         const v1::TransformRequest* request,
                                                         v1::TransformResponse* response) {
-  const UnaryCall call(context, "Transform", "");
-  return call.Run(authenticator_,
-                  [&](const Principal&) { return operations_.Transform(*request, response); });
+  return Queue(context, "Transform", "", "",
+               [this, request, response](const Principal&, const Interrupt&) {
+                 return operations_.Transform(*request, response);
+               });
 }
 
 }  // namespace mdr::service

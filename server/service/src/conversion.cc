@@ -36,13 +36,15 @@ Result<TabulatedOptions::Interpolation> ToInterpolation(
                              std::to_string(interpolation));
 }
 
-Result<ProfilePtr> ToTabulatedProfile(const v1::TabulatedProfile& tabulated) {
+Result<ProfilePtr> ToTabulatedProfile(const v1::TabulatedProfile& tabulated,
+                                      const Interrupt& interrupt) {
   Result<TabulatedOptions::Interpolation> interpolation =
       ToInterpolation(tabulated.interpolation());
   if (!interpolation.ok()) return interpolation.status();
   TabulatedOptions options;
   options.interpolation = *interpolation;
   if (tabulated.has_tolerance()) options.tolerance = tabulated.tolerance();
+  options.interrupt = interrupt;
   Result<ProfilePtr> profile =
       MakeTabulatedProfile({tabulated.radii().begin(), tabulated.radii().end()},
                            {tabulated.heights().begin(), tabulated.heights().end()}, options);
@@ -53,7 +55,7 @@ Result<ProfilePtr> ToTabulatedProfile(const v1::TabulatedProfile& tabulated) {
   return profile;
 }
 
-Result<ProfilePtr> ToProfile(const v1::Scene& scene) {
+Result<ProfilePtr> ToProfile(const v1::Scene& scene, const Interrupt& interrupt) {
   switch (scene.profile_case()) {
     case v1::Scene::kSphere:
       return Prefixed(MakeSphere(scene.sphere().radius()), "scene.sphere");
@@ -65,7 +67,7 @@ Result<ProfilePtr> ToProfile(const v1::Scene& scene) {
     case v1::Scene::kFlatPunch:
       return Prefixed(MakeFlatPunch(scene.flat_punch().radius()), "scene.flat_punch");
     case v1::Scene::kTabulated:
-      return Prefixed(ToTabulatedProfile(scene.tabulated()), "scene.tabulated");
+      return Prefixed(ToTabulatedProfile(scene.tabulated(), interrupt), "scene.tabulated");
     case v1::Scene::PROFILE_NOT_SET:
       break;
   }
@@ -190,8 +192,9 @@ double RadiusForReading(const Profile& profile, double depth) {
 
 }  // namespace
 
-Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices) {
-  Result<ProfilePtr> profile = ToProfile(scene);
+Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices,
+                                      const Interrupt& interrupt) {
+  Result<ProfilePtr> profile = ToProfile(scene, interrupt);
   if (!profile.ok()) return profile.status();
   Result<EffectiveMaterial> material = ToMaterial(scene);
   if (!material.ok()) return material.status();

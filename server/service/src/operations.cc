@@ -62,6 +62,7 @@ Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
 ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hooks)
     : limits_(limits),
       hooks_(std::move(hooks)),
+      budget_(limits.max_state_bytes),
       sessions_(limits.max_sessions, limits.max_sessions_per_token) {}
 
 grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
@@ -117,6 +118,8 @@ grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
   state->journal_sequence = journaled.snapshot_sequence;
   state->journal_snapshot_sequence = journaled.snapshot_sequence;
   state->completed = journaled.completed;
+  state->charge = StateCharge::Force(&budget_, StateBytes(state->contact));
+  state->max_message_bytes = limits_.max_message_bytes;
   auto restored = std::make_shared<Session>(journaled.name, std::move(*state));
   // Replayed exactly as first applied: same steps, same step mask (so the responses remembered
   // for request ids are the same), no deadline and no response limit. Journal::Load checked that
@@ -152,15 +155,31 @@ void ContactOperations::CompactJournal() {
 }
 
 Result<ContactConfig> ContactOperations::SessionConfig(const v1::Scene& scene,
-                                                       const std::string& prefix) const {
-  Result<ContactConfig> config = ToContactConfig(scene, limits_.max_memory_vertices);
+                                                       const std::string& prefix,
+                                                       const Interrupt& interrupt) const {
+  Result<ContactConfig> config = ToContactConfig(scene, limits_.max_memory_vertices, interrupt);
   if (!config.ok()) return config.status().WithFieldPrefix(prefix);
   return config;
 }
 
 grpc::Status ContactOperations::AddSession(const Principal& caller, const std::string& id_field,
                                            const std::string& session_id, SessionState state,
-                                           v1::Session* response, const char* verb) {
+                                           v1::Session* response, const char* verb,
+                                           const std::string& state_field,
+                                           const Interrupt& interrupt) {
+  if (hooks_.before_add_session) hooks_.before_add_session();
+  if (Status s = interrupt.Check(); !s.ok()) return ToGrpcStatus(s);
+  if (grpc::Status status = CheckExportable(
+          ExportBytesBound(state.contact, ExportedSceneBytes(state.scene, state.contact)),
+          limits_.max_message_bytes, state_field);
+      !status.ok()) {
+    return status;
+  }
+  if (grpc::Status status = StateCharge::Take(&budget_, StateBytes(state.contact), &state.charge);
+      !status.ok()) {
+    return GrpcError(status.error_code(), state_field, status.error_message());
+  }
+  state.max_message_bytes = limits_.max_message_bytes;
   std::shared_ptr<Session> session;
   grpc::Status status = sessions_.Create(id_field, session_id, caller, std::move(state), &session);
   if (!status.ok()) return status;
@@ -172,7 +191,7 @@ grpc::Status ContactOperations::AddSession(const Principal& caller, const std::s
 
 grpc::Status ContactOperations::CreateSession(const Principal& caller,
                                               const v1::CreateSessionRequest& request,
-                                              v1::Session* response) {
+                                              v1::Session* response, const Interrupt& interrupt) {
   if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
       !status.ok()) {
     return status;
@@ -180,14 +199,14 @@ grpc::Status ContactOperations::CreateSession(const Principal& caller,
   const v1::Session& resource = request.session();
   Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
   if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("session.limits"));
-  Result<ContactConfig> config = SessionConfig(resource.scene(), "session");
+  Result<ContactConfig> config = SessionConfig(resource.scene(), "session", interrupt);
   if (!config.ok()) return ToGrpcStatus(config.status());
   Result<Contact> contact = Contact::Create(std::move(config).value());
   if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("session.scene"));
   SessionState state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   return AddSession(caller, "session_id", request.session_id(), std::move(state), response,
-                    "created");
+                    "created", "session.scene", interrupt);
 }
 
 grpc::Status ContactOperations::GetSession(const Principal& caller,
@@ -239,7 +258,8 @@ grpc::Status ContactOperations::ExportSession(const Principal& caller,
 }
 
 grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
-                                        std::optional<SessionState>* state) const {
+                                        std::optional<SessionState>* state,
+                                        const Interrupt& interrupt) const {
   if (snapshot.version() != Session::kSnapshotVersion) {
     return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "snapshot.version",
                      "must be " + std::to_string(Session::kSnapshotVersion) +
@@ -256,7 +276,7 @@ grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
   }
   Result<v1::SessionLimits> limits = ResolveSessionLimits(snapshot.limits(), limits_);
   if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("snapshot.limits"));
-  Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot");
+  Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot", interrupt);
   if (!config.ok()) return ToGrpcStatus(config.status());
   if (Status s = CheckSnapshotMethod(snapshot.contact(), config->method); !s.ok()) {
     return ToGrpcStatus(s);
@@ -280,20 +300,22 @@ grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
 
 grpc::Status ContactOperations::ImportSession(const Principal& caller,
                                               const v1::ImportSessionRequest& request,
-                                              v1::Session* response) {
+                                              v1::Session* response, const Interrupt& interrupt) {
   if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
       !status.ok()) {
     return status;
   }
   std::optional<SessionState> state;
-  if (grpc::Status status = StateOf(request.snapshot(), &state); !status.ok()) return status;
+  if (grpc::Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
+    return status;
+  }
   return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,
-                    "imported");
+                    "imported", "snapshot.contact", interrupt);
 }
 
 grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
-                                      const Interruption& interruption,
-                                      v1::ApplyResponse* response) {
+                                      const Interruption& interruption, v1::ApplyResponse* response,
+                                      const Interrupt& interrupt) {
   if (request.steps().empty()) {
     return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "steps", "must contain at least one step");
   }
@@ -313,15 +335,16 @@ grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRe
   constexpr std::size_t kResponseOverheadBytes = 512;
   const std::size_t max_response_bytes =
       static_cast<std::size_t>(limits_.max_message_bytes) - kResponseOverheadBytes;
-  return session->Apply(request, *step_outputs, guard, max_response_bytes, response);
+  return session->Apply(request, *step_outputs, guard, max_response_bytes, response, interrupt);
 }
 
 grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest& request,
-                                      v1::QueryResponse* response) {
+                                      v1::QueryResponse* response, const Interrupt& interrupt) {
   Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
   if (!selection.ok()) return ToGrpcStatus(selection.status());
   Result<RadialSampling> sampling = QuerySampling(request, *selection, limits_.max_message_bytes);
   if (!sampling.ok()) return ToGrpcStatus(sampling.status());
+  sampling->traction_options.interrupt = interrupt;
   std::shared_ptr<Session> session;
   if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
       !status.ok()) {

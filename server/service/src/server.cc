@@ -126,10 +126,12 @@ ContactServer::ContactServer(const ServerOptions& options,
                              std::optional<Authenticator> authenticator)
     : operations_(options.limits, options.test_hooks),
       authenticator_(std::move(authenticator)),
-      service_(operations_, authenticator_ ? &*authenticator_ : nullptr) {}
+      executor_(options.execution),
+      service_(operations_, authenticator_ ? &*authenticator_ : nullptr, executor_, stopping_) {}
 
 Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions& options) {
   if (Status s = ValidateServiceLimits(options.limits); !s.ok()) return s;
+  if (Status s = ValidateExecutorOptions(options.execution); !s.ok()) return s;
   Result<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials(options.tls);
   if (!credentials.ok()) return credentials.status();
   std::optional<Authenticator> authenticator;
@@ -187,8 +189,20 @@ std::shared_ptr<grpc::Channel> ContactServer::InProcessChannel() {
 
 void ContactServer::Shutdown(std::chrono::system_clock::time_point deadline) {
   service_.DrainStreams();
+  // gRPC cancels the calls still running at the deadline, but only the stopping flag reaches the
+  // work they queued: set it then, so Shutdown returns soon after the deadline.
+  std::jthread interrupter([this, deadline](std::stop_token stop) {
+    std::mutex mutex;
+    std::condition_variable_any wakeup;
+    std::unique_lock lock(mutex);
+    wakeup.wait_until(lock, stop, deadline, [] { return false; });
+    if (!stop.stop_requested()) stopping_ = true;
+  });
   server_->Shutdown(deadline);
   server_->Wait();
+  interrupter.request_stop();
+  interrupter.join();
+  executor_.Stop();
   sweeper_.request_stop();
   if (sweeper_.joinable()) sweeper_.join();
   operations_.CompactJournal();

@@ -57,12 +57,16 @@ Session::Session(std::string name, SessionState state)
       limits_(std::move(state.limits)),
       idle_timeout_(IdleTimeout(limits_)),
       create_time_(state.create_time.value_or(TimeUtil::GetCurrentTime())),
+      max_message_bytes_(state.max_message_bytes),
+      scene_bytes_(ExportedSceneBytes(scene_, state.contact)),
       last_used_(Clock::now().time_since_epoch().count()),
       contact_(std::move(state.contact)),
       applied_steps_(state.applied_steps),
       journal_sequence_(state.journal_sequence),
-      journal_snapshot_sequence_(state.journal_snapshot_sequence) {
+      journal_snapshot_sequence_(state.journal_snapshot_sequence),
+      charge_(std::move(state.charge)) {
   for (JournaledRequest& completed : state.completed) completed_.Add(std::move(completed));
+  WriteState(*contact_, applied_steps_, OutputSelection::FullState(), &committed_state_);
 }
 
 Session::Session(std::string name, UnavailableSession unavailable)
@@ -73,6 +77,8 @@ Session::Session(std::string name, UnavailableSession unavailable)
       idle_timeout_(0),
       create_time_(std::move(unavailable.create_time)),
       unavailable_reason_(std::move(unavailable.reason)),
+      max_message_bytes_(0),
+      scene_bytes_(0),
       last_used_(Clock::now().time_since_epoch().count()),
       applied_steps_(0),
       journal_sequence_(0),
@@ -110,7 +116,7 @@ grpc::Status Session::CompactJournalLocked() {
 
 grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                             const StepGuard& guard, std::size_t max_response_bytes,
-                            v1::ApplyResponse* response) {
+                            v1::ApplyResponse* response, const Interrupt& interrupt) {
   if (static_cast<std::uint32_t>(request.steps_size()) > limits_.max_steps_per_batch()) {
     return GrpcError(
         grpc::StatusCode::RESOURCE_EXHAUSTED, "steps",
@@ -134,7 +140,8 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
       return grpc::Status::OK;
     }
   }
-  if (grpc::Status status = RunBatch(request, step_outputs, guard, max_response_bytes, response);
+  if (grpc::Status status =
+          RunBatch(request, step_outputs, guard, max_response_bytes, response, interrupt);
       !status.ok()) {
     response->Clear();
     return status;
@@ -155,12 +162,15 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
 
 grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                                const StepGuard& guard, std::size_t max_response_bytes,
-                               v1::ApplyResponse* response) {
+                               v1::ApplyResponse* response, const Interrupt& interrupt) {
   // A single step is atomic in the core; a longer batch (or any batch that the journal must
-  // accept before it counts) runs on a copy that is committed at the end, so a failing step, an
-  // expired deadline or a failed journal write leaves the session as it was.
+  // accept before it counts, or that may grow the state past its budget: an exact memory) runs
+  // on a copy that is committed at the end, so a failing step, an expired deadline, an exceeded
+  // budget or a failed journal write leaves the session as it was. A grid never changes size.
   std::optional<Contact> copy;
-  if (request.steps_size() > 1 || journal_ != nullptr) copy.emplace(*contact_);
+  if (request.steps_size() > 1 || journal_ != nullptr || contact_->grid_memory() == nullptr) {
+    copy.emplace(*contact_);
+  }
   Contact& target = copy ? *copy : *contact_;
   std::uint64_t applied = applied_steps_;
   double path_error = 0;
@@ -173,7 +183,8 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
                        "the session has applied its maximum of 2^53 steps");
     }
     StepReport report;
-    if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report); !status.ok()) {
+    if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report, interrupt);
+        !status.ok()) {
       return ToGrpcStatus(status.WithFieldPrefix("steps[" + std::to_string(i) + "]"));
     }
     ++applied;
@@ -191,9 +202,12 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
                          std::to_string(max_response_bytes) +
                          "; select fewer fields or split the batch (nothing was applied)");
   }
+  const std::size_t charged = charge_.bytes();
+  if (grpc::Status status = ChargeStateLocked(target); !status.ok()) return status;
   if (journal_ != nullptr) {
     if (grpc::Status status = journal_->AddBatch(name_, journal_sequence_ + 1, request);
         !status.ok()) {
+      (void)charge_.Resize(charged);  // a release: cannot fail
       return status;
     }
   }
@@ -201,9 +215,24 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   if (copy) *contact_ = std::move(*copy);
   applied_steps_ = applied;
   WriteState(*contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
+  {
+    std::lock_guard committed_lock(committed_mutex_);
+    committed_state_ = response->state();
+  }
   response->mutable_error_estimate()->set_path_error(path_error);
   WriteApproximationErrors(*contact_, response->mutable_error_estimate());
   return grpc::Status::OK;
+}
+
+grpc::Status Session::ChargeStateLocked(const Contact& contact) {
+  if (max_message_bytes_ > 0) {
+    if (grpc::Status status =
+            CheckExportable(ExportBytesBound(contact, scene_bytes_), max_message_bytes_, "steps");
+        !status.ok()) {
+      return status;
+    }
+  }
+  return charge_.Resize(StateBytes(contact));
 }
 
 grpc::Status Session::Query(const OutputSelection& selection, const RadialSampling& sampling,
@@ -238,8 +267,8 @@ void Session::ReadResource(v1::Session* resource) const {
     return;
   }
   resource->set_availability(v1::Session::AVAILABILITY_ACTIVE);
-  std::lock_guard lock(mutex_);
-  WriteState(*contact_, applied_steps_, OutputSelection::FullState(), resource->mutable_state());
+  std::lock_guard lock(committed_mutex_);
+  *resource->mutable_state() = committed_state_;
 }
 
 grpc::Status Session::Export(v1::SessionSnapshot* snapshot) const {

@@ -22,6 +22,10 @@ grpc::StatusCode ToGrpcCode(StatusCode code) {
       return grpc::StatusCode::RESOURCE_EXHAUSTED;
     case StatusCode::kNotFound:
       return grpc::StatusCode::NOT_FOUND;
+    case StatusCode::kDeadlineExceeded:
+      return grpc::StatusCode::DEADLINE_EXCEEDED;
+    case StatusCode::kCancelled:
+      return grpc::StatusCode::CANCELLED;
   }
   return grpc::StatusCode::INTERNAL;  // a code added to the core but not mapped here
 }

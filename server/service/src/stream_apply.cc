@@ -36,11 +36,14 @@ std::size_t StreamRegistry::size() const {
 
 StreamApplyReactor::StreamApplyReactor(grpc::CallbackServerContext* context,
                                        ContactOperations& operations,
-                                       const Authenticator* authenticator, StreamRegistry& registry)
+                                       const Authenticator* authenticator, StreamRegistry& registry,
+                                       Executor& executor, const std::atomic<bool>& server_stopping)
     : context_(context),
       operations_(operations),
       registry_(registry),
-      interruption_(InterruptionOf(context)) {
+      executor_(executor),
+      interrupt_(InterruptOf(context, &cancelled_, &server_stopping)),
+      interruption_(InterruptionOf(interrupt_)) {
   // No reaction runs before the handler returns this reactor, so the flags need no lock yet.
   if (grpc::Status status = CallerOf(context, authenticator, &caller_); !status.ok()) {
     LogCall("StreamApply", "", RequestIdOf(context), status, 0);
@@ -82,7 +85,20 @@ void StreamApplyReactor::OnReadDone(bool ok) {
     Start(actions);
     return;
   }
-  v1::StreamApplyResponse response = Answer();
+  // No further read starts while processing_, so request_ stays as read until Process is done.
+  if (executor_.Submit(request_.apply().session(), [this] { Process(); })) return;
+  v1::StreamApplyResponse busy;
+  const grpc::Status refused = BusyStatus(executor_);
+  ToRpcStatus(refused, busy.mutable_status());
+  LogCall("StreamApply", request_.apply().session(),
+          RequestIdOf(context_, request_.apply().request_id()), refused, 0);
+  Answered(std::move(busy));
+}
+
+void StreamApplyReactor::Process() { Answered(Answer()); }
+
+void StreamApplyReactor::Answered(v1::StreamApplyResponse response) {
+  Actions actions;
   {
     std::lock_guard lock(mutex_);
     processing_ = false;
@@ -120,7 +136,7 @@ v1::StreamApplyResponse StreamApplyReactor::Answer() {
   v1::StreamApplyResponse response;
   const v1::ApplyRequest& apply = request_.apply();
   const grpc::Status status =
-      operations_.Apply(caller_, apply, interruption_, response.mutable_result());
+      operations_.Apply(caller_, apply, interruption_, response.mutable_result(), interrupt_);
   if (status.ok()) {
     response.mutable_status();  // present, code OK
   } else {

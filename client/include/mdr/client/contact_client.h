@@ -21,7 +21,9 @@ struct ClientOptions {
   // Deadline of every call (of a whole stream for StreamApply), from the moment it starts.
   std::chrono::milliseconds timeout = std::chrono::seconds(30);
   // Attempts of an idempotent call that fails with UNAVAILABLE (GetSession, ListSessions,
-  // ExportSession, Query, Transform, and Apply with a request_id), >= 1.
+  // ExportSession, Query, Transform, and Apply with a request_id), >= 1. mdrd answers
+  // UNAVAILABLE when it shuts down and when it is busy (its queue of computing calls is full,
+  // nothing was run): both are worth a retry after the backoff.
   int max_attempts = 3;
   // Wait before the second attempt; doubled for every further one.
   std::chrono::milliseconds initial_backoff = std::chrono::milliseconds(100);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "mdr/core/grid_memory.h"
+#include "mdr/core/interrupt.h"
 #include "mdr/core/material.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
@@ -105,8 +106,9 @@ class Contact {
   static Result<Contact> Restore(ContactConfig config, const ContactSnapshot& snapshot);
   ContactSnapshot Snapshot() const;
 
-  // Applies a step atomically: on error the contact is unchanged.
-  Status Apply(const Step& step, StepReport* report = nullptr);
+  // Applies a step atomically: on error the contact is unchanged. interrupt is checked at every
+  // bisection of a curved force path (DeadlineExceeded / Cancelled abandon the step).
+  Status Apply(const Step& step, StepReport* report = nullptr, const Interrupt& interrupt = {});
   // The exact linear step to (delta, ux) without validation of targets beyond finiteness (and,
   // for the grid method, the grid's reach).
   Status MoveTo(double depth, double tangential_displacement, StepReport* report = nullptr);
@@ -161,7 +163,8 @@ class Contact {
   // The increment dux that gives tangential force fx at depth1 after a linear step from the
   // current state.
   Result<double> SolveTangentialIncrement(double depth1, double fx) const;
-  Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report);
+  Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
+                         const Interrupt& interrupt);
 
   static inline const PiecewiseLinearMemory kNoExactMemory{};
 

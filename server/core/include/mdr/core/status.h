@@ -14,6 +14,8 @@ enum class StatusCode {
   kFailedPrecondition,  // valid input that the current state cannot reach (|F_x| > mu F_N ...)
   kResourceExhausted,   // a configured limit was hit (memory pieces, grid size ...)
   kNotFound,
+  kDeadlineExceeded,  // the caller's deadline passed while the work ran (Interrupt)
+  kCancelled,         // the caller (or a server shutdown) cancelled the work (Interrupt)
 };
 
 class Status {
@@ -52,6 +54,13 @@ inline Status FailedPrecondition(std::string field, std::string message) {
 }
 inline Status ResourceExhausted(std::string field, std::string message) {
   return {StatusCode::kResourceExhausted, std::move(field), std::move(message)};
+}
+
+inline Status DeadlineExceeded(std::string field, std::string message) {
+  return {StatusCode::kDeadlineExceeded, std::move(field), std::move(message)};
+}
+inline Status Cancelled(std::string field, std::string message) {
+  return {StatusCode::kCancelled, std::move(field), std::move(message)};
 }
 
 // A value or the Status that explains why there is none.

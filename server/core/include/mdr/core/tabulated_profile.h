@@ -3,8 +3,10 @@
 // f is interpolated by a C1 piecewise cubic (GSL's monotone Steffen spline, or a natural cubic
 // spline); its MDR form g(x) = x integral_0^{pi/2} f'(x sin t) dt (physics.md, "MDR"; the
 // substitution r = x sin t removes the 1/sqrt singularity) is evaluated by Gauss-Legendre
-// quadrature split at the sample radii, where f' is one quadratic, so it is exact to round-off
-// for the interpolated f. g and g' are stored on an internal grid and interpolated between grid
+// quadrature split at the sample radii, where f' is one quadratic, over the sample intervals
+// near x, and by a convergent series of exact moments over groups of intervals far below x
+// (a tree over the intervals: O(log N) per evaluation), so it is exact to round-off for the
+// interpolated f. g and g' are stored on an internal grid and interpolated between grid
 // nodes by cubic Hermite polynomials; the grid starts at the sample radii and is bisected where
 // that interpolation misses g at an interval midpoint by more than TabulatedOptions::tolerance.
 // What no grid can remove is the difference between the interpolated f and the true shape
@@ -20,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/core/interrupt.h"
 #include "mdr/core/profile.h"
 #include "mdr/core/status.h"
 
@@ -39,6 +42,9 @@ struct TabulatedOptions {
   double tolerance = 1e-10;
   // Largest internal grid; ResourceExhausted if the tolerance needs more nodes.
   std::size_t max_grid_nodes = 1 << 18;
+  // Checked before every evaluation of g while the grid is built: DeadlineExceeded / Cancelled
+  // abandon the construction.
+  Interrupt interrupt{};
 };
 
 class TabulatedProfile final : public Profile {
@@ -79,9 +85,14 @@ class TabulatedProfile final : public Profile {
   std::string description_;
 };
 
+// Most samples a profile may have. The construction costs O(N log N) for samples whose spacing
+// varies smoothly (a sampled sphere on one core of the development machine: 1000 samples 0.014 s,
+// 10 000 samples 0.09 s, 100 000 samples 1.0 s; it was O(N^2): 17.6 s for 10 000 samples).
+inline constexpr std::size_t kMaxTabulatedSamples = 100000;
+
 // Samples r_i (radii[0] = 0, strictly increasing, finite) and f(r_i) (heights[0] = 0, finite),
-// at least 4 of each. Errors name the field and index; a profile whose g(x) decreases somewhere
-// is rejected (the contact would not be a disc).
+// at least 4 and at most kMaxTabulatedSamples of each. Errors name the field and index; a profile
+// whose g(x) decreases somewhere is rejected (the contact would not be a disc).
 Result<ProfilePtr> MakeTabulatedProfile(std::vector<double> radii, std::vector<double> heights,
                                         TabulatedOptions options = {});
 

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/interrupt.h"
 #include "mdr/core/material.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
@@ -31,6 +32,9 @@ enum class TractionRoute { kAbel, kJager, kBoth };
 struct TractionOptions {
   TractionRoute routes = TractionRoute::kBoth;  // which routes to evaluate
   double abel_relative_tolerance = 1e-12;       // QAGS target of route (1), in (0, 1e-3]
+  // Checked before every radius of a traction or pressure profile (DeadlineExceeded /
+  // Cancelled abandon it).
+  Interrupt interrupt{};
 };
 
 struct RadialValue {

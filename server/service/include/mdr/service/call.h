@@ -6,9 +6,12 @@
 #include <grpcpp/server_context.h>
 #include <grpcpp/support/status.h>
 
+#include <atomic>
 #include <string>
 
+#include "mdr/core/interrupt.h"
 #include "mdr/service/auth.h"
+#include "mdr/service/executor.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::service {
@@ -18,8 +21,18 @@ namespace mdr::service {
 grpc::Status CallerOf(const grpc::CallbackServerContext* context,
                       const Authenticator* authenticator, Principal* caller);
 
-// DEADLINE_EXCEEDED once the call's deadline has passed, CANCELLED once the client cancelled.
-ContactOperations::Interruption InterruptionOf(grpc::CallbackServerContext* context);
+// The core's Interrupt of a call: its deadline, its own cancellation flag (set by the reactor's
+// OnCancel) and the server's (set when a drain's grace period ends). Both flags must outlive it.
+Interrupt InterruptOf(const grpc::CallbackServerContext* context,
+                      const std::atomic<bool>* call_cancelled,
+                      const std::atomic<bool>* server_stopping);
+
+// A batch's interruption check: DEADLINE_EXCEEDED or CANCELLED when interrupt fires.
+ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt);
+
+// UNAVAILABLE with a retry hint: the executor's queue is full and the call (or stream message)
+// was not run.
+grpc::Status BusyStatus(const Executor& executor);
 
 // explicit_id if set, else the client's "x-request-id" metadata, else "-"; raw client text,
 // for LogCall only.

@@ -1,9 +1,20 @@
 // The gRPC adapter: each handler authenticates the caller (with an Authenticator), hands its
 // request to ContactOperations and finishes the call with the result; StreamApply runs a
 // StreamApplyReactor. No physics and no validation rules here.
+//
+// Execution model (docs/operations.md): the cheap calls (GetSession, ListSessions, DeleteSession)
+// run inline on gRPC's thread. The computing calls (CreateSession, ImportSession, ExportSession,
+// Apply, Query, Transform and every StreamApply message) are authenticated inline and then queued
+// on the Executor, on their session's strand; the worker finishes the reactor. A full queue
+// answers UNAVAILABLE at once; a call whose deadline passed (or that was cancelled) while queued
+// is not run.
 #pragma once
 
+#include <atomic>
+#include <string>
+
 #include "mdr/service/auth.h"
+#include "mdr/service/executor.h"
 #include "mdr/service/operations.h"
 #include "mdr/service/stream_apply.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
@@ -13,8 +24,13 @@ namespace mdr::service {
 class ContactServiceImpl final : public v1::ContactService::CallbackService {
  public:
   // authenticator: null when authentication is off (every caller is anonymous).
-  ContactServiceImpl(ContactOperations& operations, const Authenticator* authenticator)
-      : operations_(operations), authenticator_(authenticator) {}
+  // server_stopping: set when a drain's grace period ends; interrupts every running call.
+  ContactServiceImpl(ContactOperations& operations, const Authenticator* authenticator,
+                     Executor& executor, const std::atomic<bool>& server_stopping)
+      : operations_(operations),
+        authenticator_(authenticator),
+        executor_(executor),
+        server_stopping_(server_stopping) {}
 
   grpc::ServerUnaryReactor* CreateSession(grpc::CallbackServerContext* context,
                                           const v1::CreateSessionRequest* request,
@@ -51,8 +67,17 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
   std::size_t open_streams() const { return streams_.size(); }
 
  private:
+  // Authenticates inline, then runs operation(caller, interrupt) on the executor (strand: the
+  // session name, empty for none) and finishes the call from the worker.
+  template <typename Operation>
+  grpc::ServerUnaryReactor* Queue(grpc::CallbackServerContext* context, const char* method,
+                                  const std::string& strand, const std::string& request_id,
+                                  Operation operation);
+
   ContactOperations& operations_;
   const Authenticator* const authenticator_;
+  Executor& executor_;
+  const std::atomic<bool>& server_stopping_;
   StreamRegistry streams_;
 };
 

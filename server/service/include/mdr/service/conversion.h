@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/interrupt.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/status.h"
@@ -24,8 +25,10 @@ namespace mdr::service {
 // Builds and validates the core's configuration. max_memory_vertices is the server's limit: the
 // default when scene.options leaves it unset (if below the core's default) and the largest value
 // a scene may ask for. Errors name the field from the Scene message down, e.g.
-// "scene.sphere.radius" or "scene.options.force_path_tolerance".
-Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices);
+// "scene.sphere.radius" or "scene.options.force_path_tolerance". interrupt stops a long profile
+// construction (a tabulated profile).
+Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_memory_vertices,
+                                      const Interrupt& interrupt = {});
 
 // A core error whose field names a ContactConfig member ("friction", "grid_size") renamed to its
 // Scene path ("scene.friction", "scene.grid.size"); other statuses unchanged.

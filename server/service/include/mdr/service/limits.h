@@ -25,6 +25,9 @@ struct ServiceLimits {
   // Largest request or response message in bytes (RESOURCE_EXHAUSTED beyond). A batch whose
   // response would be larger fails before it is committed.
   int max_message_bytes = 4 << 20;
+  // Sum of the state bytes of every session (grid springs, memory vertices; state_budget.h) at
+  // most: a create, import or batch beyond fails with RESOURCE_EXHAUSTED. 0: unlimited.
+  std::size_t max_state_bytes = std::size_t{4} << 30;
 };
 
 // Checks the server limits themselves (field names are the mdrd flags).

@@ -13,20 +13,25 @@
 #include <string>
 #include <vector>
 
+#include "mdr/core/interrupt.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/outputs.h"
 #include "mdr/service/session_store.h"
+#include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
 
-// Hooks for tests; both default to off.
+// Hooks for tests; all default to off.
 struct TestHooks {
   // Counts every Query output computed.
   OutputCounters* output_counters = nullptr;
   // Called before every step of every batch (e.g. to make a batch outlast a deadline).
   std::function<void(int step_index)> before_step;
+  // Called by CreateSession and ImportSession after the state is built, before the call's
+  // interrupt is checked a last time and the session is added.
+  std::function<void()> before_add_session;
 };
 
 class ContactOperations {
@@ -45,8 +50,10 @@ class ContactOperations {
   // Writes a snapshot of every session with batches since its last one (a clean shutdown).
   void CompactJournal();
 
+  // interrupt abandons a long construction (a tabulated profile) and is checked once more just
+  // before the session is added: nothing is created after the caller gave up.
   grpc::Status CreateSession(const Principal& caller, const v1::CreateSessionRequest& request,
-                             v1::Session* response);
+                             v1::Session* response, const Interrupt& interrupt = {});
   grpc::Status GetSession(const Principal& caller, const v1::GetSessionRequest& request,
                           v1::Session* response);
   grpc::Status ListSessions(const Principal& caller, const v1::ListSessionsRequest& request,
@@ -54,13 +61,17 @@ class ContactOperations {
   grpc::Status DeleteSession(const Principal& caller, const v1::DeleteSessionRequest& request);
   grpc::Status ExportSession(const Principal& caller, const v1::ExportSessionRequest& request,
                              v1::SessionSnapshot* response);
+  // interrupt: as for CreateSession.
   grpc::Status ImportSession(const Principal& caller, const v1::ImportSessionRequest& request,
-                             v1::Session* response);
-  // interruption is checked before every step.
+                             v1::Session* response, const Interrupt& interrupt = {});
+  // interruption is checked before every step, interrupt inside long steps (curved force
+  // paths).
   grpc::Status Apply(const Principal& caller, const v1::ApplyRequest& request,
-                     const Interruption& interruption, v1::ApplyResponse* response);
+                     const Interruption& interruption, v1::ApplyResponse* response,
+                     const Interrupt& interrupt = {});
+  // interrupt is checked before every radius of a traction or pressure profile.
   grpc::Status Query(const Principal& caller, const v1::QueryRequest& request,
-                     v1::QueryResponse* response);
+                     v1::QueryResponse* response, const Interrupt& interrupt = {});
   // Stateless: no session is read or changed.
   grpc::Status Transform(const v1::TransformRequest& request, v1::TransformResponse* response);
 
@@ -71,14 +82,18 @@ class ContactOperations {
 
  private:
   // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
-  Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix) const;
+  Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix,
+                                      const Interrupt& interrupt) const;
   // The state a snapshot describes (ImportSession and the journal); errors name
   // "snapshot.<field>".
-  grpc::Status StateOf(const v1::SessionSnapshot& snapshot,
-                       std::optional<SessionState>* state) const;
+  grpc::Status StateOf(const v1::SessionSnapshot& snapshot, std::optional<SessionState>* state,
+                       const Interrupt& interrupt = {}) const;
+  // Adds the session unless the interrupt fired, its export would not fit a message or its
+  // state the budget (errors name state_field).
   grpc::Status AddSession(const Principal& caller, const std::string& id_field,
                           const std::string& session_id, SessionState state, v1::Session* response,
-                          const char* verb);
+                          const char* verb, const std::string& state_field,
+                          const Interrupt& interrupt);
   // A journaled session: its snapshot imported, its later batches replayed.
   grpc::Status Restore(const JournaledSession& journaled, std::shared_ptr<Session>* session) const;
   // What is kept of a journaled session that Restore refused (`why`).
@@ -86,6 +101,8 @@ class ContactOperations {
 
   const ServiceLimits limits_;
   const TestHooks hooks_;
+  // Thread-safe; mutable for Restore, which charges the restored sessions.
+  mutable StateBudget budget_;        // before sessions_, whose charges it holds
   std::unique_ptr<Journal> journal_;  // before sessions_: they write to it until destroyed
   SessionStore sessions_;
 };

@@ -6,6 +6,7 @@
 #include <grpcpp/channel.h>
 #include <grpcpp/server.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
@@ -18,6 +19,7 @@
 #include "mdr/core/status.h"
 #include "mdr/service/auth.h"
 #include "mdr/service/contact_service.h"
+#include "mdr/service/executor.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/operations.h"
@@ -43,6 +45,8 @@ struct ServerOptions {
   TlsOptions tls;
   // "name:token" lines (Authenticator); empty: no authentication.
   std::string tokens_file;
+  // The worker pool of the computing calls and its queue bound (contact_service.h).
+  ExecutorOptions execution;
   TestHooks test_hooks;
 };
 
@@ -63,10 +67,13 @@ class ContactServer {
   grpc::Server& server() { return *server_; }
   std::size_t session_count() const { return operations_.session_count(); }
   std::size_t open_streams() const { return service_.open_streams(); }
+  // Computing calls waiting for a worker now.
+  std::size_t queued_calls() const { return executor_.queued(); }
 
   // Graceful stop: open StreamApply streams finish (UNAVAILABLE, after answering the message they
-  // are working on), new calls are refused, running calls get until the deadline and are then
-  // cancelled; then every journaled session is compacted to a snapshot.
+  // are working on), new calls are refused, running and queued calls get until the deadline; then
+  // every call still running is interrupted (its work abandoned, nothing changed: CANCELLED) and
+  // the workers stop; then every journaled session is compacted to a snapshot.
   void Shutdown(std::chrono::system_clock::time_point deadline);
 
  private:
@@ -76,6 +83,9 @@ class ContactServer {
 
   ContactOperations operations_;
   const std::optional<Authenticator> authenticator_;
+  // Set when the drain's grace period ends: interrupts every running computation.
+  std::atomic<bool> stopping_{false};
+  Executor executor_;  // before service_, which queues on it
   ContactServiceImpl service_;
   std::unique_ptr<grpc::Server> server_;
   std::mutex sweeper_mutex_;

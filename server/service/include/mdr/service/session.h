@@ -22,6 +22,7 @@
 #include "mdr/core/contact.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/outputs.h"
+#include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -63,6 +64,10 @@ struct SessionState {
   std::uint64_t journal_snapshot_sequence = 0;
   // The responses remembered for request ids, oldest first.
   std::vector<JournaledRequest> completed{};
+  // The contact's bytes, charged to the server's state budget; every commit resizes it.
+  StateCharge charge{};
+  // The message limit that every export of the session must fit (0: unchecked).
+  int max_message_bytes = 0;
 };
 
 // A journaled session whose state could not be restored at start: kept (with its journal entry)
@@ -114,17 +119,20 @@ class Session {
   // last successful batches returns the stored response (replayed) without applying anything.
   // The request must be validated (non-empty steps, request_id form); the batch size limit is
   // checked here.
-  // A response above max_response_bytes fails with RESOURCE_EXHAUSTED, uncommitted.
+  // A response above max_response_bytes fails with RESOURCE_EXHAUSTED, uncommitted; so does a
+  // batch whose state would exceed the state budget or no longer fit one export message.
+  // interrupt reaches inside long steps (curved force paths).
   grpc::Status Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                      const StepGuard& guard, std::size_t max_response_bytes,
-                     v1::ApplyResponse* response);
+                     v1::ApplyResponse* response, const Interrupt& interrupt = {});
 
   // The selected outputs of the current state; on error (an output this contact does not have)
   // the response is cleared.
   grpc::Status Query(const OutputSelection& selection, const RadialSampling& sampling,
                      OutputCounters* counters, v1::QueryResponse* response) const;
 
-  // Scene, limits, state, creation and expiry time, availability as the API resource.
+  // Scene, limits, state, creation and expiry time, availability as the API resource. The state
+  // is the one after the last committed batch: read without waiting for a batch that is running.
   void ReadResource(v1::Session* resource) const;
   // The exact, portable state; FAILED_PRECONDITION for an unavailable session.
   grpc::Status Export(v1::SessionSnapshot* snapshot) const;
@@ -136,8 +144,10 @@ class Session {
  private:
   grpc::Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                         const StepGuard& guard, std::size_t max_response_bytes,
-                        v1::ApplyResponse* response);
+                        v1::ApplyResponse* response, const Interrupt& interrupt);
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
+  // Resizes charge_ to the contact's state, unless it exceeds the budget or the export limit.
+  grpc::Status ChargeStateLocked(const Contact& contact);
   grpc::Status CompactJournalLocked();
   // FAILED_PRECONDITION naming the reason for an unavailable session; OK otherwise.
   grpc::Status RequireAvailable() const;
@@ -150,6 +160,8 @@ class Session {
   const std::chrono::nanoseconds idle_timeout_;  // 0: never expires
   const google::protobuf::Timestamp create_time_;
   const std::string unavailable_reason_;  // empty: available
+  const int max_message_bytes_;
+  const std::size_t scene_bytes_;
   std::atomic<Clock::rep> last_used_;
 
   mutable std::mutex mutex_;
@@ -159,6 +171,12 @@ class Session {
   Journal* journal_ = nullptr;               // guarded by mutex_
   std::uint64_t journal_sequence_;           // guarded by mutex_
   std::uint64_t journal_snapshot_sequence_;  // guarded by mutex_
+  StateCharge charge_;                       // guarded by mutex_
+
+  // The state after the last commit, for ReadResource (GetSession, ListSessions are cheap calls
+  // that must not wait for a running batch on mutex_).
+  mutable std::mutex committed_mutex_;
+  v1::ContactState committed_state_;  // guarded by committed_mutex_
 };
 
 }  // namespace mdr::service

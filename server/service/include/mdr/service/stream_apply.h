@@ -1,12 +1,15 @@
 // StreamApply: one atomic batch per request message, one response per message, in order
 // (contract in contact_service.proto). Back-pressure: one write in flight and at most
 // kMaxPendingResponses responses queued; reading pauses while the queue is full, so a client that
-// stops reading stalls in HTTP/2 flow control instead of growing the server's memory.
+// stops reading stalls in HTTP/2 flow control instead of growing the server's memory. Each
+// message is applied on the Executor (strand: its session); a message the full queue refuses is
+// answered with UNAVAILABLE in its response status, unapplied, and the stream goes on.
 #pragma once
 
 #include <grpcpp/server_context.h>
 #include <grpcpp/support/server_callback.h>
 
+#include <atomic>
 #include <cstddef>
 #include <deque>
 #include <mutex>
@@ -14,6 +17,7 @@
 #include <set>
 
 #include "mdr/service/auth.h"
+#include "mdr/service/executor.h"
 #include "mdr/service/operations.h"
 #include "mdr/v1/contact_service.pb.h"
 
@@ -46,7 +50,8 @@ class StreamApplyReactor final
   // An unauthenticated stream ends at once (UNAUTHENTICATED); an authenticated one applies
   // every message as its caller.
   StreamApplyReactor(grpc::CallbackServerContext* context, ContactOperations& operations,
-                     const Authenticator* authenticator, StreamRegistry& registry);
+                     const Authenticator* authenticator, StreamRegistry& registry,
+                     Executor& executor, const std::atomic<bool>& server_stopping);
 
   // Stops reading; the stream ends with UNAVAILABLE once the responses already computed are
   // written. Messages read from now on are not applied.
@@ -55,10 +60,15 @@ class StreamApplyReactor final
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
   void OnDone() override;
+  void OnCancel() override { cancelled_.store(true, std::memory_order_relaxed); }
 
  private:
   // Applies the message in request_ and returns its response (errors in response.status).
   v1::StreamApplyResponse Answer();
+  // On a worker: answers the message in request_ and queues its response.
+  void Process();
+  // Queues the response to the message just read and starts what follows.
+  void Answered(v1::StreamApplyResponse response);
   // What to start after a state change, decided under mutex_ and started outside it (gRPC may
   // run reactions inline, so no Start* call is made while holding the lock).
   struct Actions {
@@ -72,9 +82,12 @@ class StreamApplyReactor final
   grpc::CallbackServerContext* const context_;
   ContactOperations& operations_;
   StreamRegistry& registry_;
-  const ContactOperations::Interruption interruption_;
-  Principal caller_;                // set once by the constructor
-  v1::StreamApplyRequest request_;  // the read buffer; one read at a time
+  Executor& executor_;
+  std::atomic<bool> cancelled_{false};
+  const Interrupt interrupt_;                           // after cancelled_, which it reads
+  const ContactOperations::Interruption interruption_;  // interrupt_ between steps
+  Principal caller_;                                    // set once by the constructor
+  v1::StreamApplyRequest request_;                      // the read buffer; one read at a time
 
   std::mutex mutex_;
   std::deque<v1::StreamApplyResponse> pending_;  // front is being written when writing_

@@ -1,0 +1,78 @@
+// What a session's state costs: bytes held in memory (grid springs, memory vertices), charged to
+// the server-wide budget (mdrd --max-state-bytes), and the size of its ExportSession message,
+// which must fit the message limit (mdrd --max-message-bytes) so that every session the server
+// accepts can be exported. Both are checked when a session is created or imported and before
+// every batch is committed: a state that would break either is refused (RESOURCE_EXHAUSTED)
+// and nothing changes.
+#pragma once
+
+#include <grpcpp/support/status.h>
+
+#include <atomic>
+#include <cstddef>
+
+#include "mdr/core/contact.h"
+#include "mdr/v1/scene.pb.h"
+
+namespace mdr::service {
+
+// Bytes of the contact's state in memory: 16 per grid spring (z, u), 17 per memory vertex
+// (z, u, tag).
+std::size_t StateBytes(const Contact& contact);
+
+// The encoded size of the scene an export writes (with the contact's effective options).
+std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact);
+
+// An upper bound of the ExportSession message of a session with this contact, given
+// ExportedSceneBytes (every other field of the snapshot fits in a fixed allowance).
+std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes);
+
+// RESOURCE_EXHAUSTED (field: `field`) when a snapshot of export_bytes would not fit
+// max_message_bytes.
+grpc::Status CheckExportable(std::size_t export_bytes, int max_message_bytes,
+                             const std::string& field);
+
+// The sum of the state bytes of every session, against a limit. Thread-safe.
+class StateBudget {
+ public:
+  // limit_bytes 0: unlimited (still counted).
+  explicit StateBudget(std::size_t limit_bytes) : limit_(limit_bytes) {}
+
+  // Adds `bytes`, or fails with RESOURCE_EXHAUSTED naming the budget and adds nothing.
+  grpc::Status Charge(std::size_t bytes);
+  // Adds `bytes` whatever the limit (sessions restored from the journal are never dropped).
+  void ForceCharge(std::size_t bytes) { used_.fetch_add(bytes); }
+  void Release(std::size_t bytes) { used_.fetch_sub(bytes); }
+  std::size_t used() const { return used_.load(); }
+  std::size_t limit() const { return limit_; }
+
+ private:
+  const std::size_t limit_;
+  std::atomic<std::size_t> used_{0};
+};
+
+// Bytes charged to a budget for one session's state, released when destroyed (move-only).
+class StateCharge {
+ public:
+  StateCharge() = default;
+  // Charges `bytes` to budget (null: nothing to charge); RESOURCE_EXHAUSTED beyond its limit.
+  static grpc::Status Take(StateBudget* budget, std::size_t bytes, StateCharge* charge);
+  // Charges `bytes` whatever the limit (sessions restored from the journal are never dropped).
+  static StateCharge Force(StateBudget* budget, std::size_t bytes);
+
+  StateCharge(StateCharge&& other) noexcept;
+  StateCharge& operator=(StateCharge&& other) noexcept;
+  ~StateCharge();
+
+  // Changes the charge to `bytes`; on failure (RESOURCE_EXHAUSTED) it stays as it was.
+  grpc::Status Resize(std::size_t bytes);
+  std::size_t bytes() const { return bytes_; }
+
+ private:
+  StateCharge(StateBudget* budget, std::size_t bytes) : budget_(budget), bytes_(bytes) {}
+
+  StateBudget* budget_ = nullptr;
+  std::size_t bytes_ = 0;
+};
+
+}  // namespace mdr::service

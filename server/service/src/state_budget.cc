@@ -1,0 +1,105 @@
+#include "mdr/service/state_budget.h"
+
+#include <string>
+#include <utility>
+
+#include "mdr/service/conversion.h"
+#include "mdr/service/status.h"
+
+namespace mdr::service {
+namespace {
+
+constexpr std::size_t kBytesPerSpring = 2 * sizeof(double);
+constexpr std::size_t kBytesPerVertex = 2 * sizeof(double) + 1;
+// Encoded: a packed double per spring; a MemoryVertex message (two doubles, an enum, its tag and
+// length) per vertex; the rest of the snapshot (name, limits, depth, forces, ...) below 1 KiB.
+constexpr std::size_t kExportBytesPerSpring = sizeof(double);
+constexpr std::size_t kExportBytesPerVertex = 24;
+constexpr std::size_t kExportAllowance = 1024;
+
+std::size_t Springs(const Contact& contact) {
+  const GridMemory* grid = contact.grid_memory();
+  return grid == nullptr ? 0 : grid->size();
+}
+
+}  // namespace
+
+std::size_t StateBytes(const Contact& contact) {
+  return Springs(contact) * kBytesPerSpring + contact.memory().vertex_count() * kBytesPerVertex;
+}
+
+std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact) {
+  return WithEffectiveOptions(scene, contact.config()).ByteSizeLong();
+}
+
+std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
+  return scene_bytes + kExportAllowance + Springs(contact) * kExportBytesPerSpring +
+         contact.memory().vertex_count() * kExportBytesPerVertex;
+}
+
+grpc::Status CheckExportable(std::size_t export_bytes, int max_message_bytes,
+                             const std::string& field) {
+  if (export_bytes <= static_cast<std::size_t>(max_message_bytes)) return grpc::Status::OK;
+  return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, field,
+                   "the session's state would take up to " + std::to_string(export_bytes) +
+                       " bytes in an ExportSession message, above the message limit of " +
+                       std::to_string(max_message_bytes) +
+                       " bytes (mdrd --max-message-bytes): use a smaller grid or memory");
+}
+
+grpc::Status StateBudget::Charge(std::size_t bytes) {
+  std::size_t used = used_.load();
+  do {
+    if (limit_ > 0 && used + bytes > limit_) {
+      return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
+                       "the server's session state budget of " + std::to_string(limit_) +
+                           " bytes (mdrd --max-state-bytes) would be exceeded: " +
+                           std::to_string(used) + " bytes are held, this needs " +
+                           std::to_string(bytes) + " more; delete sessions or use smaller ones");
+    }
+  } while (!used_.compare_exchange_weak(used, used + bytes));
+  return grpc::Status::OK;
+}
+
+grpc::Status StateCharge::Take(StateBudget* budget, std::size_t bytes, StateCharge* charge) {
+  if (budget != nullptr) {
+    if (grpc::Status status = budget->Charge(bytes); !status.ok()) return status;
+  }
+  *charge = StateCharge(budget, bytes);
+  return grpc::Status::OK;
+}
+
+StateCharge StateCharge::Force(StateBudget* budget, std::size_t bytes) {
+  if (budget != nullptr) budget->ForceCharge(bytes);
+  return StateCharge(budget, bytes);
+}
+
+StateCharge::StateCharge(StateCharge&& other) noexcept
+    : budget_(std::exchange(other.budget_, nullptr)), bytes_(std::exchange(other.bytes_, 0)) {}
+
+StateCharge& StateCharge::operator=(StateCharge&& other) noexcept {
+  if (this != &other) {
+    if (budget_ != nullptr) budget_->Release(bytes_);
+    budget_ = std::exchange(other.budget_, nullptr);
+    bytes_ = std::exchange(other.bytes_, 0);
+  }
+  return *this;
+}
+
+StateCharge::~StateCharge() {
+  if (budget_ != nullptr) budget_->Release(bytes_);
+}
+
+grpc::Status StateCharge::Resize(std::size_t bytes) {
+  if (budget_ != nullptr) {
+    if (bytes > bytes_) {
+      if (grpc::Status status = budget_->Charge(bytes - bytes_); !status.ok()) return status;
+    } else {
+      budget_->Release(bytes_ - bytes);
+    }
+  }
+  bytes_ = bytes;
+  return grpc::Status::OK;
+}
+
+}  // namespace mdr::service
