@@ -132,6 +132,10 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
   if (Status s = RequireNonNegative("dissipated_energy", snapshot.dissipated_energy); !s.ok()) {
     return s;
   }
+  if (Status s = RequireNonNegative("last_step_dissipation", snapshot.last_step_dissipation);
+      !s.ok()) {
+    return s;
+  }
   contact->ux_ = snapshot.tangential_displacement;
   contact->dissipated_ = snapshot.dissipated_energy;
   contact->last_dissipated_ = snapshot.last_step_dissipation;
@@ -144,13 +148,8 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
   Result<PiecewiseLinearMemory> memory =
       PiecewiseLinearMemory::Restore(snapshot.depth, snapshot.z, snapshot.u, snapshot.tags);
   if (!memory.ok()) return memory.status();
-  const double m = contact->mu_kappa();
-  for (std::size_t i = 0; i < snapshot.z.size(); ++i) {
-    if (std::abs(snapshot.u[i]) > m * (snapshot.depth - snapshot.z[i]) * (1 + 1e-12)) {
-      return InvalidArgument("memory[" + std::to_string(i) + "]",
-                             "u exceeds the Coulomb bound mu kappa (depth - z)");
-    }
-  }
+  // The same mu_kappa() that every step clamps with: the check is exact (memory.h).
+  if (Status s = memory->CheckCoulomb(contact->mu_kappa()); !s.ok()) return s;
   contact->memory_ = std::move(memory).value();
   return contact;
 }
@@ -254,6 +253,9 @@ double Contact::LinearStep(double depth1, double ux1, double dux) {
   } else {
     per_modulus = std::get<GridMemory>(memory_).Step(depth1, dux, mu_kappa(), config_.track_energy);
   }
+  // Every spring's dissipation is >= 0; the sum's round-off must not make it negative, or the
+  // state would not pass Restore (energies >= 0).
+  per_modulus = std::max(per_modulus, 0.0);
   ux_ = ux1;
   const double dissipated = config_.material.g_star * per_modulus;
   dissipated_ += dissipated;
