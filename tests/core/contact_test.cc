@@ -273,6 +273,52 @@ TEST(ContactSnapshotTest, RejectsInvalidSnapshots) {
   EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "tangential_displacement");
 }
 
+// Restore checks the bound exactly (every engine state satisfies it, stability_test.cc), so a
+// real violation is caught however small, and the tags must match the values.
+TEST(ContactSnapshotTest, RejectsStatesOffTheCoulombBoundOrTheirTags) {
+  Contact a = testing::SteelSphere();
+  ASSERT_TRUE(a.MoveTo(1e-6, 0).ok());
+  ASSERT_TRUE(a.MoveTo(1e-6, 0.2 * a.mu_kappa() * 1e-6).ok());  // partial slip: an upper annulus
+  const ContactSnapshot good = a.Snapshot();
+  ASSERT_TRUE(Contact::Restore(a.config(), good).ok());
+  std::size_t on_upper = good.tags.size(), inside = good.tags.size();
+  for (std::size_t i = 0; i < good.tags.size(); ++i) {
+    if (good.tags[i] == kOnUpper && good.z[i] > 0) on_upper = i;
+    if (good.tags[i] == kInside) inside = i;
+  }
+  ASSERT_LT(on_upper, good.tags.size());
+  ASSERT_LT(inside, good.tags.size());
+  auto restore_error = [&](const ContactSnapshot& s) {
+    const Status status = Contact::Restore(a.config(), s).status();
+    return status.field() + ": " + status.message();
+  };
+  ContactSnapshot s = good;
+  const double bound = a.mu_kappa() * (s.depth - s.z[on_upper]);
+  s.u[on_upper] = bound * (1 + 1e-9);
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(on_upper) + "]: |u| = "))
+      << restore_error(s);
+  s = good;
+  s.tags[inside] = kOnUpper;  // a sticking vertex claiming to slip
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(inside) +
+                                           "]: is tagged on the upper bound"))
+      << restore_error(s);
+  s = good;
+  s.tags[on_upper] = kOnLower;
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(on_upper) +
+                                           "]: is tagged on the lower bound"))
+      << restore_error(s);
+  s = good;
+  s.tags[inside] = kOnBoth;
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(inside) + "]: tag 3"))
+      << restore_error(s);
+  s = good;
+  s.last_step_dissipation = -1e-30;
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "last_step_dissipation");
+  s = good;
+  s.dissipated_energy = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "dissipated_energy");
+}
+
 }  // namespace
 }  // namespace mdr
 

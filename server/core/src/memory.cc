@@ -79,16 +79,15 @@ struct Vertex {
 // slip side, which is the thin one when slip starts. So that the vertex satisfies the bound as
 // Restore evaluates it, exactly, z then moves by ulps toward the inside end until
 // |v(z)| <= bound(z); if a few ulps do not do it, u = sigma * bound(z).
-std::optional<Vertex> PlaceCrossing(double za, double ua, double zb, double ub, double t,
-                                    int sigma, bool a_inside, double z_prev, double mu_kappa,
-                                    double depth1) {
+std::optional<Vertex> PlaceCrossing(double za, double ua, double zb, double ub, double t, int sigma,
+                                    bool a_inside, double z_prev, double mu_kappa, double depth1) {
   double z = za + t * (zb - za);
   if (!(z > z_prev && z < zb)) return std::nullopt;  // rounding put it on a vertex
   auto v = [&](double at) {
     return a_inside ? Interpolate(za, ua, zb, ub, at) : Interpolate(zb, ub, za, ua, at);
   };
-  const double inward = a_inside ? -std::numeric_limits<double>::infinity()
-                                 : std::numeric_limits<double>::infinity();
+  const double inward =
+      a_inside ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
   double u = v(z);
   for (int k = 0; k < kMaxCrossingNudges && std::abs(u) > CoulombBound(mu_kappa, depth1, z); ++k) {
     const double next = std::nextafter(z, inward);
@@ -182,8 +181,8 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
     if (count == 2 && t[1] < t[0]) std::swap(t[0], t[1]), std::swap(sign[0], sign[1]);
     for (int k = 0; k < count; ++k) {
       const bool a_inside = sign[k] > 0 ? hi_a < 0 : lo_a > 0;
-      const std::optional<Vertex> crossing = PlaceCrossing(
-          za, u_[i], zb, u_[i + 1], t[k], sign[k], a_inside, rz.back(), mu_kappa, depth1);
+      const std::optional<Vertex> crossing = PlaceCrossing(za, u_[i], zb, u_[i + 1], t[k], sign[k],
+                                                           a_inside, rz.back(), mu_kappa, depth1);
       if (!crossing) continue;
       rz.push_back(crossing->z);
       rv.push_back(crossing->u);
@@ -435,13 +434,14 @@ Result<PiecewiseLinearMemory> PiecewiseLinearMemory::Restore(double depth, std::
   return memory;
 }
 
-
 double PiecewiseLinearMemory::BoundTagTolerance(std::size_t i, double mu_kappa) const {
   // Steepest neighbouring segment: the crossing was placed on one of them (or on a segment
   // collinear with one to 16 eps, if a merge removed its inside end).
   double slope = 0;
   if (i > 0) slope = std::abs((u_[i] - u_[i - 1]) / (z_[i] - z_[i - 1]));
-  if (i + 1 < z_.size()) slope = std::max(slope, std::abs((u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i])));
+  if (i + 1 < z_.size()) {
+    slope = std::max(slope, std::abs((u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i])));
+  }
   // z is off the exact crossing by the rounding of t (~3 eps mu_kappa depth / |v' + mu_kappa|),
   // of za + t (zb - za) (2 eps depth) and up to kMaxCrossingNudges ulps; u adds the interpolation
   // (eps (|u| + |v'| depth)) and bound(z) its own (eps bound). 32 covers the sum with margin.
@@ -454,23 +454,25 @@ Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
     const double bound = CoulombBound(mu_kappa, depth_, z_[i]);
     const std::string at = "memory[" + std::to_string(i) + "]";
     if (!(std::abs(u_[i]) <= bound)) {
-      return InvalidArgument(at, "|u| = " + FormatNumber(std::abs(u_[i])) +
-                                     " exceeds the Coulomb bound mu kappa (depth - z) = " +
-                                     FormatNumber(bound));
+      return InvalidArgument(
+          at, "|u| = " + FormatNumber(std::abs(u_[i])) +
+                  " exceeds the Coulomb bound mu kappa (depth - z) = " + FormatNumber(bound));
     }
     if (tag_[i] == kOnBoth) {
       if (bound != 0) {
-        return InvalidArgument(at, "tag 3 (on both bounds) needs a zero bound (z = depth or "
-                                   "mu = 0), got mu kappa (depth - z) = " + FormatNumber(bound));
+        return InvalidArgument(at,
+                               "tag 3 (on both bounds) needs a zero bound (z = depth or "
+                               "mu = 0), got mu kappa (depth - z) = " +
+                                   FormatNumber(bound));
       }
       continue;
     }
     const int sigma = tag_[i] == kOnUpper ? +1 : tag_[i] == kOnLower ? -1 : 0;
     if (sigma != 0 && sigma * u_[i] < bound - BoundTagTolerance(i, mu_kappa)) {
       return InvalidArgument(at, std::string("is tagged on the ") +
-                                     (sigma > 0 ? "upper" : "lower") + " bound but u = " +
-                                     FormatNumber(u_[i]) + " is off it (bound " +
-                                     FormatNumber(bound) + ", tolerance " +
+                                     (sigma > 0 ? "upper" : "lower") +
+                                     " bound but u = " + FormatNumber(u_[i]) +
+                                     " is off it (bound " + FormatNumber(bound) + ", tolerance " +
                                      FormatNumber(BoundTagTolerance(i, mu_kappa)) + ")");
     }
   }

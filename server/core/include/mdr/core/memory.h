@@ -24,7 +24,9 @@ enum BoundTag : std::uint8_t { kInside = 0, kOnUpper = 1, kOnLower = 2, kOnBoth 
 // The Coulomb bound mu_kappa * (depth - z) in the one expression that the step clamps against
 // and that restoring a snapshot checks, so that every state the engine makes passes the check
 // exactly, with no tolerance (docs/engine.md, "Restorable states").
-inline double CoulombBound(double mu_kappa, double depth, double z) { return mu_kappa * (depth - z); }
+inline double CoulombBound(double mu_kappa, double depth, double z) {
+  return mu_kappa * (depth - z);
+}
 
 // One memory piece, u = intercept + slope * g(x) for x in [x_begin, x_end] (physics.md:
 // u = A_k + B_k g(x)); bound is the tag shared by both ends (kInside: sticking piece).
