@@ -336,6 +336,42 @@ Contact SphereWithTolerance(double tolerance) {
   return std::move(Contact::Create(config)).value();
 }
 
+// path_error (the largest local |one sub-step - two half sub-steps|) must bound the actual error
+// of the memory against a much finer reference: a normal force ramp with a small tangential
+// increment, whose entering springs stick and remember when they entered.
+TEST(ForcePathTest, PathErrorBoundsTheErrorAgainstAFineReference) {
+  for (double fn1 : {130.0, 400.0}) {
+    for (double relative : {0.003, -0.05}) {
+      auto run = [&](double tolerance, StepReport* report) {
+        Contact c = SphereWithTolerance(tolerance);
+        EXPECT_TRUE(c.Apply(testing::NormalForceStep(100)).ok());
+        EXPECT_TRUE(c.Apply(testing::TangentialForceStep(10)).ok());
+        Step step = testing::NormalForceStep(fn1);
+        step.tangential_value = relative * 2 * c.mu_kappa() * c.depth();
+        EXPECT_TRUE(c.Apply(step, report).ok());
+        return c;
+      };
+      StepReport fine_report;
+      const Contact fine = run(1e-8, &fine_report);
+      for (double tolerance : {1e-3, 1e-5}) {
+        StepReport report;
+        const Contact c = run(tolerance, &report);
+        ASSERT_GT(report.substeps, 1);
+        double actual = 0;
+        for (const auto* m : {&c.memory(), &fine.memory()}) {
+          for (double z : m->z()) {
+            actual = std::max(actual, std::abs(c.memory().UAtDepth(z) - fine.memory().UAtDepth(z)));
+          }
+        }
+        actual /= c.mu_kappa() * c.depth();
+        EXPECT_LE(actual, report.path_error + fine_report.path_error)
+            << "F_N " << fn1 << " du " << relative << " tolerance " << tolerance;
+        EXPECT_GE(actual, 0.1 * report.path_error) << "the estimate stays tight";
+      }
+    }
+  }
+}
+
 TEST(ForcePathTest, ProportionalForceLoadingIsObliqueDisplacementLoading) {
   // F_x/F_N = r/kappa from zero maps to the straight path ux = r delta (complete stick), so the
   // adaptive path control must accept the first bisection and land on the oblique state.
