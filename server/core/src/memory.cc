@@ -456,7 +456,8 @@ Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
     if (!(std::abs(u_[i]) <= bound)) {
       return InvalidArgument(
           at, "|u| = " + FormatNumber(std::abs(u_[i])) +
-                  " exceeds the Coulomb bound mu kappa (depth - z) = " + FormatNumber(bound));
+                  " exceeds the Coulomb bound mu kappa (depth - z) = " + FormatNumber(bound) +
+                  " by " + FormatNumber(std::abs(u_[i]) - bound));
     }
     if (tag_[i] == kOnBoth) {
       if (bound != 0) {
