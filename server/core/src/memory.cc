@@ -3,7 +3,9 @@
 #include <gsl/gsl_integration.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <string>
@@ -86,16 +88,18 @@ std::optional<Vertex> PlaceCrossing(double za, double ua, double zb, double ub, 
   auto v = [&](double at) {
     return a_inside ? Interpolate(za, ua, zb, ub, at) : Interpolate(zb, ub, za, ua, at);
   };
-  const double inward =
-      a_inside ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+  // z > z_prev >= 0: the neighbouring double is one step of the bit pattern (std::nextafter
+  // is a library call, and this runs at every crossing).
+  const std::int64_t inward = a_inside ? -1 : 1;
   double u = v(z);
-  for (int k = 0; k < kMaxCrossingNudges && std::abs(u) > CoulombBound(mu_kappa, depth1, z); ++k) {
-    const double next = std::nextafter(z, inward);
+  double bound = CoulombBound(mu_kappa, depth1, z);
+  for (int k = 0; k < kMaxCrossingNudges && std::abs(u) > bound; ++k) {
+    const double next = std::bit_cast<double>(std::bit_cast<std::int64_t>(z) + inward);
     if (!(next > z_prev && next < zb)) break;
     z = next;
     u = v(z);
+    bound = CoulombBound(mu_kappa, depth1, z);
   }
-  const double bound = CoulombBound(mu_kappa, depth1, z);
   if (std::abs(u) > bound) u = sigma * bound;
   return Vertex{z, u};
 }
