@@ -475,3 +475,28 @@ TEST(ForcePathTest, UnreachableIntermediateTargetFailsAtomically) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+// A crossing vertex sits up to a few ulps inside its bound (so that every state restores); a step
+// that leaves it there (here: a zero step) must keep the slip annulus slipping. Before, half of
+// these states lost their annulus from the stiffness and the slip intervals.
+TEST(ContactTest, AZeroStepKeepsTheSlipZone) {
+  for (int k = 0; k < 500; ++k) {
+    Contact c = testing::MakeContact(*MakeSphere(0.005), *ElasticPair(210e9, 0.3, 210e9, 0.3), 0.3,
+                                     /*energy=*/false);
+    ASSERT_TRUE(c.MoveTo(2e-6, 0).ok());
+    const double amplitude = 1e-6 * std::pow(1e6, k / 499.0) * c.mu_kappa() * 2e-6;
+    ASSERT_TRUE(c.MoveTo(2e-6, amplitude).ok());
+    const TangentialStiffness before = c.tangential_stiffness();
+    const std::size_t slip_zones = c.slip_intervals().size();
+    ASSERT_EQ(slip_zones, 1u);
+    ASSERT_TRUE(c.MoveTo(2e-6, amplitude).ok());
+    EXPECT_EQ(c.tangential_stiffness().positive, before.positive) << "amplitude " << amplitude;
+    EXPECT_EQ(c.slip_intervals().size(), slip_zones);
+  }
+}
+
+}  // namespace
+}  // namespace mdr

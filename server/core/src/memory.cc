@@ -69,6 +69,9 @@ double Interpolate(double za, double ua, double zb, double ub, double z) {
 
 // Ulps a crossing vertex may move toward the inside before it is put on the bound line instead.
 constexpr int kMaxCrossingNudges = 4;
+// How far inside its bound (in eps * mu_kappa * depth) a vertex that was on it still counts as on
+// it: a crossing's own rounding (memory.h, BoundTagTolerance, for neighbour slopes up to mu_kappa).
+constexpr double kStayOnBoundUlps = 32;
 
 struct Vertex {
   double z, u;
@@ -165,14 +168,17 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& tags = next_.tag;
+  auto& was = next_.was;
   rz.clear();
   rv.clear();
   tags.clear();
+  was.clear();
   const std::size_t n = z_.size();
   for (std::size_t i = 0; i < n; ++i) {
     rz.push_back(z_[i]);
     rv.push_back(u_[i]);
     tags.push_back(kInside);
+    was.push_back(tag_[i]);
     if (i + 1 == n) break;
     const double za = z_[i], zb = z_[i + 1];
     const double hi_a = u_[i] - bound(za), hi_b = u_[i + 1] - bound(zb);
@@ -191,6 +197,7 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
       rz.push_back(crossing->z);
       rv.push_back(crossing->u);
       tags.push_back(sign[k] > 0 ? kOnUpper : kOnLower);
+      was.push_back(kInside);
     }
   }
 
@@ -233,17 +240,21 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
     }
   }
 
-  // 3. Clamp and tag the original vertices.
+  // 3. Clamp and tag the original vertices. A vertex that was on a bound and is still on it to
+  // rounding stays there: a crossing sits up to a few ulps inside its bound (PlaceCrossing), and
+  // a step that does not move it off (dux = 0, a depth held) must not turn its slip zone into a
+  // stick zone (tangential stiffness, slip intervals).
+  const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
   for (std::size_t i = 0; i < rz.size(); ++i) {
     if (tags[i] != kInside) continue;  // a crossing, already on its bound
     const double b = bound(rz[i]);
     if (b <= 0) {
       rv[i] = 0;
       tags[i] = kOnBoth;
-    } else if (rv[i] >= b) {
+    } else if (rv[i] >= b || ((was[i] & kOnUpper) && rv[i] >= b - stay)) {
       rv[i] = b;
       tags[i] = kOnUpper;
-    } else if (rv[i] <= -b) {
+    } else if (rv[i] <= -b || ((was[i] & kOnLower) && rv[i] <= -b + stay)) {
       rv[i] = -b;
       tags[i] = kOnLower;
     }

@@ -107,6 +107,7 @@ class PiecewiseLinearMemory {
     Scratch& operator=(const Scratch&) { return *this; }
     std::vector<double> z, u;
     std::vector<std::uint8_t> tag;
+    std::vector<std::uint8_t> was;  // each refined vertex's tag before the step (crossings: 0)
   };
   Scratch next_;
 };
