@@ -273,6 +273,52 @@ TEST(ContactSnapshotTest, RejectsInvalidSnapshots) {
   EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "tangential_displacement");
 }
 
+// Restore checks the bound exactly (every engine state satisfies it, stability_test.cc), so a
+// real violation is caught however small, and the tags must match the values.
+TEST(ContactSnapshotTest, RejectsStatesOffTheCoulombBoundOrTheirTags) {
+  Contact a = testing::SteelSphere();
+  ASSERT_TRUE(a.MoveTo(1e-6, 0).ok());
+  ASSERT_TRUE(a.MoveTo(1e-6, 0.2 * a.mu_kappa() * 1e-6).ok());  // partial slip: an upper annulus
+  const ContactSnapshot good = a.Snapshot();
+  ASSERT_TRUE(Contact::Restore(a.config(), good).ok());
+  std::size_t on_upper = good.tags.size(), inside = good.tags.size();
+  for (std::size_t i = 0; i < good.tags.size(); ++i) {
+    if (good.tags[i] == kOnUpper && good.z[i] > 0) on_upper = i;
+    if (good.tags[i] == kInside) inside = i;
+  }
+  ASSERT_LT(on_upper, good.tags.size());
+  ASSERT_LT(inside, good.tags.size());
+  auto restore_error = [&](const ContactSnapshot& s) {
+    const Status status = Contact::Restore(a.config(), s).status();
+    return status.field() + ": " + status.message();
+  };
+  ContactSnapshot s = good;
+  const double bound = a.mu_kappa() * (s.depth - s.z[on_upper]);
+  s.u[on_upper] = bound * (1 + 1e-9);
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(on_upper) + "]: |u| = "))
+      << restore_error(s);
+  s = good;
+  s.tags[inside] = kOnUpper;  // a sticking vertex claiming to slip
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(inside) +
+                                           "]: is tagged on the upper bound"))
+      << restore_error(s);
+  s = good;
+  s.tags[on_upper] = kOnLower;
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(on_upper) +
+                                           "]: is tagged on the lower bound"))
+      << restore_error(s);
+  s = good;
+  s.tags[inside] = kOnBoth;
+  EXPECT_TRUE(restore_error(s).starts_with("memory[" + std::to_string(inside) + "]: tag 3"))
+      << restore_error(s);
+  s = good;
+  s.last_step_dissipation = -1e-30;
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "last_step_dissipation");
+  s = good;
+  s.dissipated_energy = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(Contact::Restore(a.config(), s).status().field(), "dissipated_energy");
+}
+
 }  // namespace
 }  // namespace mdr
 
@@ -288,6 +334,42 @@ Contact SphereWithTolerance(double tolerance) {
   config.friction = 0.3;
   config.force_path_tolerance = tolerance;
   return std::move(Contact::Create(config)).value();
+}
+
+// path_error (the largest local |one sub-step - two half sub-steps|) must bound the actual error
+// of the memory against a much finer reference: a normal force ramp with a small tangential
+// increment, whose entering springs stick and remember when they entered.
+TEST(ForcePathTest, PathErrorBoundsTheErrorAgainstAFineReference) {
+  for (double fn1 : {130.0, 400.0}) {
+    for (double relative : {0.003, -0.05}) {
+      auto run = [&](double tolerance, StepReport* report) {
+        Contact c = SphereWithTolerance(tolerance);
+        EXPECT_TRUE(c.Apply(testing::NormalForceStep(100)).ok());
+        EXPECT_TRUE(c.Apply(testing::TangentialForceStep(10)).ok());
+        Step step = testing::NormalForceStep(fn1);
+        step.tangential_value = relative * 2 * c.mu_kappa() * c.depth();
+        EXPECT_TRUE(c.Apply(step, report).ok());
+        return c;
+      };
+      StepReport fine_report;
+      const Contact fine = run(1e-8, &fine_report);
+      for (double tolerance : {1e-3, 1e-5}) {
+        StepReport report;
+        const Contact c = run(tolerance, &report);
+        ASSERT_GT(report.substeps, 1);
+        double actual = 0;
+        for (const auto* m : {&c.memory(), &fine.memory()}) {
+          for (double z : m->z()) {
+            actual = std::max(actual, std::abs(c.memory().UAtDepth(z) - fine.memory().UAtDepth(z)));
+          }
+        }
+        actual /= c.mu_kappa() * c.depth();
+        EXPECT_LE(actual, report.path_error + fine_report.path_error)
+            << "F_N " << fn1 << " du " << relative << " tolerance " << tolerance;
+        EXPECT_GE(actual, 0.1 * report.path_error) << "the estimate stays tight";
+      }
+    }
+  }
 }
 
 TEST(ForcePathTest, ProportionalForceLoadingIsObliqueDisplacementLoading) {
@@ -389,6 +471,31 @@ TEST(ForcePathTest, UnreachableIntermediateTargetFailsAtomically) {
   EXPECT_EQ(c.Snapshot().z, before.z);
   EXPECT_EQ(c.Snapshot().u, before.u);
   EXPECT_EQ(c.depth(), before.depth);
+}
+
+}  // namespace
+}  // namespace mdr
+
+namespace mdr {
+namespace {
+
+// A crossing vertex sits up to a few ulps inside its bound (so that every state restores); a step
+// that leaves it there (here: a zero step) must keep the slip annulus slipping. Before, half of
+// these states lost their annulus from the stiffness and the slip intervals.
+TEST(ContactTest, AZeroStepKeepsTheSlipZone) {
+  for (int k = 0; k < 500; ++k) {
+    Contact c = testing::MakeContact(*MakeSphere(0.005), *ElasticPair(210e9, 0.3, 210e9, 0.3), 0.3,
+                                     /*energy=*/false);
+    ASSERT_TRUE(c.MoveTo(2e-6, 0).ok());
+    const double amplitude = 1e-6 * std::pow(1e6, k / 499.0) * c.mu_kappa() * 2e-6;
+    ASSERT_TRUE(c.MoveTo(2e-6, amplitude).ok());
+    const TangentialStiffness before = c.tangential_stiffness();
+    const std::size_t slip_zones = c.slip_intervals().size();
+    ASSERT_EQ(slip_zones, 1u);
+    ASSERT_TRUE(c.MoveTo(2e-6, amplitude).ok());
+    EXPECT_EQ(c.tangential_stiffness().positive, before.positive) << "amplitude " << amplitude;
+    EXPECT_EQ(c.slip_intervals().size(), slip_zones);
+  }
 }
 
 }  // namespace

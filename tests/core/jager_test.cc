@@ -73,6 +73,47 @@ TEST(JagerWeightsTest, CattaneoMindlinIsOneOnTheSlipAnnulusAndZeroInTheStickZone
   EXPECT_EQ(SampleJagerWeights(w, {0, std::nan("")}).status().field(), "radii[1]");
 }
 
+// Issue #11: with mu kappa ~ 1e6 and a thin slip annulus the rounded crossing vertex made the
+// annulus weigh 1.0000000001841545. A piece on a bound weighs exactly +-1, and no weight leaves
+// [-1, 1], over random histories across the whole friction range (all analytic profiles).
+TEST(JagerWeightsTest, PiecesOnABoundWeighExactlyOneAndNoWeightLeavesTheUnitRange) {
+  const EffectiveMaterial steel = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  for (double relative : {1e-9, 1e-7, 1e-4}) {
+    Contact c = MakeContact(*MakeSphere(0.005), steel, 1e6 / steel.kappa(), /*energy=*/false);
+    ASSERT_TRUE(c.MoveTo(2e-6, 0).ok());
+    ASSERT_TRUE(c.MoveTo(2e-6, relative * c.mu_kappa() * 2e-6).ok());
+    const JagerWeights w = *ComputeJagerWeights(c);
+    ASSERT_EQ(w.intervals.size(), 2u) << relative;
+    EXPECT_EQ(w.intervals[0].weight, 0);
+    EXPECT_EQ(w.intervals[1].weight, 1) << relative;
+  }
+  testing::RandomScene random{std::mt19937_64(3)};
+  int bound_pieces = 0;
+  for (int history = 0; history < 400; ++history) {
+    const double mu = std::max(random.Friction(), 1e-9);
+    Contact c = MakeContact(random.Profile(), steel, mu, /*energy=*/false);
+    const double d0 = random.LogUniform(1e-9, 1e-4), slip = c.mu_kappa() * d0;
+    testing::RandomHistory history_steps{.rng = std::mt19937_64(history), .d0 = d0, .slip = slip};
+    for (int i = 0; i < 40; ++i) {
+      auto [depth, ux] = history_steps.Next();
+      ASSERT_TRUE(c.MoveTo(depth, ux + slip * random.RelativeAmplitude() * 1e-3).ok());
+      const JagerWeights w = *ComputeJagerWeights(c);
+      ASSERT_LE(std::abs(w.edge_weight), 1);
+      for (const MemoryPiece& piece : c.memory_pieces()) {
+        if (piece.bound != kOnUpper && piece.bound != kOnLower) continue;
+        if (!(piece.x_end > piece.x_begin) || piece.z_end == piece.z_begin) continue;  // atom
+        ++bound_pieces;
+        ASSERT_EQ(w.At(0.5 * (piece.x_begin + piece.x_end)), piece.bound == kOnUpper ? 1 : -1)
+            << c.config().profile->Describe() << " mu " << mu;
+      }
+      for (const WeightInterval& interval : w.intervals) {
+        ASSERT_LE(std::abs(interval.weight), 1) << "history " << history;
+      }
+    }
+  }
+  EXPECT_GT(bound_pieces, 1000);
+}
+
 TEST(JagerWeightsTest, FlatPunchWeightSitsAtTheEdge) {
   const double a0 = 1e-3, d = 1e-6;
   Contact c = MakeContact(*MakeFlatPunch(a0), *RigidOnHalfSpace(1e9, 0.3), 0.4);

@@ -14,28 +14,7 @@
 namespace mdr {
 namespace {
 
-struct RandomScene {
-  std::mt19937_64 rng;
-  double Uniform(double lo, double hi) {
-    return std::uniform_real_distribution<double>(lo, hi)(rng);
-  }
-  double LogUniform(double lo, double hi) { return lo * std::pow(hi / lo, Uniform(0, 1)); }
-
-  ProfilePtr Profile() {
-    switch (rng() % 5) {
-      case 0:
-        return *MakeSphere(LogUniform(1e-4, 1));
-      case 1:
-        return *MakeCone(Uniform(0.01, 1.4));
-      case 2:
-        return *MakePowerLaw(LogUniform(1e-2, 1e2), Uniform(0.5, 8));
-      case 3:
-        return *MakePowerLaw(LogUniform(1e-2, 1e2), Uniform(0.3, 0.6));
-      default:
-        return *MakeFlatPunch(LogUniform(1e-5, 1e-1));
-    }
-  }
-};
+using testing::RandomScene;
 
 TEST(StabilityTest, RandomHistoriesKeepEveryInvariant) {
   RandomScene random{std::mt19937_64(2026)};
@@ -93,6 +72,130 @@ TEST(StabilityTest, RandomHistoriesKeepEveryInvariant) {
   }
   EXPECT_GT(histories_with_slip, 1000) << "the histories must exercise partial and gross slip";
   EXPECT_GT(traction_comparisons, 4000) << "the two traction routes must be compared often";
+}
+
+using testing::SameSnapshot;
+
+// A random step of any kind, scaled to the scene: depths around d0 (lift-off included) or small
+// depth increments, tangential increments of 1e-12 .. 2 of mu kappa d0, tangential forces within
+// the limit, and (rarely, they cost sub-steps) curved force-controlled paths.
+Step RandomStep(RandomScene& random, const Contact& c, double d0) {
+  Step s;
+  const double slip = c.mu_kappa() * d0;
+  s.tangential_value = slip * random.RelativeAmplitude();
+  switch (random.rng() % 8) {
+    case 0:
+    case 1:
+      s.normal = NormalControl::kDepth;
+      s.normal_value = d0 * random.Uniform(-0.1, 1.5);
+      break;
+    case 2:
+      s.normal_value = d0 * random.Sign() * random.LogUniform(1e-12, 0.2);
+      break;
+    case 3:
+    case 4:
+      break;  // tangential increment at constant depth
+    case 5:
+      s.tangential = TangentialControl::kDisplacement;
+      s.tangential_value += c.tangential_displacement();
+      break;
+    case 6:
+      s.tangential = TangentialControl::kForce;
+      s.tangential_value = random.Uniform(-0.99, 0.99) * c.friction_limit();
+      break;
+    default:
+      s.normal = NormalControl::kForce;
+      s.normal_value = c.NormalForceAtDepth(d0) * random.Uniform(0.3, 1.4);
+      break;
+  }
+  return s;
+}
+
+ContactConfig RandomConfig(RandomScene& random, double d0, bool grid) {
+  ContactConfig config;
+  config.profile = random.Profile();
+  config.material = *RigidOnHalfSpace(random.LogUniform(1e6, 1e12), random.Uniform(0, 0.5));
+  config.friction = random.Friction();
+  config.force_path_tolerance = 1e-4;
+  if (grid) {
+    config.method = Method::kGrid;
+    config.grid_size = 8 + random.rng() % 120;
+    config.grid_max_radius = 1.2 * config.profile->RadiusAtDepth(1.6 * d0);
+  }
+  return config;
+}
+
+// Issue #11: every state the engine reaches must restore (Snapshot -> Restore, the path of
+// ImportSession and the journal) and the restored contact must continue bit for bit. After every
+// step of every history a copy is restored from the snapshot and then driven by the remaining
+// steps next to the original.
+TEST(StabilityTest, EveryStateRestoresAndContinuesBitIdentically) {
+  RandomScene random{std::mt19937_64(11)};
+  long states = 0, grid_states = 0;
+  for (int history = 0; history < 1500; ++history) {
+    const bool grid = history % 4 == 3;
+    const double d0 = random.LogUniform(1e-9, 1e-3);
+    const ContactConfig config = RandomConfig(random, d0, grid);
+    Contact original = std::move(Contact::Create(config)).value();
+    std::vector<Contact> restored;
+    for (int step = 0; step < 12; ++step) {
+      const Step s = RandomStep(random, original, d0);
+      const Status status = original.Apply(s);
+      for (Contact& copy : restored) {
+        ASSERT_EQ(copy.Apply(s).code(), status.code()) << "history " << history;
+        ASSERT_TRUE(SameSnapshot(copy.Snapshot(), original.Snapshot()))
+            << "history " << history << " step " << step;
+      }
+      Result<Contact> copy = Contact::Restore(config, original.Snapshot());
+      ASSERT_TRUE(copy.ok()) << copy.status().ToString() << " history " << history << " step "
+                             << step << " mu " << config.friction << " "
+                             << config.profile->Describe();
+      ASSERT_TRUE(SameSnapshot(copy->Snapshot(), original.Snapshot()));
+      restored.push_back(std::move(copy).value());
+      if (!status.ok()) continue;  // the same state as before
+      ++states;
+      grid_states += grid;
+    }
+  }
+  std::printf("[ restore ] %ld random-history states (%ld grid) restored and continued "
+              "bit-identically\n",
+              states, grid_states);
+  EXPECT_GT(states, 15000) << "most random steps must succeed";
+  EXPECT_GT(grid_states, 3000);
+}
+
+// The issue's reproduction as a dense scan: one tangential step of 1e-12 .. 1 of
+// mu kappa delta from a fresh indentation, several profiles, mu kappa up to ~1e6 and beyond.
+TEST(StabilityTest, SmallAmplitudeFrettingStatesAllRestore) {
+  const std::vector<ProfilePtr> profiles = {*MakeSphere(0.005), *MakeCone(0.1),
+                                            *MakePowerLaw(1e3, 3), *MakePowerLaw(10, 0.5),
+                                            *MakeFlatPunch(1e-3)};
+  const EffectiveMaterial steel = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  long states = 0;
+  for (const ProfilePtr& profile : profiles) {
+    for (double mu : {0.3, 3e5, 1e6}) {
+      Contact fresh = testing::MakeContact(profile, steel, mu);
+      const double depth = 2e-6;
+      ASSERT_TRUE(fresh.MoveTo(depth, 0).ok());
+      for (int k = 0; k < 2000; ++k) {
+        const double amplitude = 1e-12 * std::pow(1e12, k / 1999.0) * fresh.mu_kappa() * depth;
+        for (double depth1 : {depth, depth * (1 + 1e-9)}) {
+          Contact c = fresh;
+          ASSERT_TRUE(c.MoveTo(depth1, amplitude).ok());
+          Result<Contact> copy = Contact::Restore(c.config(), c.Snapshot());
+          ASSERT_TRUE(copy.ok()) << copy.status().ToString() << " " << profile->Describe() << " mu "
+                                 << mu << " amplitude " << amplitude;
+          for (Contact* each : {&c, &copy.value()}) {
+            ASSERT_TRUE(each->MoveTo(depth, -0.5 * amplitude).ok());
+          }
+          ASSERT_TRUE(SameSnapshot(copy->Snapshot(), c.Snapshot()));
+          ASSERT_TRUE(Contact::Restore(c.config(), c.Snapshot()).ok());
+          states += 2;
+        }
+      }
+    }
+  }
+  std::printf("[ restore ] %ld small-amplitude fretting states restored\n", states);
 }
 
 }  // namespace

@@ -3,9 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <utility>
+#include <vector>
 
 #include "mdr/core/contact.h"
 
@@ -58,6 +61,64 @@ struct RandomHistory {
     return {depth, slip * (3 * u(rng) - 1.5)};
   }
 };
+
+// Random scenes over the engine's whole input range: every analytic profile kind, friction from
+// 1e-9 to 1e6 (and 0), step amplitudes from 1e-12 to 2 of mu kappa delta.
+struct RandomScene {
+  std::mt19937_64 rng;
+  double Uniform(double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(rng);
+  }
+  double LogUniform(double lo, double hi) { return lo * std::pow(hi / lo, Uniform(0, 1)); }
+  double Sign() { return rng() % 2 ? 1.0 : -1.0; }
+
+  ProfilePtr Profile() {
+    switch (rng() % 5) {
+      case 0:
+        return *MakeSphere(LogUniform(1e-4, 1));
+      case 1:
+        return *MakeCone(Uniform(0.01, 1.4));
+      case 2:
+        return *MakePowerLaw(LogUniform(1e-2, 1e2), Uniform(0.5, 8));
+      case 3:
+        return *MakePowerLaw(LogUniform(1e-2, 1e2), Uniform(0.3, 0.6));
+      default:
+        return *MakeFlatPunch(LogUniform(1e-5, 1e-1));
+    }
+  }
+  // mu: 0 one time in ten, else log-uniform in [1e-9, 1e6].
+  double Friction() { return rng() % 10 == 0 ? 0.0 : LogUniform(1e-9, 1e6); }
+  // A tangential increment relative to mu kappa delta: either sign, log-uniform in [1e-12, 2].
+  double RelativeAmplitude() { return Sign() * LogUniform(1e-12, 2); }
+};
+
+// Bit-identical doubles (0 and -0 differ, a NaN equals itself).
+inline bool SameBits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
+inline bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!SameBits(a[i], b[i])) return false;
+  }
+  return true;
+}
+
+// Two snapshots equal field by field, bit for bit.
+inline ::testing::AssertionResult SameSnapshot(const ContactSnapshot& a, const ContactSnapshot& b) {
+  const char* differs =
+      !SameBits(a.depth, b.depth)                                       ? "depth"
+      : !SameBits(a.tangential_displacement, b.tangential_displacement) ? "tangential_displacement"
+      : !SameBits(a.dissipated_energy, b.dissipated_energy)             ? "dissipated_energy"
+      : !SameBits(a.last_step_dissipation, b.last_step_dissipation)     ? "last_step_dissipation"
+      : !SameBits(a.z, b.z)                                             ? "z"
+      : !SameBits(a.u, b.u)                                             ? "u"
+      : a.tags != b.tags                                                ? "tags"
+      : !SameBits(a.grid_u, b.grid_u)                                   ? "grid_u"
+                                                                        : nullptr;
+  if (differs == nullptr) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "snapshots differ in " << differs;
+}
 
 inline Contact MakeContact(ProfilePtr profile, EffectiveMaterial material, double mu,
                            bool energy = true) {

@@ -59,7 +59,8 @@ void ExpectTraction(const std::vector<RadialValue>& values, Expected expected, d
     EXPECT_NEAR(v.value, expected(v.radius), tolerance * peak) << "r = " << v.radius;
     ASSERT_TRUE(v.abel && v.jager);
     EXPECT_NEAR(*v.abel, *v.jager, tolerance * peak) << "r = " << v.radius;
-    EXPECT_EQ(v.error_estimate, std::abs(*v.abel - *v.jager));
+    // The routes' discrepancy plus the bound of the vertex rounding they share.
+    EXPECT_GE(v.error_estimate, std::abs(*v.abel - *v.jager));
   }
 }
 
@@ -335,6 +336,136 @@ TEST(TractionTest, SingleRouteAndValidation) {
   EXPECT_EQ(ComputeTangentialTraction(c, {r}, bad).status().field(),
             "options.abel_relative_tolerance");
   EXPECT_EQ(IntegrateNormalPressure(c, -1).status().field(), "relative_tolerance");
+}
+
+}  // namespace
+}  // namespace mdr
+
+namespace mdr {
+namespace {
+
+// Closed-form pressure differences per modulus, p(r; x(z1)) - p(r; x(z2)) for z1 >= z2, from the
+// depths and their exact difference dz, in long double without cancellation.
+struct ClosedForm {
+  bool cone;
+  long double radius, k;  // sphere: x^2 = R z; cone: x = z / k, k = (pi/2) tan(theta)
+  long double Difference(long double z1, long double z2, long double dz, long double r) const {
+    if (cone) {
+      const long double x1 = z1 / k, x2 = z2 / k, t = k * 2 / std::numbers::pi_v<long double>;
+      if (!(r < x1)) return 0;
+      const long double e1 = x1 + std::sqrt((x1 - r) * (x1 + r));
+      if (!(r < x2)) return t / 2 * std::log(e1 / r);
+      const long double e2 = x2 + std::sqrt((x2 - r) * (x2 + r));
+      return t / 2 * std::log1p((e1 - e2) / e2);
+    }
+    const long double s1 = radius * z1 - r * r, s2 = radius * z2 - r * r;
+    const long double scale = 2 / (std::numbers::pi_v<long double> * radius);
+    if (!(s1 > 0)) return 0;
+    if (!(s2 > 0)) return scale * std::sqrt(s1);
+    return scale * radius * dz / (std::sqrt(s1) + std::sqrt(s2));
+  }
+};
+
+// Issue #11: the traction's error estimate was |abel - jager|, which cannot see the rounding of the
+// memory vertices that both routes share (0.0056 Pa estimated, 0.27 Pa actual at mu kappa ~ 1e6).
+// Cattaneo-Mindlin (loading to s of the slip limit) and Mindlin-Deresiewicz (unloading by 0.6 of
+// that) on a sphere and a cone, mu kappa up to 1e6: |actual| <= estimate everywhere, and the
+// old estimate misses real errors.
+TEST(TractionErrorEstimateTest, BoundsTheActualErrorAgainstClosedForms) {
+  const EffectiveMaterial steel = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  const double theta = 0.2;
+  const std::vector<std::pair<ProfilePtr, ClosedForm>> scenes = {
+      {*MakeSphere(0.005), ClosedForm{false, 0.005L, 0}},
+      {*MakeCone(theta), ClosedForm{true, 0,
+                                    std::numbers::pi_v<long double> / 2 *
+                                        std::tan(static_cast<long double>(theta))}}};
+  int points = 0, old_misses = 0;
+  double worst_ratio = 0, loosest = 0;
+  std::vector<double> ratios;  // estimate / actual where the actual error is not 0
+  for (const auto& [profile, form] : scenes) {
+    for (double mu : {0.3, 1e3, 1e6 / steel.kappa()}) {
+      for (double s : {1e-9, 1e-7, 1e-5, 1e-3, 0.1, 0.5, 0.9}) {
+        for (bool unload : {false, true}) {
+          Contact c = MakeContact(profile, steel, mu, /*energy=*/false);
+          const double d = 2e-6, m = c.mu_kappa(), ux_star = s * m * d;
+          ASSERT_TRUE(c.MoveTo(d, 0).ok());
+          ASSERT_TRUE(c.MoveTo(d, ux_star).ok());
+          const long double h = static_cast<long double>(ux_star) / m;
+          const double ux_back = ux_star - 0.6 * ux_star;
+          const double dux_back = ux_back - ux_star;  // the increment the engine applies
+          // Depth extent of the reversal's slip annulus.
+          const long double back = unload ? -static_cast<long double>(dux_back) / (2 * m) : 0;
+          if (unload) ASSERT_TRUE(c.MoveTo(d, ux_back).ok());
+          const long double scale = static_cast<long double>(c.config().material.g_star) * m;
+          auto exact = [&](long double r) {
+            long double tau = form.Difference(d, d - h, h, r);
+            if (unload) tau -= 2 * form.Difference(d, d - back, back, r);
+            return static_cast<double>(scale * tau);
+          };
+          const double a = c.contact_radius();
+          const double stick =
+              static_cast<double>(form.cone ? (d - h) / form.k : std::sqrt(form.radius * (d - h)));
+          std::vector<double> radii = Radii(a, 0.01, 0.99, 25);
+          for (int k = 2; k <= 14; ++k) {
+            for (double side : {-1.0, 1.0}) radii.push_back(stick * (1 + side * std::pow(10, -k)));
+          }
+          const std::vector<RadialValue> values = Traction(c, radii);
+          double peak = 0;
+          for (const RadialValue& v : values) peak = std::max(peak, std::abs(v.value));
+          for (const RadialValue& v : values) {
+            if (!(v.radius < a)) continue;
+            const double actual = std::abs(v.value - exact(v.radius));
+            ASSERT_LE(actual, v.error_estimate)
+                << profile->Describe() << " mu " << mu << " s " << s << " unload " << unload
+                << " r/a " << v.radius / a << " value " << v.value;
+            ++points;
+            old_misses += actual > std::abs(*v.abel - *v.jager);
+            if (actual > 0) {
+              worst_ratio = std::max(worst_ratio, actual / v.error_estimate);
+              ratios.push_back(v.error_estimate / actual);
+            }
+            loosest = std::max(loosest, v.error_estimate / peak);
+          }
+        }
+      }
+    }
+  }
+  std::sort(ratios.begin(), ratios.end());
+  std::printf(
+      "[ estimate ] %d traction points: old estimate missed %d; largest actual/estimate "
+      "%.3g, median estimate/actual %.3g; largest estimate/peak %.3g\n",
+      points, old_misses, worst_ratio, ratios[ratios.size() / 2], loosest);
+  EXPECT_GT(old_misses, 0) << "the old estimate |abel - jager| must miss real errors here";
+}
+
+TEST(TractionErrorEstimateTest, PressureEstimateBoundsTheActualError) {
+  const EffectiveMaterial steel = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  const double theta = 0.2;
+  const std::vector<std::pair<ProfilePtr, ClosedForm>> scenes = {
+      {*MakeSphere(0.005), ClosedForm{false, 0.005L, 0}},
+      {*MakeCone(theta), ClosedForm{true, 0,
+                                    std::numbers::pi_v<long double> / 2 *
+                                        std::tan(static_cast<long double>(theta))}}};
+  int points = 0, old_misses = 0;
+  for (const auto& [profile, form] : scenes) {
+    for (double d : {1e-9, 2e-6, 1e-4}) {
+      Contact c = MakeContact(profile, steel, 0.3, /*energy=*/false);
+      ASSERT_TRUE(c.MoveTo(d, 0).ok());
+      const double a = c.contact_radius();
+      std::vector<double> radii = Radii(a, 0.01, 0.99, 25);
+      for (int k = 2; k <= 15; ++k) radii.push_back(a * (1 - std::pow(10, -k)));
+      const std::vector<RadialValue> values = *ComputeNormalPressure(c, radii);
+      for (const RadialValue& v : values) {
+        const double exact = static_cast<double>(steel.e_star * form.Difference(d, 0, d, v.radius));
+        ASSERT_LE(std::abs(v.value - exact), v.error_estimate)
+            << profile->Describe() << " d " << d << " r/a " << v.radius / a;
+        ++points;
+        old_misses += std::abs(v.value - exact) > std::abs(*v.abel - *v.jager);
+      }
+    }
+  }
+  EXPECT_GT(points, 200);
+  EXPECT_GT(old_misses, 0) << "the old estimate |abel - jager| must miss real errors here";
 }
 
 }  // namespace

@@ -1,12 +1,14 @@
 // libFuzzer target for the engine's apply path: bytes -> scene + step sequence; checks that no
-// NaN/inf leaves the engine, |F_x| <= mu F_N, dissipation >= 0, and that a failed step changes
-// nothing. Build and run: tests/fuzz/run.sh (clang-14, ASan + UBSan).
+// NaN/inf leaves the engine, |F_x| <= mu F_N, dissipation >= 0, that a failed step changes
+// nothing, and that every state restores from its snapshot and continues bit-identically.
+// Build and run: tests/fuzz/run.sh (clang-14, ASan + UBSan).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include "mdr/core/contact.h"
 
@@ -39,6 +41,20 @@ class ByteReader {
   std::size_t size_;
   std::size_t pos_ = 0;
 };
+
+bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+}
+
+// Two snapshots equal field by field, bit for bit.
+bool SameSnapshot(const mdr::ContactSnapshot& a, const mdr::ContactSnapshot& b) {
+  auto same = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  return same(a.depth, b.depth) && same(a.tangential_displacement, b.tangential_displacement) &&
+         same(a.dissipated_energy, b.dissipated_energy) &&
+         same(a.last_step_dissipation, b.last_step_dissipation) && SameBits(a.z, b.z) &&
+         SameBits(a.u, b.u) && a.tags == b.tags && SameBits(a.grid_u, b.grid_u);
+}
 
 void Check(bool ok, const char* what) {
   if (ok) return;
@@ -77,6 +93,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!created.ok()) return 0;
   mdr::Contact contact = std::move(created).value();
   const double depth_scale = in.InRange(1e-9, 1e-3);
+  mdr::Contact twin = contact;  // restored from the last snapshot
+  bool have_twin = false;
 
   for (int i = 0; i < 64 && !in.empty(); ++i) {
     mdr::Step step;
@@ -94,6 +112,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     mdr::StepReport report;
     const mdr::Status status = contact.Apply(step, &report);
     const mdr::ContactSnapshot after = contact.Snapshot();
+    if (have_twin) {
+      const mdr::Status twin_status = twin.Apply(step);
+      Check(twin_status.code() == status.code() && SameSnapshot(twin.Snapshot(), after),
+            "a restored contact continues bit-identically");
+    }
     if (!status.ok()) {
       Check(!status.field().empty() && !status.message().empty(), "error names a field");
       Check(after.z == before.z && after.u == before.u && after.depth == before.depth &&
@@ -121,6 +144,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check(report.dissipated >= -1e-9 * (contact.friction_limit() * slip + 1e-300),
           "dissipation >= 0");
     check(std::isfinite(report.path_error) && report.path_error >= 0, "path error is finite");
+    // Every state the engine reaches restores (ImportSession, the journal) and continues bit
+    // for bit: the restored copy takes the next step too and must land on the same snapshot.
+    mdr::Result<mdr::Contact> restored = mdr::Contact::Restore(config, after);
+    if (!restored.ok()) std::fprintf(stderr, "%s\n", restored.status().ToString().c_str());
+    check(restored.ok(), "the state restores from its snapshot");
+    check(SameSnapshot(restored->Snapshot(), after), "the restored state is the same");
+    twin = std::move(restored).value();
+    have_twin = true;
   }
   return 0;
 }

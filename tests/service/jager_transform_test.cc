@@ -103,14 +103,16 @@ TEST_F(JagerTransformTest, CattaneoMindlinTractionsMatchTheClosedFormByBothRoute
     EXPECT_EQ(tau.route(), v1::TRACTION_ROUTE_BOTH);
     ASSERT_TRUE(tau.has_abel() && tau.has_jager());
     EXPECT_EQ(tau.value(), tau.jager());
-    EXPECT_EQ(tau.error_estimate(), std::abs(tau.abel() - tau.jager()));
+    // The routes' difference plus the bound of the memory's own rounding (docs/engine.md).
+    EXPECT_GE(tau.error_estimate(), std::abs(tau.abel() - tau.jager()));
     largest_difference = std::max(largest_difference, tau.error_estimate());
     EXPECT_NEAR(tau.value(), CattaneoMindlinTraction(radii[i], s), 1e-9 * peak);
     const v1::RadialValue& p = response.pressure(static_cast<int>(i));
     EXPECT_NEAR(p.value(), HertzPressure(radii[i], s.a, s.p0), 1e-9 * s.p0);
   }
-  // The two routes agree to far below the peak traction; the largest difference is reported.
-  EXPECT_LT(response.error_estimate().traction_error(), 1e-9 * peak);
+  // The two routes agree to far below the peak traction; the largest estimate is reported. At
+  // r = c the stick radius' own rounding (eps * depth / g') dominates: ~1e-7 of the peak.
+  EXPECT_LT(response.error_estimate().traction_error(), 1e-6 * peak);
   EXPECT_EQ(response.error_estimate().traction_error(), largest_difference);
   EXPECT_LT(response.error_estimate().pressure_error(), 1e-9 * s.p0);
   EXPECT_EQ(response.error_estimate().grid_spacing(), 0);

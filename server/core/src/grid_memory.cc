@@ -12,7 +12,7 @@ namespace {
 struct LinearStep {
   double depth0, depth1, dux, mu_kappa;
   double ddelta() const { return depth1 - depth0; }
-  double BoundAtEnd(double z) const { return mu_kappa * (depth1 - z); }
+  double BoundAtEnd(double z) const { return CoulombBound(mu_kappa, depth1, z); }
 };
 
 // Unclamped end value of a spring at z with start value u that is in contact at the end
@@ -99,7 +99,7 @@ double GridMemory::MeasureInContact() const {
 BoundTag GridMemory::Tag(std::size_t j, double mu_kappa) const {
   const auto i = static_cast<Eigen::Index>(j);
   if (!(z_[i] < depth_)) return kInside;
-  const double bound = mu_kappa * (depth_ - z_[i]);  // the expression Step clamped against
+  const double bound = CoulombBound(mu_kappa, depth_, z_[i]);  // what Step clamped against
   const int upper = u_[i] >= bound ? kOnUpper : kInside;
   const int lower = u_[i] <= -bound ? kOnLower : kInside;
   return static_cast<BoundTag>(upper | lower);
@@ -121,7 +121,7 @@ double GridMemory::GrossSlipIncrement(double depth1, double mu_kappa, int direct
   for (Eigen::Index j = 0; j < z_.size(); ++j) {
     const double z = z_[j];
     if (!(z < depth1)) continue;
-    const double b1 = mu_kappa * (depth1 - z);
+    const double b1 = CoulombBound(mu_kappa, depth1, z);
     if (z < depth_) {
       needed = std::max(needed, b1 - sigma * u_[j]);
     } else {
@@ -150,8 +150,9 @@ Status GridMemory::Restore(double depth, const std::vector<double>& u, double mu
   }
   for (std::size_t j = 0; j < u.size(); ++j) {
     const double z = z_[static_cast<Eigen::Index>(j)];
-    const double bound = z < depth ? mu_kappa * (depth - z) : 0.0;
-    if (!std::isfinite(u[j]) || std::abs(u[j]) > bound * (1 + 1e-12)) {
+    // Step clamps to exactly this expression and zeroes springs out of contact: no tolerance.
+    const double bound = z < depth ? CoulombBound(mu_kappa, depth, z) : 0.0;
+    if (!std::isfinite(u[j]) || !(std::abs(u[j]) <= bound)) {
       std::string field = "grid_u[";  // (not "[" + ...: GCC 12 warns falsely on that form)
       field += std::to_string(j);
       field += ']';

@@ -44,6 +44,7 @@ Status CheckMuKappa(const std::string& field, double mu_kappa) {
 // A run of memory segments of one weight, in depth.
 struct DepthRun {
   double depth_begin, depth_end, weight;
+  BoundTag bound;  // the tag both ends share (kInside: none)
 };
 
 // Vertex `middle` lies on the straight line from `first` to `last` to round-off (4 eps of the
@@ -57,19 +58,33 @@ bool OnOneLine(const std::vector<double>& z, const std::vector<double>& u, std::
   return std::abs(u[middle] - line) <= 4 * kEpsilon * scale;
 }
 
-// The memory's maximal runs of segments of one weight, from the centre out; each run's weight is
-// the mean over its depths, so the run reproduces u at both of its ends.
+// The memory's maximal runs of segments of one weight, from the centre out. Each run's weight is
+// the mean over its depths, so the run reproduces u at both of its ends: the decomposition's
+// terms telescope back to the memory (MemoryFromTerms), which a clamp at +-1 would break by
+// eps * mu kappa delta; the reported piece weights are clamped instead (PieceWeight).
 std::vector<DepthRun> WeightRuns(const PiecewiseLinearMemory& memory, double mu_kappa) {
   const std::vector<double>& z = memory.z();
   const std::vector<double>& u = memory.u();
+  const std::vector<std::uint8_t>& tags = memory.tags();
   std::vector<DepthRun> runs;
   std::size_t first = 0;
   for (std::size_t k = 1; k < z.size(); ++k) {
     if (k + 1 < z.size() && OnOneLine(z, u, first, k, k + 1)) continue;
-    runs.push_back({z[first], z[k], SegmentWeight(u[first], u[k], z[k] - z[first], mu_kappa)});
+    const double mean = SegmentWeight(u[first], u[k], z[k] - z[first], mu_kappa);
+    runs.push_back({z[first], z[k], mean, static_cast<BoundTag>(tags[first] & tags[k])});
     first = k;
   }
   return runs;
+}
+
+// The weight a piece reports: a run whose two ends are tagged on one bound line lies on it, so
+// F = +1 (upper) or -1 (lower) exactly; the rounded u of a crossing vertex (memory.cc) would
+// otherwise make it 1 +- 1e-10 on a thin slip annulus. Any other run sticks, |du/dz| <=
+// mu kappa, so its mean is clamped to [-1, 1]: beyond is round-off of u and z.
+double PieceWeight(const DepthRun& run) {
+  if (run.bound == kOnUpper) return 1;
+  if (run.bound == kOnLower) return -1;
+  return std::clamp(run.weight, -1.0, 1.0);
 }
 
 JagerWeights WeightsOf(const PiecewiseLinearMemory& memory, const Profile& profile,
@@ -81,7 +96,8 @@ JagerWeights WeightsOf(const PiecewiseLinearMemory& memory, const Profile& profi
   if (!(profile.RadiusAtDepth(0) < weights.contact_radius)) {
     // g jumps from 0 to beyond depth at the edge (flat punch): all weight is there, and its mean
     // over the depths telescopes to u_0 / (mu kappa delta).
-    weights.edge_weight = SegmentWeight(memory.u().front(), 0, depth, mu_kappa);
+    weights.edge_weight =
+        std::clamp(SegmentWeight(memory.u().front(), 0, depth, mu_kappa), -1.0, 1.0);
     return weights;
   }
   for (const DepthRun& run : WeightRuns(memory, mu_kappa)) {
@@ -90,11 +106,12 @@ JagerWeights WeightsOf(const PiecewiseLinearMemory& memory, const Profile& profi
     // A run thinner than the radius' round-off has no radial extent and no traction; its
     // neighbours then meet, and merge if their weights are equal.
     if (!(r_end > r_begin)) continue;
-    if (!weights.intervals.empty() && weights.intervals.back().weight == run.weight) {
+    const double weight = PieceWeight(run);
+    if (!weights.intervals.empty() && weights.intervals.back().weight == weight) {
       weights.intervals.back().r_end = r_end;
       weights.intervals.back().depth_end = run.depth_end;
     } else {
-      weights.intervals.push_back({r_begin, r_end, run.depth_begin, run.depth_end, run.weight});
+      weights.intervals.push_back({r_begin, r_end, run.depth_begin, run.depth_end, weight});
     }
   }
   return weights;

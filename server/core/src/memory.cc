@@ -3,10 +3,15 @@
 #include <gsl/gsl_integration.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
+
+#include "mdr/core/validate.h"
 
 namespace mdr {
 namespace {
@@ -60,6 +65,46 @@ Quadratic ProductMinusSquare(Linear p, Linear q, double k) {
 
 double Interpolate(double za, double ua, double zb, double ub, double z) {
   return ua + (ub - ua) * ((z - za) / (zb - za));
+}
+
+// Ulps a crossing vertex may move toward the inside before it is put on the bound line instead.
+constexpr int kMaxCrossingNudges = 4;
+// How far inside its bound (in eps * mu_kappa * depth) a vertex that was on it still counts as on
+// it: a crossing's own rounding (memory.h, BoundTagTolerance, for neighbour slopes up to mu_kappa).
+constexpr double kStayOnBoundUlps = 32;
+
+struct Vertex {
+  double z, u;
+};
+
+// The vertex where segment (za, ua)-(zb, ub) of v crosses the bound line sigma * bound(z), at
+// parameter t, or nothing when rounding puts it outside (z_prev, zb). u = v(z), interpolated from
+// the end inside the bound (from a far-outside end it would cost eps |v_outside| after a large
+// dux): that keeps the sticking zone exact and puts the round-off of z (~eps * depth1) on the
+// slip side, which is the thin one when slip starts. So that the vertex satisfies the bound as
+// Restore evaluates it, exactly, z then moves by ulps toward the inside end until
+// |v(z)| <= bound(z); if a few ulps do not do it, u = sigma * bound(z).
+std::optional<Vertex> PlaceCrossing(double za, double ua, double zb, double ub, double t, int sigma,
+                                    bool a_inside, double z_prev, double mu_kappa, double depth1) {
+  double z = za + t * (zb - za);
+  if (!(z > z_prev && z < zb)) return std::nullopt;  // rounding put it on a vertex
+  auto v = [&](double at) {
+    return a_inside ? Interpolate(za, ua, zb, ub, at) : Interpolate(zb, ub, za, ua, at);
+  };
+  // z > z_prev >= 0: the neighbouring double is one step of the bit pattern (std::nextafter
+  // is a library call, and this runs at every crossing).
+  const std::int64_t inward = a_inside ? -1 : 1;
+  double u = v(z);
+  double bound = CoulombBound(mu_kappa, depth1, z);
+  for (int k = 0; k < kMaxCrossingNudges && std::abs(u) > bound; ++k) {
+    const double next = std::bit_cast<double>(std::bit_cast<std::int64_t>(z) + inward);
+    if (!(next > z_prev && next < zb)) break;
+    z = next;
+    u = v(z);
+    bound = CoulombBound(mu_kappa, depth1, z);
+  }
+  if (std::abs(u) > bound) u = sigma * bound;
+  return Vertex{z, u};
 }
 
 }  // namespace
@@ -116,21 +161,24 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
 double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
                                             const Profile* profile) {
   const double depth1 = depth_;
-  auto bound = [&](double z) { return mu_kappa * (depth1 - z); };
+  auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
 
   // 1. Refine: insert the points where v crosses +bound or -bound (both linear in z).
   // Crossings are tagged here with their bound; original vertices are classified in step 3.
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& tags = next_.tag;
+  auto& was = next_.was;
   rz.clear();
   rv.clear();
   tags.clear();
+  was.clear();
   const std::size_t n = z_.size();
   for (std::size_t i = 0; i < n; ++i) {
     rz.push_back(z_[i]);
     rv.push_back(u_[i]);
     tags.push_back(kInside);
+    was.push_back(tag_[i]);
     if (i + 1 == n) break;
     const double za = z_[i], zb = z_[i + 1];
     const double hi_a = u_[i] - bound(za), hi_b = u_[i + 1] - bound(zb);
@@ -142,14 +190,14 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
     if (lo_a * lo_b < 0) t[count] = lo_a / (lo_a - lo_b), sign[count++] = -1;
     if (count == 2 && t[1] < t[0]) std::swap(t[0], t[1]), std::swap(sign[0], sign[1]);
     for (int k = 0; k < count; ++k) {
-      const double z = za + t[k] * (zb - za);
-      if (!(z > rz.back() && z < zb)) continue;  // rounding put it on a vertex
-      // z carries ~eps*delta of round-off, so v(z) and bound(z) differ by ~eps*mu_kappa*delta.
-      // Taking v(z) keeps a sticking zone exact and puts that round-off on the slip side,
-      // which is the thin one when slip starts (relative force error eps, not eps/slip).
-      rz.push_back(z);
-      rv.push_back(Interpolate(za, u_[i], zb, u_[i + 1], z));
+      const bool a_inside = sign[k] > 0 ? hi_a < 0 : lo_a > 0;
+      const std::optional<Vertex> crossing = PlaceCrossing(za, u_[i], zb, u_[i + 1], t[k], sign[k],
+                                                           a_inside, rz.back(), mu_kappa, depth1);
+      if (!crossing) continue;
+      rz.push_back(crossing->z);
+      rv.push_back(crossing->u);
       tags.push_back(sign[k] > 0 ? kOnUpper : kOnLower);
+      was.push_back(kInside);
     }
   }
 
@@ -192,17 +240,21 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
     }
   }
 
-  // 3. Clamp and tag the original vertices.
+  // 3. Clamp and tag the original vertices. A vertex that was on a bound and is still on it to
+  // rounding stays there: a crossing sits up to a few ulps inside its bound (PlaceCrossing), and
+  // a step that does not move it off (dux = 0, a depth held) must not turn its slip zone into a
+  // stick zone (tangential stiffness, slip intervals).
+  const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
   for (std::size_t i = 0; i < rz.size(); ++i) {
     if (tags[i] != kInside) continue;  // a crossing, already on its bound
     const double b = bound(rz[i]);
     if (b <= 0) {
       rv[i] = 0;
       tags[i] = kOnBoth;
-    } else if (rv[i] >= b) {
+    } else if (rv[i] >= b || ((was[i] & kOnUpper) && rv[i] >= b - stay)) {
       rv[i] = b;
       tags[i] = kOnUpper;
-    } else if (rv[i] <= -b) {
+    } else if (rv[i] <= -b || ((was[i] & kOnLower) && rv[i] <= -b + stay)) {
       rv[i] = -b;
       tags[i] = kOnLower;
     }
@@ -395,6 +447,52 @@ Result<PiecewiseLinearMemory> PiecewiseLinearMemory::Restore(double depth, std::
   memory.u_ = std::move(u);
   memory.tag_ = std::move(tags);
   return memory;
+}
+
+double PiecewiseLinearMemory::BoundTagTolerance(std::size_t i, double mu_kappa) const {
+  // Steepest neighbouring segment: the crossing was placed on one of them (or on a segment
+  // collinear with one to 16 eps, if a merge removed its inside end).
+  double slope = 0;
+  if (i > 0) slope = std::abs((u_[i] - u_[i - 1]) / (z_[i] - z_[i - 1]));
+  if (i + 1 < z_.size()) {
+    slope = std::max(slope, std::abs((u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i])));
+  }
+  // z is off the exact crossing by the rounding of t (~3 eps mu_kappa depth / |v' + mu_kappa|),
+  // of za + t (zb - za) (2 eps depth) and up to kMaxCrossingNudges ulps; u adds the interpolation
+  // (eps (|u| + |v'| depth)) and bound(z) its own (eps bound). 32 covers the sum with margin.
+  constexpr double kTagUlps = 32;
+  return kTagUlps * std::numeric_limits<double>::epsilon() * depth_ * (mu_kappa + slope);
+}
+
+Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
+  for (std::size_t i = 0; i < z_.size(); ++i) {
+    const double bound = CoulombBound(mu_kappa, depth_, z_[i]);
+    const std::string at = "memory[" + std::to_string(i) + "]";
+    if (!(std::abs(u_[i]) <= bound)) {
+      return InvalidArgument(
+          at, "|u| = " + FormatNumber(std::abs(u_[i])) +
+                  " exceeds the Coulomb bound mu kappa (depth - z) = " + FormatNumber(bound) +
+                  " by " + FormatNumber(std::abs(u_[i]) - bound));
+    }
+    if (tag_[i] == kOnBoth) {
+      if (bound != 0) {
+        return InvalidArgument(at,
+                               "tag 3 (on both bounds) needs a zero bound (z = depth or "
+                               "mu = 0), got mu kappa (depth - z) = " +
+                                   FormatNumber(bound));
+      }
+      continue;
+    }
+    const int sigma = tag_[i] == kOnUpper ? +1 : tag_[i] == kOnLower ? -1 : 0;
+    if (sigma != 0 && sigma * u_[i] < bound - BoundTagTolerance(i, mu_kappa)) {
+      return InvalidArgument(at, std::string("is tagged on the ") +
+                                     (sigma > 0 ? "upper" : "lower") +
+                                     " bound but u = " + FormatNumber(u_[i]) +
+                                     " is off it (bound " + FormatNumber(bound) + ", tolerance " +
+                                     FormatNumber(BoundTagTolerance(i, mu_kappa)) + ")");
+    }
+  }
+  return OkStatus();
 }
 
 }  // namespace mdr

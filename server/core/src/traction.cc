@@ -56,10 +56,75 @@ struct RouteValue {
 };
 
 // Spring displacements v(z) as a polyline in depth: the tangential memory u, or the normal
-// springs w = delta - z. Both routes act on this form alone.
+// springs w = delta - z. Both routes act on this form alone. rounded: the interior vertices are
+// placed by the engine's rounding (the memory's crossings), not given exactly.
 struct DepthPolyline {
   std::span<const double> z, v;
+  bool rounded = false;
 };
+
+// Rounding of the polyline's vertices (docs/engine.md, "Error estimates"). A memory vertex's
+// depth is known to kVertexDepthUlps * eps * delta (the crossing parameter, za + t (zb - za)
+// and the nudges of memory.cc), its u to kVertexValueUlps * eps of the largest |u| of its
+// segments (the interpolation, and a crossing nearly parallel to its bound line, where the
+// rounding moves the vertex along the bound instead). Every radius x = g^-1(z) that the
+// pressures use is rounded by the profile to kRadiusUlps * eps * x (sqrt, pow).
+constexpr double kVertexDepthUlps = 8;
+constexpr double kVertexValueUlps = 8;
+constexpr double kRadiusUlps = 4;
+
+// Bound on the change of p(r; x) per modulus, (1/pi) integral_r^x g'(s)/sqrt(s^2 - r^2) ds, when
+// its edge x moves anywhere within dx = g_dx / g' (g_dx: the error as a depth). The integrand
+// over [x - dx, x + dx] gives (1/pi) min(g_dx / sqrt((x - dx)^2 - r^2), 3 sqrt(g_dx g' / x)), the
+// second form where the edge may come near r (p rises like sqrt(x - r) there). A jump of g (flat
+// punch) stays at its radius; its height moves: g_dx / (pi sqrt(x^2 - r^2)).
+double EdgeShift(double x, double g_slope, double g_dx, double r) {
+  if (std::isinf(g_slope)) return x > r ? g_dx / (kPi * std::sqrt((x - r) * (x + r))) : 0.0;
+  const double dx = g_dx / g_slope;
+  if (!(x + dx > r) || !(x > 0)) return 0;
+  const double inner = x - dx;
+  const double far = inner > r ? g_dx / std::sqrt((inner - r) * (inner + r)) : kInf;
+  const double shift = std::min(far, 3 * std::sqrt(g_dx * g_slope / x));
+  return std::isfinite(shift) ? shift / kPi : 0;
+}
+
+// Bound on |value(r)| / modulus from that rounding, for both routes alike (they act on the same
+// rounded polyline, so their difference cannot see it): each vertex is a kink of v whose slope
+// jumps by [s]_k (to 0 beyond the edge), and moving it moves an edge of p by the rounding of
+// its depth and its radius (EdgeShift, times |[s]_k|); an error du of u at the ends of segment k
+// changes its slope by 2 du / (z_{k+1} - z_k), times |P(r; z_{k+1}) - P(r; z_k)|.
+double VertexRounding(const DepthPolyline& springs, const Profile& profile, double r) {
+  const std::size_t n = springs.z.size();
+  // Radii from the reported contact radius on carry no load by definition (traction.h).
+  if (n < 2 || !(r < profile.RadiusAtDepth(springs.z.back()))) return 0;
+  const double dz = springs.rounded ? kVertexDepthUlps * kEpsilon * springs.z.back() : 0;
+  auto slope = [&](std::size_t k) {
+    if (k + 1 >= n) return 0.0;
+    return (springs.v[k + 1] - springs.v[k]) / (springs.z[k + 1] - springs.z[k]);
+  };
+  double bound = 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if (springs.rounded) {
+      const double dp = std::abs(profile.PressurePerModulus(r, springs.z[k]) -
+                                 profile.PressurePerModulus(r, springs.z[k - 1]));
+      const double du = kVertexValueUlps * kEpsilon *
+                        std::max(std::abs(springs.v[k - 1]), std::abs(springs.v[k]));
+      if (std::isfinite(dp)) bound += 2 * du / (springs.z[k] - springs.z[k - 1]) * dp;
+    }
+    const double jump = std::abs(slope(k) - slope(k - 1));
+    if (jump == 0) continue;
+    const double x = profile.RadiusAtDepth(springs.z[k]);
+    const double g_slope = profile.Slope(x);
+    // The last vertex is the contact edge, z = delta: given, not rounded.
+    const double depth_error = k + 1 < n ? dz : 0;
+    // A jump of g (flat punch) sits at the profile's own radius, exactly.
+    const double g_dx =
+        std::isinf(g_slope) ? depth_error : depth_error + g_slope * kRadiusUlps * kEpsilon * x;
+    if (g_dx == 0) continue;
+    bound += jump * EdgeShift(x, g_slope, g_dx, r);
+  }
+  return bound;
+}
 
 // Route (1): -(1/pi) integral_r^a v'(x)/sqrt(x^2 - r^2) dx with v'(x) = (dv/dz) g'(x) on each
 // segment; x = sqrt(r^2 + s^2) turns it into -(1/pi) (dv/dz) integral g'(x)/x ds, smooth for
@@ -158,21 +223,24 @@ std::optional<double> JumpSingularity(const DepthPolyline& springs, const Profil
   return jump == 0 ? 0.0 : (jump < 0 ? kInf : -kInf);
 }
 
-// Picks the reported value (traction.h, RadialValue): Jäger's when both routes are defined.
-void ChooseValue(double abel_error, double jager_error, RadialValue* out) {
+// Picks the reported value (traction.h, RadialValue): Jäger's when both routes are defined. The
+// estimate adds the rounding of the vertices both routes share (VertexRounding) and, for a
+// chosen Jäger value, the round-off of its own sum.
+void ChooseValue(double abel_error, double jager_error, double rounding, RadialValue* out) {
   if (out->abel && out->jager) {
     out->chosen = TractionRoute::kBoth;
     out->value = *out->jager;
-    out->error_estimate = Discrepancy(*out->abel, *out->jager);
+    out->error_estimate = Discrepancy(*out->abel, *out->jager) + jager_error + rounding;
   } else if (out->abel) {
     out->chosen = TractionRoute::kAbel;
     out->value = *out->abel;
-    out->error_estimate = abel_error;
+    out->error_estimate = abel_error + rounding;
   } else {
     out->chosen = TractionRoute::kJager;
     out->value = *out->jager;
-    out->error_estimate = jager_error;
+    out->error_estimate = jager_error + rounding;
   }
+  if (std::isinf(out->value)) out->error_estimate = 0;  // an exact infinity
 }
 
 // Both routes at one radius as requested, and the choice between them (traction.h).
@@ -204,7 +272,7 @@ RadialValue Evaluate(const DepthPolyline& springs, const Profile& profile, doubl
       run_abel();  // the only route that gives a value here
     }
   }
-  ChooseValue(abel_error, jager_error, &out);
+  ChooseValue(abel_error, jager_error, modulus * VertexRounding(springs, profile, r), &out);
   return out;
 }
 
@@ -285,7 +353,7 @@ Result<IntegratedForce> IntegrateRadially(const DepthPolyline& springs, const Pr
 }
 
 DepthPolyline TangentialSprings(const PiecewiseLinearMemory& memory) {
-  return {memory.z(), memory.u()};
+  return {memory.z(), memory.u(), /*rounded=*/true};
 }
 
 }  // namespace

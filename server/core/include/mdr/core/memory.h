@@ -21,6 +21,13 @@ namespace mdr {
 // (the contact edge z = delta, and everything when mu = 0).
 enum BoundTag : std::uint8_t { kInside = 0, kOnUpper = 1, kOnLower = 2, kOnBoth = 3 };
 
+// The Coulomb bound mu_kappa * (depth - z) in the one expression that the step clamps against
+// and that restoring a snapshot checks, so that every state the engine makes passes the check
+// exactly, with no tolerance (docs/engine.md, "Restorable states").
+inline double CoulombBound(double mu_kappa, double depth, double z) {
+  return mu_kappa * (depth - z);
+}
+
 // One memory piece, u = intercept + slope * g(x) for x in [x_begin, x_end] (physics.md:
 // u = A_k + B_k g(x)); bound is the tag shared by both ends (kInside: sticking piece).
 struct MemoryPiece {
@@ -60,10 +67,18 @@ class PiecewiseLinearMemory {
 
   // Rebuilds a memory from its exact state (session export/import), validating the polyline:
   // no vertices when depth <= 0; otherwise z_0 = 0 < z_1 < ... < z_N = depth, u_N = 0, tags <= 3,
-  // all finite. The Coulomb bound is checked by the caller, who knows mu*kappa.
+  // all finite. The Coulomb bound is checked by CheckCoulomb, which needs mu*kappa.
   static Result<PiecewiseLinearMemory> Restore(double depth, std::vector<double> z,
                                                std::vector<double> u,
                                                std::vector<std::uint8_t> tags);
+  // What every state Step produces satisfies, checked when a snapshot is restored (field
+  // "memory[i]"): |u_i| <= CoulombBound(mu_kappa, depth, z_i) exactly; kOnBoth only where that
+  // bound is 0; a vertex tagged on the upper (lower) bound within BoundTagTolerance of it.
+  Status CheckCoulomb(double mu_kappa) const;
+  // How far below the bound line a vertex tagged on it may lie: a crossing vertex takes u from
+  // the segment it was placed on at a z rounded to a few ulps of depth, so it sits up to
+  // ~(mu_kappa + |du/dz|) * c * eps * depth inside the bound (memory.cc, PlaceCrossing).
+  double BoundTagTolerance(std::size_t i, double mu_kappa) const;
 
   // Same state (depth and polyline), bit for bit.
   bool operator==(const PiecewiseLinearMemory& other) const {
@@ -92,6 +107,7 @@ class PiecewiseLinearMemory {
     Scratch& operator=(const Scratch&) { return *this; }
     std::vector<double> z, u;
     std::vector<std::uint8_t> tag;
+    std::vector<std::uint8_t> was;  // each refined vertex's tag before the step (crossings: 0)
   };
   Scratch next_;
 };

@@ -47,9 +47,11 @@ struct RadialValue {
   // route is defined or requested.
   double value = 0;
   TractionRoute chosen = TractionRoute::kBoth;
-  // kBoth: |abel - jager| (0 when both are the same infinity). kAbel: the quadrature's own error
-  // estimate. kJager: the round-off bound 4 eps * sum_k |term_k| of the superposition. 0 at a
-  // flat punch edge, where both routes give the same infinity.
+  // kBoth: |abel - jager| plus kJager's bound. kAbel: the quadrature's own error estimate.
+  // kJager: the round-off bound 4 eps * sum_k |term_k| of the superposition. For the tangential
+  // traction each adds an a-priori bound of the effect of the memory vertices' own rounding
+  // (depths to ~8 eps delta, which both routes share and their difference cannot see; see
+  // docs/engine.md). 0 where the value is infinite (a flat punch edge, a cone's centre).
   double error_estimate = 0;
 };
 
