@@ -2,23 +2,30 @@
 # Installs the Debian 12 packages this project builds and tests with, only if any is missing.
 # Idempotent: used by the README commands, .ci/run and deploy/Dockerfile alike.
 #   install-deps.sh            build, test and tool packages
+#   install-deps.sh --build    only what compiling mdrd, mdrctl and the probe needs (the container's
+#                              build stage: no test, plot or Python tools)
 #   install-deps.sh --runtime  only what mdrd and mdrctl need to run (the container's last stage)
 set -euo pipefail
 
 RUNTIME_PACKAGES=(
   ca-certificates libgrpc++1.51 libgrpc29 libprotobuf32 libgsl27 libgslcblas0 libspdlog1.10 libfmt9
-  libabsl20220623 libc-ares2 libre2-9 libssl3 libsqlite3-0 python3 python3-grpcio
+  libabsl20220623 libc-ares2 libre2-9 libssl3 libsqlite3-0 libyaml-cpp0.7
+)
+COMPILE_PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libgrpc++-dev protobuf-compiler-grpc protobuf-compiler libprotobuf-dev
+  libeigen3-dev libgsl-dev libspdlog-dev libgtest-dev libgmock-dev
+  libcli11-dev libyaml-cpp-dev libsqlite3-dev
 )
 BUILD_PACKAGES=(
-  build-essential cmake ninja-build pkg-config git
-  libgrpc++-dev protobuf-compiler-grpc protobuf-compiler libprotobuf-dev
-  libeigen3-dev libgsl-dev libspdlog-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev openssl
+  "${COMPILE_PACKAGES[@]}" git libbenchmark-dev nlohmann-json3-dev openssl
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml python3-matplotlib
   gnuplot-nox
 )
 if [ "${1:-}" = "--runtime" ]; then
   PACKAGES=("${RUNTIME_PACKAGES[@]}")
+elif [ "${1:-}" = "--build" ]; then
+  PACKAGES=("${COMPILE_PACKAGES[@]}")
 else
   PACKAGES=("${BUILD_PACKAGES[@]}")
 fi

@@ -3,6 +3,9 @@
 #include <grpcpp/client_context.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <random>
+#include <string_view>
 #include <thread>
 
 namespace mdr::client {
@@ -22,20 +25,33 @@ ContactClient::ContactClient(std::shared_ptr<grpc::ChannelInterface> channel,
                              std::chrono::milliseconds timeout)
     : ContactClient(std::move(channel), ClientOptions{.timeout = timeout}) {}
 
-std::unique_ptr<grpc::ClientContext> ContactClient::NewContext() const {
+std::string NewSessionId() {
+  thread_local std::mt19937_64 generator{std::random_device{}()};
+  char id[18];
+  std::snprintf(id, sizeof id, "c%016llx", static_cast<unsigned long long>(generator()));
+  return id;
+}
+
+std::unique_ptr<grpc::ClientContext> ContactClient::NewContext(const std::string& session) const {
   auto context = std::make_unique<grpc::ClientContext>();
   context->set_deadline(std::chrono::system_clock::now() + options_.timeout);
+  if (!session.empty()) {
+    const std::string_view prefix = "sessions/";
+    const std::string id = session.starts_with(prefix) ? session.substr(prefix.size()) : session;
+    context->AddMetadata(kSessionRoutingKey, id);
+  }
   return context;
 }
 
 template <typename Request, typename Response, typename Rpc>
-RpcResult<Response> ContactClient::Call(Rpc rpc, const Request& request, bool idempotent) {
+RpcResult<Response> ContactClient::Call(Rpc rpc, const Request& request, bool idempotent,
+                                        const std::string& session) {
   const int attempts = idempotent ? options_.max_attempts : 1;
   std::chrono::milliseconds backoff = options_.initial_backoff;
   grpc::Status status;
   for (int attempt = 1;; ++attempt) {
     Response response;
-    status = rpc(NewContext().get(), request, &response);
+    status = rpc(NewContext(session).get(), request, &response);
     if (status.ok()) return response;
     if (status.error_code() != grpc::StatusCode::UNAVAILABLE || attempt >= attempts) break;
     std::this_thread::sleep_for(backoff);
@@ -50,10 +66,10 @@ RpcResult<v1::Session> ContactClient::CreateSession(const v1::Scene& scene,
   v1::CreateSessionRequest request;
   *request.mutable_session()->mutable_scene() = scene;
   *request.mutable_session()->mutable_limits() = limits;
-  request.set_session_id(session_id);
+  request.set_session_id(session_id.empty() ? NewSessionId() : session_id);
   return Call<v1::CreateSessionRequest, v1::Session>(
       [this](auto* c, const auto& r, auto* o) { return stub_->CreateSession(c, r, o); }, request,
-      false);
+      false, request.session_id());
 }
 
 RpcResult<v1::Session> ContactClient::GetSession(const std::string& name) {
@@ -61,7 +77,7 @@ RpcResult<v1::Session> ContactClient::GetSession(const std::string& name) {
   request.set_name(name);
   return Call<v1::GetSessionRequest, v1::Session>(
       [this](auto* c, const auto& r, auto* o) { return stub_->GetSession(c, r, o); }, request,
-      true);
+      true, name);
 }
 
 RpcResult<v1::ListSessionsResponse> ContactClient::ListSessions(int page_size,
@@ -90,7 +106,7 @@ grpc::Status ContactClient::DeleteSession(const std::string& name) {
   v1::DeleteSessionRequest request;
   request.set_name(name);
   google::protobuf::Empty response;
-  return stub_->DeleteSession(NewContext().get(), request, &response);
+  return stub_->DeleteSession(NewContext(name).get(), request, &response);
 }
 
 RpcResult<v1::SessionSnapshot> ContactClient::ExportSession(const std::string& name) {
@@ -98,17 +114,17 @@ RpcResult<v1::SessionSnapshot> ContactClient::ExportSession(const std::string& n
   request.set_name(name);
   return Call<v1::ExportSessionRequest, v1::SessionSnapshot>(
       [this](auto* c, const auto& r, auto* o) { return stub_->ExportSession(c, r, o); }, request,
-      true);
+      true, name);
 }
 
 RpcResult<v1::Session> ContactClient::ImportSession(const v1::SessionSnapshot& snapshot,
                                                     const std::string& session_id) {
   v1::ImportSessionRequest request;
   *request.mutable_snapshot() = snapshot;
-  request.set_session_id(session_id);
+  request.set_session_id(session_id.empty() ? NewSessionId() : session_id);
   return Call<v1::ImportSessionRequest, v1::Session>(
       [this](auto* c, const auto& r, auto* o) { return stub_->ImportSession(c, r, o); }, request,
-      false);
+      false, request.session_id());
 }
 
 RpcResult<v1::ApplyResponse> ContactClient::Apply(const std::string& session,
@@ -134,12 +150,13 @@ RpcResult<v1::ApplyResponse> ContactClient::Apply(const std::string& session, co
 RpcResult<v1::ApplyResponse> ContactClient::Apply(const v1::ApplyRequest& request) {
   return Call<v1::ApplyRequest, v1::ApplyResponse>(
       [this](auto* c, const auto& r, auto* o) { return stub_->Apply(c, r, o); }, request,
-      !request.request_id().empty());
+      !request.request_id().empty(), request.session());
 }
 
 RpcResult<std::vector<v1::StreamApplyResponse>> ContactClient::StreamApply(
     const std::vector<v1::ApplyRequest>& requests, const StreamObserver& on_response) {
-  auto context = NewContext();
+  // Routed by the first message's session: through a router, one stream per session.
+  auto context = NewContext(requests.empty() ? "" : requests.front().session());
   auto stream = stub_->StreamApply(context.get());
   std::jthread writer([&] {
     v1::StreamApplyRequest message;
@@ -173,7 +190,8 @@ RpcResult<v1::QueryResponse> ContactClient::Query(const std::string& session,
 
 RpcResult<v1::QueryResponse> ContactClient::Query(const v1::QueryRequest& request) {
   return Call<v1::QueryRequest, v1::QueryResponse>(
-      [this](auto* c, const auto& r, auto* o) { return stub_->Query(c, r, o); }, request, true);
+      [this](auto* c, const auto& r, auto* o) { return stub_->Query(c, r, o); }, request, true,
+      request.session());
 }
 
 RpcResult<v1::TransformResponse> ContactClient::Transform(const v1::TransformRequest& request) {

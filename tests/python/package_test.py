@@ -183,6 +183,33 @@ class PackageTest(unittest.TestCase):
         finally:
             client.close()
 
+    def test_every_call_naming_a_session_carries_its_routing_id(self):
+        client = mdr.Client(self.client.address)
+        real, seen = client._stub, []
+
+        class RecordingStub:
+            def __getattr__(self, method):
+                def call(request, **kwargs):
+                    seen.append((method, dict(kwargs.get("metadata", ()))))
+                    return getattr(real, method)(request, **kwargs)
+                return call
+
+        client._stub = RecordingStub()
+        try:
+            with client.session(H1) as s:
+                s.apply({"depth": 1e-6})
+                s.query(["state"])
+                s.export()
+            session_id = s.name.removeprefix("sessions/")
+            self.assertRegex(session_id, r"^c[0-9a-f]{16}$")  # chosen by the client
+            methods = [method for method, _ in seen]
+            self.assertEqual(methods, ["CreateSession", "Apply", "Query", "ExportSession",
+                                       "DeleteSession"])
+            for method, metadata in seen:
+                self.assertEqual(metadata.get(mdr.client.SESSION_ROUTING_KEY), session_id, method)
+        finally:
+            client.close()
+
     def test_scene_files_load_like_mdrctl_reads_them(self):
         path = os.path.join(ARGS.source_dir, "examples", "fretting_mindlin_deresiewicz.yaml")
         scene_file = mdr.load_scene_file(path)

@@ -2,6 +2,7 @@
 UNAVAILABLE, errors raised as MdrError. Sessions are handles and context managers."""
 from __future__ import annotations
 
+import random
 import threading
 import time
 from typing import Iterable, Optional, Sequence, Union
@@ -20,6 +21,22 @@ from .messages import (ApplyResult, QueryResult, SceneLike, StepLike, to_scene, 
 _ROUTES = {"both": api.TRACTION_ROUTE_BOTH, "abel": api.TRACTION_ROUTE_ABEL,
                    "jager": api.TRACTION_ROUTE_JAGER}
 _MAX_MESSAGE_BYTES = 64 << 20
+# Metadata key carrying the id of the session a call names, so that a router pins every call on a
+# session, its creation included, to one server (consistent hashing; deploy/haproxy).
+SESSION_ROUTING_KEY = "x-session-id"
+
+
+def new_session_id() -> str:
+    """A fresh id of the API's form [a-z][a-z0-9-]{0,62}: the client chooses the ids of the
+    sessions it creates or imports, so that a router can route the creation."""
+    return f"c{random.SystemRandom().getrandbits(64):016x}"
+
+
+def _routing(session: str) -> tuple:
+    """The routing metadata of a call naming `session` ("sessions/{id}" or a bare id)."""
+    if not session:
+        return ()
+    return ((SESSION_ROUTING_KEY, session.removeprefix("sessions/")),)
 
 
 def _read(path: Optional[str]) -> Optional[bytes]:
@@ -94,12 +111,13 @@ class Client:
         self.close()
 
     # The calls.
-    def _call(self, method: str, request, idempotent: bool):
+    def _call(self, method: str, request, idempotent: bool, session: str = ""):
         rpc = getattr(self._stub, method)
+        metadata = self._metadata + _routing(session)
         backoff = self.initial_backoff
         for attempt in range(1, self.max_attempts + 1):
             try:
-                return rpc(request, timeout=self.timeout, metadata=self._metadata)
+                return rpc(request, timeout=self.timeout, metadata=metadata)
             except grpc.RpcError as error:
                 retry = (idempotent and attempt < self.max_attempts
                          and error.code() == grpc.StatusCode.UNAVAILABLE)
@@ -111,12 +129,14 @@ class Client:
 
     def create_session(self, scene: SceneLike, session_id: str = "",
                        limits: Optional[api.SessionLimits] = None) -> "Session":
-        """A new unloaded session for the scene (a Scene, a dict or a scene file path)."""
-        request = api.CreateSessionRequest(session_id=session_id)
+        """A new unloaded session for the scene (a Scene, a dict or a scene file path); an empty
+        session_id: the client picks one."""
+        request = api.CreateSessionRequest(session_id=session_id or new_session_id())
         request.session.scene.CopyFrom(to_scene(scene))
         if limits is not None:
             request.session.limits.CopyFrom(limits)
-        return Session(self, self._call("CreateSession", request, idempotent=False).name)
+        return Session(self, self._call("CreateSession", request, idempotent=False,
+                                        session=request.session_id).name)
 
     def session(self, scene: SceneLike, session_id: str = "",
                 limits: Optional[api.SessionLimits] = None) -> "Session":
@@ -124,7 +144,8 @@ class Client:
         return self.create_session(scene, session_id, limits)
 
     def get_session(self, name: str) -> api.Session:
-        return self._call("GetSession", api.GetSessionRequest(name=name), idempotent=True)
+        return self._call("GetSession", api.GetSessionRequest(name=name), idempotent=True,
+                          session=name)
 
     def list_sessions(self) -> list:
         """Every session (following the pages), as mdr.v1.Session resources."""
@@ -138,15 +159,18 @@ class Client:
                 return sessions
 
     def delete_session(self, name: str) -> None:
-        self._call("DeleteSession", api.DeleteSessionRequest(name=name), idempotent=False)
+        self._call("DeleteSession", api.DeleteSessionRequest(name=name), idempotent=False,
+                   session=name)
 
     def export_session(self, name: str) -> api.SessionSnapshot:
-        return self._call("ExportSession", api.ExportSessionRequest(name=name), idempotent=True)
+        return self._call("ExportSession", api.ExportSessionRequest(name=name), idempotent=True,
+                          session=name)
 
     def import_session(self, snapshot: api.SessionSnapshot, session_id: str = "") -> "Session":
-        request = api.ImportSessionRequest(session_id=session_id)
+        request = api.ImportSessionRequest(session_id=session_id or new_session_id())
         request.snapshot.CopyFrom(snapshot)
-        return Session(self, self._call("ImportSession", request, idempotent=False).name)
+        return Session(self, self._call("ImportSession", request, idempotent=False,
+                                        session=request.session_id).name)
 
     def transform(self, scene: SceneLike, *, superposition=None, samples=None,
                   radii: Sequence[float] = (), route: str = "both") -> api.TransformResponse:
@@ -218,7 +242,7 @@ class Session:
         (step_mask paths: "state", "substeps", "path_error", "dissipated_energy"; () for none).
         With a request_id the call is idempotent and retried on UNAVAILABLE."""
         response = self.client._call("Apply", self._request(steps, outputs, request_id),
-                                     idempotent=bool(request_id))
+                                     idempotent=bool(request_id), session=self.name)
         return ApplyResult.of(response)
 
     def stream(self, steps: Iterable[Union[StepLike, Sequence[StepLike]]],
@@ -247,7 +271,8 @@ class Session:
                 yield api.StreamApplyRequest(apply=self._request(item, outputs, ""))
 
         call = self.client._stub.StreamApply(
-            requests(), timeout=timeout or self.client.timeout, metadata=self.client._metadata)
+            requests(), timeout=timeout or self.client.timeout,
+            metadata=self.client._metadata + _routing(self.name))
         failure, index = None, 0
         try:
             for answer in call:
@@ -277,4 +302,5 @@ class Session:
         request = api.QueryRequest(session=self.name, radii=list(radii),
                                    traction_route=_route(route))
         request.read_mask.CopyFrom(_mask(outputs))
-        return QueryResult.of(self.client._call("Query", request, idempotent=True))
+        return QueryResult.of(self.client._call("Query", request, idempotent=True,
+                                                session=self.name))

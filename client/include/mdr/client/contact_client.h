@@ -29,6 +29,14 @@ struct ClientOptions {
   std::chrono::milliseconds initial_backoff = std::chrono::milliseconds(100);
 };
 
+// Metadata key carrying the id of the session a call names, so that a router can pin every call
+// on a session, its creation included, to one server (consistent hashing; deploy/haproxy).
+inline constexpr char kSessionRoutingKey[] = "x-session-id";
+
+// A fresh session id of the API's form [a-z][a-z0-9-]{0,62}: the client chooses the ids of the
+// sessions it creates or imports, so that a router can route the creation.
+std::string NewSessionId();
+
 class ContactClient {
  public:
   explicit ContactClient(std::shared_ptr<grpc::ChannelInterface> channel,
@@ -37,7 +45,7 @@ class ContactClient {
 
   const ClientOptions& options() const { return options_; }
 
-  // Empty session_id: the server picks one. Unset limits take the server's.
+  // Empty session_id: the client picks one (NewSessionId). Unset limits take the server's.
   RpcResult<v1::Session> CreateSession(const v1::Scene& scene, const std::string& session_id = "",
                                        const v1::SessionLimits& limits = {});
   RpcResult<v1::Session> GetSession(const std::string& name);
@@ -82,12 +90,14 @@ class ContactClient {
   RpcResult<v1::TransformResponse> Transform(const v1::TransformRequest& request);
 
  private:
-  // A context whose deadline is now + timeout (deadlines are system_clock time points).
-  std::unique_ptr<grpc::ClientContext> NewContext() const;
+  // A context whose deadline is now + timeout (deadlines are system_clock time points), carrying
+  // the routing metadata of the session it names ("sessions/{id}" or a bare id; empty: none).
+  std::unique_ptr<grpc::ClientContext> NewContext(const std::string& session = "") const;
   // Calls rpc(context, request, response) once, or up to max_attempts times on UNAVAILABLE when
   // idempotent.
   template <typename Request, typename Response, typename Rpc>
-  RpcResult<Response> Call(Rpc rpc, const Request& request, bool idempotent);
+  RpcResult<Response> Call(Rpc rpc, const Request& request, bool idempotent,
+                           const std::string& session = "");
 
   std::unique_ptr<v1::ContactService::Stub> stub_;
   ClientOptions options_;
