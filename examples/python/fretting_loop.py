@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Mindlin-Deresiewicz fretting loop of a steel sphere on a steel flat (reference H1): F_x over
-u_x for two cycles of +-15 N at F_N = 100 N, and the shear traction at the loop's two turning
-points, plotted into a PNG. Usage: fretting_loop.py [OUT.png] (default fretting_loop.png)."""
+u_x for the initial loading to +15 N and a full cycle +15 -> -15 -> +15 N at F_N = 100 N, and
+the shear traction at the loop's two turning points, plotted into a PNG. Usage: fretting_loop.py [OUT.png] (default fretting_loop.png)."""
 import os
 import sys
 
