@@ -9,18 +9,18 @@ set -euo pipefail
 
 RUNTIME_PACKAGES=(
   ca-certificates libgrpc++1.51 libgrpc29 libprotobuf32 libgsl27 libgslcblas0 libspdlog1.10 libfmt9
-  libabsl20220623 libc-ares2 libre2-9 libssl3 libsqlite3-0 libyaml-cpp0.7
+  libabsl20220623 libc-ares2 libre2-9 libssl3 libsqlite3-0 libyaml-cpp0.7 libcpp-httplib0.11
 )
 COMPILE_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libgrpc++-dev protobuf-compiler-grpc protobuf-compiler libprotobuf-dev
   libeigen3-dev libgsl-dev libspdlog-dev libgtest-dev libgmock-dev
-  libcli11-dev libyaml-cpp-dev libsqlite3-dev
+  libcli11-dev libyaml-cpp-dev libsqlite3-dev libcpp-httplib-dev
 )
 BUILD_PACKAGES=(
   "${COMPILE_PACKAGES[@]}" git libbenchmark-dev nlohmann-json3-dev openssl
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml python3-matplotlib
-  gnuplot-nox
+  gnuplot-nox prometheus
 )
 if [ "${1:-}" = "--runtime" ]; then
   PACKAGES=("${RUNTIME_PACKAGES[@]}")

@@ -69,6 +69,9 @@ int main(int argc, char** argv) {
   grpc::HealthCheckServiceInterface* health = (*server)->server().GetHealthCheckService();
   SetServing(health, true);
   spdlog::info("event=serving service={} port={}", kServiceName, (*server)->port());
+  if ((*server)->metrics_port() != 0) {
+    spdlog::info("event=metrics_serving path=/metrics port={}", (*server)->metrics_port());
+  }
 
   const int signal_number = WaitForTerminationSignal();
   spdlog::info("event=draining signal={} grace_s={} sessions={} streams={}", signal_number,

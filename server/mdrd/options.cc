@@ -22,6 +22,11 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
   app.add_option("--listen", server.listen_address, "Address to listen on (host:port; port 0: any)")
       ->envname("MDR_LISTEN")
       ->capture_default_str();
+  app.add_option("--metrics-listen", server.metrics_listen_address,
+                 "Address of the Prometheus metrics over HTTP, GET /metrics (host:port; port 0: "
+                 "any; empty: none)")
+      ->envname("MDR_METRICS_LISTEN")
+      ->capture_default_str();
   app.add_option("--log-level", options->log_level,
                  "trace, debug (one line per call), info, warn, error, critical or off")
       ->envname("MDR_LOG_LEVEL")
@@ -136,7 +141,7 @@ void LogEffectiveOptions(const Options& options) {
       "max_memory_vertices={} session_idle_timeout_s={} max_message_bytes={} "
       "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} "
       "journal_recover={} tls={} mtls={} auth={} max_sessions_per_token={} max_state_bytes={} "
-      "workers={} max_queued_calls={}",
+      "workers={} max_queued_calls={} metrics_listen={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
@@ -144,7 +149,8 @@ void LogEffectiveOptions(const Options& options) {
       mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
       server.journal.recover, !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
       !server.tokens_file.empty(), limits.max_sessions_per_token, limits.max_state_bytes,
-      server.execution.workers, server.execution.max_queued);
+      server.execution.workers, server.execution.max_queued,
+      server.metrics_listen_address.empty() ? "-" : server.metrics_listen_address);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(
         "event=config_warning warning=\"bearer tokens without --tls-cert travel in clear text; "

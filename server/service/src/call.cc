@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "mdr/service/log_value.h"
+#include "mdr/service/metrics.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -105,6 +106,7 @@ const char* CodeName(grpc::StatusCode code) {
 
 void LogCall(const char* method, const std::string& session, const std::string& request_id,
              const grpc::Status& status, double seconds) {
+  RecordCall(method, CodeName(status.error_code()), seconds);
   const auto level = status.ok() ? spdlog::level::debug : spdlog::level::info;
   if (!spdlog::should_log(level)) return;
   const std::string shown_session = session.empty() ? "-" : LogValue(session);

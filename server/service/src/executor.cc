@@ -4,6 +4,8 @@
 #include <string>
 #include <utility>
 
+#include "mdr/service/metrics.h"
+
 namespace mdr::service {
 namespace {
 
@@ -36,7 +38,11 @@ Executor::~Executor() { Stop(); }
 bool Executor::Submit(const std::string& strand, Task task) {
   {
     std::lock_guard lock(mutex_);
-    if (stopping_ || queued_ >= max_queued_) return false;
+    if (stopping_) return false;
+    if (queued_ >= max_queued_) {
+      ProcessMetrics().work_rejected.Increment();
+      return false;
+    }
     // Session names never start with a control character, so anonymous strands cannot collide.
     std::string key = strand;
     if (key.empty()) {

@@ -18,6 +18,7 @@
 #include <string_view>
 #include <utility>
 
+#include "mdr/service/metrics.h"
 #include "mdr/service/session_store.h"
 #include "mdr/service/status.h"
 
@@ -880,6 +881,7 @@ bool Journal::Step(sqlite3_stmt* statement, std::string* error) {
 template <typename Body>
 grpc::Status Journal::InTransaction(const char* what, bool row_carries_commit, Body body) {
   std::lock_guard lock(mutex_);
+  const JournalWriteTimer timer;
   std::string error;
   if (!Step(begin_, &error)) return WriteError(what, error);
   BindInteger(count_commit_, 1, commits_ + 1);
@@ -899,6 +901,7 @@ grpc::Status Journal::InTransaction(const char* what, bool row_carries_commit, B
 }
 
 grpc::Status Journal::WriteError(const char* what, const std::string& error) const {
+  ProcessMetrics().journal_write_failures.Increment();
   spdlog::error("event=journal_error path={} error=\"cannot {}: {}\"", options_.path, what, error);
   return GrpcError(grpc::StatusCode::UNAVAILABLE, "",
                    std::string("journal: cannot ") + what + " (" + error + ")");

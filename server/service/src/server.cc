@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mdr/service/log_value.h"
+#include "mdr/service/metrics.h"
 #include "mdr/service/request_parse_errors.h"
 
 namespace mdr::service {
@@ -168,6 +169,13 @@ Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions&
                                                    "setting gRPC refused: see its log above)"
                                                  : "\" (malformed address or port in use)"));
   }
+  if (!options.metrics_listen_address.empty()) {
+    const ContactServer* self = server.get();
+    auto metrics =
+        MetricsEndpoint::Start(options.metrics_listen_address, [self] { self->RefreshMetrics(); });
+    if (!metrics.ok()) return metrics.status();
+    server->metrics_ = std::move(metrics).value();
+  }
   if (options.limits.session_idle_timeout.count() > 0) {
     const auto period = SweepPeriod(options.limits.session_idle_timeout);
     ContactServer* self = server.get();
@@ -207,6 +215,12 @@ void ContactServer::Shutdown(std::chrono::system_clock::time_point deadline) {
   if (sweeper_.joinable()) sweeper_.join();
   operations_.CompactJournal();
   shut_down_ = true;
+}
+
+void ContactServer::RefreshMetrics() const {
+  Metrics& metrics = ProcessMetrics();
+  metrics.sessions.Set(static_cast<std::int64_t>(session_count()));
+  metrics.work_queue_depth.Set(static_cast<std::int64_t>(queued_calls()));
 }
 
 void ContactServer::SweepExpiredSessions(std::stop_token stop, std::chrono::milliseconds period) {

@@ -10,6 +10,7 @@
 #include "mdr/service/conversion.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/log_value.h"
+#include "mdr/service/metrics.h"
 #include "mdr/service/status.h"
 
 namespace mdr::service {
@@ -213,6 +214,7 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   }
   ++journal_sequence_;
   if (copy) *contact_ = std::move(*copy);
+  ProcessMetrics().steps_applied.Increment(applied - applied_steps_);
   applied_steps_ = applied;
   WriteState(*contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
   {

@@ -22,6 +22,7 @@
 #include "mdr/service/executor.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
+#include "mdr/service/metrics_endpoint.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::service {
@@ -47,6 +48,8 @@ struct ServerOptions {
   std::string tokens_file;
   // The worker pool of the computing calls and its queue bound (contact_service.h).
   ExecutorOptions execution;
+  // "host:port" of the Prometheus metrics over HTTP (port 0: pick a free one); empty: none.
+  std::string metrics_listen_address;
   TestHooks test_hooks;
 };
 
@@ -63,6 +66,8 @@ class ContactServer {
 
   // The bound port (the one picked for port 0); 0 without a listen address.
   int port() const { return port_; }
+  // The bound port of the metrics endpoint; 0 without one.
+  int metrics_port() const { return metrics_ ? metrics_->port() : 0; }
   std::shared_ptr<grpc::Channel> InProcessChannel();
   grpc::Server& server() { return *server_; }
   std::size_t session_count() const { return operations_.session_count(); }
@@ -78,6 +83,8 @@ class ContactServer {
 
  private:
   ContactServer(const ServerOptions& options, std::optional<Authenticator> authenticator);
+  // Sets the gauges sampled at scrape time (sessions held, queued calls).
+  void RefreshMetrics() const;
   // Deletes idle sessions every `period` until stopped.
   void SweepExpiredSessions(std::stop_token stop, std::chrono::milliseconds period);
 
@@ -93,6 +100,8 @@ class ContactServer {
   std::jthread sweeper_;
   int port_ = 0;
   bool shut_down_ = false;
+  // Last: destroyed first, as its scrapes read the members above.
+  std::unique_ptr<MetricsEndpoint> metrics_;
 };
 
 }  // namespace mdr::service

@@ -1,0 +1,118 @@
+// mdrd's Prometheus metrics: a small process-wide registry of counters, gauges and histograms
+// with fixed label names, rendered in the text exposition format 0.0.4. Recording is lock-free
+// (atomics); a labelled series is found under a shared lock and created once under an exclusive
+// one. Label values come from fixed sets (method names, status code names), never from clients.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <shared_mutex>
+#include <string>
+#include <vector>
+
+namespace mdr::service {
+
+// A value that only goes up (events, seconds).
+class Counter {
+ public:
+  void Increment(std::uint64_t by = 1) { value_.fetch_add(by, std::memory_order_relaxed); }
+  std::uint64_t value() const { return value_.load(std::memory_order_relaxed); }
+
+ private:
+  std::atomic<std::uint64_t> value_{0};
+};
+
+// A value that goes up and down (queue depth) or is set when scraped (sessions held).
+class Gauge {
+ public:
+  void Add(std::int64_t delta) { value_.fetch_add(delta, std::memory_order_relaxed); }
+  void Set(std::int64_t value) { value_.store(value, std::memory_order_relaxed); }
+  std::int64_t value() const { return value_.load(std::memory_order_relaxed); }
+
+ private:
+  std::atomic<std::int64_t> value_{0};
+};
+
+// Observations counted in fixed buckets (upper bounds, increasing); rendered cumulatively.
+class Histogram {
+ public:
+  explicit Histogram(const std::vector<double>* bounds);
+  void Observe(double value);
+  const std::vector<double>& bounds() const { return *bounds_; }
+  // Observations <= bounds()[i] alone (not cumulative); index bounds().size(): above every bound.
+  std::uint64_t bucket(std::size_t i) const { return buckets_[i].load(std::memory_order_relaxed); }
+  double sum() const { return sum_.load(std::memory_order_relaxed); }
+
+ private:
+  const std::vector<double>* const bounds_;
+  std::unique_ptr<std::atomic<std::uint64_t>[]> buckets_;
+  std::atomic<double> sum_{0};
+};
+
+// Every series of one metric: one per combination of label values.
+template <typename Series>
+class Family {
+ public:
+  Family(std::string name, std::string help, std::vector<std::string> label_names,
+         std::vector<double> bounds = {});
+  // The series of these label values (as many as label names), created on first use.
+  Series& With(const std::vector<std::string>& label_values);
+  // Appends the HELP and TYPE lines and every series, in label order.
+  void Render(std::string* text) const;
+
+ private:
+  void RenderSeries(const std::string& labels, const Series& series, std::string* text) const;
+
+  const std::string name_;
+  const std::string help_;
+  const std::vector<std::string> label_names_;
+  const std::vector<double> bounds_;  // histograms only
+  mutable std::shared_mutex mutex_;
+  std::map<std::vector<std::string>, std::unique_ptr<Series>> series_;  // guarded by mutex_
+};
+
+// The metrics of this process (names and meaning: docs/operations.md, Metrics).
+struct Metrics {
+  Metrics();
+  // The exposition text (Content-Type: text/plain; version=0.0.4).
+  std::string Render() const;
+
+  Family<Counter> rpc_calls;               // labels method, code
+  Family<Histogram> rpc_duration_seconds;  // label method
+  Family<Gauge> sessions_family;           // no labels (as the ones below)
+  Family<Counter> steps_applied_family;
+  Family<Gauge> work_queue_depth_family;
+  Family<Counter> work_rejected_family;
+  Family<Histogram> journal_write_seconds_family;
+  Family<Counter> journal_write_failures_family;
+  Family<Gauge> start_time_family;
+  // The unlabelled series of the families above (constructed after them).
+  Gauge& sessions;
+  Counter& steps_applied;
+  Gauge& work_queue_depth;
+  Counter& work_rejected;
+  Histogram& journal_write_seconds;
+  Counter& journal_write_failures;
+};
+
+// The process-wide instance that the hooks record to.
+Metrics& ProcessMetrics();
+
+// Records one finished call (or StreamApply message): method is a fixed handler name.
+void RecordCall(const char* method, const char* code, double seconds);
+
+// Observes the seconds from its construction to its destruction (a journal write).
+class JournalWriteTimer {
+ public:
+  JournalWriteTimer();
+  ~JournalWriteTimer();
+  JournalWriteTimer(const JournalWriteTimer&) = delete;
+  JournalWriteTimer& operator=(const JournalWriteTimer&) = delete;
+
+ private:
+  const std::int64_t start_nanoseconds_;
+};
+
+}  // namespace mdr::service
