@@ -395,7 +395,9 @@ TEST(TractionErrorEstimateTest, BoundsTheActualErrorAgainstClosedForms) {
           const double dux_back = ux_back - ux_star;  // the increment the engine applies
           // Depth extent of the reversal's slip annulus.
           const long double back = unload ? -static_cast<long double>(dux_back) / (2 * m) : 0;
-          if (unload) ASSERT_TRUE(c.MoveTo(d, ux_back).ok());
+          if (unload) {
+            ASSERT_TRUE(c.MoveTo(d, ux_back).ok());
+          }
           const long double scale = static_cast<long double>(c.config().material.g_star) * m;
           auto exact = [&](long double r) {
             long double tau = form.Difference(d, d - h, h, r);

@@ -7,7 +7,8 @@
 #      within its grace period;
 #   2. three containers behind HAProxy (deploy/haproxy/haproxy.cfg): clients that know only the
 #      router create, stream to and query many sessions, pinned by x-session-id; killing one
-#      instance disturbs no session of the others, and once it is back its sessions are whole.
+#      instance disturbs no session of the others, and once it is back its sessions are whole; an
+#      instance's Prometheus metrics pass promtool and count the run's calls and journal writes.
 # Prints one summary line. Needs the release build's mdrd and Python package (tests/run.sh makes
 # them). Traffic stays on 127.0.0.1.
 set -euo pipefail
@@ -34,7 +35,8 @@ trap cleanup EXIT
 # run_instance NAME PORT: a container with its journal on the volume NAME, listening on PORT.
 run_instance() {
   "${P[@]}" run -d --name "$1" --network=host "${ULIMITS[@]}" -v "$1:/var/lib/mdr/journal" \
-    -e MDR_LISTEN="127.0.0.1:$2" -e MDR_SHUTDOWN_GRACE=$GRACE "$IMAGE" >/dev/null 2>>"$work/podman.log"
+    -e MDR_LISTEN="127.0.0.1:$2" -e MDR_METRICS_LISTEN="127.0.0.1:$(($2 + 100))" \
+    -e MDR_SHUTDOWN_GRACE=$GRACE "$IMAGE" >/dev/null 2>>"$work/podman.log"
 }
 
 # wait_healthy NAME: the image's own HEALTHCHECK command, run until it passes (30 s at most).
@@ -49,6 +51,19 @@ wait_healthy() {
 }
 
 drive() { PYTHONPATH=build/release/python /usr/bin/python3 tests/deploy/drive.py "$@"; }
+
+# scrape PORT: an instance's /metrics (its gRPC port + 100), checked by Prometheus' promtool and
+# for what the run did; prints "calls journal_writes sessions".
+scrape() {
+  local text="$work/metrics-$1.txt"
+  /usr/bin/python3 -c "import sys, urllib.request; sys.stdout.write(urllib.request.urlopen(sys.argv[1], timeout=10).read().decode())" \
+    "http://127.0.0.1:$(($1 + 100))/metrics" > "$text" || fail "no metrics on port $(($1 + 100))"
+  promtool check metrics < "$text" >/dev/null 2>&1 || fail "promtool rejects the metrics: $(promtool check metrics < "$text" 2>&1 | head -3)"
+  awk '/^mdr_rpc_calls_total\{/ { calls += $NF } /^mdr_journal_write_seconds_count/ { writes += $NF }
+       /^mdr_sessions / { sessions = $NF }
+       END { if (calls < 1 || writes < 1 || sessions < 1) exit 1; printf "%d %d %d", calls, writes, sessions }' \
+    "$text" || fail "metrics on port $(($1 + 100)) do not show the run's calls: $(grep -c '^mdr_' "$text") series"
+}
 
 install_tools
 cleanup; work=$(mktemp -d)
@@ -109,6 +124,9 @@ log "$during"
 wait_healthy "${NAMES[$victim]}"
 whole=$(drive verify --address $router --state "$work/router.json" --mdrd build/release/server/mdrd/mdrd)
 log "through the router after the restart: $whole"
+metrics=$(scrape "${PORTS[0]}")
+read -r calls writes held <<< "$metrics"
+log "metrics of ${NAMES[0]}: $calls calls, $writes journal writes, $held sessions (promtool: valid)"
 
 elapsed=$(( $(date +%s) - started ))
-echo "deploy: passed in ${elapsed} s: image ${size_mb} MB built and healthy; one instance: example served, ${restored#drive: } after kill -9, drained in ${drain_seconds} s (grace ${GRACE} s); three behind HAProxy: ${spread#drive: }; one killed: ${during#drive: }; restarted: ${whole#drive: }"
+echo "deploy: passed in ${elapsed} s: image ${size_mb} MB built and healthy; one instance: example served, ${restored#drive: } after kill -9, drained in ${drain_seconds} s (grace ${GRACE} s); three behind HAProxy: ${spread#drive: }; one killed: ${during#drive: }; restarted: ${whole#drive: }; metrics of one instance valid for promtool: $calls calls, $writes journal writes, $held sessions"
