@@ -67,13 +67,13 @@ ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hook
 
 grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
   std::unique_ptr<Journal> journal;
-  if (grpc::Status status = Journal::Open(options, &journal); !status.ok()) return status;
+  if (Status status = Journal::Open(options, &journal); !status.ok()) return ToGrpcStatus(status);
   for (const std::string& dropped : journal->recovery_drops()) {
     spdlog::warn("event=journal_recovery_dropped path={} dropped={}", Quoted(options.path),
                  Quoted(dropped, kMaxLoggedErrorBytes));
   }
   std::vector<JournaledSession> journaled;
-  if (grpc::Status status = journal->Load(&journaled); !status.ok()) return status;
+  if (Status status = journal->Load(&journaled); !status.ok()) return ToGrpcStatus(status);
   std::size_t restored = 0, unavailable = 0, batches = 0;
   for (JournaledSession& entry : journaled) {
     std::shared_ptr<Session> session;

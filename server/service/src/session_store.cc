@@ -63,9 +63,9 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
     if (journal_ != nullptr) {
       // Gone from memory either way; a session the journal keeps comes back at the next start
       // and expires again.
-      if (grpc::Status status = journal_->RemoveSession(it->first); !status.ok()) {
+      if (Status status = journal_->RemoveSession(it->first); !status.ok()) {
         spdlog::error("event=journal_error session={} error={}", LogValue(it->first),
-                      Quoted(status.error_message(), kMaxLoggedErrorBytes));
+                      Quoted(status.ToString(), kMaxLoggedErrorBytes));
       }
     }
     erased.push_back(it->first);
@@ -125,9 +125,8 @@ grpc::Status SessionStore::Create(const std::string& id_field, const std::string
   if (journal_ != nullptr) {
     v1::SessionSnapshot snapshot;
     created->Export(&snapshot);
-    grpc::Status status =
-        journal_->AddSession(name, created->owner(), created->create_time(), snapshot);
-    if (!status.ok()) return status;
+    Status status = journal_->AddSession(name, created->owner(), created->create_time(), snapshot);
+    if (!status.ok()) return ToGrpcStatus(status);
     created->AttachJournal(journal_);
   }
   sessions_.emplace(name, created);
@@ -167,7 +166,7 @@ grpc::Status SessionStore::Erase(const std::string& field, const std::string& na
   auto it = sessions_.find(name);
   if (it == sessions_.end() || it->second != session) return NotFound(field, name);
   if (journal_ != nullptr) {
-    if (grpc::Status status = journal_->RemoveSession(name); !status.ok()) return status;
+    if (Status status = journal_->RemoveSession(name); !status.ok()) return ToGrpcStatus(status);
   }
   sessions_.erase(it);
   return grpc::Status::OK;
