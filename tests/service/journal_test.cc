@@ -259,8 +259,8 @@ class JournalTest : public ::testing::Test {
     options.recover = true;
     {
       std::unique_ptr<Journal> journal;
-      grpc::Status status = Journal::Open(options, &journal);
-      EXPECT_TRUE(status.ok()) << status.error_message();
+      Status status = Journal::Open(options, &journal);
+      EXPECT_TRUE(status.ok()) << status.ToString();
       if (journal) {
         EXPECT_THAT(Join(journal->recovery_drops()), ::testing::HasSubstr(what));
       }

@@ -6,8 +6,6 @@
 #include <sstream>
 #include <utility>
 
-#include "mdr/service/status.h"
-
 namespace mdr::service {
 namespace {
 
@@ -28,11 +26,11 @@ bool IsValidToken(std::string_view token) {
          std::all_of(token.begin(), token.end(), [](char c) { return c > 0x20 && c < 0x7F; });
 }
 
-grpc::Status Unauthenticated(const std::string& why) {
-  return GrpcError(grpc::StatusCode::UNAUTHENTICATED, "",
-                   why +
-                       "; send \"authorization: Bearer <token>\" metadata with a token of "
-                       "mdrd's --tokens-file");
+Status Unauthenticated(const std::string& why) {
+  return mdr::Unauthenticated(
+      "", why +
+              "; send \"authorization: Bearer <token>\" metadata with a token of "
+              "mdrd's --tokens-file");
 }
 
 }  // namespace
@@ -99,7 +97,7 @@ Result<Authenticator> Authenticator::FromFile(const std::string& path) {
   return authenticator;
 }
 
-grpc::Status Authenticator::Authenticate(
+Status Authenticator::Authenticate(
     const std::multimap<grpc::string_ref, grpc::string_ref>& metadata, Principal* principal) const {
   const auto header = metadata.find("authorization");
   if (header == metadata.end()) return Unauthenticated("no authorization metadata");
@@ -114,7 +112,7 @@ grpc::Status Authenticator::Authenticate(
   }
   if (match == nullptr) return Unauthenticated("unknown token");
   *principal = match->name;
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 }  // namespace mdr::service

@@ -14,7 +14,7 @@ grpc::Status CallerOf(const grpc::CallbackServerContext* context,
                       const Authenticator* authenticator, Principal* caller) {
   caller->reset();
   if (authenticator == nullptr) return grpc::Status::OK;
-  return authenticator->Authenticate(context->client_metadata(), caller);
+  return ToGrpcStatus(authenticator->Authenticate(context->client_metadata(), caller));
 }
 
 Interrupt InterruptOf(const grpc::CallbackServerContext* context,

@@ -18,9 +18,9 @@
 #include <string_view>
 #include <utility>
 
+#include "mdr/core/status.h"
 #include "mdr/service/metrics.h"
 #include "mdr/service/session_store.h"
-#include "mdr/service/status.h"
 
 namespace mdr::service {
 namespace {
@@ -240,17 +240,16 @@ std::string Join(const std::vector<std::string>& items) {
   return joined;
 }
 
-grpc::Status Unusable(const std::string& path, const std::string& why) {
-  return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "journal",
-                   "cannot use \"" + path + "\": " + why);
+Status Unusable(const std::string& path, const std::string& why) {
+  return FailedPrecondition("journal", "cannot use \"" + path + "\": " + why);
 }
 
-grpc::Status Damaged(const std::string& path, const std::vector<std::string>& damage) {
-  return GrpcError(grpc::StatusCode::DATA_LOSS, "journal",
-                   "\"" + path + "\" is damaged: " + Join(damage) +
-                       ". Nothing was changed; start mdrd with --journal-recover to restore what "
-                       "is intact (the damaged files are kept as \"" +
-                       path + ".damaged\")");
+Status Damaged(const std::string& path, const std::vector<std::string>& damage) {
+  return DataLoss("journal",
+                  "\"" + path + "\" is damaged: " + Join(damage) +
+                      ". Nothing was changed; start mdrd with --journal-recover to restore what "
+                      "is intact (the damaged files are kept as \"" +
+                      path + ".damaged\")");
 }
 
 }  // namespace
@@ -277,15 +276,15 @@ const char* JournalSyncName(JournalSync sync) {
   return "full";
 }
 
-grpc::Status Journal::Open(const JournalOptions& options, std::unique_ptr<Journal>* journal) {
+Status Journal::Open(const JournalOptions& options, std::unique_ptr<Journal>* journal) {
   std::unique_ptr<Journal> opened(new Journal(options));
   std::vector<std::string> damage;
-  if (grpc::Status status = opened->Connect(&damage); !status.ok()) return status;
+  if (Status status = opened->Connect(&damage); !status.ok()) return status;
   if (options.recover) {
     std::vector<JournaledSession> intact;
     opened->ReadSessions(&intact, &damage);
     if (!damage.empty()) {
-      if (grpc::Status status = opened->Rebuild(intact); !status.ok()) return status;
+      if (Status status = opened->Rebuild(intact); !status.ok()) return status;
       opened->recovery_drops_ = std::move(damage);
     }
   } else if (!damage.empty()) {
@@ -295,10 +294,10 @@ grpc::Status Journal::Open(const JournalOptions& options, std::unique_ptr<Journa
   if (!opened->RecordCommits(&error)) return Unusable(options.path + ".commit", error);
   opened->checkpoint_on_close_ = true;
   *journal = std::move(opened);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status Journal::Connect(std::vector<std::string>* damage) {
+Status Journal::Connect(std::vector<std::string>* damage) {
   const std::string& path = options_.path;
   std::string error;
   if (!CreatePrivately(path, &error)) return Unusable(path, error);
@@ -314,7 +313,7 @@ grpc::Status Journal::Connect(std::vector<std::string>* damage) {
       !Execute(SynchronousPragma(options_.sync), &error) || !Execute("BEGIN IMMEDIATE", &error)) {
     if (IsCorruption(sqlite3_extended_errcode(db_))) {
       damage->push_back("the database cannot be read (" + error + ")");
-      return grpc::Status::OK;
+      return OkStatus();
     }
     return Unusable(path, error + " (is another mdrd using it?)");
   }
@@ -330,7 +329,7 @@ grpc::Status Journal::Connect(std::vector<std::string>* damage) {
     const bool empty = SchemaOf(db_, &error).empty();
     if (!error.empty()) {
       damage->push_back("its schema cannot be read (" + error + ")");
-      return grpc::Status::OK;
+      return OkStatus();
     }
     if (!empty) {
       Execute("ROLLBACK", &error);
@@ -445,7 +444,7 @@ void Journal::CheckCommits(std::vector<std::string>* damage) {
   }
 }
 
-grpc::Status Journal::Prepare() {
+Status Journal::Prepare() {
   const std::pair<sqlite3_stmt**, const char*> statements[] = {
       {&begin_, "BEGIN"},
       {&commit_, "COMMIT"},
@@ -473,7 +472,7 @@ grpc::Status Journal::Prepare() {
       *statement = nullptr;
     }
   }
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 void Journal::FinalizeStatements() {
@@ -499,7 +498,7 @@ void Journal::Disconnect(bool keep_log) {
 // A journal refused at open is closed as it was found (its log is not checkpointed away).
 Journal::~Journal() { Disconnect(/*keep_log=*/!checkpoint_on_close_); }
 
-grpc::Status Journal::Load(std::vector<JournaledSession>* sessions) {
+Status Journal::Load(std::vector<JournaledSession>* sessions) {
   std::lock_guard lock(mutex_);
   std::vector<std::string> damage;
   ReadSessions(sessions, &damage);
@@ -507,7 +506,7 @@ grpc::Status Journal::Load(std::vector<JournaledSession>* sessions) {
     sessions->clear();
     return Damaged(options_.path, damage);
   }
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 void Journal::ReadSessions(std::vector<JournaledSession>* sessions,
@@ -653,7 +652,7 @@ void Journal::ReadOrphans(const char* table, std::vector<std::string>* damage) {
   }
 }
 
-grpc::Status Journal::Rebuild(const std::vector<JournaledSession>& intact) {
+Status Journal::Rebuild(const std::vector<JournaledSession>& intact) {
   const std::string& path = options_.path;
   for (const char* suffix : {"", "-wal", ".commit"}) {  // as found, for inspection
     std::error_code error;
@@ -663,7 +662,7 @@ grpc::Status Journal::Rebuild(const std::vector<JournaledSession>& intact) {
     if (error) return Unusable(path + suffix, "cannot copy it aside: " + error.message());
   }
   std::string error;
-  if (db_ != nullptr && RewriteInPlace(intact, &error)) return grpc::Status::OK;
+  if (db_ != nullptr && RewriteInPlace(intact, &error)) return OkStatus();
   // Not even rewritable: a new file (what was intact is in `intact` and the copy).
   spdlog::warn(
       "event=journal_recovery path={} note=\"rewriting in place failed ({}); starting a "
@@ -675,9 +674,9 @@ grpc::Status Journal::Rebuild(const std::vector<JournaledSession>& intact) {
     std::filesystem::remove(path + suffix, ignored);
   }
   std::vector<std::string> damage;
-  if (grpc::Status status = Connect(&damage); !status.ok()) return status;
+  if (Status status = Connect(&damage); !status.ok()) return status;
   if (!RewriteInPlace(intact, &error)) return Unusable(path, error);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 // One transaction: a crash before its commit leaves the damaged journal as it was (recovered
@@ -716,7 +715,7 @@ bool Journal::RewriteInPlace(const std::vector<JournaledSession>& intact, std::s
   return false;
 }
 
-grpc::Status Journal::WriteSession(const JournaledSession& session, std::string* error) {
+Status Journal::WriteSession(const JournaledSession& session, std::string* error) {
   const std::string snapshot = session.snapshot.SerializeAsString();
   BindText(insert_session_, 1, session.name);
   BindText(insert_session_, 2, session.owner);
@@ -753,12 +752,12 @@ grpc::Status Journal::WriteSession(const JournaledSession& session, std::string*
         BatchChecksum(session.name, batch.sequence, batch.request.request_id(), request, 0));
     if (!Step(insert_batch_, error)) return Unusable(options_.path, *error);
   }
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status Journal::AddSession(const std::string& name, const std::string& owner,
-                                 const google::protobuf::Timestamp& create_time,
-                                 const v1::SessionSnapshot& snapshot) {
+Status Journal::AddSession(const std::string& name, const std::string& owner,
+                           const google::protobuf::Timestamp& create_time,
+                           const v1::SessionSnapshot& snapshot) {
   JournaledSession session;
   session.name = name;
   session.owner = owner;
@@ -773,8 +772,8 @@ grpc::Status Journal::AddSession(const std::string& name, const std::string& own
                        });
 }
 
-grpc::Status Journal::AddBatch(const std::string& session, std::uint64_t sequence,
-                               const v1::ApplyRequest& request) {
+Status Journal::AddBatch(const std::string& session, std::uint64_t sequence,
+                         const v1::ApplyRequest& request) {
   const std::string bytes = request.SerializeAsString();
   return InTransaction("record the batch", /*row_carries_commit=*/true,
                        [&](std::uint64_t commit, std::string* error) {
@@ -790,9 +789,9 @@ grpc::Status Journal::AddBatch(const std::string& session, std::uint64_t sequenc
                        });
 }
 
-grpc::Status Journal::Compact(const std::string& session, std::uint64_t sequence,
-                              const v1::SessionSnapshot& snapshot,
-                              const std::vector<JournaledRequest>& completed) {
+Status Journal::Compact(const std::string& session, std::uint64_t sequence,
+                        const v1::SessionSnapshot& snapshot,
+                        const std::vector<JournaledRequest>& completed) {
   const std::string bytes = snapshot.SerializeAsString();
   return InTransaction(
       "compact the session", /*row_carries_commit=*/false, [&](std::uint64_t, std::string* error) {
@@ -837,7 +836,7 @@ grpc::Status Journal::Compact(const std::string& session, std::uint64_t sequence
       });
 }
 
-grpc::Status Journal::RemoveSession(const std::string& session) {
+Status Journal::RemoveSession(const std::string& session) {
   return InTransaction("record the deletion", /*row_carries_commit=*/false,
                        [&](std::uint64_t, std::string* error) {
                          BindText(delete_session_, 1, session);
@@ -879,7 +878,7 @@ bool Journal::Step(sqlite3_stmt* statement, std::string* error) {
 // in the side file (after the commit, so the side file is never ahead of a commit that a crash of
 // the process could lose).
 template <typename Body>
-grpc::Status Journal::InTransaction(const char* what, bool row_carries_commit, Body body) {
+Status Journal::InTransaction(const char* what, bool row_carries_commit, Body body) {
   std::lock_guard lock(mutex_);
   const JournalWriteTimer timer;
   std::string error;
@@ -893,18 +892,17 @@ grpc::Status Journal::InTransaction(const char* what, bool row_carries_commit, B
       spdlog::error("event=journal_error path={}.commit error=\"cannot record commit {}: {}\"",
                     options_.path, commits_, error);
     }
-    return grpc::Status::OK;
+    return OkStatus();
   }
   std::string ignored;
   Step(rollback_, &ignored);
   return WriteError(what, error);
 }
 
-grpc::Status Journal::WriteError(const char* what, const std::string& error) const {
+Status Journal::WriteError(const char* what, const std::string& error) const {
   ProcessMetrics().journal_write_failures.Increment();
   spdlog::error("event=journal_error path={} error=\"cannot {}: {}\"", options_.path, what, error);
-  return GrpcError(grpc::StatusCode::UNAVAILABLE, "",
-                   std::string("journal: cannot ") + what + " (" + error + ")");
+  return Unavailable("", std::string("journal: cannot ") + what + " (" + error + ")");
 }
 
 }  // namespace mdr::service

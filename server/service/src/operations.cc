@@ -67,13 +67,13 @@ ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hook
 
 grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
   std::unique_ptr<Journal> journal;
-  if (grpc::Status status = Journal::Open(options, &journal); !status.ok()) return status;
+  if (Status status = Journal::Open(options, &journal); !status.ok()) return ToGrpcStatus(status);
   for (const std::string& dropped : journal->recovery_drops()) {
     spdlog::warn("event=journal_recovery_dropped path={} dropped={}", Quoted(options.path),
                  Quoted(dropped, kMaxLoggedErrorBytes));
   }
   std::vector<JournaledSession> journaled;
-  if (grpc::Status status = journal->Load(&journaled); !status.ok()) return status;
+  if (Status status = journal->Load(&journaled); !status.ok()) return ToGrpcStatus(status);
   std::size_t restored = 0, unavailable = 0, batches = 0;
   for (JournaledSession& entry : journaled) {
     std::shared_ptr<Session> session;
@@ -181,7 +181,7 @@ grpc::Status ContactOperations::AddSession(const Principal& caller, const std::s
   }
   state.max_message_bytes = limits_.max_message_bytes;
   std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Create(id_field, session_id, caller, std::move(state), &session);
+  grpc::Status status = ToGrpcStatus(sessions_.Create(id_field, session_id, caller, std::move(state), &session));
   if (!status.ok()) return status;
   session->ReadResource(response);
   spdlog::info("event=session_{} session={} sessions={}", verb, LogValue(session->name()),
@@ -192,9 +192,9 @@ grpc::Status ContactOperations::AddSession(const Principal& caller, const std::s
 grpc::Status ContactOperations::CreateSession(const Principal& caller,
                                               const v1::CreateSessionRequest& request,
                                               v1::Session* response, const Interrupt& interrupt) {
-  if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
+  if (Status status = SessionStore::CheckSessionId("session_id", request.session_id());
       !status.ok()) {
-    return status;
+    return ToGrpcStatus(status);
   }
   const v1::Session& resource = request.session();
   Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
@@ -213,7 +213,7 @@ grpc::Status ContactOperations::GetSession(const Principal& caller,
                                            const v1::GetSessionRequest& request,
                                            v1::Session* response) {
   std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("name", request.name(), caller, &session);
+  grpc::Status status = ToGrpcStatus(sessions_.Find("name", request.name(), caller, &session));
   if (status.ok()) session->ReadResource(response);
   return status;
 }
@@ -240,7 +240,7 @@ grpc::Status ContactOperations::ListSessions(const Principal& caller,
 
 grpc::Status ContactOperations::DeleteSession(const Principal& caller,
                                               const v1::DeleteSessionRequest& request) {
-  grpc::Status status = sessions_.Erase("name", request.name(), caller);
+  grpc::Status status = ToGrpcStatus(sessions_.Erase("name", request.name(), caller));
   if (status.ok()) {
     spdlog::info("event=session_deleted session={} sessions={}", LogValue(request.name()),
                  sessions_.size());
@@ -252,7 +252,7 @@ grpc::Status ContactOperations::ExportSession(const Principal& caller,
                                               const v1::ExportSessionRequest& request,
                                               v1::SessionSnapshot* response) {
   std::shared_ptr<Session> session;
-  grpc::Status status = sessions_.Find("name", request.name(), caller, &session);
+  grpc::Status status = ToGrpcStatus(sessions_.Find("name", request.name(), caller, &session));
   if (status.ok()) status = session->Export(response);
   return status;
 }
@@ -301,9 +301,9 @@ grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
 grpc::Status ContactOperations::ImportSession(const Principal& caller,
                                               const v1::ImportSessionRequest& request,
                                               v1::Session* response, const Interrupt& interrupt) {
-  if (grpc::Status status = SessionStore::CheckSessionId("session_id", request.session_id());
+  if (Status status = SessionStore::CheckSessionId("session_id", request.session_id());
       !status.ok()) {
-    return status;
+    return ToGrpcStatus(status);
   }
   std::optional<SessionState> state;
   if (grpc::Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
@@ -323,9 +323,9 @@ grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRe
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
   if (!step_outputs.ok()) return ToGrpcStatus(step_outputs.status());
   std::shared_ptr<Session> session;
-  if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
+  if (Status status = sessions_.Find("session", request.session(), caller, &session);
       !status.ok()) {
-    return status;
+    return ToGrpcStatus(status);
   }
   const Session::StepGuard guard = [&](int step_index) {
     if (hooks_.before_step) hooks_.before_step(step_index);
@@ -346,9 +346,9 @@ grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRe
   if (!sampling.ok()) return ToGrpcStatus(sampling.status());
   sampling->traction_options.interrupt = interrupt;
   std::shared_ptr<Session> session;
-  if (grpc::Status status = sessions_.Find("session", request.session(), caller, &session);
+  if (Status status = sessions_.Find("session", request.session(), caller, &session);
       !status.ok()) {
-    return status;
+    return ToGrpcStatus(status);
   }
   return session->Query(*selection, *sampling, hooks_.output_counters, response);
 }

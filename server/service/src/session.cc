@@ -110,9 +110,9 @@ grpc::Status Session::CompactJournalLocked() {
   ExportLocked(&snapshot);
   const std::vector<JournaledRequest> completed(completed_.entries().begin(),
                                                 completed_.entries().end());
-  grpc::Status status = journal_->Compact(name_, journal_sequence_, snapshot, completed);
+  Status status = journal_->Compact(name_, journal_sequence_, snapshot, completed);
   if (status.ok()) journal_snapshot_sequence_ = journal_sequence_;
-  return status;
+  return ToGrpcStatus(status);
 }
 
 grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
@@ -206,10 +206,9 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   const std::size_t charged = charge_.bytes();
   if (grpc::Status status = ChargeStateLocked(target); !status.ok()) return status;
   if (journal_ != nullptr) {
-    if (grpc::Status status = journal_->AddBatch(name_, journal_sequence_ + 1, request);
-        !status.ok()) {
+    if (Status status = journal_->AddBatch(name_, journal_sequence_ + 1, request); !status.ok()) {
       (void)charge_.Resize(charged);  // a release: cannot fail
-      return status;
+      return ToGrpcStatus(status);
     }
   }
   ++journal_sequence_;

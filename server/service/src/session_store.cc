@@ -7,8 +7,8 @@
 #include <mutex>
 #include <utility>
 
+#include "mdr/core/status.h"
 #include "mdr/service/log_value.h"
-#include "mdr/service/status.h"
 
 namespace mdr::service {
 namespace {
@@ -28,17 +28,16 @@ bool IsValidSessionId(const std::string& id) {
   return true;
 }
 
-grpc::Status NotFound(const std::string& field, const std::string& name) {
-  return GrpcError(grpc::StatusCode::NOT_FOUND, field, name + " does not exist (or expired)");
+Status NotFound(const std::string& field, const std::string& name) {
+  return mdr::NotFound(field, name + " does not exist (or expired)");
 }
 
 }  // namespace
 
-grpc::Status SessionStore::CheckSessionId(const std::string& field, const std::string& session_id) {
-  if (session_id.empty() || IsValidSessionId(session_id)) return grpc::Status::OK;
-  return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, field,
-                   std::string("must be empty (a generated id) or ") + kSessionIdForm + ", got " +
-                       Quoted(session_id));
+Status SessionStore::CheckSessionId(const std::string& field, const std::string& session_id) {
+  if (session_id.empty() || IsValidSessionId(session_id)) return OkStatus();
+  return InvalidArgument(field, std::string("must be empty (a generated id) or ") + kSessionIdForm +
+                                    ", got " + Quoted(session_id));
 }
 
 bool SessionStore::IsSessionName(const std::string& name) {
@@ -63,9 +62,9 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
     if (journal_ != nullptr) {
       // Gone from memory either way; a session the journal keeps comes back at the next start
       // and expires again.
-      if (grpc::Status status = journal_->RemoveSession(it->first); !status.ok()) {
+      if (Status status = journal_->RemoveSession(it->first); !status.ok()) {
         spdlog::error("event=journal_error session={} error={}", LogValue(it->first),
-                      Quoted(status.error_message(), kMaxLoggedErrorBytes));
+                      Quoted(status.ToString(), kMaxLoggedErrorBytes));
       }
     }
     erased.push_back(it->first);
@@ -74,17 +73,17 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
   return erased;
 }
 
-grpc::Status SessionStore::CheckRoomLocked(const Principal& caller) {
+Status SessionStore::CheckRoomLocked(const Principal& caller) {
   if (sessions_.size() >= max_sessions_) {
     // Expired sessions the sweeper has not reached yet do not count.
     EraseExpiredLocked([](const Session&) { return true; });
   }
   if (sessions_.size() >= max_sessions_) {
-    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
-                     "the server holds its maximum of " + std::to_string(max_sessions_) +
-                         " sessions (--max-sessions); delete unused ones");
+    return ResourceExhausted("", "the server holds its maximum of " +
+                                     std::to_string(max_sessions_) +
+                                     " sessions (--max-sessions); delete unused ones");
   }
-  if (!caller || max_sessions_per_owner_ == 0) return grpc::Status::OK;
+  if (!caller || max_sessions_per_owner_ == 0) return OkStatus();
   auto owned = [&] {
     return static_cast<std::size_t>(std::count_if(
         sessions_.begin(), sessions_.end(),
@@ -94,20 +93,20 @@ grpc::Status SessionStore::CheckRoomLocked(const Principal& caller) {
     EraseExpiredLocked([&](const Session& session) { return session.owner() == *caller; });
   }
   if (owned() >= max_sessions_per_owner_) {
-    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
-                     "your token holds its maximum of " + std::to_string(max_sessions_per_owner_) +
-                         " sessions (--max-sessions-per-token); delete unused ones");
+    return ResourceExhausted("", "your token holds its maximum of " +
+                                     std::to_string(max_sessions_per_owner_) +
+                                     " sessions (--max-sessions-per-token); delete unused ones");
   }
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
-                                  const Principal& caller, SessionState state,
-                                  std::shared_ptr<Session>* session) {
-  if (grpc::Status status = CheckSessionId(id_field, session_id); !status.ok()) return status;
+Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
+                            const Principal& caller, SessionState state,
+                            std::shared_ptr<Session>* session) {
+  if (Status status = CheckSessionId(id_field, session_id); !status.ok()) return status;
   state.owner = caller.value_or("");
   std::unique_lock lock(mutex_);
-  if (grpc::Status status = CheckRoomLocked(caller); !status.ok()) return status;
+  if (Status status = CheckRoomLocked(caller); !status.ok()) return status;
   std::string name = kCollection + session_id;
   if (session_id.empty()) {
     do {
@@ -117,7 +116,7 @@ grpc::Status SessionStore::Create(const std::string& id_field, const std::string
   if (auto it = sessions_.find(name); it != sessions_.end()) {
     // Names are global: a name taken by someone else's session is taken for the caller too.
     if (!it->second->IsExpired(Session::Clock::now())) {
-      return GrpcError(grpc::StatusCode::ALREADY_EXISTS, id_field, name + " already exists");
+      return AlreadyExists(id_field, name + " already exists");
     }
     sessions_.erase(it);  // the journal entry is replaced below
   }
@@ -125,23 +124,22 @@ grpc::Status SessionStore::Create(const std::string& id_field, const std::string
   if (journal_ != nullptr) {
     v1::SessionSnapshot snapshot;
     created->Export(&snapshot);
-    grpc::Status status =
-        journal_->AddSession(name, created->owner(), created->create_time(), snapshot);
+    Status status = journal_->AddSession(name, created->owner(), created->create_time(), snapshot);
     if (!status.ok()) return status;
     created->AttachJournal(journal_);
   }
   sessions_.emplace(name, created);
   *session = std::move(created);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status SessionStore::Find(const std::string& field, const std::string& name,
-                                const Principal& caller, std::shared_ptr<Session>* session) {
+Status SessionStore::Find(const std::string& field, const std::string& name,
+                          const Principal& caller, std::shared_ptr<Session>* session) {
   if (!IsSessionName(name)) {
-    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, field,
-                     std::string("must be a session name \"sessions/{session_id}\" whose "
-                                 "session_id is ") +
-                         kSessionIdForm + ", got " + Quoted(name));
+    return InvalidArgument(field,
+                           std::string("must be a session name \"sessions/{session_id}\" whose "
+                                       "session_id is ") +
+                               kSessionIdForm + ", got " + Quoted(name));
   }
   {
     std::shared_lock lock(mutex_);
@@ -150,7 +148,7 @@ grpc::Status SessionStore::Find(const std::string& field, const std::string& nam
     if (!it->second->IsExpired(Session::Clock::now())) {
       it->second->Touch();
       *session = it->second;
-      return grpc::Status::OK;
+      return OkStatus();
     }
   }
   std::unique_lock lock(mutex_);
@@ -158,19 +156,19 @@ grpc::Status SessionStore::Find(const std::string& field, const std::string& nam
   return NotFound(field, name);
 }
 
-grpc::Status SessionStore::Erase(const std::string& field, const std::string& name,
-                                 const Principal& caller) {
+Status SessionStore::Erase(const std::string& field, const std::string& name,
+                           const Principal& caller) {
   std::shared_ptr<Session> session;
-  if (grpc::Status status = Find(field, name, caller, &session); !status.ok()) return status;
+  if (Status status = Find(field, name, caller, &session); !status.ok()) return status;
   std::unique_lock lock(mutex_);
   // A concurrent delete may have won; deleting twice reports NOT_FOUND once.
   auto it = sessions_.find(name);
   if (it == sessions_.end() || it->second != session) return NotFound(field, name);
   if (journal_ != nullptr) {
-    if (grpc::Status status = journal_->RemoveSession(name); !status.ok()) return status;
+    if (Status status = journal_->RemoveSession(name); !status.ok()) return status;
   }
   sessions_.erase(it);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string& after,

@@ -16,6 +16,13 @@ enum class StatusCode {
   kNotFound,
   kDeadlineExceeded,  // the caller's deadline passed while the work ran (Interrupt)
   kCancelled,         // the caller (or a server shutdown) cancelled the work (Interrupt)
+  // Codes of the service layers (sessions, journal, auth); the core itself does not return them.
+  kAlreadyExists,     // a session of that name exists
+  kUnauthenticated,   // no valid credentials
+  kPermissionDenied,  // credentials valid, but not for that resource
+  kUnavailable,       // transient: shutting down, journal write failed; retrying may succeed
+  kDataLoss,          // stored state is damaged
+  kInternal,          // an invariant of the server broke
 };
 
 class Status {
@@ -61,6 +68,27 @@ inline Status DeadlineExceeded(std::string field, std::string message) {
 }
 inline Status Cancelled(std::string field, std::string message) {
   return {StatusCode::kCancelled, std::move(field), std::move(message)};
+}
+inline Status NotFound(std::string field, std::string message) {
+  return {StatusCode::kNotFound, std::move(field), std::move(message)};
+}
+inline Status AlreadyExists(std::string field, std::string message) {
+  return {StatusCode::kAlreadyExists, std::move(field), std::move(message)};
+}
+inline Status Unauthenticated(std::string field, std::string message) {
+  return {StatusCode::kUnauthenticated, std::move(field), std::move(message)};
+}
+inline Status PermissionDenied(std::string field, std::string message) {
+  return {StatusCode::kPermissionDenied, std::move(field), std::move(message)};
+}
+inline Status Unavailable(std::string field, std::string message) {
+  return {StatusCode::kUnavailable, std::move(field), std::move(message)};
+}
+inline Status DataLoss(std::string field, std::string message) {
+  return {StatusCode::kDataLoss, std::move(field), std::move(message)};
+}
+inline Status Internal(std::string field, std::string message) {
+  return {StatusCode::kInternal, std::move(field), std::move(message)};
 }
 
 // A value or the Status that explains why there is none.

@@ -4,7 +4,6 @@
 // reflection are not authenticated.
 #pragma once
 
-#include <grpcpp/support/status.h>
 #include <grpcpp/support/string_ref.h>
 
 #include <map>
@@ -33,8 +32,8 @@ class Authenticator {
   // The principal of a call's metadata: OK with *principal set for a known bearer token,
   // UNAUTHENTICATED for a missing, malformed or unknown one. Every token is compared in constant
   // time, so the time taken tells nothing about any token.
-  grpc::Status Authenticate(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata,
-                            Principal* principal) const;
+  Status Authenticate(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata,
+                      Principal* principal) const;
 
   std::size_t size() const { return principals_.size(); }
 

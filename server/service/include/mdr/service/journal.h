@@ -20,7 +20,6 @@
 #pragma once
 
 #include <google/protobuf/timestamp.pb.h>
-#include <grpcpp/support/status.h>
 
 #include <cstdint>
 #include <memory>
@@ -28,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/core/status.h"
 #include "mdr/v1/contact_service.pb.h"
 
 struct sqlite3;
@@ -101,7 +101,7 @@ class Journal {
   // checks it for damage (see above and JournalOptions::recover). Errors name the file and say
   // why: FAILED_PRECONDITION (unreadable, not a journal, another format, in use by another
   // process), DATA_LOSS (damaged; what is wrong, each item).
-  static grpc::Status Open(const JournalOptions& options, std::unique_ptr<Journal>* journal);
+  static Status Open(const JournalOptions& options, std::unique_ptr<Journal>* journal);
 
   Journal(const Journal&) = delete;
   Journal& operator=(const Journal&) = delete;
@@ -112,7 +112,7 @@ class Journal {
   // does not parse, a session name that is not "sessions/{session_id}"
   // (SessionStore::IsSessionName), a gap in a session's batch numbers, rows of a session that has
   // no entry.
-  grpc::Status Load(std::vector<JournaledSession>* sessions);
+  Status Load(std::vector<JournaledSession>* sessions);
 
   // What a recovering Open found damaged and dropped (sessions, batch ranges, commits), one
   // sentence each; empty when nothing was.
@@ -123,17 +123,17 @@ class Journal {
   // nothing was written.
   // A new session (created or imported) with its initial snapshot as sequence 0; replaces any
   // entry of the same name.
-  grpc::Status AddSession(const std::string& name, const std::string& owner,
-                          const google::protobuf::Timestamp& create_time,
-                          const v1::SessionSnapshot& snapshot);
-  grpc::Status AddBatch(const std::string& session, std::uint64_t sequence,
-                        const v1::ApplyRequest& request);
+  Status AddSession(const std::string& name, const std::string& owner,
+                    const google::protobuf::Timestamp& create_time,
+                    const v1::SessionSnapshot& snapshot);
+  Status AddBatch(const std::string& session, std::uint64_t sequence,
+                  const v1::ApplyRequest& request);
   // Replaces the session's snapshot (and remembered request ids) by one that includes the batches
   // up to `sequence` and deletes those batches.
-  grpc::Status Compact(const std::string& session, std::uint64_t sequence,
-                       const v1::SessionSnapshot& snapshot,
-                       const std::vector<JournaledRequest>& completed);
-  grpc::Status RemoveSession(const std::string& session);
+  Status Compact(const std::string& session, std::uint64_t sequence,
+                 const v1::SessionSnapshot& snapshot,
+                 const std::vector<JournaledRequest>& completed);
+  Status RemoveSession(const std::string& session);
 
   const JournalOptions& options() const { return options_; }
 
@@ -141,12 +141,12 @@ class Journal {
   explicit Journal(const JournalOptions& options) : options_(options) {}
   // Opens the database and the side file, creates a new journal's schema, checks an existing
   // one (damage found is appended to *damage) and prepares the statements.
-  grpc::Status Connect(std::vector<std::string>* damage);
+  Status Connect(std::vector<std::string>* damage);
   void CheckSchema(std::vector<std::string>* damage);
   void CheckIntegrity(std::vector<std::string>* damage);
   // Reads the database's commit counter and compares the side file's with it.
   void CheckCommits(std::vector<std::string>* damage);
-  grpc::Status Prepare();
+  Status Prepare();
   // Finalizes the statements and closes the database (without a checkpoint when `keep_log`).
   void Disconnect(bool keep_log);
   // Every intact session; what is damaged is described in *damage and left out.
@@ -157,10 +157,10 @@ class Journal {
   void ReadOrphans(const char* table, std::vector<std::string>* damage);
   // Copies the damaged files aside and replaces the journal's content by `intact` (in place, or
   // in a new file when the old one cannot even be rewritten).
-  grpc::Status Rebuild(const std::vector<JournaledSession>& intact);
+  Status Rebuild(const std::vector<JournaledSession>& intact);
   bool RewriteInPlace(const std::vector<JournaledSession>& intact, std::string* error);
   void FinalizeStatements();
-  grpc::Status WriteSession(const JournaledSession& session, std::string* error);
+  Status WriteSession(const JournaledSession& session, std::string* error);
   // Writes the commit counter to the side file (after a commit).
   bool RecordCommits(std::string* error);
   // Runs SQL without results; the SQLite error message otherwise.
@@ -171,8 +171,8 @@ class Journal {
   // Runs body(commit number, error) in a transaction (committed if it returns true, rolled back
   // otherwise). The commit counter is advanced in the commits table, or by the body in the batch
   // row it writes (row_carries_commit).
-  grpc::Status InTransaction(const char* what, bool row_carries_commit, Body body);
-  grpc::Status WriteError(const char* what, const std::string& error) const;
+  Status InTransaction(const char* what, bool row_carries_commit, Body body);
+  Status WriteError(const char* what, const std::string& error) const;
 
   const JournalOptions options_;
   std::mutex mutex_;  // one statement or transaction at a time

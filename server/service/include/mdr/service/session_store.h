@@ -5,8 +5,6 @@
 // (an added one before it becomes visible).
 #pragma once
 
-#include <grpcpp/support/status.h>
-
 #include <cstddef>
 #include <map>
 #include <memory>
@@ -15,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/core/status.h"
 #include "mdr/service/session.h"
 
 namespace mdr::service {
@@ -28,16 +27,15 @@ class SessionStore {
   // Creates "sessions/{session_id}" owned by the caller (see Principal); an empty session_id gets
   // a generated one. Errors: INVALID_ARGUMENT (session_id, named by id_field), ALREADY_EXISTS,
   // RESOURCE_EXHAUSTED, UNAVAILABLE (the journal failed; nothing was created).
-  grpc::Status Create(const std::string& id_field, const std::string& session_id,
-                      const Principal& caller, SessionState state,
-                      std::shared_ptr<Session>* session);
+  Status Create(const std::string& id_field, const std::string& session_id, const Principal& caller,
+                SessionState state, std::shared_ptr<Session>* session);
   // Finds a live session visible to the caller and restarts its idle timer. NOT_FOUND for an
   // unknown, expired or someone else's session, INVALID_ARGUMENT for a name not of the form
   // "sessions/{id}"; field names the request field.
-  grpc::Status Find(const std::string& field, const std::string& name, const Principal& caller,
-                    std::shared_ptr<Session>* session);
+  Status Find(const std::string& field, const std::string& name, const Principal& caller,
+              std::shared_ptr<Session>* session);
   // As Find, then deletes it (UNAVAILABLE if the journal fails: then it is kept).
-  grpc::Status Erase(const std::string& field, const std::string& name, const Principal& caller);
+  Status Erase(const std::string& field, const std::string& name, const Principal& caller);
 
   // Up to page_size live sessions visible to the caller with names after `after` (empty: from
   // the first), in name order; *more tells whether further ones follow.
@@ -61,14 +59,14 @@ class SessionStore {
   // INVALID_ARGUMENT naming `field` unless session_id is empty (Create generates one) or a valid
   // id; the message quotes a bounded prefix of it. Create checks it too; callers check it before
   // any other work on the request.
-  static grpc::Status CheckSessionId(const std::string& field, const std::string& session_id);
+  static Status CheckSessionId(const std::string& field, const std::string& session_id);
 
  private:
   using Map = std::map<std::string, std::shared_ptr<Session>>;
   std::string GenerateSessionId();
   // Frees room (expired sessions) and checks the limits for a new session of the caller; the
   // caller holds mutex_ exclusively.
-  grpc::Status CheckRoomLocked(const Principal& caller);
+  Status CheckRoomLocked(const Principal& caller);
   // Erases expired sessions matching `which` (and journals it); returns their names.
   template <typename Predicate>
   std::vector<std::string> EraseExpiredLocked(Predicate which);
