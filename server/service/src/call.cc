@@ -32,17 +32,14 @@ Interrupt InterruptOf(const grpc::CallbackServerContext* context,
 }
 
 ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt) {
-  return [interrupt]() -> grpc::Status {
+  return [interrupt]() -> Status {
     const Status status = interrupt.Check();
-    if (status.ok()) return grpc::Status::OK;
-    return GrpcError(status.code() == StatusCode::kDeadlineExceeded
-                         ? grpc::StatusCode::DEADLINE_EXCEEDED
-                         : grpc::StatusCode::CANCELLED,
-                     "",
-                     status.code() == StatusCode::kDeadlineExceeded
-                         ? "the deadline passed during the batch; nothing was applied"
-                         : "the call was cancelled (by the client or a server shutdown) "
-                           "during the batch; nothing was applied");
+    if (status.ok()) return status;
+    return status.code() == StatusCode::kDeadlineExceeded
+               ? DeadlineExceeded("", "the deadline passed during the batch; nothing was applied")
+               : Cancelled("",
+                           "the call was cancelled (by the client or a server shutdown) during "
+                           "the batch; nothing was applied");
   };
 }
 

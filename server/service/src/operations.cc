@@ -129,8 +129,8 @@ grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
     v1::ApplyResponse response;
     grpc::Status status = ToGrpcStatus(step_outputs.status());
     if (status.ok()) {
-      status = restored->Apply(batch.request, *step_outputs, nullptr,
-                               std::numeric_limits<std::size_t>::max(), &response);
+      status = ToGrpcStatus(restored->Apply(batch.request, *step_outputs, nullptr,
+                                            std::numeric_limits<std::size_t>::max(), &response));
     }
     if (status.ok() && response.replayed()) {
       status = GrpcError(grpc::StatusCode::DATA_LOSS, "", "its request_id was already applied");
@@ -147,9 +147,9 @@ grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
 void ContactOperations::CompactJournal() {
   if (journal_ == nullptr) return;
   for (const std::shared_ptr<Session>& session : sessions_.All()) {
-    if (grpc::Status status = session->CompactJournal(); !status.ok()) {
+    if (Status status = session->CompactJournal(); !status.ok()) {
       spdlog::error("event=journal_compaction_failed session={} error={}", LogValue(session->name()),
-                    Quoted(status.error_message(), kMaxLoggedErrorBytes));
+                    Quoted(status.ToString(), kMaxLoggedErrorBytes));
     }
   }
 }
@@ -169,15 +169,15 @@ grpc::Status ContactOperations::AddSession(const Principal& caller, const std::s
                                            const Interrupt& interrupt) {
   if (hooks_.before_add_session) hooks_.before_add_session();
   if (Status s = interrupt.Check(); !s.ok()) return ToGrpcStatus(s);
-  if (grpc::Status status = CheckExportable(
+  if (Status status = CheckExportable(
           ExportBytesBound(state.contact, ExportedSceneBytes(state.scene, state.contact)),
           limits_.max_message_bytes, state_field);
       !status.ok()) {
-    return status;
+    return ToGrpcStatus(status);
   }
-  if (grpc::Status status = StateCharge::Take(&budget_, StateBytes(state.contact), &state.charge);
+  if (Status status = StateCharge::Take(&budget_, StateBytes(state.contact), &state.charge);
       !status.ok()) {
-    return GrpcError(status.error_code(), state_field, status.error_message());
+    return ToGrpcStatus(status.WithFieldPrefix(state_field));
   }
   state.max_message_bytes = limits_.max_message_bytes;
   std::shared_ptr<Session> session;
@@ -253,7 +253,7 @@ grpc::Status ContactOperations::ExportSession(const Principal& caller,
                                               v1::SessionSnapshot* response) {
   std::shared_ptr<Session> session;
   grpc::Status status = ToGrpcStatus(sessions_.Find("name", request.name(), caller, &session));
-  if (status.ok()) status = session->Export(response);
+  if (status.ok()) status = ToGrpcStatus(session->Export(response));
   return status;
 }
 
@@ -329,13 +329,14 @@ grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRe
   }
   const Session::StepGuard guard = [&](int step_index) {
     if (hooks_.before_step) hooks_.before_step(step_index);
-    return interruption ? interruption() : grpc::Status::OK;
+    return interruption ? interruption() : OkStatus();
   };
   // Room for the final state and the other fields of the response.
   constexpr std::size_t kResponseOverheadBytes = 512;
   const std::size_t max_response_bytes =
       static_cast<std::size_t>(limits_.max_message_bytes) - kResponseOverheadBytes;
-  return session->Apply(request, *step_outputs, guard, max_response_bytes, response, interrupt);
+  return ToGrpcStatus(
+      session->Apply(request, *step_outputs, guard, max_response_bytes, response, interrupt));
 }
 
 grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest& request,
@@ -350,7 +351,7 @@ grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRe
       !status.ok()) {
     return ToGrpcStatus(status);
   }
-  return session->Query(*selection, *sampling, hooks_.output_counters, response);
+  return ToGrpcStatus(session->Query(*selection, *sampling, hooks_.output_counters, response));
 }
 
 grpc::Status ContactOperations::Transform(const v1::TransformRequest& request,

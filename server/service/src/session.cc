@@ -11,7 +11,6 @@
 #include "mdr/service/limits.h"
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
-#include "mdr/service/status.h"
 
 namespace mdr::service {
 namespace {
@@ -85,11 +84,11 @@ Session::Session(std::string name, UnavailableSession unavailable)
       journal_sequence_(0),
       journal_snapshot_sequence_(0) {}
 
-grpc::Status Session::RequireAvailable() const {
-  if (available()) return grpc::Status::OK;
-  return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "",
-                   name_ + " is unavailable: it could not be restored from the journal (" +
-                       unavailable_reason_ + "); DeleteSession removes it");
+Status Session::RequireAvailable() const {
+  if (available()) return OkStatus();
+  return FailedPrecondition("", name_ +
+                                    " is unavailable: it could not be restored from the journal (" +
+                                    unavailable_reason_ + "); DeleteSession removes it");
 }
 
 void Session::AttachJournal(Journal* journal) {
@@ -97,51 +96,50 @@ void Session::AttachJournal(Journal* journal) {
   journal_ = journal;
 }
 
-grpc::Status Session::CompactJournal() {
+Status Session::CompactJournal() {
   std::lock_guard lock(mutex_);
   if (journal_ == nullptr || !available() || journal_snapshot_sequence_ == journal_sequence_) {
-    return grpc::Status::OK;
+    return OkStatus();
   }
   return CompactJournalLocked();
 }
 
-grpc::Status Session::CompactJournalLocked() {
+Status Session::CompactJournalLocked() {
   v1::SessionSnapshot snapshot;
   ExportLocked(&snapshot);
   const std::vector<JournaledRequest> completed(completed_.entries().begin(),
                                                 completed_.entries().end());
   Status status = journal_->Compact(name_, journal_sequence_, snapshot, completed);
   if (status.ok()) journal_snapshot_sequence_ = journal_sequence_;
-  return ToGrpcStatus(status);
+  return status;
 }
 
-grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
-                            const StepGuard& guard, std::size_t max_response_bytes,
-                            v1::ApplyResponse* response, const Interrupt& interrupt) {
+Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                      const StepGuard& guard, std::size_t max_response_bytes,
+                      v1::ApplyResponse* response, const Interrupt& interrupt) {
   if (static_cast<std::uint32_t>(request.steps_size()) > limits_.max_steps_per_batch()) {
-    return GrpcError(
-        grpc::StatusCode::RESOURCE_EXHAUSTED, "steps",
-        std::to_string(request.steps_size()) + " steps exceed the session's limit of " +
-            std::to_string(limits_.max_steps_per_batch()) + " per batch; split the batch");
+    return ResourceExhausted(
+        "steps", std::to_string(request.steps_size()) + " steps exceed the session's limit of " +
+                     std::to_string(limits_.max_steps_per_batch()) + " per batch; split the batch");
   }
   const bool deduplicated = !request.request_id().empty();
   const std::uint64_t fingerprint = deduplicated ? Fingerprint(request) : 0;
-  if (grpc::Status status = RequireAvailable(); !status.ok()) return status;
+  if (Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
   if (deduplicated) {
     if (const CompletedRequests::Entry* done = completed_.Find(request.request_id())) {
       if (done->fingerprint != fingerprint) {
-        return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "request_id",
-                         "\"" + request.request_id() +
-                             "\" was used for a different batch on this session; use a new id");
+        return InvalidArgument(
+            "request_id", "\"" + request.request_id() +
+                              "\" was used for a different batch on this session; use a new id");
       }
       *response = done->response;
       response->set_replayed(true);
-      return grpc::Status::OK;
+      return OkStatus();
     }
   }
-  if (grpc::Status status =
+  if (Status status =
           RunBatch(request, step_outputs, guard, max_response_bytes, response, interrupt);
       !status.ok()) {
     response->Clear();
@@ -152,18 +150,18 @@ grpc::Status Session::Apply(const v1::ApplyRequest& request, const OutputSelecti
   if (journal_ != nullptr &&
       journal_sequence_ - journal_snapshot_sequence_ >= journal_->options().snapshot_every) {
     // The batch is journaled either way; a failed compaction only leaves more to replay.
-    if (grpc::Status status = CompactJournalLocked(); !status.ok()) {
+    if (Status status = CompactJournalLocked(); !status.ok()) {
       spdlog::error("event=journal_compaction_failed session={} error={}", LogValue(name_),
-                    Quoted(status.error_message(), kMaxLoggedErrorBytes));
+                    Quoted(status.ToString(), kMaxLoggedErrorBytes));
     }
   }
   Touch();  // a long batch counts as use until its end
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
-                               const StepGuard& guard, std::size_t max_response_bytes,
-                               v1::ApplyResponse* response, const Interrupt& interrupt) {
+Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                         const StepGuard& guard, std::size_t max_response_bytes,
+                         v1::ApplyResponse* response, const Interrupt& interrupt) {
   // A single step is atomic in the core; a longer batch (or any batch that the journal must
   // accept before it counts, or that may grow the state past its budget: an exact memory) runs
   // on a copy that is committed at the end, so a failing step, an expired deadline, an exceeded
@@ -177,16 +175,16 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   double path_error = 0;
   for (int i = 0; i < request.steps_size(); ++i) {
     if (guard) {
-      if (grpc::Status status = guard(i); !status.ok()) return status;
+      if (Status status = guard(i); !status.ok()) return status;
     }
     if (applied >= kMaxAppliedSteps) {
-      return GrpcError(grpc::StatusCode::FAILED_PRECONDITION, "steps[" + std::to_string(i) + "]",
-                       "the session has applied its maximum of 2^53 steps");
+      return FailedPrecondition("steps[" + std::to_string(i) + "]",
+                                "the session has applied its maximum of 2^53 steps");
     }
     StepReport report;
     if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report, interrupt);
         !status.ok()) {
-      return ToGrpcStatus(status.WithFieldPrefix("steps[" + std::to_string(i) + "]"));
+      return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }
     ++applied;
     path_error = std::max(path_error, report.path_error);
@@ -197,18 +195,18 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   // Checked before the commit (a single step, applied in place, has a response far below any
   // allowed limit).
   if (const std::size_t bytes = response->ByteSizeLong(); bytes > max_response_bytes) {
-    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "step_mask",
-                     "the per-step results would take " + std::to_string(bytes) +
-                         " bytes, above the message limit of " +
-                         std::to_string(max_response_bytes) +
-                         "; select fewer fields or split the batch (nothing was applied)");
+    return ResourceExhausted("step_mask",
+                             "the per-step results would take " + std::to_string(bytes) +
+                                 " bytes, above the message limit of " +
+                                 std::to_string(max_response_bytes) +
+                                 "; select fewer fields or split the batch (nothing was applied)");
   }
   const std::size_t charged = charge_.bytes();
-  if (grpc::Status status = ChargeStateLocked(target); !status.ok()) return status;
+  if (Status status = ChargeStateLocked(target); !status.ok()) return status;
   if (journal_ != nullptr) {
     if (Status status = journal_->AddBatch(name_, journal_sequence_ + 1, request); !status.ok()) {
       (void)charge_.Resize(charged);  // a release: cannot fail
-      return ToGrpcStatus(status);
+      return status;
     }
   }
   ++journal_sequence_;
@@ -222,12 +220,12 @@ grpc::Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSele
   }
   response->mutable_error_estimate()->set_path_error(path_error);
   WriteApproximationErrors(*contact_, response->mutable_error_estimate());
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status Session::ChargeStateLocked(const Contact& contact) {
+Status Session::ChargeStateLocked(const Contact& contact) {
   if (max_message_bytes_ > 0) {
-    if (grpc::Status status =
+    if (Status status =
             CheckExportable(ExportBytesBound(contact, scene_bytes_), max_message_bytes_, "steps");
         !status.ok()) {
       return status;
@@ -236,19 +234,19 @@ grpc::Status Session::ChargeStateLocked(const Contact& contact) {
   return charge_.Resize(StateBytes(contact));
 }
 
-grpc::Status Session::Query(const OutputSelection& selection, const RadialSampling& sampling,
-                            OutputCounters* counters, v1::QueryResponse* response) const {
-  if (grpc::Status status = RequireAvailable(); !status.ok()) return status;
+Status Session::Query(const OutputSelection& selection, const RadialSampling& sampling,
+                      OutputCounters* counters, v1::QueryResponse* response) const {
+  if (Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
   if (Status status =
           WriteQueryOutputs(*contact_, applied_steps_, selection, sampling, response, counters);
       !status.ok()) {
     response->Clear();
-    return ToGrpcStatus(status);
+    return status;
   }
   response->set_compute_seconds(stopwatch.Seconds());
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 void Session::ReadResource(v1::Session* resource) const {
@@ -272,11 +270,11 @@ void Session::ReadResource(v1::Session* resource) const {
   *resource->mutable_state() = committed_state_;
 }
 
-grpc::Status Session::Export(v1::SessionSnapshot* snapshot) const {
-  if (grpc::Status status = RequireAvailable(); !status.ok()) return status;
+Status Session::Export(v1::SessionSnapshot* snapshot) const {
+  if (Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   ExportLocked(snapshot);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 void Session::ExportLocked(v1::SessionSnapshot* snapshot) const {

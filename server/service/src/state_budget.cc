@@ -4,7 +4,6 @@
 #include <utility>
 
 #include "mdr/service/conversion.h"
-#include "mdr/service/status.h"
 
 namespace mdr::service {
 namespace {
@@ -37,36 +36,37 @@ std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
          contact.memory().vertex_count() * kExportBytesPerVertex;
 }
 
-grpc::Status CheckExportable(std::size_t export_bytes, int max_message_bytes,
-                             const std::string& field) {
-  if (export_bytes <= static_cast<std::size_t>(max_message_bytes)) return grpc::Status::OK;
-  return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, field,
-                   "the session's state would take up to " + std::to_string(export_bytes) +
-                       " bytes in an ExportSession message, above the message limit of " +
-                       std::to_string(max_message_bytes) +
-                       " bytes (mdrd --max-message-bytes): use a smaller grid or memory");
+Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field) {
+  if (export_bytes <= static_cast<std::size_t>(max_message_bytes)) return OkStatus();
+  return ResourceExhausted(field, "the session's state would take up to " +
+                                      std::to_string(export_bytes) +
+                                      " bytes in an ExportSession message, above the message "
+                                      "limit of " +
+                                      std::to_string(max_message_bytes) +
+                                      " bytes (mdrd --max-message-bytes): use a smaller grid or "
+                                      "memory");
 }
 
-grpc::Status StateBudget::Charge(std::size_t bytes) {
+Status StateBudget::Charge(std::size_t bytes) {
   std::size_t used = used_.load();
   do {
     if (limit_ > 0 && used + bytes > limit_) {
-      return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "",
-                       "the server's session state budget of " + std::to_string(limit_) +
-                           " bytes (mdrd --max-state-bytes) would be exceeded: " +
-                           std::to_string(used) + " bytes are held, this needs " +
-                           std::to_string(bytes) + " more; delete sessions or use smaller ones");
+      return ResourceExhausted(
+          "", "the server's session state budget of " + std::to_string(limit_) +
+                  " bytes (mdrd --max-state-bytes) would be exceeded: " + std::to_string(used) +
+                  " bytes are held, this needs " + std::to_string(bytes) +
+                  " more; delete sessions or use smaller ones");
     }
   } while (!used_.compare_exchange_weak(used, used + bytes));
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status StateCharge::Take(StateBudget* budget, std::size_t bytes, StateCharge* charge) {
+Status StateCharge::Take(StateBudget* budget, std::size_t bytes, StateCharge* charge) {
   if (budget != nullptr) {
-    if (grpc::Status status = budget->Charge(bytes); !status.ok()) return status;
+    if (Status status = budget->Charge(bytes); !status.ok()) return status;
   }
   *charge = StateCharge(budget, bytes);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 StateCharge StateCharge::Force(StateBudget* budget, std::size_t bytes) {
@@ -90,16 +90,16 @@ StateCharge::~StateCharge() {
   if (budget_ != nullptr) budget_->Release(bytes_);
 }
 
-grpc::Status StateCharge::Resize(std::size_t bytes) {
+Status StateCharge::Resize(std::size_t bytes) {
   if (budget_ != nullptr) {
     if (bytes > bytes_) {
-      if (grpc::Status status = budget_->Charge(bytes - bytes_); !status.ok()) return status;
+      if (Status status = budget_->Charge(bytes - bytes_); !status.ok()) return status;
     } else {
       budget_->Release(bytes_ - bytes);
     }
   }
   bytes_ = bytes;
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 }  // namespace mdr::service

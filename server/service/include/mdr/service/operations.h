@@ -37,7 +37,7 @@ struct TestHooks {
 class ContactOperations {
  public:
   // Why a running batch must stop (deadline passed, call cancelled); OK to go on.
-  using Interruption = std::function<grpc::Status()>;
+  using Interruption = std::function<Status()>;
 
   ContactOperations(const ServiceLimits& limits, TestHooks hooks);
 

@@ -6,7 +6,6 @@
 
 #include <google/protobuf/repeated_field.h>
 #include <google/protobuf/timestamp.pb.h>
-#include <grpcpp/support/status.h>
 
 #include <atomic>
 #include <chrono>
@@ -20,6 +19,7 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/status.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/outputs.h"
 #include "mdr/service/state_budget.h"
@@ -85,7 +85,7 @@ class Session {
   using Clock = std::chrono::steady_clock;
   // Called before every step of a batch; a non-OK status (deadline, cancellation) abandons the
   // batch, which then changes nothing.
-  using StepGuard = std::function<grpc::Status(int step_index)>;
+  using StepGuard = std::function<Status(int step_index)>;
   // SessionSnapshot.version written by Export and accepted by ImportSession.
   static constexpr std::uint32_t kSnapshotVersion = 1;
   // Most steps a session applies in its life (applied_steps stays exact in a double and far from
@@ -112,7 +112,7 @@ class Session {
   void AttachJournal(Journal* journal);
   // Writes a snapshot of the current state to the journal if batches were journaled since the
   // last one (a clean shutdown).
-  grpc::Status CompactJournal();
+  Status CompactJournal();
 
   // Applies request.steps atomically: all succeed and are committed, or the first failure is
   // returned (field "steps[i]...") and the session is unchanged. A request_id seen among the
@@ -122,35 +122,35 @@ class Session {
   // A response above max_response_bytes fails with RESOURCE_EXHAUSTED, uncommitted; so does a
   // batch whose state would exceed the state budget or no longer fit one export message.
   // interrupt reaches inside long steps (curved force paths).
-  grpc::Status Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
-                     const StepGuard& guard, std::size_t max_response_bytes,
-                     v1::ApplyResponse* response, const Interrupt& interrupt = {});
+  Status Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+               const StepGuard& guard, std::size_t max_response_bytes, v1::ApplyResponse* response,
+               const Interrupt& interrupt = {});
 
   // The selected outputs of the current state; on error (an output this contact does not have)
   // the response is cleared.
-  grpc::Status Query(const OutputSelection& selection, const RadialSampling& sampling,
-                     OutputCounters* counters, v1::QueryResponse* response) const;
+  Status Query(const OutputSelection& selection, const RadialSampling& sampling,
+               OutputCounters* counters, v1::QueryResponse* response) const;
 
   // Scene, limits, state, creation and expiry time, availability as the API resource. The state
   // is the one after the last committed batch: read without waiting for a batch that is running.
   void ReadResource(v1::Session* resource) const;
   // The exact, portable state; FAILED_PRECONDITION for an unavailable session.
-  grpc::Status Export(v1::SessionSnapshot* snapshot) const;
+  Status Export(v1::SessionSnapshot* snapshot) const;
 
   // Restarts the idle timer; IsExpired tells whether it ran out (never without an idle timeout).
   void Touch();
   bool IsExpired(Clock::time_point now) const;
 
  private:
-  grpc::Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
-                        const StepGuard& guard, std::size_t max_response_bytes,
-                        v1::ApplyResponse* response, const Interrupt& interrupt);
+  Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                  const StepGuard& guard, std::size_t max_response_bytes,
+                  v1::ApplyResponse* response, const Interrupt& interrupt);
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
   // Resizes charge_ to the contact's state, unless it exceeds the budget or the export limit.
-  grpc::Status ChargeStateLocked(const Contact& contact);
-  grpc::Status CompactJournalLocked();
+  Status ChargeStateLocked(const Contact& contact);
+  Status CompactJournalLocked();
   // FAILED_PRECONDITION naming the reason for an unavailable session; OK otherwise.
-  grpc::Status RequireAvailable() const;
+  Status RequireAvailable() const;
   Clock::time_point last_used() const;
 
   const std::string name_;

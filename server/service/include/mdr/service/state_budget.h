@@ -6,12 +6,12 @@
 // and nothing changes.
 #pragma once
 
-#include <grpcpp/support/status.h>
-
 #include <atomic>
 #include <cstddef>
+#include <string>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/status.h"
 #include "mdr/v1/scene.pb.h"
 
 namespace mdr::service {
@@ -29,8 +29,7 @@ std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes);
 
 // RESOURCE_EXHAUSTED (field: `field`) when a snapshot of export_bytes would not fit
 // max_message_bytes.
-grpc::Status CheckExportable(std::size_t export_bytes, int max_message_bytes,
-                             const std::string& field);
+Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field);
 
 // The sum of the state bytes of every session, against a limit. Thread-safe.
 class StateBudget {
@@ -39,7 +38,7 @@ class StateBudget {
   explicit StateBudget(std::size_t limit_bytes) : limit_(limit_bytes) {}
 
   // Adds `bytes`, or fails with RESOURCE_EXHAUSTED naming the budget and adds nothing.
-  grpc::Status Charge(std::size_t bytes);
+  Status Charge(std::size_t bytes);
   // Adds `bytes` whatever the limit (sessions restored from the journal are never dropped).
   void ForceCharge(std::size_t bytes) { used_.fetch_add(bytes); }
   void Release(std::size_t bytes) { used_.fetch_sub(bytes); }
@@ -56,7 +55,7 @@ class StateCharge {
  public:
   StateCharge() = default;
   // Charges `bytes` to budget (null: nothing to charge); RESOURCE_EXHAUSTED beyond its limit.
-  static grpc::Status Take(StateBudget* budget, std::size_t bytes, StateCharge* charge);
+  static Status Take(StateBudget* budget, std::size_t bytes, StateCharge* charge);
   // Charges `bytes` whatever the limit (sessions restored from the journal are never dropped).
   static StateCharge Force(StateBudget* budget, std::size_t bytes);
 
@@ -65,7 +64,7 @@ class StateCharge {
   ~StateCharge();
 
   // Changes the charge to `bytes`; on failure (RESOURCE_EXHAUSTED) it stays as it was.
-  grpc::Status Resize(std::size_t bytes);
+  Status Resize(std::size_t bytes);
   std::size_t bytes() const { return bytes_; }
 
  private:
