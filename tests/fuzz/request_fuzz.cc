@@ -22,10 +22,12 @@
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 #include "mdr/service/operations.h"
+#include "mdr/service/status.h"
 
 namespace {
 
 using mdr::service::ContactOperations;
+using mdr::service::ToGrpcStatus;
 
 constexpr char kExact[] = "exact";
 constexpr char kGrid[] = "grid";
@@ -118,8 +120,8 @@ std::string Exported(ContactOperations& operations, const std::string& name) {
   return snapshot.SerializeAsString();
 }
 
-// Every error explains itself; INVALID_ARGUMENT names the field ("field: message" and a
-// google.rpc.BadRequest with that one field).
+// Every error explains itself, as the server sends it (ToGrpcStatus); INVALID_ARGUMENT names the
+// field ("field: message" and a google.rpc.BadRequest with that one field).
 void CheckError(const grpc::Status& status) {
   Check(!status.error_message().empty(), "an error has a message", status);
   if (status.error_code() != grpc::StatusCode::INVALID_ARGUMENT) return;
@@ -167,7 +169,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!request.ParseFromArray(message, message_size)) return 0;
     const std::size_t before = operations.session_count();
     mdr::v1::Session created;
-    const grpc::Status status = operations.CreateSession(std::nullopt, request, &created);
+    const grpc::Status status =
+        ToGrpcStatus(operations.CreateSession(std::nullopt, request, &created));
     if (!status.ok()) {
       CheckError(status);
       Check(operations.session_count() == before, "a failed create adds no session", status);
@@ -186,7 +189,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!request.ParseFromArray(message, message_size)) return 0;
     request.set_session(session);
     mdr::v1::ApplyResponse response;
-    const grpc::Status status = operations.Apply(std::nullopt, request, nullptr, &response);
+    const grpc::Status status =
+        ToGrpcStatus(operations.Apply(std::nullopt, request, nullptr, &response));
     if (status.ok()) {
       CheckState(response.state());
       return 0;
@@ -197,7 +201,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!request.ParseFromArray(message, message_size)) return 0;
     request.set_session(session);
     mdr::v1::QueryResponse response;
-    const grpc::Status status = operations.Query(std::nullopt, request, &response);
+    const grpc::Status status = ToGrpcStatus(operations.Query(std::nullopt, request, &response));
     if (!status.ok()) CheckError(status);
   }
   Check(Exported(operations, session) == before, "a failed Apply or any Query changes nothing");

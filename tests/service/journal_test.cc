@@ -19,6 +19,7 @@
 #include <random>
 
 #include "mdr/service/operations.h"
+#include "mdr/service/status.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -30,6 +31,7 @@ using service::Journal;
 using service::JournaledSession;
 using service::JournalOptions;
 using service::Principal;
+using service::ToGrpcStatus;
 
 class TemporaryDirectory {
  public:
@@ -59,13 +61,13 @@ class JournalTest : public ::testing::Test {
   static grpc::Status OpenStatus(const JournalOptions& options,
                                  service::ServiceLimits limits = service::ServiceLimits()) {
     ContactOperations operations{limits, service::TestHooks()};
-    return operations.OpenJournal(options);
+    return ToGrpcStatus(operations.OpenJournal(options));
   }
 
   std::unique_ptr<ContactOperations> Open(const JournalOptions& options) {
     auto operations =
         std::make_unique<ContactOperations>(service::ServiceLimits(), service::TestHooks());
-    grpc::Status status = operations->OpenJournal(options);
+    grpc::Status status = ToGrpcStatus(operations->OpenJournal(options));
     EXPECT_TRUE(status.ok()) << status.error_message();
     return operations;
   }
@@ -85,14 +87,14 @@ class JournalTest : public ::testing::Test {
     *request.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
     request.set_session_id(id);
     v1::Session session;
-    grpc::Status status = operations.CreateSession(caller, request, &session);
+    grpc::Status status = ToGrpcStatus(operations.CreateSession(caller, request, &session));
     EXPECT_TRUE(status.ok()) << status.error_message();
     return session.name();
   }
 
   static grpc::Status Apply(ContactOperations& operations, const v1::ApplyRequest& request,
                             v1::ApplyResponse* response) {
-    return operations.Apply(std::nullopt, request, nullptr, response);
+    return ToGrpcStatus(operations.Apply(std::nullopt, request, nullptr, response));
   }
 
   static v1::SessionSnapshot Export(ContactOperations& operations, const std::string& name,
@@ -100,7 +102,7 @@ class JournalTest : public ::testing::Test {
     v1::ExportSessionRequest request;
     request.set_name(name);
     v1::SessionSnapshot snapshot;
-    grpc::Status status = operations.ExportSession(caller, request, &snapshot);
+    grpc::Status status = ToGrpcStatus(operations.ExportSession(caller, request, &snapshot));
     EXPECT_TRUE(status.ok()) << status.error_message();
     return snapshot;
   }
@@ -318,8 +320,8 @@ TEST_F(JournalTest, RestartReplaysEveryBatchBitIdentically) {
   v1::GetSessionRequest get_request;
   get_request.set_name("sessions/gone");
   v1::Session session;
-  EXPECT_EQ(restored->GetSession(std::nullopt, get_request, &session).error_code(),
-            grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(restored->GetSession(std::nullopt, get_request, &session).code(),
+            StatusCode::kNotFound);
 
   // The restored session continues like the state it restored, imported elsewhere.
   ContactOperations reference{service::ServiceLimits(), service::TestHooks()};
@@ -434,14 +436,14 @@ TEST_F(JournalTest, OwnersAreKept) {
   request.set_name("sessions/owned");
   v1::Session session;
   EXPECT_TRUE(restored->GetSession(Principal("alice"), request, &session).ok());
-  EXPECT_EQ(restored->GetSession(Principal("bob"), request, &session).error_code(),
-            grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(restored->GetSession(Principal("bob"), request, &session).code(),
+            StatusCode::kNotFound);
 }
 
 TEST_F(JournalTest, OneProcessAtATime) {
   auto operations = Open(Options());
   ContactOperations second{service::ServiceLimits(), service::TestHooks()};
-  grpc::Status status = second.OpenJournal(Options());
+  grpc::Status status = ToGrpcStatus(second.OpenJournal(Options()));
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_THAT(status.error_message(), ::testing::HasSubstr("locked"));
 }
@@ -454,7 +456,7 @@ TEST_F(JournalTest, NotAJournalIsRefused) {
     std::fclose(file);
   }
   ContactOperations operations{service::ServiceLimits(), service::TestHooks()};
-  grpc::Status status = operations.OpenJournal(options);
+  grpc::Status status = ToGrpcStatus(operations.OpenJournal(options));
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_THAT(status.error_message(), ::testing::HasSubstr(options.path));
 }
@@ -514,8 +516,8 @@ TEST_F(JournalTest, ASessionThatCannotBeRestoredIsKeptAsideAndTheOthersComeBack)
     export_request.set_name("sessions/bad");
     v1::SessionSnapshot exported;
     for (const grpc::Status& status :
-         {apply, restored->Query(std::nullopt, query, &queried),
-          restored->ExportSession(std::nullopt, export_request, &exported)}) {
+         {apply, ToGrpcStatus(restored->Query(std::nullopt, query, &queried)),
+          ToGrpcStatus(restored->ExportSession(std::nullopt, export_request, &exported))}) {
       EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
       EXPECT_THAT(status.error_message(), ::testing::HasSubstr("sessions/bad is unavailable"));
       EXPECT_THAT(status.error_message(), ::testing::HasSubstr(bad.unavailable_reason()));
@@ -534,8 +536,8 @@ TEST_F(JournalTest, ASessionThatCannotBeRestoredIsKeptAsideAndTheOthersComeBack)
   v1::CreateSessionRequest create;
   *create.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
   v1::Session created;
-  EXPECT_EQ(full.CreateSession(std::nullopt, create, &created).error_code(),
-            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(full.CreateSession(std::nullopt, create, &created).code(),
+            StatusCode::kResourceExhausted);
   v1::DeleteSessionRequest remove;
   remove.set_name("sessions/bad");
   ASSERT_TRUE(full.DeleteSession(std::nullopt, remove).ok());
@@ -689,7 +691,7 @@ TEST_F(JournalTest, ImportChecksTheCountersOfASnapshot) {
     v1::ImportSessionRequest request;
     *request.mutable_snapshot() = snapshot;
     v1::Session session;
-    return operations.ImportSession(std::nullopt, request, &session);
+    return ToGrpcStatus(operations.ImportSession(std::nullopt, request, &session));
   };
   v1::SessionSnapshot snapshot = valid;
   snapshot.set_applied_steps((std::uint64_t{1} << 53) + 1);

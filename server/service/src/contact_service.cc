@@ -27,12 +27,13 @@ class InlineCall {
         session_(std::move(session)),
         request_id_(RequestIdOf(context)) {}
 
-  // Authenticates the caller and, if that succeeds, finishes with operation(caller).
+  // Authenticates the caller and, if that succeeds, finishes with operation(caller), mapped to
+  // gRPC here.
   template <typename Operation>
   grpc::ServerUnaryReactor* Run(const Authenticator* authenticator, Operation operation) const {
     Principal caller;
     grpc::Status status = CallerOf(context_, authenticator, &caller);
-    if (status.ok()) status = operation(caller);
+    if (status.ok()) status = ToGrpcStatus(operation(caller));
     LogCall(method_, session_, request_id_, status, SecondsSince(start_));
     grpc::ServerUnaryReactor* reactor = context_->DefaultReactor();
     reactor->Finish(status);
@@ -52,7 +53,7 @@ class InlineCall {
 // the flag the core's Interrupt reads.
 class QueuedCall final : public grpc::ServerUnaryReactor {
  public:
-  using Operation = std::function<grpc::Status(const Principal&, const Interrupt&)>;
+  using Operation = std::function<Status(const Principal&, const Interrupt&)>;
 
   QueuedCall(grpc::CallbackServerContext* context, const char* method, std::string session,
              const std::string& request_id, const std::atomic<bool>& server_stopping)
@@ -76,7 +77,7 @@ class QueuedCall final : public grpc::ServerUnaryReactor {
                                 "run"));
       return;
     }
-    Complete(operation(caller, interrupt_));
+    Complete(ToGrpcStatus(operation(caller, interrupt_)));
   }
 
   void Complete(const grpc::Status& status) {

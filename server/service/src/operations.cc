@@ -12,7 +12,6 @@
 #include "mdr/core/validate.h"
 #include "mdr/service/conversion.h"
 #include "mdr/service/log_value.h"
-#include "mdr/service/status.h"
 #include "mdr/service/transform.h"
 
 namespace mdr::service {
@@ -65,26 +64,26 @@ ContactOperations::ContactOperations(const ServiceLimits& limits, TestHooks hook
       budget_(limits.max_state_bytes),
       sessions_(limits.max_sessions, limits.max_sessions_per_token) {}
 
-grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
+Status ContactOperations::OpenJournal(const JournalOptions& options) {
   std::unique_ptr<Journal> journal;
-  if (Status status = Journal::Open(options, &journal); !status.ok()) return ToGrpcStatus(status);
+  if (Status status = Journal::Open(options, &journal); !status.ok()) return status;
   for (const std::string& dropped : journal->recovery_drops()) {
     spdlog::warn("event=journal_recovery_dropped path={} dropped={}", Quoted(options.path),
                  Quoted(dropped, kMaxLoggedErrorBytes));
   }
   std::vector<JournaledSession> journaled;
-  if (Status status = journal->Load(&journaled); !status.ok()) return ToGrpcStatus(status);
+  if (Status status = journal->Load(&journaled); !status.ok()) return status;
   std::size_t restored = 0, unavailable = 0, batches = 0;
   for (JournaledSession& entry : journaled) {
     std::shared_ptr<Session> session;
-    if (grpc::Status status = Restore(entry, &session); status.ok()) {
+    if (Status status = Restore(entry, &session); status.ok()) {
       ++restored;
       batches += entry.batches.size();
     } else {
       // One session that cannot be restored must not keep the others away: it is kept aside,
       // journal entry untouched, until it is deleted or a fixed mdrd restores it.
       spdlog::error("event=session_unavailable session={} path={} reason={}", LogValue(entry.name),
-                    Quoted(options.path), Quoted(status.error_message(), kMaxLoggedErrorBytes));
+                    Quoted(options.path), Quoted(status.ToString(), kMaxLoggedErrorBytes));
       const std::string name = entry.name;
       session = std::make_shared<Session>(name, Unavailable(std::move(entry), status));
       ++unavailable;
@@ -98,21 +97,21 @@ grpc::Status ContactOperations::OpenJournal(const JournalOptions& options) {
       "recovered={}",
       Quoted(options.path), JournalSyncName(options.sync), restored, unavailable, batches,
       !journal_->recovery_drops().empty());
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const grpc::Status& why) {
+UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const Status& why) {
   return UnavailableSession{.owner = std::move(entry.owner),
                             .create_time = std::move(entry.create_time),
                             .scene = std::move(*entry.snapshot.mutable_scene()),
                             .limits = std::move(*entry.snapshot.mutable_limits()),
-                            .reason = why.error_message()};
+                            .reason = why.ToString()};
 }
 
-grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
-                                        std::shared_ptr<Session>* session) const {
+Status ContactOperations::Restore(const JournaledSession& journaled,
+                                  std::shared_ptr<Session>* session) const {
   std::optional<SessionState> state;
-  if (grpc::Status status = StateOf(journaled.snapshot, &state); !status.ok()) return status;
+  if (Status status = StateOf(journaled.snapshot, &state); !status.ok()) return status;
   state->owner = journaled.owner;
   state->create_time = journaled.create_time;
   state->journal_sequence = journaled.snapshot_sequence;
@@ -127,29 +126,29 @@ grpc::Status ContactOperations::Restore(const JournaledSession& journaled,
   for (const JournaledBatch& batch : journaled.batches) {
     Result<OutputSelection> step_outputs = SelectStepOutputs(batch.request.step_mask());
     v1::ApplyResponse response;
-    grpc::Status status = ToGrpcStatus(step_outputs.status());
+    Status status = step_outputs.status();
     if (status.ok()) {
-      status = ToGrpcStatus(restored->Apply(batch.request, *step_outputs, nullptr,
-                                            std::numeric_limits<std::size_t>::max(), &response));
+      status = restored->Apply(batch.request, *step_outputs, nullptr,
+                               std::numeric_limits<std::size_t>::max(), &response);
     }
     if (status.ok() && response.replayed()) {
-      status = GrpcError(grpc::StatusCode::DATA_LOSS, "", "its request_id was already applied");
+      status = DataLoss("", "its request_id was already applied");
     }
     if (!status.ok()) {
-      return GrpcError(status.error_code(), "",
-                       "batch " + std::to_string(batch.sequence) + ": " + status.error_message());
+      return Status(status.code(), "",
+                    "batch " + std::to_string(batch.sequence) + ": " + status.ToString());
     }
   }
   *session = std::move(restored);
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 void ContactOperations::CompactJournal() {
   if (journal_ == nullptr) return;
   for (const std::shared_ptr<Session>& session : sessions_.All()) {
     if (Status status = session->CompactJournal(); !status.ok()) {
-      spdlog::error("event=journal_compaction_failed session={} error={}", LogValue(session->name()),
-                    Quoted(status.ToString(), kMaxLoggedErrorBytes));
+      spdlog::error("event=journal_compaction_failed session={} error={}",
+                    LogValue(session->name()), Quoted(status.ToString(), kMaxLoggedErrorBytes));
     }
   }
 }
@@ -162,71 +161,69 @@ Result<ContactConfig> ContactOperations::SessionConfig(const v1::Scene& scene,
   return config;
 }
 
-grpc::Status ContactOperations::AddSession(const Principal& caller, const std::string& id_field,
-                                           const std::string& session_id, SessionState state,
-                                           v1::Session* response, const char* verb,
-                                           const std::string& state_field,
-                                           const Interrupt& interrupt) {
+Status ContactOperations::AddSession(const Principal& caller, const std::string& id_field,
+                                     const std::string& session_id, SessionState state,
+                                     v1::Session* response, const char* verb,
+                                     const std::string& state_field, const Interrupt& interrupt) {
   if (hooks_.before_add_session) hooks_.before_add_session();
-  if (Status s = interrupt.Check(); !s.ok()) return ToGrpcStatus(s);
+  if (Status s = interrupt.Check(); !s.ok()) return s;
   if (Status status = CheckExportable(
           ExportBytesBound(state.contact, ExportedSceneBytes(state.scene, state.contact)),
           limits_.max_message_bytes, state_field);
       !status.ok()) {
-    return ToGrpcStatus(status);
+    return status;
   }
   if (Status status = StateCharge::Take(&budget_, StateBytes(state.contact), &state.charge);
       !status.ok()) {
-    return ToGrpcStatus(status.WithFieldPrefix(state_field));
+    return status.WithFieldPrefix(state_field);
   }
   state.max_message_bytes = limits_.max_message_bytes;
   std::shared_ptr<Session> session;
-  grpc::Status status = ToGrpcStatus(sessions_.Create(id_field, session_id, caller, std::move(state), &session));
+  Status status = sessions_.Create(id_field, session_id, caller, std::move(state), &session);
   if (!status.ok()) return status;
   session->ReadResource(response);
   spdlog::info("event=session_{} session={} sessions={}", verb, LogValue(session->name()),
                sessions_.size());
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status ContactOperations::CreateSession(const Principal& caller,
-                                              const v1::CreateSessionRequest& request,
-                                              v1::Session* response, const Interrupt& interrupt) {
+Status ContactOperations::CreateSession(const Principal& caller,
+                                        const v1::CreateSessionRequest& request,
+                                        v1::Session* response, const Interrupt& interrupt) {
   if (Status status = SessionStore::CheckSessionId("session_id", request.session_id());
       !status.ok()) {
-    return ToGrpcStatus(status);
+    return status;
   }
   const v1::Session& resource = request.session();
   Result<v1::SessionLimits> limits = ResolveSessionLimits(resource.limits(), limits_);
-  if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("session.limits"));
+  if (!limits.ok()) return limits.status().WithFieldPrefix("session.limits");
   Result<ContactConfig> config = SessionConfig(resource.scene(), "session", interrupt);
-  if (!config.ok()) return ToGrpcStatus(config.status());
+  if (!config.ok()) return config.status();
   Result<Contact> contact = Contact::Create(std::move(config).value());
-  if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("session.scene"));
+  if (!contact.ok()) return contact.status().WithFieldPrefix("session.scene");
   SessionState state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   return AddSession(caller, "session_id", request.session_id(), std::move(state), response,
                     "created", "session.scene", interrupt);
 }
 
-grpc::Status ContactOperations::GetSession(const Principal& caller,
-                                           const v1::GetSessionRequest& request,
-                                           v1::Session* response) {
+Status ContactOperations::GetSession(const Principal& caller, const v1::GetSessionRequest& request,
+                                     v1::Session* response) {
   std::shared_ptr<Session> session;
-  grpc::Status status = ToGrpcStatus(sessions_.Find("name", request.name(), caller, &session));
+  Status status = sessions_.Find("name", request.name(), caller, &session);
   if (status.ok()) session->ReadResource(response);
   return status;
 }
 
-grpc::Status ContactOperations::ListSessions(const Principal& caller,
-                                             const v1::ListSessionsRequest& request,
-                                             v1::ListSessionsResponse* response) {
+Status ContactOperations::ListSessions(const Principal& caller,
+                                       const v1::ListSessionsRequest& request,
+                                       v1::ListSessionsResponse* response) {
   if (Status s = RequireNonNegative("page_size", request.page_size()); !s.ok()) {
-    return ToGrpcStatus(s);
+    return s;
   }
   if (!request.page_token().empty() && !SessionStore::IsSessionName(request.page_token())) {
-    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "page_token",
-                     "must be empty or a next_page_token returned by ListSessions");
+    return InvalidArgument("page_token",
+                           "must be empty or a next_page_token returned by ListSessions");
   }
   const int page_size =
       request.page_size() == 0 ? kDefaultPageSize : std::min(request.page_size(), kMaxPageSize);
@@ -235,12 +232,12 @@ grpc::Status ContactOperations::ListSessions(const Principal& caller,
       sessions_.ListAfter(request.page_token(), static_cast<std::size_t>(page_size), caller, &more);
   for (const auto& session : page) session->ReadResource(response->add_sessions());
   if (more && !page.empty()) response->set_next_page_token(page.back()->name());
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status ContactOperations::DeleteSession(const Principal& caller,
-                                              const v1::DeleteSessionRequest& request) {
-  grpc::Status status = ToGrpcStatus(sessions_.Erase("name", request.name(), caller));
+Status ContactOperations::DeleteSession(const Principal& caller,
+                                        const v1::DeleteSessionRequest& request) {
+  Status status = sessions_.Erase("name", request.name(), caller);
   if (status.ok()) {
     spdlog::info("event=session_deleted session={} sessions={}", LogValue(request.name()),
                  sessions_.size());
@@ -248,84 +245,84 @@ grpc::Status ContactOperations::DeleteSession(const Principal& caller,
   return status;
 }
 
-grpc::Status ContactOperations::ExportSession(const Principal& caller,
-                                              const v1::ExportSessionRequest& request,
-                                              v1::SessionSnapshot* response) {
+Status ContactOperations::ExportSession(const Principal& caller,
+                                        const v1::ExportSessionRequest& request,
+                                        v1::SessionSnapshot* response) {
   std::shared_ptr<Session> session;
-  grpc::Status status = ToGrpcStatus(sessions_.Find("name", request.name(), caller, &session));
-  if (status.ok()) status = ToGrpcStatus(session->Export(response));
+  Status status = sessions_.Find("name", request.name(), caller, &session);
+  if (status.ok()) status = session->Export(response);
   return status;
 }
 
-grpc::Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
-                                        std::optional<SessionState>* state,
-                                        const Interrupt& interrupt) const {
+Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
+                                  std::optional<SessionState>* state,
+                                  const Interrupt& interrupt) const {
   if (snapshot.version() != Session::kSnapshotVersion) {
-    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "snapshot.version",
-                     "must be " + std::to_string(Session::kSnapshotVersion) +
-                         " (the snapshot format this server reads), got " +
-                         std::to_string(snapshot.version()));
+    return InvalidArgument("snapshot.version",
+                           "must be " + std::to_string(Session::kSnapshotVersion) +
+                               " (the snapshot format this server reads), got " +
+                               std::to_string(snapshot.version()));
   }
   if (!snapshot.source_name().empty() && !SessionStore::IsSessionName(snapshot.source_name())) {
-    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "snapshot.source_name",
-                     "must be empty or a session name \"sessions/{session_id}\" (session_id: "
-                     "1-63 characters of [a-z0-9-] starting with a letter)");
+    return InvalidArgument("snapshot.source_name",
+                           "must be empty or a session name \"sessions/{session_id}\" (session_id: "
+                           "1-63 characters of [a-z0-9-] starting with a letter)");
   }
   if (Status s = CheckSnapshotCounters(snapshot, Session::kMaxAppliedSteps); !s.ok()) {
-    return ToGrpcStatus(s);
+    return s;
   }
   Result<v1::SessionLimits> limits = ResolveSessionLimits(snapshot.limits(), limits_);
-  if (!limits.ok()) return ToGrpcStatus(limits.status().WithFieldPrefix("snapshot.limits"));
+  if (!limits.ok()) return limits.status().WithFieldPrefix("snapshot.limits");
   Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot", interrupt);
-  if (!config.ok()) return ToGrpcStatus(config.status());
+  if (!config.ok()) return config.status();
   if (Status s = CheckSnapshotMethod(snapshot.contact(), config->method); !s.ok()) {
-    return ToGrpcStatus(s);
+    return s;
   }
   const auto vertices = static_cast<std::size_t>(snapshot.contact().memory_size());
   if (vertices > config->max_memory_vertices) {
-    return GrpcError(grpc::StatusCode::RESOURCE_EXHAUSTED, "snapshot.contact.memory",
-                     std::to_string(vertices) + " vertices exceed the session's limit of " +
-                         std::to_string(config->max_memory_vertices) +
-                         " (scene.options.max_memory_vertices)");
+    return ResourceExhausted("snapshot.contact.memory",
+                             std::to_string(vertices) + " vertices exceed the session's limit of " +
+                                 std::to_string(config->max_memory_vertices) +
+                                 " (scene.options.max_memory_vertices)");
   }
   Result<Contact> contact =
       Contact::Restore(std::move(config).value(), ToCoreSnapshot(snapshot.contact()));
-  if (!contact.ok()) return ToGrpcStatus(contact.status().WithFieldPrefix("snapshot.contact"));
+  if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
   state->emplace(SessionState{.scene = snapshot.scene(),
                               .limits = *limits,
                               .contact = std::move(contact).value(),
                               .applied_steps = snapshot.applied_steps()});
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
-grpc::Status ContactOperations::ImportSession(const Principal& caller,
-                                              const v1::ImportSessionRequest& request,
-                                              v1::Session* response, const Interrupt& interrupt) {
+Status ContactOperations::ImportSession(const Principal& caller,
+                                        const v1::ImportSessionRequest& request,
+                                        v1::Session* response, const Interrupt& interrupt) {
   if (Status status = SessionStore::CheckSessionId("session_id", request.session_id());
       !status.ok()) {
-    return ToGrpcStatus(status);
+    return status;
   }
   std::optional<SessionState> state;
-  if (grpc::Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
+  if (Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
     return status;
   }
   return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,
                     "imported", "snapshot.contact", interrupt);
 }
 
-grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
-                                      const Interruption& interruption, v1::ApplyResponse* response,
-                                      const Interrupt& interrupt) {
+Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
+                                const Interruption& interruption, v1::ApplyResponse* response,
+                                const Interrupt& interrupt) {
   if (request.steps().empty()) {
-    return GrpcError(grpc::StatusCode::INVALID_ARGUMENT, "steps", "must contain at least one step");
+    return InvalidArgument("steps", "must contain at least one step");
   }
-  if (Status s = ValidateRequestId(request.request_id()); !s.ok()) return ToGrpcStatus(s);
+  if (Status s = ValidateRequestId(request.request_id()); !s.ok()) return s;
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
-  if (!step_outputs.ok()) return ToGrpcStatus(step_outputs.status());
+  if (!step_outputs.ok()) return step_outputs.status();
   std::shared_ptr<Session> session;
   if (Status status = sessions_.Find("session", request.session(), caller, &session);
       !status.ok()) {
-    return ToGrpcStatus(status);
+    return status;
   }
   const Session::StepGuard guard = [&](int step_index) {
     if (hooks_.before_step) hooks_.before_step(step_index);
@@ -335,35 +332,34 @@ grpc::Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRe
   constexpr std::size_t kResponseOverheadBytes = 512;
   const std::size_t max_response_bytes =
       static_cast<std::size_t>(limits_.max_message_bytes) - kResponseOverheadBytes;
-  return ToGrpcStatus(
-      session->Apply(request, *step_outputs, guard, max_response_bytes, response, interrupt));
+  return session->Apply(request, *step_outputs, guard, max_response_bytes, response, interrupt);
 }
 
-grpc::Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest& request,
-                                      v1::QueryResponse* response, const Interrupt& interrupt) {
+Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest& request,
+                                v1::QueryResponse* response, const Interrupt& interrupt) {
   Result<OutputSelection> selection = SelectQueryOutputs(request.read_mask());
-  if (!selection.ok()) return ToGrpcStatus(selection.status());
+  if (!selection.ok()) return selection.status();
   Result<RadialSampling> sampling = QuerySampling(request, *selection, limits_.max_message_bytes);
-  if (!sampling.ok()) return ToGrpcStatus(sampling.status());
+  if (!sampling.ok()) return sampling.status();
   sampling->traction_options.interrupt = interrupt;
   std::shared_ptr<Session> session;
   if (Status status = sessions_.Find("session", request.session(), caller, &session);
       !status.ok()) {
-    return ToGrpcStatus(status);
+    return status;
   }
-  return ToGrpcStatus(session->Query(*selection, *sampling, hooks_.output_counters, response));
+  return session->Query(*selection, *sampling, hooks_.output_counters, response);
 }
 
-grpc::Status ContactOperations::Transform(const v1::TransformRequest& request,
-                                          v1::TransformResponse* response) {
+Status ContactOperations::Transform(const v1::TransformRequest& request,
+                                    v1::TransformResponse* response) {
   const auto start = std::chrono::steady_clock::now();
   if (Status status = RunTransform(request, limits_, response); !status.ok()) {
     response->Clear();
-    return ToGrpcStatus(status);
+    return status;
   }
   response->set_compute_seconds(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  return grpc::Status::OK;
+  return OkStatus();
 }
 
 }  // namespace mdr::service

@@ -109,10 +109,8 @@ Result<std::shared_ptr<grpc::ServerCredentials>> ServerCredentials(const TlsOpti
   return grpc::SslServerCredentials(options);
 }
 
-// A grpc::Status of the set-up (journal) as the core Status Start returns.
-Status SetupError(const grpc::Status& status) {
-  return FailedPrecondition("", status.error_message());
-}
+// An error of the set-up (journal) as the FAILED_PRECONDITION Start returns.
+Status SetupError(const Status& status) { return FailedPrecondition("", status.ToString()); }
 
 // Often enough that an idle session is gone soon after its timeout (lookups already treat it
 // as gone), rarely enough to cost nothing.
@@ -146,7 +144,7 @@ Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions&
     if (options.journal.snapshot_every < 1) {
       return InvalidArgument("journal-snapshot-every", "must be >= 1, got 0");
     }
-    if (grpc::Status status = server->operations_.OpenJournal(options.journal); !status.ok()) {
+    if (Status status = server->operations_.OpenJournal(options.journal); !status.ok()) {
       return SetupError(status);
     }
   }

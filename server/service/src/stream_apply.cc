@@ -135,8 +135,8 @@ v1::StreamApplyResponse StreamApplyReactor::Answer() {
   const auto start = std::chrono::steady_clock::now();
   v1::StreamApplyResponse response;
   const v1::ApplyRequest& apply = request_.apply();
-  const grpc::Status status =
-      operations_.Apply(caller_, apply, interruption_, response.mutable_result(), interrupt_);
+  const grpc::Status status = ToGrpcStatus(
+      operations_.Apply(caller_, apply, interruption_, response.mutable_result(), interrupt_));
   if (status.ok()) {
     response.mutable_status();  // present, code OK
   } else {

@@ -1,11 +1,9 @@
 // The operations of ContactService independent of the transport: validate a request, find the
-// session, run the core, encode the reply, all errors as grpc::Status. The unary handlers and the
+// session, run the core, encode the reply, all errors as Status. The unary handlers and the
 // StreamApply reactor are thin wrappers around this class. Every session operation is made by a
 // caller (Principal) and sees only the caller's sessions. With a journal (OpenJournal), every
 // change is journaled before it is answered.
 #pragma once
-
-#include <grpcpp/support/status.h>
 
 #include <functional>
 #include <memory>
@@ -14,6 +12,7 @@
 #include <vector>
 
 #include "mdr/core/interrupt.h"
+#include "mdr/core/status.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/outputs.h"
@@ -46,34 +45,34 @@ class ContactOperations {
   // session that cannot be restored is kept as unavailable (logged at error level with the
   // reason; its journal entry is kept); every other one is restored. Errors (the journal cannot
   // be opened, or is damaged and options.recover is off) name the journal and what is wrong.
-  grpc::Status OpenJournal(const JournalOptions& options);
+  Status OpenJournal(const JournalOptions& options);
   // Writes a snapshot of every session with batches since its last one (a clean shutdown).
   void CompactJournal();
 
   // interrupt abandons a long construction (a tabulated profile) and is checked once more just
   // before the session is added: nothing is created after the caller gave up.
-  grpc::Status CreateSession(const Principal& caller, const v1::CreateSessionRequest& request,
-                             v1::Session* response, const Interrupt& interrupt = {});
-  grpc::Status GetSession(const Principal& caller, const v1::GetSessionRequest& request,
-                          v1::Session* response);
-  grpc::Status ListSessions(const Principal& caller, const v1::ListSessionsRequest& request,
-                            v1::ListSessionsResponse* response);
-  grpc::Status DeleteSession(const Principal& caller, const v1::DeleteSessionRequest& request);
-  grpc::Status ExportSession(const Principal& caller, const v1::ExportSessionRequest& request,
-                             v1::SessionSnapshot* response);
+  Status CreateSession(const Principal& caller, const v1::CreateSessionRequest& request,
+                       v1::Session* response, const Interrupt& interrupt = {});
+  Status GetSession(const Principal& caller, const v1::GetSessionRequest& request,
+                    v1::Session* response);
+  Status ListSessions(const Principal& caller, const v1::ListSessionsRequest& request,
+                      v1::ListSessionsResponse* response);
+  Status DeleteSession(const Principal& caller, const v1::DeleteSessionRequest& request);
+  Status ExportSession(const Principal& caller, const v1::ExportSessionRequest& request,
+                       v1::SessionSnapshot* response);
   // interrupt: as for CreateSession.
-  grpc::Status ImportSession(const Principal& caller, const v1::ImportSessionRequest& request,
-                             v1::Session* response, const Interrupt& interrupt = {});
+  Status ImportSession(const Principal& caller, const v1::ImportSessionRequest& request,
+                       v1::Session* response, const Interrupt& interrupt = {});
   // interruption is checked before every step, interrupt inside long steps (curved force
   // paths).
-  grpc::Status Apply(const Principal& caller, const v1::ApplyRequest& request,
-                     const Interruption& interruption, v1::ApplyResponse* response,
-                     const Interrupt& interrupt = {});
+  Status Apply(const Principal& caller, const v1::ApplyRequest& request,
+               const Interruption& interruption, v1::ApplyResponse* response,
+               const Interrupt& interrupt = {});
   // interrupt is checked before every radius of a traction or pressure profile.
-  grpc::Status Query(const Principal& caller, const v1::QueryRequest& request,
-                     v1::QueryResponse* response, const Interrupt& interrupt = {});
+  Status Query(const Principal& caller, const v1::QueryRequest& request,
+               v1::QueryResponse* response, const Interrupt& interrupt = {});
   // Stateless: no session is read or changed.
-  grpc::Status Transform(const v1::TransformRequest& request, v1::TransformResponse* response);
+  Status Transform(const v1::TransformRequest& request, v1::TransformResponse* response);
 
   // Deletes the sessions whose idle timeout ran out; returns their names.
   std::vector<std::string> EraseExpiredSessions() { return sessions_.EraseExpired(); }
@@ -86,18 +85,17 @@ class ContactOperations {
                                       const Interrupt& interrupt) const;
   // The state a snapshot describes (ImportSession and the journal); errors name
   // "snapshot.<field>".
-  grpc::Status StateOf(const v1::SessionSnapshot& snapshot, std::optional<SessionState>* state,
-                       const Interrupt& interrupt = {}) const;
+  Status StateOf(const v1::SessionSnapshot& snapshot, std::optional<SessionState>* state,
+                 const Interrupt& interrupt = {}) const;
   // Adds the session unless the interrupt fired, its export would not fit a message or its
   // state the budget (errors name state_field).
-  grpc::Status AddSession(const Principal& caller, const std::string& id_field,
-                          const std::string& session_id, SessionState state, v1::Session* response,
-                          const char* verb, const std::string& state_field,
-                          const Interrupt& interrupt);
+  Status AddSession(const Principal& caller, const std::string& id_field,
+                    const std::string& session_id, SessionState state, v1::Session* response,
+                    const char* verb, const std::string& state_field, const Interrupt& interrupt);
   // A journaled session: its snapshot imported, its later batches replayed.
-  grpc::Status Restore(const JournaledSession& journaled, std::shared_ptr<Session>* session) const;
+  Status Restore(const JournaledSession& journaled, std::shared_ptr<Session>* session) const;
   // What is kept of a journaled session that Restore refused (`why`).
-  static UnavailableSession Unavailable(JournaledSession entry, const grpc::Status& why);
+  static UnavailableSession Unavailable(JournaledSession entry, const Status& why);
 
   const ServiceLimits limits_;
   const TestHooks hooks_;
