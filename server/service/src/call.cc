@@ -6,15 +6,14 @@
 
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
-#include "mdr/service/status.h"
 
 namespace mdr::service {
 
-grpc::Status CallerOf(const grpc::CallbackServerContext* context,
-                      const Authenticator* authenticator, Principal* caller) {
+Status CallerOf(const grpc::CallbackServerContext* context, const Authenticator* authenticator,
+                Principal* caller) {
   caller->reset();
-  if (authenticator == nullptr) return grpc::Status::OK;
-  return ToGrpcStatus(authenticator->Authenticate(context->client_metadata(), caller));
+  if (authenticator == nullptr) return OkStatus();
+  return authenticator->Authenticate(context->client_metadata(), caller);
 }
 
 Interrupt InterruptOf(const grpc::CallbackServerContext* context,
@@ -43,11 +42,11 @@ ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt) {
   };
 }
 
-grpc::Status BusyStatus(const Executor& executor) {
-  return GrpcError(grpc::StatusCode::UNAVAILABLE, "",
-                   "the server is busy: " + std::to_string(executor.max_queued()) +
-                       " calls already wait for its " + std::to_string(executor.workers()) +
-                       " workers (mdrd --max-queued-calls); nothing was run: retry with backoff");
+Status BusyStatus(const Executor& executor) {
+  return Unavailable("",
+                     "the server is busy: " + std::to_string(executor.max_queued()) +
+                         " calls already wait for its " + std::to_string(executor.workers()) +
+                         " workers (mdrd --max-queued-calls); nothing was run: retry with backoff");
 }
 
 std::string RequestIdOf(const grpc::CallbackServerContext* context,

@@ -32,11 +32,12 @@ class InlineCall {
   template <typename Operation>
   grpc::ServerUnaryReactor* Run(const Authenticator* authenticator, Operation operation) const {
     Principal caller;
-    grpc::Status status = CallerOf(context_, authenticator, &caller);
-    if (status.ok()) status = ToGrpcStatus(operation(caller));
-    LogCall(method_, session_, request_id_, status, SecondsSince(start_));
+    Status status = CallerOf(context_, authenticator, &caller);
+    if (status.ok()) status = operation(caller);
+    const grpc::Status sent = ToGrpcStatus(status);
+    LogCall(method_, session_, request_id_, sent, SecondsSince(start_));
     grpc::ServerUnaryReactor* reactor = context_->DefaultReactor();
-    reactor->Finish(status);
+    reactor->Finish(sent);
     return reactor;
   }
 
@@ -69,20 +70,23 @@ class QueuedCall final : public grpc::ServerUnaryReactor {
   void Run(const Principal& caller, const Operation& operation) {
     if (Status waited = interrupt_.Check(); !waited.ok()) {
       const bool late = waited.code() == StatusCode::kDeadlineExceeded;
-      Complete(GrpcError(late ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED,
-                         "",
-                         late ? "the deadline passed while the call waited for a worker; it was "
-                                "not run"
-                              : "the call was cancelled while it waited for a worker; it was not "
+      Complete(late ? DeadlineExceeded(
+                          "",
+                          "the deadline passed while the call waited for a worker; it was not "
+                          "run")
+                    : Cancelled("",
+                                "the call was cancelled while it waited for a worker; it was not "
                                 "run"));
       return;
     }
-    Complete(ToGrpcStatus(operation(caller, interrupt_)));
+    Complete(operation(caller, interrupt_));
   }
 
-  void Complete(const grpc::Status& status) {
-    LogCall(method_, session_, request_id_, status, SecondsSince(start_));
-    Finish(status);
+  // Maps the status to gRPC (the one place for this call), logs and finishes the call.
+  void Complete(const Status& status) {
+    const grpc::Status sent = ToGrpcStatus(status);
+    LogCall(method_, session_, request_id_, sent, SecondsSince(start_));
+    Finish(sent);
   }
 
  private:
@@ -103,7 +107,7 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext*
                                                     Operation operation) {
   auto* call = new QueuedCall(context, method, strand, request_id, server_stopping_);
   Principal caller;
-  if (grpc::Status status = CallerOf(context, authenticator_, &caller); !status.ok()) {
+  if (Status status = CallerOf(context, authenticator_, &caller); !status.ok()) {
     call->Complete(status);
     return call;
   }

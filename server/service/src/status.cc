@@ -53,8 +53,7 @@ const char* CodeName(grpc::StatusCode code) {
   return index < std::size(kNames) ? kNames[index] : "UNKNOWN";
 }
 
-}  // namespace
-
+// The error's gRPC form: "field: message" with its details (see ToGrpcStatus).
 grpc::Status GrpcError(grpc::StatusCode code, const std::string& field,
                        const std::string& message) {
   const std::string text = field.empty() ? message : field + ": " + message;
@@ -78,6 +77,8 @@ grpc::Status GrpcError(grpc::StatusCode code, const std::string& field,
   grpc::SetErrorDetails(rich, &status);
   return status;
 }
+
+}  // namespace
 
 grpc::Status ToGrpcStatus(const Status& status) {
   if (status.ok()) return grpc::Status::OK;

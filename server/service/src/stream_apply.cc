@@ -45,10 +45,11 @@ StreamApplyReactor::StreamApplyReactor(grpc::CallbackServerContext* context,
       interrupt_(InterruptOf(context, &cancelled_, &server_stopping)),
       interruption_(InterruptionOf(interrupt_)) {
   // No reaction runs before the handler returns this reactor, so the flags need no lock yet.
-  if (grpc::Status status = CallerOf(context, authenticator, &caller_); !status.ok()) {
-    LogCall("StreamApply", "", RequestIdOf(context), status, 0);
+  if (Status status = CallerOf(context, authenticator, &caller_); !status.ok()) {
+    const grpc::Status sent = ToGrpcStatus(status);
+    LogCall("StreamApply", "", RequestIdOf(context), sent, 0);
     finished_ = true;
-    Finish(status);
+    Finish(sent);
     return;
   }
   reading_ = true;
@@ -88,7 +89,7 @@ void StreamApplyReactor::OnReadDone(bool ok) {
   // No further read starts while processing_, so request_ stays as read until Process is done.
   if (executor_.Submit(request_.apply().session(), [this] { Process(); })) return;
   v1::StreamApplyResponse busy;
-  const grpc::Status refused = BusyStatus(executor_);
+  const grpc::Status refused = ToGrpcStatus(BusyStatus(executor_));
   ToRpcStatus(refused, busy.mutable_status());
   LogCall("StreamApply", request_.apply().session(),
           RequestIdOf(context_, request_.apply().request_id()), refused, 0);
@@ -162,11 +163,12 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked() {
   }
   if (writing_ || processing_) return actions;
   if (write_failed_) {
-    actions.finish = GrpcError(grpc::StatusCode::CANCELLED, "", "the client stopped reading");
+    actions.finish = ToGrpcStatus(Cancelled("", "the client stopped reading"));
   } else if (draining_) {
-    actions.finish = GrpcError(grpc::StatusCode::UNAVAILABLE, "",
-                               "the server is shutting down; every message without a response "
-                               "was not applied: send it to another server");
+    actions.finish = ToGrpcStatus(Unavailable("",
+                                              "the server is shutting down; every message without "
+                                              "a response was not applied: send it to another "
+                                              "server"));
   } else if (reads_done_ && !reading_) {
     actions.finish = grpc::Status::OK;
   }

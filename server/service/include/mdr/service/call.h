@@ -10,6 +10,7 @@
 #include <string>
 
 #include "mdr/core/interrupt.h"
+#include "mdr/core/status.h"
 #include "mdr/service/auth.h"
 #include "mdr/service/executor.h"
 #include "mdr/service/operations.h"
@@ -18,8 +19,8 @@ namespace mdr::service {
 
 // The caller of a call: nullopt without an authenticator (authentication off), else the
 // principal of its bearer token (UNAUTHENTICATED without a valid one).
-grpc::Status CallerOf(const grpc::CallbackServerContext* context,
-                      const Authenticator* authenticator, Principal* caller);
+Status CallerOf(const grpc::CallbackServerContext* context, const Authenticator* authenticator,
+                Principal* caller);
 
 // The core's Interrupt of a call: its deadline, its own cancellation flag (set by the reactor's
 // OnCancel) and the server's (set when a drain's grace period ends). Both flags must outlive it.
@@ -32,7 +33,7 @@ ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt);
 
 // UNAVAILABLE with a retry hint: the executor's queue is full and the call (or stream message)
 // was not run.
-grpc::Status BusyStatus(const Executor& executor);
+Status BusyStatus(const Executor& executor);
 
 // explicit_id if set, else the client's "x-request-id" metadata, else "-"; raw client text,
 // for LogCall only.
@@ -42,9 +43,10 @@ std::string RequestIdOf(const grpc::CallbackServerContext* context,
 // "OK", "INVALID_ARGUMENT", ...
 const char* CodeName(grpc::StatusCode code);
 
-// One log line per call: debug when it succeeded, info when it failed. The session and request
-// id are client values, shown through LogValue (bounded, quoted and escaped when needed), so the
-// line always starts "rpc=... session=... request_id=... code=..." and never spans two lines.
+// One log line per call, with the status as sent (ToGrpcStatus): debug when it succeeded, info when
+// it failed. The session and request id are client values, shown through LogValue (bounded, quoted
+// and escaped when needed), so the line always starts "rpc=... session=... request_id=... code=..."
+// and never spans two lines.
 void LogCall(const char* method, const std::string& session, const std::string& request_id,
              const grpc::Status& status, double seconds);
 

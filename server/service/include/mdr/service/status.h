@@ -18,11 +18,10 @@ namespace mdr::service {
 inline constexpr char kErrorDomain[] = "mdr.v1";
 inline constexpr char kFieldKey[] = "field";
 
-// An error of the service itself or of the core, by gRPC code: message "field: message" (just
-// "message" when field is empty) and, for INVALID_ARGUMENT with a field, a BadRequest detail.
-grpc::Status GrpcError(grpc::StatusCode code, const std::string& field, const std::string& message);
-
-// A core error mapped to its gRPC code (kInvalidArgument -> INVALID_ARGUMENT, ...) via GrpcError.
+// An error of the core or of the service mapped to its gRPC code (kInvalidArgument ->
+// INVALID_ARGUMENT, ...): message "field: message" (just "message" when field is empty), the
+// ErrorInfo and, for INVALID_ARGUMENT with a field, a BadRequest detail. Called once per call at
+// the transport edge (the unary handlers, StreamApply, start-up); every layer below returns Status.
 grpc::Status ToGrpcStatus(const Status& status);
 
 // The status as a google.rpc.Status message (StreamApply's per-message status), details included.
