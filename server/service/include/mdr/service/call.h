@@ -40,9 +40,6 @@ Status BusyStatus(const Executor& executor);
 std::string RequestIdOf(const grpc::CallbackServerContext* context,
                         const std::string& explicit_id = "");
 
-// "OK", "INVALID_ARGUMENT", ...
-const char* CodeName(grpc::StatusCode code);
-
 // One log line per call, with the status as sent (ToGrpcStatus): debug when it succeeded, info when
 // it failed. The session and request id are client values, shown through LogValue (bounded, quoted
 // and escaped when needed), so the line always starts "rpc=... session=... request_id=... code=..."

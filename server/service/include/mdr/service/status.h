@@ -24,6 +24,10 @@ inline constexpr char kFieldKey[] = "field";
 // the transport edge (the unary handlers, StreamApply, start-up); every layer below returns Status.
 grpc::Status ToGrpcStatus(const Status& status);
 
+// The google.rpc.Code name of a code ("OK", "INVALID_ARGUMENT", ...): ErrorInfo.reason, the logs'
+// code= and the metrics' code label.
+const char* CodeName(grpc::StatusCode code);
+
 // The status as a google.rpc.Status message (StreamApply's per-message status), details included.
 void ToRpcStatus(const grpc::Status& status, google::rpc::Status* rpc_status);
 
