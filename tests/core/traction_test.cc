@@ -366,6 +366,18 @@ struct ClosedForm {
   }
 };
 
+// A sphere (R = 5 mm) and a cone (0.2 rad) with the closed forms of their pressure differences.
+std::vector<std::pair<ProfilePtr, ClosedForm>> SphereAndConeWithClosedForms() {
+  const double theta = 0.2;
+  std::vector<std::pair<ProfilePtr, ClosedForm>> scenes;
+  scenes.emplace_back(*MakeSphere(0.005), ClosedForm{false, 0.005L, 0});
+  scenes.emplace_back(*MakeCone(theta),
+                      ClosedForm{true, 0,
+                                 std::numbers::pi_v<long double> / 2 *
+                                     std::tan(static_cast<long double>(theta))});
+  return scenes;
+}
+
 // Issue #11: the traction's error estimate was |abel - jager|, which cannot see the rounding of the
 // memory vertices that both routes share (0.0056 Pa estimated, 0.27 Pa actual at mu kappa ~ 1e6).
 // Cattaneo-Mindlin (loading to s of the slip limit) and Mindlin-Deresiewicz (unloading by 0.6 of
@@ -373,12 +385,7 @@ struct ClosedForm {
 // old estimate misses real errors.
 TEST(TractionErrorEstimateTest, BoundsTheActualErrorAgainstClosedForms) {
   const EffectiveMaterial steel = *ElasticPair(210e9, 0.3, 210e9, 0.3);
-  const double theta = 0.2;
-  const std::vector<std::pair<ProfilePtr, ClosedForm>> scenes = {
-      {*MakeSphere(0.005), ClosedForm{false, 0.005L, 0}},
-      {*MakeCone(theta), ClosedForm{true, 0,
-                                    std::numbers::pi_v<long double> / 2 *
-                                        std::tan(static_cast<long double>(theta))}}};
+  const std::vector<std::pair<ProfilePtr, ClosedForm>> scenes = SphereAndConeWithClosedForms();
   int points = 0, old_misses = 0;
   double worst_ratio = 0, loosest = 0;
   std::vector<double> ratios;  // estimate / actual where the actual error is not 0
@@ -442,12 +449,7 @@ TEST(TractionErrorEstimateTest, BoundsTheActualErrorAgainstClosedForms) {
 
 TEST(TractionErrorEstimateTest, PressureEstimateBoundsTheActualError) {
   const EffectiveMaterial steel = *ElasticPair(210e9, 0.3, 210e9, 0.3);
-  const double theta = 0.2;
-  const std::vector<std::pair<ProfilePtr, ClosedForm>> scenes = {
-      {*MakeSphere(0.005), ClosedForm{false, 0.005L, 0}},
-      {*MakeCone(theta), ClosedForm{true, 0,
-                                    std::numbers::pi_v<long double> / 2 *
-                                        std::tan(static_cast<long double>(theta))}}};
+  const std::vector<std::pair<ProfilePtr, ClosedForm>> scenes = SphereAndConeWithClosedForms();
   int points = 0, old_misses = 0;
   for (const auto& [profile, form] : scenes) {
     for (double d : {1e-9, 2e-6, 1e-4}) {
