@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/jager.h"
+#include "mdr/core/traction.h"
 #include "test_util.h"
 
 namespace mdr {
@@ -262,6 +264,25 @@ TEST(GridMemoryTest, ConfigAndReachErrorsNameTheirField) {
   EXPECT_EQ(c.depth(), 0) << "unchanged";
   EXPECT_EQ(c.Apply(testing::NormalForceStep(1000)).field(), "grid_max_radius");
   EXPECT_TRUE(c.MoveTo(6e-6, 0).ok());
+}
+
+// The Jäger picture and the tangential tractions need the exact memory; the core refuses them on
+// a grid contact itself (before: an empty memory and zeros), naming the method.
+TEST(GridMemoryTest, JagerOutputsAndTractionsNeedTheExactMethod) {
+  Contact grid = GridContact(256);
+  ASSERT_TRUE(grid.MoveTo(kDepth, 0.5 * kMu * grid.config().material.kappa() * kDepth).ok());
+  const Status weights = ComputeJagerWeights(grid).status();
+  EXPECT_EQ(weights.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(weights.field(), "method");
+  EXPECT_EQ(DecomposeMemory(grid).status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(ComputeTangentialTraction(grid, {1e-5}).status().field(), "method");
+  EXPECT_EQ(IntegrateTangentialTraction(grid).status().field(), "method");
+  // The normal pressure does not depend on the tangential memory.
+  EXPECT_TRUE(ComputeNormalPressure(grid, {1e-5}).ok());
+  Contact exact = MakeContactWith(Method::kExact);
+  ASSERT_TRUE(exact.MoveTo(kDepth, 0.5 * kMu * exact.config().material.kappa() * kDepth).ok());
+  EXPECT_TRUE(ComputeJagerWeights(exact).ok());
+  EXPECT_TRUE(ComputeTangentialTraction(exact, {1e-5}).ok());
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The Jäger picture: weights, Cattaneo-Mindlin decompositions and their inverse, sampled u(x).
 #include "mdr/core/jager.h"
+#include "mdr/core/sampled_weight.h"
 
 #include <gtest/gtest.h>
 

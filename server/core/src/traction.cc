@@ -369,6 +369,7 @@ Result<std::vector<RadialValue>> ComputeTangentialTraction(const PiecewiseLinear
 Result<std::vector<RadialValue>> ComputeTangentialTraction(const Contact& contact,
                                                            const std::vector<double>& radii,
                                                            const TractionOptions& options) {
+  if (Status s = RequireExactMethod(contact, "method"); !s.ok()) return s;
   return ComputeTangentialTraction(contact.memory(), *contact.config().profile,
                                    contact.config().material, radii, options);
 }
@@ -393,6 +394,7 @@ Result<std::vector<RadialValue>> ComputeNormalPressure(const Contact& contact,
 Result<IntegratedForce> IntegrateTangentialTraction(const Contact& contact,
                                                     double relative_tolerance,
                                                     TractionRoute route) {
+  if (Status s = RequireExactMethod(contact, "method"); !s.ok()) return s;
   return IntegrateRadially(TangentialSprings(contact.memory()), *contact.config().profile,
                            contact.config().material.g_star, relative_tolerance, route);
 }

@@ -195,14 +195,6 @@ void WriteMemoryPieces(const Contact& contact,
   }
 }
 
-// The Jäger picture and the tangential tractions are computed from the exact memory.
-Status RequireExactMethod(const Contact& contact, const char* output) {
-  if (contact.config().method == Method::kExact) return OkStatus();
-  return FailedPrecondition(output,
-                            "available for method EXACT; this session's scene.method is "
-                            "METHOD_GRID (its springs are not a piecewise-linear memory)");
-}
-
 Status WriteJagerWeights(const Contact& contact, v1::JagerWeights* weights) {
   if (Status s = RequireExactMethod(contact, "jager_weights"); !s.ok()) return s;
   Result<JagerWeights> computed = ComputeJagerWeights(contact);

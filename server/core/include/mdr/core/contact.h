@@ -3,6 +3,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -175,5 +177,15 @@ class Contact {
   double dissipated_ = 0;
   double last_dissipated_ = 0;
 };
+
+// The Jäger picture and the tangential tractions are functions of the exact memory; the grid
+// method's springs are not a piecewise-linear memory. FailedPrecondition naming `field` for a
+// grid contact, so that the core's own entry points and the service say the same.
+inline Status RequireExactMethod(const Contact& contact, std::string_view field) {
+  if (contact.config().method == Method::kExact) return OkStatus();
+  return FailedPrecondition(std::string(field),
+                            "available for method EXACT; this contact's method is GRID (its "
+                            "springs are not a piecewise-linear memory)");
+}
 
 }  // namespace mdr

@@ -13,6 +13,7 @@
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/jager.h"
+#include "mdr/core/sampled_weight.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/status.h"
 #include "mdr/core/traction.h"
