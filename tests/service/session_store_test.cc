@@ -1,0 +1,127 @@
+// Unit tests of the session set (session_store.h) without a server: names, ownership, limits,
+// paging and expiry.
+#include "mdr/service/session_store.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "mdr/service/conversion.h"
+#include "service_test_util.h"
+
+namespace mdr::service_testing {
+namespace {
+
+using service::Principal;
+using service::Session;
+using service::SessionState;
+using service::SessionStore;
+
+SessionState FreshState(std::chrono::nanoseconds idle_timeout = std::chrono::hours(1)) {
+  const v1::Scene scene = SteelSphereOnSteelFlat();
+  SessionState state{.scene = scene,
+                     .limits = {},
+                     .contact = *Contact::Create(*service::ToContactConfig(scene, 1 << 16))};
+  state.limits.set_max_steps_per_batch(100);
+  state.limits.mutable_idle_timeout()->set_seconds(
+      std::chrono::duration_cast<std::chrono::seconds>(idle_timeout).count());
+  state.limits.mutable_idle_timeout()->set_nanos(
+      static_cast<int>((idle_timeout % std::chrono::seconds(1)).count()));
+  return state;
+}
+
+std::string CreateOrDie(SessionStore& store, const std::string& id, const Principal& caller = {}) {
+  std::shared_ptr<Session> session;
+  const Status status = store.Create("session_id", id, caller, FreshState(), &session);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  return session ? session->name() : "";
+}
+
+TEST(SessionStoreTest, NamesAreGivenOrGeneratedAndUnique) {
+  SessionStore store(100, 0);
+  EXPECT_EQ(CreateOrDie(store, "rig-1"), "sessions/rig-1");
+  const std::string a = CreateOrDie(store, ""), b = CreateOrDie(store, "");
+  EXPECT_TRUE(SessionStore::IsSessionName(a));
+  EXPECT_NE(a, b);
+  std::shared_ptr<Session> session;
+  const Status taken = store.Create("session_id", "rig-1", {}, FreshState(), &session);
+  EXPECT_EQ(taken.code(), StatusCode::kAlreadyExists);
+  EXPECT_EQ(taken.field(), "session_id");
+  const Status bad = store.Create("session_id", "no/slashes", {}, FreshState(), &session);
+  EXPECT_EQ(bad.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(bad.field(), "session_id");
+  EXPECT_EQ(store.size(), 3u);
+}
+
+TEST(SessionStoreTest, ASessionIsVisibleOnlyToItsOwner) {
+  SessionStore store(100, 0);
+  const std::string name = CreateOrDie(store, "owned", Principal("alice"));
+  std::shared_ptr<Session> found;
+  EXPECT_TRUE(store.Find("name", name, Principal("alice"), &found).ok());
+  EXPECT_EQ(store.Find("name", name, Principal("bob"), &found).code(), StatusCode::kNotFound);
+  EXPECT_EQ(store.Erase("name", name, Principal("bob")).code(), StatusCode::kNotFound);
+  // The name is global: bob cannot take it either.
+  std::shared_ptr<Session> session;
+  EXPECT_EQ(store.Create("session_id", "owned", Principal("bob"), FreshState(), &session).code(),
+            StatusCode::kAlreadyExists);
+  EXPECT_TRUE(store.Erase("name", name, Principal("alice")).ok());
+  EXPECT_EQ(store.size(), 0u);
+  EXPECT_EQ(store.Find("name", "not-a-name", {}, &found).field(), "name");
+}
+
+TEST(SessionStoreTest, LimitsAreResourceExhaustedAndFreedByDeletes) {
+  SessionStore store(3, 2);
+  CreateOrDie(store, "a1", Principal("alice"));
+  CreateOrDie(store, "a2", Principal("alice"));
+  std::shared_ptr<Session> session;
+  const Status per_owner =
+      store.Create("session_id", "a3", Principal("alice"), FreshState(), &session);
+  EXPECT_EQ(per_owner.code(), StatusCode::kResourceExhausted);
+  CreateOrDie(store, "b1", Principal("bob"));
+  EXPECT_EQ(store.Create("session_id", "b2", Principal("bob"), FreshState(), &session).code(),
+            StatusCode::kResourceExhausted);
+  ASSERT_TRUE(store.Erase("name", "sessions/a1", Principal("alice")).ok());
+  CreateOrDie(store, "b2", Principal("bob"));
+}
+
+TEST(SessionStoreTest, ListsInNameOrderByPages) {
+  SessionStore store(100, 0);
+  for (const char* id : {"d", "b", "e", "a", "c"}) CreateOrDie(store, id);
+  CreateOrDie(store, "z", Principal("someone-else"));
+  bool more = false;
+  std::vector<std::string> names;
+  std::string after;
+  do {
+    for (const auto& session : store.ListAfter(after, 2, {}, &more)) {
+      names.push_back(session->name());
+      after = session->name();
+    }
+  } while (more);
+  // Without authentication (no caller) every session is listed, in name order.
+  EXPECT_EQ(names, (std::vector<std::string>{"sessions/a", "sessions/b", "sessions/c", "sessions/d",
+                                             "sessions/e", "sessions/z"}));
+  const auto mine = store.ListAfter("", 10, Principal("someone-else"), &more);
+  ASSERT_EQ(mine.size(), 1u);
+  EXPECT_EQ(mine[0]->name(), "sessions/z");
+  EXPECT_FALSE(more);
+}
+
+TEST(SessionStoreTest, AnExpiredSessionIsGoneAndErased) {
+  SessionStore store(100, 0);
+  std::shared_ptr<Session> session;
+  ASSERT_TRUE(
+      store.Create("session_id", "short", {}, FreshState(std::chrono::nanoseconds(1)), &session)
+          .ok());
+  CreateOrDie(store, "long");
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::shared_ptr<Session> found;
+  EXPECT_EQ(store.Find("name", "sessions/short", {}, &found).code(), StatusCode::kNotFound);
+  EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{});  // Find erased it already
+  EXPECT_EQ(store.size(), 1u);
+  // Its name is free again.
+  CreateOrDie(store, "short");
+}
+
+}  // namespace
+}  // namespace mdr::service_testing
