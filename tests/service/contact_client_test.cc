@@ -133,13 +133,13 @@ TEST_F(ContactClientTest, ErrorDetailsNameTheFieldForEveryCode) {
   mdr::v1::Step too_far;
   too_far.set_tangential_force(10);  // above mu F_N = 0.5 N
   auto applied = client_->Apply(session->name(), too_far);
-  ASSERT_EQ(applied.code(), grpc::StatusCode::FAILED_PRECONDITION);
+  ASSERT_EQ(applied.status().error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(applied.status());
   EXPECT_EQ(details.field, "steps[0].tangential_force");
   EXPECT_THAT(details.description, HasSubstr("friction limit"));
 
   auto missing = client_->GetSession("sessions/none-such");
-  ASSERT_EQ(missing.code(), grpc::StatusCode::NOT_FOUND);
+  ASSERT_EQ(missing.status().error_code(), grpc::StatusCode::NOT_FOUND);
   details = mdr::client::ReadErrorDetails(missing.status());
   EXPECT_EQ(details.field, "name");
   EXPECT_FALSE(details.description.empty());
