@@ -104,7 +104,7 @@ TEST_F(RetryTest, ApplyIsRetriedOnlyWithRequestId) {
 }
 
 std::string DataFile(const std::string& name) {
-  return std::string(MDR_CLI_TEST_DATA) + "/" + name;
+  return std::string(MDR_CLIENT_TEST_DATA) + "/" + name;
 }
 
 std::string Read(const std::string& path) {
