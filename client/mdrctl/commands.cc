@@ -112,7 +112,7 @@ int PrintPlots(const mdr::v1::RunReport& report, const std::string& dir) {
 
 }  // namespace
 
-int Run(const Common& common, const RunArgs& args) {
+int RunCommand(const Common& common, const RunArgs& args) {
   if (!args.plot_dir.empty()) {
     const mdr::Status gnuplot = CheckGnuplot();
     if (!gnuplot.ok()) return Fail(gnuplot.ToString());
@@ -132,7 +132,7 @@ int Run(const Common& common, const RunArgs& args) {
   return args.plot_dir.empty() ? EXIT_SUCCESS : PrintPlots(*report, args.plot_dir);
 }
 
-int SessionCreate(const Common& common, const std::string& scene, const std::string& id) {
+int SessionCreateCommand(const Common& common, const std::string& scene, const std::string& id) {
   auto document = mdr::client::SceneDocument::Load(scene);
   if (!document.ok()) return Fail(document.status().ToString());
   auto connection = Connection::Open(common);
@@ -143,7 +143,7 @@ int SessionCreate(const Common& common, const std::string& scene, const std::str
   return EXIT_SUCCESS;
 }
 
-int SessionGet(const Common& common, const std::string& name) {
+int SessionGetCommand(const Common& common, const std::string& name) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
   auto session = (*connection)->client().GetSession(SessionName(name));
@@ -152,7 +152,7 @@ int SessionGet(const Common& common, const std::string& name) {
   return EXIT_SUCCESS;
 }
 
-int SessionList(const Common& common) {
+int SessionListCommand(const Common& common) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
   auto sessions = (*connection)->client().ListAllSessions();
@@ -161,7 +161,7 @@ int SessionList(const Common& common) {
   return EXIT_SUCCESS;
 }
 
-int SessionDelete(const Common& common, const std::string& name) {
+int SessionDeleteCommand(const Common& common, const std::string& name) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
   const grpc::Status deleted = (*connection)->client().DeleteSession(SessionName(name));
@@ -170,7 +170,7 @@ int SessionDelete(const Common& common, const std::string& name) {
   return EXIT_SUCCESS;
 }
 
-int Apply(const Common& common, const ApplyArgs& args) {
+int ApplyCommand(const Common& common, const ApplyArgs& args) {
   mdr::v1::ApplyRequest request;
   request.set_session(SessionName(args.session));
   request.set_request_id(args.request_id);
@@ -214,7 +214,7 @@ int Apply(const Common& common, const ApplyArgs& args) {
   return EXIT_SUCCESS;
 }
 
-int Query(const Common& common, const QueryArgs& args) {
+int QueryCommand(const Common& common, const QueryArgs& args) {
   mdr::v1::QueryRequest request;
   request.set_session(SessionName(args.session));
   for (const std::string& path : args.read_mask) request.mutable_read_mask()->add_paths(path);
@@ -227,7 +227,7 @@ int Query(const Common& common, const QueryArgs& args) {
   return EXIT_SUCCESS;
 }
 
-int Export(const Common& common, const std::string& name, const std::string& output) {
+int ExportCommand(const Common& common, const std::string& name, const std::string& output) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
   auto snapshot = (*connection)->client().ExportSession(SessionName(name));
@@ -241,7 +241,7 @@ int Export(const Common& common, const std::string& name, const std::string& out
   return EXIT_SUCCESS;
 }
 
-int Import(const Common& common, const std::string& snapshot_file, const std::string& id) {
+int ImportCommand(const Common& common, const std::string& snapshot_file, const std::string& id) {
   auto json = ReadFile(snapshot_file);
   if (!json.ok()) return Fail(json.status().ToString());
   mdr::v1::SessionSnapshot snapshot;
@@ -255,7 +255,7 @@ int Import(const Common& common, const std::string& snapshot_file, const std::st
   return EXIT_SUCCESS;
 }
 
-int Transform(const Common& common, const std::string& request_file) {
+int TransformCommand(const Common& common, const std::string& request_file) {
   auto text = ReadFile(request_file);
   if (!text.ok()) return Fail(text.status().ToString());
   mdr::v1::TransformRequest request;

@@ -1,5 +1,6 @@
-// The subcommands of mdrctl. Each returns the process exit code and reports errors on stderr as
-// "mdrctl: field: message".
+// The subcommands of mdrctl, one <Name>Command function each (the suffix tells them from the
+// client's methods Apply, Query, Transform ...). Each returns the process exit code and reports
+// errors on stderr as "mdrctl: field: message".
 #pragma once
 
 #include <string>
@@ -27,12 +28,12 @@ struct RunArgs {
   std::string plot_dir;
   bool keep_session = false;
 };
-int Run(const Common& common, const RunArgs& args);
+int RunCommand(const Common& common, const RunArgs& args);
 
-int SessionCreate(const Common& common, const std::string& scene, const std::string& id);
-int SessionGet(const Common& common, const std::string& name);
-int SessionList(const Common& common);
-int SessionDelete(const Common& common, const std::string& name);
+int SessionCreateCommand(const Common& common, const std::string& scene, const std::string& id);
+int SessionGetCommand(const Common& common, const std::string& name);
+int SessionListCommand(const Common& common);
+int SessionDeleteCommand(const Common& common, const std::string& name);
 
 struct ApplyArgs {
   std::string session;
@@ -42,19 +43,19 @@ struct ApplyArgs {
   // One StreamApply message per step instead of one batch.
   bool stream = false;
 };
-int Apply(const Common& common, const ApplyArgs& args);
+int ApplyCommand(const Common& common, const ApplyArgs& args);
 
 struct QueryArgs {
   std::string session;
   std::vector<std::string> read_mask;
   std::vector<double> radii;
 };
-int Query(const Common& common, const QueryArgs& args);
+int QueryCommand(const Common& common, const QueryArgs& args);
 
 // The snapshot as JSON, to `output` or stdout when empty.
-int Export(const Common& common, const std::string& name, const std::string& output);
-int Import(const Common& common, const std::string& snapshot_file, const std::string& id);
+int ExportCommand(const Common& common, const std::string& name, const std::string& output);
+int ImportCommand(const Common& common, const std::string& snapshot_file, const std::string& id);
 // A TransformRequest in YAML or JSON.
-int Transform(const Common& common, const std::string& request_file);
+int TransformCommand(const Common& common, const std::string& request_file);
 
 }  // namespace mdrctl

@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
       ->required();
   run->add_option("--plot", run_args.plot_dir, "Write PNG plots (gnuplot) into this directory");
   run->add_flag("--keep", run_args.keep_session, "Keep the session (with --server)");
-  run->callback([&] { exit_code = mdrctl::Run(common, run_args); });
+  run->callback([&] { exit_code = mdrctl::RunCommand(common, run_args); });
 
   CLI::App* session = app.add_subcommand("session", "Create, get, list or delete sessions");
   session->require_subcommand(1);
@@ -60,15 +60,16 @@ int main(int argc, char** argv) {
   CLI::App* create = session->add_subcommand("create", "Create a session for a scene file's scene");
   create->add_option("scene", scene_file, "Scene file (YAML or JSON)")->required();
   create->add_option("--id", session_id, "Session id ([a-z0-9-], starting with a letter)");
-  create->callback([&] { exit_code = mdrctl::SessionCreate(common, scene_file, session_id); });
+  create->callback(
+      [&] { exit_code = mdrctl::SessionCreateCommand(common, scene_file, session_id); });
   CLI::App* get = session->add_subcommand("get", "Show a session");
   get->add_option("name", name, "sessions/ID or ID")->required();
-  get->callback([&] { exit_code = mdrctl::SessionGet(common, name); });
+  get->callback([&] { exit_code = mdrctl::SessionGetCommand(common, name); });
   CLI::App* list = session->add_subcommand("list", "List every session");
-  list->callback([&] { exit_code = mdrctl::SessionList(common); });
+  list->callback([&] { exit_code = mdrctl::SessionListCommand(common); });
   CLI::App* remove = session->add_subcommand("delete", "Delete a session");
   remove->add_option("name", name, "sessions/ID or ID")->required();
-  remove->callback([&] { exit_code = mdrctl::SessionDelete(common, name); });
+  remove->callback([&] { exit_code = mdrctl::SessionDeleteCommand(common, name); });
 
   CLI::App* apply = app.add_subcommand("apply", "Apply steps to a session as one atomic batch");
   mdrctl::ApplyArgs apply_args;
@@ -77,7 +78,7 @@ int main(int argc, char** argv) {
       ->required();
   apply->add_option("--request-id", apply_args.request_id, "Makes a retry safe");
   apply->add_flag("--stream", apply_args.stream, "One StreamApply message per step");
-  apply->callback([&] { exit_code = mdrctl::Apply(common, apply_args); });
+  apply->callback([&] { exit_code = mdrctl::ApplyCommand(common, apply_args); });
 
   CLI::App* query = app.add_subcommand("query", "Read a session's outputs");
   mdrctl::QueryArgs query_args;
@@ -88,25 +89,25 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   query->add_option("--radii", query_args.radii, "Radii in m for springs and tractions")
       ->delimiter(',');
-  query->callback([&] { exit_code = mdrctl::Query(common, query_args); });
+  query->callback([&] { exit_code = mdrctl::QueryCommand(common, query_args); });
 
   CLI::App* exporter = app.add_subcommand("export", "Print a session's snapshot (JSON)");
   std::string output;
   exporter->add_option("session", name, "sessions/ID or ID")->required();
   exporter->add_option("-o,--output", output, "Write to this file instead of stdout");
-  exporter->callback([&] { exit_code = mdrctl::Export(common, name, output); });
+  exporter->callback([&] { exit_code = mdrctl::ExportCommand(common, name, output); });
 
   CLI::App* importer = app.add_subcommand("import", "Create a session from a snapshot file");
   std::string snapshot_file;
   importer->add_option("snapshot", snapshot_file, "JSON from export")->required();
   importer->add_option("--id", session_id, "Session id");
-  importer->callback([&] { exit_code = mdrctl::Import(common, snapshot_file, session_id); });
+  importer->callback([&] { exit_code = mdrctl::ImportCommand(common, snapshot_file, session_id); });
 
   CLI::App* transform =
       app.add_subcommand("transform", "Convert between the MDR and the Jäger picture");
   std::string request_file;
   transform->add_option("request", request_file, "TransformRequest in YAML or JSON")->required();
-  transform->callback([&] { exit_code = mdrctl::Transform(common, request_file); });
+  transform->callback([&] { exit_code = mdrctl::TransformCommand(common, request_file); });
 
   for (CLI::App* command :
        {run, create, get, list, remove, apply, query, exporter, importer, transform}) {

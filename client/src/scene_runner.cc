@@ -149,8 +149,8 @@ class Runner {
         if (queried->has_jager_weights()) {
           *record->mutable_jager_weights() = queried->jager_weights();
         }
-      } else if (queried.code() == grpc::StatusCode::FAILED_PRECONDITION ||
-                 queried.code() == grpc::StatusCode::INVALID_ARGUMENT) {
+      } else if (queried.status().error_code() == grpc::StatusCode::FAILED_PRECONDITION ||
+                 queried.status().error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
         record->add_unavailable(std::string(output) + ": " + queried.status().error_message());
       } else {
         return queried.status();

@@ -4,22 +4,18 @@
 
 #include <random>
 
+#include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
 
 namespace mdr {
 namespace {
 
-// H1 of reference-values.md: steel sphere R = 10 mm on steel, mu = 0.3, F_N = 100 N.
+// H1 of docs/reference-values.md: steel sphere R = 10 mm on steel, mu = 0.3, F_N = 100 N.
 Contact HertzContact(bool track_energy) {
-  ContactConfig config;
-  config.profile = *MakeSphere(0.01);
-  config.material = *ElasticPair(210e9, 0.3, 210e9, 0.3);
-  config.friction = 0.3;
-  config.track_energy = track_energy;
-  Contact contact = std::move(Contact::Create(config)).value();
+  Contact contact = std::move(Contact::Create(reference::H1Config(track_energy))).value();
   Step normal;
   normal.normal = NormalControl::kForce;
-  normal.normal_value = 100;
+  normal.normal_value = reference::H1::kNormalForce;
   (void)contact.Apply(normal);
   return contact;
 }

@@ -60,6 +60,7 @@
 #include <vector>
 
 #include "echo_service.h"
+#include "fixtures/reference_scenes.h"
 #include "mdr/client/contact_client.h"
 #include "mdr/core/material.h"
 #include "mdr/service/server.h"
@@ -82,12 +83,13 @@ constexpr int kCyclePeriod = 2 * kStepsPerHalfCycle;
 constexpr double kCycleAmplitude = 0.6;  // of mu kappa delta, the full-slip displacement
 constexpr auto kCallTimeout = std::chrono::seconds(30);
 
-// H1 (tests/bench/core_bench.cc, reference-values.md).
-constexpr double kSphereRadius = 0.01;
-constexpr double kYoungsModulus = 210e9;
-constexpr double kPoissonRatio = 0.3;
-constexpr double kFriction = 0.3;
-constexpr double kNormalForce = 100;
+// H1 (tests/fixtures/reference_scenes.h, docs/reference-values.md).
+using H1 = mdr::reference::H1;
+constexpr double kSphereRadius = H1::kRadius;
+constexpr double kYoungsModulus = H1::kYoungsModulus;
+constexpr double kPoissonRatio = H1::kPoissonRatio;
+constexpr double kFriction = H1::kFriction;
+constexpr double kNormalForce = H1::kNormalForce;
 
 [[noreturn]] void Fail(const std::string& what) {
   std::fprintf(stderr, "mdr_load: %s\n", what.c_str());
@@ -106,17 +108,7 @@ std::unique_ptr<grpc::Server> StartEchoServer(mdr::bench::EchoService& service, 
 // ---------------------------------------------------------------------------------------------
 // The workload: H1 sessions and their cycling steps.
 
-mdr::v1::Scene HertzScene() {
-  mdr::v1::Scene scene;
-  scene.mutable_sphere()->set_radius(kSphereRadius);
-  mdr::v1::ElasticPair* pair = scene.mutable_elastic_pair();
-  pair->set_youngs_modulus_1(kYoungsModulus);
-  pair->set_poisson_ratio_1(kPoissonRatio);
-  pair->set_youngs_modulus_2(kYoungsModulus);
-  pair->set_poisson_ratio_2(kPoissonRatio);
-  scene.set_friction(kFriction);
-  return scene;
-}
+mdr::v1::Scene HertzScene() { return mdr::reference::H1Scene<mdr::v1::Scene>(); }
 
 double HertzKappa() {
   const auto material =

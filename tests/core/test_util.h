@@ -1,4 +1,5 @@
-// Shared helpers for core tests: the reference scenes of ../shared/reference-values.md.
+// Shared helpers for core tests: closed forms, random histories and scenes, snapshot comparison,
+// and the reference scenes of docs/reference-values.md (tests/fixtures/reference_scenes.h).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -10,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
 
 namespace mdr::testing {
@@ -134,7 +136,8 @@ inline Contact MakeContact(ProfilePtr profile, EffectiveMaterial material, doubl
 
 // H1: steel sphere R = 10 mm on steel (E = 210 GPa, nu = 0.3 both), mu = 0.3.
 inline Contact SteelSphere(bool energy = true) {
-  return MakeContact(*MakeSphere(0.01), *ElasticPair(210e9, 0.3, 210e9, 0.3), 0.3, energy);
+  ContactConfig h1 = reference::H1Config(energy);
+  return MakeContact(std::move(h1.profile), h1.material, h1.friction, energy);
 }
 
 inline Step NormalForceStep(double fn) {

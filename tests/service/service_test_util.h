@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "fixtures/reference_scenes.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 #include "mdr/service/server.h"
@@ -22,15 +23,16 @@
 
 namespace mdr::service_testing {
 
-// Reference vector H1 (reference-values.md): steel sphere R = 10 mm on a steel flat, mu = 0.3.
-constexpr double kYoungsModulus = 210e9;
-constexpr double kPoissonRatio = 0.3;
-constexpr double kRadius = 0.01;
-constexpr double kFriction = 0.3;
-constexpr double kDepth = 3.4829098839e-6;              // gives F_N = 100 N
-constexpr double kDisplacementAt15N = 4.6949658143e-7;  // gives F_x = 15 N
+// Reference vector H1 (tests/fixtures/reference_scenes.h): steel sphere R = 10 mm on a steel
+// flat, mu = 0.3.
+constexpr double kYoungsModulus = reference::H1::kYoungsModulus;
+constexpr double kPoissonRatio = reference::H1::kPoissonRatio;
+constexpr double kRadius = reference::H1::kRadius;
+constexpr double kFriction = reference::H1::kFriction;
+constexpr double kDepth = reference::H1::kDepth;                          // gives F_N = 100 N
+constexpr double kDisplacementAt15N = reference::H1::kDisplacementAt15N;  // gives F_x = 15 N
 
-// Closed forms (physics.md) for two equal elastic bodies.
+// Closed forms (docs/physics.md) for two equal elastic bodies.
 inline double EffectiveYoungsModulus() {
   return 1 / (2 * (1 - kPoissonRatio * kPoissonRatio) / kYoungsModulus);
 }
@@ -49,17 +51,7 @@ inline double CattaneoMindlinTangentialForce(double depth, double displacement) 
   return s * kFriction * HertzNormalForce(depth);
 }
 
-inline v1::Scene SteelSphereOnSteelFlat() {
-  v1::Scene scene;
-  scene.mutable_sphere()->set_radius(kRadius);
-  v1::ElasticPair* pair = scene.mutable_elastic_pair();
-  pair->set_youngs_modulus_1(kYoungsModulus);
-  pair->set_poisson_ratio_1(kPoissonRatio);
-  pair->set_youngs_modulus_2(kYoungsModulus);
-  pair->set_poisson_ratio_2(kPoissonRatio);
-  scene.set_friction(kFriction);
-  return scene;
-}
+inline v1::Scene SteelSphereOnSteelFlat() { return reference::H1Scene<v1::Scene>(); }
 
 inline v1::Step DepthStep(double depth) {
   v1::Step step;

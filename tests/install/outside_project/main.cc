@@ -14,12 +14,14 @@ int main() {
   mdr::client::ContactClient client(
       *channel, mdr::client::ClientOptions{.timeout = std::chrono::seconds(5), .max_attempts = 2});
   auto session = client.GetSession("sessions/none");
-  if (session.ok() || session.code() != grpc::StatusCode::UNAVAILABLE) {
-    std::printf("expected UNAVAILABLE, got code %d\n", static_cast<int>(session.code()));
+  if (session.ok() || session.status().error_code() != grpc::StatusCode::UNAVAILABLE) {
+    std::printf("expected UNAVAILABLE, got code %d\n",
+                static_cast<int>(session.status().error_code()));
     return 1;
   }
   auto insecure_token = mdr::client::MakeChannel({.address = "127.0.0.1:1", .bearer_token = "t"});
-  if (insecure_token.ok() || insecure_token.code() != grpc::StatusCode::INVALID_ARGUMENT) {
+  if (insecure_token.ok() ||
+      insecure_token.status().error_code() != grpc::StatusCode::INVALID_ARGUMENT) {
     std::printf("a token without TLS must be refused\n");
     return 1;
   }

@@ -91,16 +91,18 @@ inline Status Internal(std::string field, std::string message) {
   return {StatusCode::kInternal, std::move(field), std::move(message)};
 }
 
-// A value or the Status that explains why there is none.
-template <typename T>
+// A value or the error that explains why there is none. The error is a Status everywhere but in
+// the client library, whose calls return the gRPC status as received (E = grpc::Status, named
+// RpcResult in mdr/client/rpc_result.h); a default-constructed E must mean OK.
+template <typename T, typename E = Status>
 class Result {
  public:
-  Result(T value) : data_(std::move(value)) {}         // NOLINT: implicit by design
-  Result(Status status) : data_(std::move(status)) {}  // NOLINT: implicit by design
+  Result(T value) : data_(std::move(value)) {}    // NOLINT: implicit by design
+  Result(E status) : data_(std::move(status)) {}  // NOLINT: implicit by design
   bool ok() const { return std::holds_alternative<T>(data_); }
-  const Status& status() const {
-    static const Status kOk;
-    return ok() ? kOk : std::get<Status>(data_);
+  const E& status() const {
+    static const E kOk;
+    return ok() ? kOk : std::get<E>(data_);
   }
   const T& value() const& { return std::get<T>(data_); }
   T& value() & { return std::get<T>(data_); }
@@ -111,7 +113,7 @@ class Result {
   T& operator*() & { return value(); }
 
  private:
-  std::variant<T, Status> data_;
+  std::variant<T, E> data_;
 };
 
 }  // namespace mdr

@@ -1,6 +1,6 @@
-# H1 at T* = 15 N (s = 0.5): every cycle after the first dissipates
-# W = 1.0723816356e-6 J (reference-values.md); the turning points are F_x = +-15 N at F_N = 100 N
-# and u0 = 4.6949658143e-7 m on the virgin curve (step 26, the first peak).
+# H1 at T* = 15 N (s = 0.5): every cycle after the first dissipates W = 1.0723816356e-6 J
+# (docs/reference-values.md); the turning points are F_x = +-15 N at F_N = 100 N and
+# u0 = 4.6949658143e-7 m on the virgin curve (step 26, the first peak).
 set(REGEXES
   "\n +2 +path\\[1\\] +1\\.07238163[56]e-06\n +3 +path\\[1\\] +1\\.07238163[56]e-06\n"
   "\n +26 +4\\.694965814e-07 +100 +15 +"

@@ -8,6 +8,7 @@
 
 #include <memory>
 
+#include "fixtures/reference_scenes.h"
 #include "mdr/client/error_details.h"
 #include "mdr/service/server.h"
 
@@ -29,14 +30,9 @@ class ContactClientTest : public ::testing::Test {
   std::unique_ptr<mdr::client::ContactClient> client_;
 };
 
-mdr::v1::Scene RigidConeOnPolymer() {
-  mdr::v1::Scene scene;
-  scene.mutable_cone()->set_slope_angle(10 * 3.14159265358979323846 / 180);
-  scene.mutable_rigid_on_half_space()->set_shear_modulus(3e9 / (2 * 1.35));
-  scene.mutable_rigid_on_half_space()->set_poisson_ratio(0.35);
-  scene.set_friction(0.5);
-  return scene;
-}
+using C1 = mdr::reference::C1;
+
+mdr::v1::Scene RigidConeOnPolymer() { return mdr::reference::C1Scene<mdr::v1::Scene>(); }
 
 TEST(ContactClientStandaloneTest, UnreachableServerIsUnavailableAfterDeadline) {
   mdr::client::ContactClient client(
@@ -54,16 +50,16 @@ TEST_F(ContactClientTest, RoundTripCreateApplyQueryDelete) {
   EXPECT_EQ(session->name(), "sessions/cone");
 
   google::protobuf::RepeatedPtrField<mdr::v1::Step> steps;
-  steps.Add()->set_normal_force(1);
+  steps.Add()->set_normal_force(C1::kNormalForce);
   steps.Add()->set_tangential_force(0.25);
   google::protobuf::FieldMask every_state;
   every_state.add_paths("state");
   auto applied = client_->Apply(session->name(), steps, every_state);
   ASSERT_TRUE(applied.ok()) << applied.status().error_message();
   EXPECT_EQ(applied->step_results_size(), 2);
-  // C1 (reference-values.md): F_N = 1 N gives d = 9.0008237835e-6 m, a = 3.2497025499e-5 m.
-  EXPECT_NEAR(applied->state().depth(), 9.0008237835e-6, 1e-9 * 9.0008237835e-6);
-  EXPECT_NEAR(applied->state().contact_radius(), 3.2497025499e-5, 1e-9 * 3.2497025499e-5);
+  // C1 (docs/reference-values.md): F_N = 1 N gives d = 9.0008237835e-6 m, a = 3.2497025499e-5 m.
+  EXPECT_NEAR(applied->state().depth(), C1::kDepth, 1e-9 * C1::kDepth);
+  EXPECT_NEAR(applied->state().contact_radius(), C1::kContactRadius, 1e-9 * C1::kContactRadius);
   EXPECT_NEAR(applied->state().tangential_force(), 0.25, 1e-10);
 
   auto queried = client_->Query(session->name());
@@ -133,13 +129,13 @@ TEST_F(ContactClientTest, ErrorDetailsNameTheFieldForEveryCode) {
   mdr::v1::Step too_far;
   too_far.set_tangential_force(10);  // above mu F_N = 0.5 N
   auto applied = client_->Apply(session->name(), too_far);
-  ASSERT_EQ(applied.code(), grpc::StatusCode::FAILED_PRECONDITION);
+  ASSERT_EQ(applied.status().error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(applied.status());
   EXPECT_EQ(details.field, "steps[0].tangential_force");
   EXPECT_THAT(details.description, HasSubstr("friction limit"));
 
   auto missing = client_->GetSession("sessions/none-such");
-  ASSERT_EQ(missing.code(), grpc::StatusCode::NOT_FOUND);
+  ASSERT_EQ(missing.status().error_code(), grpc::StatusCode::NOT_FOUND);
   details = mdr::client::ReadErrorDetails(missing.status());
   EXPECT_EQ(details.field, "name");
   EXPECT_FALSE(details.description.empty());

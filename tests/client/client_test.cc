@@ -80,14 +80,15 @@ TEST_F(RetryTest, RetriesStopAtMaxAttempts) {
   Start(5);
   auto session = client_->GetSession("sessions/a");
   ASSERT_FALSE(session.ok());
-  EXPECT_EQ(session.code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(session.status().error_code(), grpc::StatusCode::UNAVAILABLE);
   EXPECT_EQ(session.status().error_message(), "try again");
   EXPECT_EQ(service_->calls(), 3);
 }
 
 TEST_F(RetryTest, CreateIsNotRetried) {
   Start(1);
-  EXPECT_EQ(client_->CreateSession(mdr::v1::Scene()).code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(client_->CreateSession(mdr::v1::Scene()).status().error_code(),
+            grpc::StatusCode::UNAVAILABLE);
   EXPECT_EQ(service_->calls(), 1);
 }
 
@@ -95,14 +96,15 @@ TEST_F(RetryTest, ApplyIsRetriedOnlyWithRequestId) {
   Start(1);
   mdr::v1::Step step;
   step.set_normal_force(1);
-  EXPECT_EQ(client_->Apply("sessions/a", step).code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(client_->Apply("sessions/a", step).status().error_code(),
+            grpc::StatusCode::UNAVAILABLE);
   EXPECT_EQ(service_->calls(), 1);
   EXPECT_TRUE(client_->Apply("sessions/a", step, {}, "batch-1").ok());
   EXPECT_EQ(service_->calls(), 2);
 }
 
 std::string DataFile(const std::string& name) {
-  return std::string(MDR_CLI_TEST_DATA) + "/" + name;
+  return std::string(MDR_CLIENT_TEST_DATA) + "/" + name;
 }
 
 std::string Read(const std::string& path) {
@@ -136,7 +138,7 @@ TEST(ChannelTest, TlsChannelSendsTheBearerToken) {
 
 TEST(ChannelTest, OptionErrorsAreValuesNamingTheOption) {
   auto token = mdr::client::MakeChannel({.address = "localhost:1", .bearer_token = "t"});
-  EXPECT_EQ(token.code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(token.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(token.status().error_message(), HasSubstr("bearer_token: needs TLS"));
   auto missing = mdr::client::MakeChannel(
       {.address = "localhost:1", .root_certificates_file = "/no/such.pem"});
@@ -146,7 +148,7 @@ TEST(ChannelTest, OptionErrorsAreValuesNamingTheOption) {
       {.address = "localhost:1", .client_certificate_file = DataFile("localhost.crt")});
   EXPECT_THAT(half.status().error_message(),
               HasSubstr("client_certificate_file: a client certificate needs its key"));
-  EXPECT_EQ(mdr::client::MakeChannel({}).code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(mdr::client::MakeChannel({}).status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);
 }
 
 TEST(StreamApplyTest, EachMessageHasItsOwnStatusInOrder) {
