@@ -481,15 +481,27 @@ Result<double> Interface::SolveApproach(double target, InterfaceStepReport* repo
   double lo = height(first);
   if (target == 0) return lo;
   double hi = std::min(lo + contacts_[first].DepthAtNormalForce(target), max_approach_);
-  double x = hi;
+  if (hi == max_approach_) {
+    double unused = 0;
+    const double largest = TotalNormalForce(hi, &unused, interrupt, &status);
+    if (!status.ok()) return status;
+    if (largest < target) {
+      return InvalidArgument("normal_force", "must be <= " + FormatNumber(largest) +
+                                                 " N, the total force at the largest approach "
+                                                 "the interface's contacts allow, got " +
+                                                 FormatNumber(target));
+    }
+  }
+  // The current state is a point of F too: it narrows the bracket, and Newton starts from it.
+  if (now < target) {
+    lo = std::max(lo, approach_);
+  } else {
+    hi = std::min(hi, approach_);
+  }
+  double x = slope > 0 ? approach_ + (target - now) / slope : hi;
+  if (!(x > lo && x < hi)) x = hi;
   double f = TotalNormalForce(x, &slope, interrupt, &status) - target;
   if (!status.ok()) return status;
-  if (f < 0 && hi == max_approach_) {
-    return InvalidArgument("normal_force", "must be <= " + FormatNumber(f + target) +
-                                               " N, the total force at the largest approach "
-                                               "the interface's contacts allow, got " +
-                                               FormatNumber(target));
-  }
   report->solver_iterations = 1;
   double best_x = x, best_f = f;
   // Safeguarded Newton: F is monotone (each F_i is), so [lo, hi] keeps a sign change; a Newton
