@@ -202,8 +202,15 @@ TEST(InterfaceTest, OneContactIsBitIdenticalToASingleContact) {
 
 // Totals of an interface equal the in-order sums over independent contacts, bit for bit, with
 // and without worker threads.
-void CheckSumOfIndependentContacts(std::size_t n, int workers) {
-  const InterfaceConfig config = RoughInterface(n, 21);
+// with_grid: contact 1 uses the grid method, which sends every step through the step buffer
+// (Interface::Move) instead of in place.
+void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = false) {
+  InterfaceConfig config = RoughInterface(n, 21);
+  if (with_grid) {
+    config.contacts[1].method = Method::kGrid;
+    config.contacts[1].grid_size = 64;
+    config.contacts[1].grid_max_radius = 1e-4;
+  }
   Interface interface = *Interface::Create(config);
   if (workers > 1) interface.set_parallel(*MakeThreadParallelFor(workers));
   std::vector<Contact> singles;
@@ -241,6 +248,42 @@ void CheckSumOfIndependentContacts(std::size_t n, int workers) {
 TEST(InterfaceTest, TotalsAreSumsOfIndependentContacts) { CheckSumOfIndependentContacts(40, 1); }
 
 TEST(InterfaceTest, TwoWorkersGiveTheSameBits) { CheckSumOfIndependentContacts(5000, 2); }
+
+TEST(InterfaceTest, StepsThroughTheStepBufferGiveTheSameBits) {
+  CheckSumOfIndependentContacts(40, 1, /*with_grid=*/true);
+  CheckSumOfIndependentContacts(3000, 2, /*with_grid=*/true);
+}
+
+// A contact that fails in the middle of a step (grid reach, vertex limit): no contact changes.
+TEST(InterfaceTest, AContactFailingMidStepChangesNoContact) {
+  InterfaceConfig config = RoughInterface(30, 22);
+  config.contacts[17].method = Method::kGrid;
+  config.contacts[17].grid_size = 16;
+  config.contacts[17].grid_max_radius = 2e-6;
+  Interface interface = *Interface::Create(config);
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepth, config.heights[17] + 1e-8}).ok());
+  const InterfaceSnapshot before = interface.Snapshot();
+  const Status s = interface.Apply({NormalControl::kDepthIncrement, 1e-6});
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(s.field(), "contacts[17].grid_max_radius");
+  EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), before));
+
+  config = RoughInterface(30, 23);
+  for (ContactConfig& c : config.contacts) c.max_memory_vertices = 8;
+  interface = *Interface::Create(config);
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepth, 3e-6}).ok());
+  const double slip = interface.contact(0).mu_kappa() * 1e-6;
+  Status failed;
+  InterfaceSnapshot last_good;
+  for (int k = 0; k < 40 && failed.ok(); ++k) {  // a ring-down nests vertices
+    last_good = interface.Snapshot();
+    failed = interface.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement,
+                              slip * std::pow(-0.7, k)});
+  }
+  EXPECT_EQ(failed.code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(failed.field().find(".max_memory_vertices"), std::string::npos) << failed.field();
+  EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), last_good));
+}
 
 TEST(InterfaceTest, NormalForceTargetIsReached) {
   Interface interface = *Interface::Create(RoughInterface(500, 2));

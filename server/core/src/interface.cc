@@ -1,6 +1,7 @@
 #include "mdr/core/interface.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <condition_variable>
 #include <limits>
@@ -26,6 +27,12 @@ constexpr std::size_t kMinParallelContacts = 2048;
 // Force-target solves stop at this residual (relative), well inside kInterfaceForceTolerance.
 constexpr double kSolveStopTolerance = 1e-14;
 constexpr int kMaxSolveIterations = 200;
+// In-place steps (Interface::Move): the slide scale |dux| + 2 mu kappa delta of a step and the
+// bound on every contact's accumulated energy up to which no contact's energy can overflow. A
+// contact's step dissipates at most mu F_N * (|dux| + 2 mu kappa delta_max) (each spring slides
+// at most that far against at most its friction force), and mu F_N <= kForceCap.
+constexpr double kMaxInPlaceSlide = 1e40;
+constexpr double kMaxInPlaceEnergy = 1e300;
 
 std::string Indexed(const char* field, std::size_t i) {
   return std::string(field) + "[" + std::to_string(i) + "]";
@@ -77,6 +84,12 @@ Status CheckSteppedContact(const Contact& contact) {
                            "the energy dissipated by this step overflows a double");
   }
   return OkStatus();
+}
+
+// Room for one more step: a step turns n memory vertices into at most 3n + 1 (one new vertex at
+// the new depth, two bound crossings per segment) before merging.
+bool HasVertexHeadroom(const Contact& contact) {
+  return 3 * contact.memory().vertex_count() + 1 <= contact.config().max_memory_vertices;
 }
 
 // The depth at which this contact's mu F_N reaches kForceCap (+inf if never).
@@ -255,6 +268,8 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
     Result<Contact> contact = Contact::Create(std::move(config.contacts[i]));
     if (!contact.ok()) return contact.status().WithFieldPrefix(Indexed("contacts", i));
     built.max_depth_.push_back(MaxDepth(*contact));
+    built.all_exact_ = built.all_exact_ && contact->config().method == Method::kExact;
+    built.max_mu_kappa_ = std::max(built.max_mu_kappa_, contact->mu_kappa());
     built.max_approach_ = std::min(built.max_approach_, built.height(i) + built.max_depth_.back());
     built.contacts_.push_back(std::move(contact).value());
   }
@@ -263,6 +278,7 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
     built.approach_ = built.heights_.empty()
                           ? 0.0
                           : *std::min_element(built.heights_.begin(), built.heights_.end());
+    built.min_height_ = built.approach_;
     for (std::size_t i = 0; i < n; ++i) {
       Status s = built.contacts_[i].MoveTo(built.approach_ - built.height(i), 0.0);
       if (!s.ok()) return s.WithFieldPrefix(Indexed("contacts", i));
@@ -314,6 +330,8 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
         !s.ok()) {
       return s;
     }
+    restored.energy_bound_ = std::max(restored.energy_bound_, contact->dissipated_energy());
+    restored.vertex_headroom_ = restored.vertex_headroom_ && HasVertexHeadroom(*contact);
     restored.contacts_[i] = std::move(contact).value();
   }
   if (shared) {
@@ -367,19 +385,67 @@ Status Interface::StepAll(const TrialStep& per_contact, const Interrupt& interru
 }
 
 Status Interface::TrialMove(double delta1, double ux1, const Interrupt& interrupt) {
-  return StepAll(
+  std::atomic<bool> headroom_lost{false};
+  Status status = StepAll(
       [&](std::size_t i, Contact& trial) {
         Status s = trial.MoveTo(delta1 - height(i), ux1);
         if (s.ok()) s = CheckSteppedContact(trial);
+        if (!HasVertexHeadroom(trial)) headroom_lost.store(true, std::memory_order_relaxed);
         return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
       },
       interrupt);
+  trial_headroom_ = !headroom_lost.load();
+  return status;
 }
 
-void Interface::Commit(double delta1, double ux1) {
+void Interface::Commit(double delta1, double ux1, double slide_scale) {
   contacts_.swap(trial_);
+  vertex_headroom_ = trial_headroom_;
   approach_ = delta1;
   ux_ = ux1;
+  energy_bound_ += kForceCap * slide_scale;
+}
+
+double Interface::SlideScale(double delta1, double ux1) const {
+  const double reach = std::max(std::max(approach_, delta1) - min_height_, 0.0);
+  return std::abs(ux1 - ux_) + 2 * max_mu_kappa_ * reach;
+}
+
+bool Interface::CanStepInPlace(double slide_scale) const {
+  return all_exact_ && vertex_headroom_ && contacts_.size() <= kMaxInPlaceContacts &&
+         slide_scale <= kMaxInPlaceSlide &&
+         energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy;
+}
+
+Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt) {
+  const double slide_scale = SlideScale(delta1, ux1);
+  if (!CanStepInPlace(slide_scale)) {
+    if (Status s = TrialMove(delta1, ux1, interrupt); !s.ok()) return s;
+    Commit(delta1, ux1, slide_scale);
+    return OkStatus();
+  }
+  // Nothing can fail below (CanStepInPlace), so the contacts are stepped in place, without the
+  // copy into the step buffer; the pass is bounded by kMaxInPlaceContacts and not interrupted.
+  if (Status s = interrupt.Check(); !s.ok()) return s;
+  std::atomic<bool> headroom_lost{false};
+  Status status = ForEach(
+      [&](std::size_t i) {
+        Contact& contact = contacts_[i];
+        Status s = contact.MoveTo(delta1 - height(i), ux1);
+        if (s.ok()) s = CheckSteppedContact(contact);
+        if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
+        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+      },
+      Interrupt{});
+  if (!status.ok()) {
+    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
+                                        status.message() + "); the interface is inconsistent");
+  }
+  vertex_headroom_ = !headroom_lost.load();
+  approach_ = delta1;
+  ux_ = ux1;
+  energy_bound_ += kForceCap * slide_scale;
+  return OkStatus();
 }
 
 Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Interrupt& interrupt) {
@@ -429,15 +495,14 @@ Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Int
                            "two as separate steps");
   }
 
-  double ux_final = ux1;
   if (tangential_force) {
     Result<double> solved = SolveTangential(step.tangential_value, &local, interrupt);
     if (!solved.ok()) return solved.status();
-    ux_final = *solved;  // the step buffer holds the solution
-  } else if (Status s = TrialMove(delta1, ux1, interrupt); !s.ok()) {
+    // The step buffer holds the solution.
+    Commit(delta1, *solved, SlideScale(delta1, *solved));
+  } else if (Status s = Move(delta1, ux1, interrupt); !s.ok()) {
     return s;
   }
-  Commit(delta1, ux_final);
   if (report) *report = local;
   return OkStatus();
 }
