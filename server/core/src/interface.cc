@@ -587,43 +587,48 @@ Result<double> Interface::SolveApproach(double target, InterfaceStepReport* repo
   return best_x;
 }
 
+Result<Interface::TangentialState> Interface::MeasureTangentialState(
+    const Interrupt& interrupt) const {
+  const std::size_t n = contacts_.size();
+  std::vector<double> force(n), limit(n), lo(n), hi(n);
+  Status s = ForEach(
+      [&](std::size_t i) {
+        const Contact& c = contacts_[i];
+        force[i] = c.tangential_force();
+        limit[i] = c.friction_limit();
+        const double m = c.mu_kappa(), d = c.depth();
+        const GridMemory* grid = c.grid_memory();
+        lo[i] = !(d > 0) ? 0
+                : grid   ? grid->GrossSlipIncrement(d, m, -1)
+                         : c.memory().GrossSlipIncrement(d, m, -1);
+        hi[i] = !(d > 0) ? 0
+                : grid   ? grid->GrossSlipIncrement(d, m, +1)
+                         : c.memory().GrossSlipIncrement(d, m, +1);
+        return OkStatus();
+      },
+      interrupt);
+  if (!s.ok()) return s;
+  return TangentialState{Sum(force), Sum(limit), *std::min_element(lo.begin(), lo.end()),
+                         *std::max_element(hi.begin(), hi.end())};
+}
+
 Result<double> Interface::SolveTangential(double target, InterfaceStepReport* report,
                                           const Interrupt& interrupt) {
-  const std::size_t n = contacts_.size();
-  std::vector<double> force(n), limit(n), lo_inc(n), hi_inc(n);
-  if (Status s = ForEach(
-          [&](std::size_t i) {
-            const Contact& c = contacts_[i];
-            force[i] = c.tangential_force();
-            limit[i] = c.friction_limit();
-            const double m = c.mu_kappa(), d = c.depth();
-            const GridMemory* grid = c.grid_memory();
-            lo_inc[i] = !(d > 0) ? 0
-                        : grid   ? grid->GrossSlipIncrement(d, m, -1)
-                                 : c.memory().GrossSlipIncrement(d, m, -1);
-            hi_inc[i] = !(d > 0) ? 0
-                        : grid   ? grid->GrossSlipIncrement(d, m, +1)
-                                 : c.memory().GrossSlipIncrement(d, m, +1);
-            return OkStatus();
-          },
-          interrupt);
-      !s.ok()) {
-    return s;
-  }
-  const double total_limit = Sum(limit);
+  Result<TangentialState> state = MeasureTangentialState(interrupt);
+  if (!state.ok()) return state.status();
+  const double total_limit = state->friction_limit;
   if (!(std::abs(target) <= total_limit * (1 + 1e-12))) {
     return FailedPrecondition("tangential_force",
                               "|F_x| = " + FormatNumber(std::abs(target)) +
                                   " N exceeds the interface's friction limit sum mu F_N = " +
                                   FormatNumber(total_limit) + " N");
   }
-  // The increment at which every contact slides in one direction brackets the root.
-  double lo = *std::min_element(lo_inc.begin(), lo_inc.end());
-  double hi = *std::max_element(hi_inc.begin(), hi_inc.end());
-  double x = 0, f = Sum(force) - target;
+  double lo = state->gross_slip_down, hi = state->gross_slip_up;
+  double x = 0, f = state->tangential_force - target;
   const double stop = kSolveStopTolerance * total_limit;
-  std::vector<double> up(n), down(n);  // each contact's stiffness toward +x and -x
-  double slope = 0;                    // the total's toward the target
+  const std::size_t n = contacts_.size();
+  std::vector<double> force(n), up(n), down(n);  // each contact's stiffness toward +x and -x
+  double slope = 0;                              // the total's toward the target
   double evaluated = std::numeric_limits<double>::quiet_NaN();  // increment in the step buffer
   // F_x and its slope toward the target after a step by dux (from `contacts`, the state or the
   // step buffer).

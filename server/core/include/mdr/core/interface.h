@@ -170,6 +170,12 @@ class Interface {
 
   Result<double> SolveApproach(double normal_force, InterfaceStepReport* report,
                                const Interrupt& interrupt) const;
+  struct TangentialState {
+    double tangential_force, friction_limit;
+    // The increments at which every contact slides toward -x and +x: they bracket any target.
+    double gross_slip_down, gross_slip_up;
+  };
+  Result<TangentialState> MeasureTangentialState(const Interrupt& interrupt) const;
   // Solves and leaves the solution in the step buffer; returns the tangential displacement.
   Result<double> SolveTangential(double tangential_force, InterfaceStepReport* report,
                                  const Interrupt& interrupt);
