@@ -115,7 +115,8 @@ class Interface {
   // force = total F_N, tangential force = total F_x). A force target is solved exactly for the
   // whole interface when the other channel holds still (a force target together with a moving
   // other channel is refused: split it into two steps). Atomic: on error no contact changes.
-  // interrupt is checked every kInterruptPeriod contacts.
+  // interrupt is checked every kInterruptPeriod contacts (in-place steps: once, before they
+  // start; see kMaxInPlaceContacts).
   Status Apply(const Step& step, InterfaceStepReport* report = nullptr,
                const Interrupt& interrupt = {});
   // Contact list: one step per contact, atomic over all of them.
@@ -150,9 +151,9 @@ class Interface {
  private:
   Interface() = default;
 
-  // Runs per_contact(i, contact, trial) on every contact with trial = a copy of the contact in
-  // the step buffer; on success the step buffer becomes the state. On the first error (lowest
-  // index) or an interrupt nothing changes.
+  // Runs per_contact(i, trial) on every contact with trial = a copy of contact i in the step
+  // buffer; the caller swaps the buffer in on success. On an error (the lowest index is
+  // reported) or an interrupt the state is untouched.
   using TrialStep = std::function<Status(std::size_t i, Contact& trial)>;
   Status StepAll(const TrialStep& per_contact, const Interrupt& interrupt);
   // Stepping every contact to approach delta1 and tangential displacement ux1, into the step
