@@ -4,9 +4,11 @@
 //   build/release/tests/bench/mdr_interface_bench
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "mdr/core/interface.h"
 
@@ -107,6 +109,41 @@ void BM_InterfaceCycling(benchmark::State& state) {
 BENCHMARK(BM_InterfaceCycling)
     ->Args({1, 1})
     ->Args({1, 2})
+    ->Args({0, 1})
+    ->Args({0, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+// A contact list of the same asperities, each stepped by its own packed values (the
+// discrete-element use): depth held, tangential displacement of the same cycle. Args: energy,
+// workers.
+void BM_ContactListCycling(benchmark::State& state) {
+  Interface shared = RoughSteelInterface(state.range(0) != 0);
+  InterfaceConfig config;
+  config.kind = InterfaceKind::kContactList;
+  for (std::size_t i = 0; i < shared.size(); ++i)
+    config.contacts.push_back(shared.contact(i).config());
+  Interface list = std::move(Interface::Create(config)).value();
+  const int workers = static_cast<int>(state.range(1));
+  if (workers > 1) list.set_parallel(*MakeThreadParallelFor(workers));
+  std::vector<double> depth(list.size()), ux(list.size());
+  for (std::size_t i = 0; i < list.size(); ++i) depth[i] = shared.contact(i).depth();
+  (void)list.ApplyEach({NormalControl::kDepth, depth, TangentialControl::kDisplacement, ux});
+  const std::vector<double> hold(list.size(), 0.0);
+  const double amplitude = Amplitude(list.contact(0));
+  int k = 0;
+  for (auto _ : state) {
+    std::fill(ux.begin(), ux.end(), CycleDisplacement(k++, amplitude));
+    const Status s = list.ApplyEach(
+        {NormalControl::kDepthIncrement, hold, TangentialControl::kDisplacement, ux});
+    if (!s.ok()) state.SkipWithError(s.ToString().c_str());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<long>(list.size()));
+  state.counters["energy"] = state.range(0) != 0;
+  state.counters["workers"] = workers;
+}
+BENCHMARK(BM_ContactListCycling)
+    ->Args({1, 1})
     ->Args({0, 1})
     ->Args({0, 2})
     ->UseRealTime()

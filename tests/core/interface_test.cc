@@ -502,11 +502,17 @@ TEST(InterfaceTest, MemoryPerContactIsReported) {
 
 // ---------------------------------------------------------------- contact list
 
-TEST(ContactListTest, EachContactIsBitIdenticalToASingleContact) {
+// with_grid: contact 2 uses the grid method, which sends every step through the step buffer.
+void CheckListAgainstSingleContacts(bool with_grid) {
   const std::size_t n = 30;
   InterfaceConfig config = RoughInterface(n, 15);
   config.kind = InterfaceKind::kContactList;
   config.heights.clear();
+  if (with_grid) {
+    config.contacts[2].method = Method::kGrid;
+    config.contacts[2].grid_size = 64;
+    config.contacts[2].grid_max_radius = 1e-4;
+  }
   Interface list = *Interface::Create(config);
   std::vector<Contact> singles;
   for (const ContactConfig& c : config.contacts) singles.push_back(*Contact::Create(c));
@@ -529,6 +535,11 @@ TEST(ContactListTest, EachContactIsBitIdenticalToASingleContact) {
       ASSERT_TRUE(SameSnapshot(list.contact(i).Snapshot(), singles[i].Snapshot())) << k << " " << i;
     }
   }
+}
+
+TEST(ContactListTest, EachContactIsBitIdenticalToASingleContact) {
+  CheckListAgainstSingleContacts(false);
+  CheckListAgainstSingleContacts(true);
 }
 
 TEST(ContactListTest, AFailingContactChangesNoContact) {

@@ -699,36 +699,101 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
   }
   const bool displacements =
       step.normal != NormalControl::kForce && step.tangential != TangentialControl::kForce;
+  if (displacements && all_exact_ && vertex_headroom_ && n <= kMaxInPlaceContacts) {
+    bool stepped = false;
+    if (Status s = StepListInPlace(step, interrupt, &stepped); !s.ok() || stepped) return s;
+  }
+  std::atomic<bool> headroom_lost{false};
+  std::vector<double> energy(n);
   Status s = StepAll(
       [&](std::size_t i, Contact& trial) {
-        const Step one{step.normal, step.normal_values[i], step.tangential,
-                       step.tangential_values[i]};
-        if (!displacements) {
-          Status status = trial.Apply(one, nullptr, interrupt);
-          if (!status.ok()) return status.WithFieldPrefix(Indexed("contacts", i));
-          return CheckDepthLimit(Indexed("normal_values", i), trial.depth(), max_depth_[i]);
+        Status status;
+        if (displacements) {
+          // The exact linear step of Contact::Apply for displacement channels (the same depth
+          // and ux arithmetic), without its copy of the contact: the step buffer is the copy.
+          const ListTarget target = DisplacementTarget(step, i, trial);
+          if (Status c = CheckListTarget(i, target); !c.ok()) return c;
+          status = trial.MoveTo(target.depth, target.ux);
+          if (status.ok()) status = CheckSteppedContact(trial);
+        } else {
+          status = trial.Apply(
+              {step.normal, step.normal_values[i], step.tangential, step.tangential_values[i]},
+              nullptr, interrupt);
         }
-        // The exact linear step of Contact::Apply for displacement channels (the same depth
-        // and ux arithmetic), without its copy of the contact: the step buffer is the copy.
-        const double depth1 = one.normal == NormalControl::kDepth
-                                  ? one.normal_value
-                                  : trial.depth() + one.normal_value;
-        const double ux1 = one.tangential == TangentialControl::kDisplacement
-                               ? one.tangential_value
-                               : trial.tangential_displacement() + one.tangential_value;
-        if (Status s = RequireFinite(Indexed("normal_values", i), depth1); !s.ok()) return s;
-        if (Status s = RequireFinite(Indexed("tangential_values", i), ux1); !s.ok()) return s;
-        if (Status s = CheckDepthLimit(Indexed("normal_values", i), depth1, max_depth_[i]);
-            !s.ok()) {
-          return s;
-        }
-        Status status = trial.MoveTo(depth1, ux1);
-        if (status.ok()) status = CheckSteppedContact(trial);
-        return status.ok() ? status : status.WithFieldPrefix(Indexed("contacts", i));
+        if (!status.ok()) return status.WithFieldPrefix(Indexed("contacts", i));
+        if (!HasVertexHeadroom(trial)) headroom_lost.store(true, std::memory_order_relaxed);
+        energy[i] = trial.dissipated_energy();
+        if (trial.depth() <= max_depth_[i]) return OkStatus();
+        return CheckDepthLimit(Indexed("normal_values", i), trial.depth(), max_depth_[i]);
       },
       interrupt);
   if (!s.ok()) return s;
   contacts_.swap(trial_);
+  vertex_headroom_ = !headroom_lost.load();
+  energy_bound_ = std::max(energy_bound_, *std::max_element(energy.begin(), energy.end()));
+  return OkStatus();
+}
+
+Interface::ListTarget Interface::DisplacementTarget(const ContactListStep& step, std::size_t i,
+                                                    const Contact& contact) {
+  const double depth = step.normal == NormalControl::kDepth
+                           ? step.normal_values[i]
+                           : contact.depth() + step.normal_values[i];
+  const double ux = step.tangential == TangentialControl::kDisplacement
+                        ? step.tangential_values[i]
+                        : contact.tangential_displacement() + step.tangential_values[i];
+  return {depth, ux};
+}
+
+Status Interface::CheckListTarget(std::size_t i, const ListTarget& target) const {
+  // The common case without building field names (a string per contact and step).
+  if (std::isfinite(target.depth) && std::isfinite(target.ux) && target.depth <= max_depth_[i]) {
+    return OkStatus();
+  }
+  if (Status s = RequireFinite(Indexed("normal_values", i), target.depth); !s.ok()) return s;
+  if (Status s = RequireFinite(Indexed("tangential_values", i), target.ux); !s.ok()) return s;
+  return CheckDepthLimit(Indexed("normal_values", i), target.depth, max_depth_[i]);
+}
+
+Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
+                                  bool* stepped) {
+  // Every target is checked first, and the largest slide scale decides (as in Move).
+  std::vector<double> scale(contacts_.size());
+  Status checked = ForEach(
+      [&](std::size_t i) {
+        const Contact& c = contacts_[i];
+        const ListTarget target = DisplacementTarget(step, i, c);
+        if (Status s = CheckListTarget(i, target); !s.ok()) return s;
+        scale[i] = std::abs(target.ux - c.tangential_displacement()) +
+                   2 * c.mu_kappa() * std::max({c.depth(), target.depth, 0.0});
+        return OkStatus();
+      },
+      interrupt);
+  if (!checked.ok()) return checked;
+  const double slide_scale = *std::max_element(scale.begin(), scale.end());
+  if (!(slide_scale <= kMaxInPlaceSlide &&
+        energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy)) {
+    return OkStatus();
+  }
+  if (Status s = interrupt.Check(); !s.ok()) return s;
+  std::atomic<bool> headroom_lost{false};
+  Status status = ForEach(
+      [&](std::size_t i) {
+        Contact& contact = contacts_[i];
+        const ListTarget target = DisplacementTarget(step, i, contact);
+        Status s = contact.MoveTo(target.depth, target.ux);
+        if (s.ok()) s = CheckSteppedContact(contact);
+        if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
+        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+      },
+      Interrupt{});
+  if (!status.ok()) {
+    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
+                                        status.message() + "); the contact list is inconsistent");
+  }
+  vertex_headroom_ = !headroom_lost.load();
+  energy_bound_ += kForceCap * slide_scale;
+  *stepped = true;
   return OkStatus();
 }
 

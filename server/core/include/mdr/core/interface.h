@@ -166,6 +166,17 @@ class Interface {
   // |dux| + 2 max(mu kappa) (max(delta0, delta1) - min h): how far any spring can slide.
   double SlideScale(double delta1, double ux1) const;
   bool CanStepInPlace(double slide_scale) const;
+  // A contact list's displacement step of contact i: its depth and ux after the step.
+  struct ListTarget {
+    double depth, ux;
+  };
+  static ListTarget DisplacementTarget(const ContactListStep& step, std::size_t i,
+                                       const Contact& contact);
+  // Finite, and within contact i's depth limit (fields normal_values[i], tangential_values[i]).
+  Status CheckListTarget(std::size_t i, const ListTarget& target) const;
+  // A contact list's displacement step in place when every target passes and no contact can
+  // fail (*stepped = true); otherwise nothing changes (*stepped stays false, or an error).
+  Status StepListInPlace(const ContactListStep& step, const Interrupt& interrupt, bool* stepped);
   // Runs fn(i) for every contact index, split by parallel_, checking interrupt.
   Status ForEach(const std::function<Status(std::size_t)>& fn, const Interrupt& interrupt) const;
 
