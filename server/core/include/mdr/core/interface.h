@@ -1,0 +1,215 @@
+// Many exact contacts in one container (issue #17, docs/interfaces.md): a rough interface of N
+// contacts under one shared rigid motion, or a contact list where every step carries one
+// increment (or target) per contact. Each contact is an ordinary Contact (contact.h) driven
+// through its public API, so a one-contact interface is bit-identical to a single Contact and the
+// totals are sums over independent contacts. No gRPC in here.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "mdr/core/contact.h"
+#include "mdr/core/interrupt.h"
+#include "mdr/core/population.h"
+#include "mdr/core/status.h"
+
+namespace mdr {
+
+// Splits [0, n) into one contiguous range per worker and runs body on each, returning when all
+// are done. The interface's results do not depend on the split: every contact is stepped on its
+// own and every sum is taken afterwards in index order. The service may supply its own executor.
+class ParallelFor {
+ public:
+  using Body = std::function<void(std::size_t begin, std::size_t end)>;
+  virtual ~ParallelFor() = default;
+  virtual int workers() const = 0;
+  virtual void Run(std::size_t n, const Body& body) = 0;
+};
+
+// A parallel-for on `workers` persistent std::threads (the calling thread is one of them);
+// workers in [1, 64] (field "workers").
+Result<std::shared_ptr<ParallelFor>> MakeThreadParallelFor(int workers);
+
+enum class InterfaceKind {
+  // One rigid motion (approach delta, tangential displacement ux) for all contacts: contact i has
+  // depth delta - heights[i] and tangential displacement ux. Steps are Interface::Apply.
+  kSharedMotion,
+  // Independent contacts: every step carries one value per channel and contact
+  // (Interface::ApplyEach). Contacts start like new single contacts (depth 0, ux 0).
+  kContactList,
+};
+
+struct InterfaceConfig {
+  InterfaceKind kind = InterfaceKind::kSharedMotion;
+  // One config per contact; contacts may share a ProfilePtr.
+  std::vector<ContactConfig> contacts;
+  // Shared motion: height offset h_i of each contact (m, finite, |h| <= 1e100), or empty for all
+  // 0. Contact i touches at delta = h_i. Must be empty for a contact list.
+  std::vector<double> heights;
+};
+
+// Hertz asperities from a population: contact i is a sphere of radius radii[i] at offset
+// h_i = -heights[i] (the summits' reference plane at delta = 0), all of one material and friction.
+// Equal radii share one profile. Fields: radii[i], material.*, friction.
+Result<InterfaceConfig> HertzInterfaceConfig(const Population& population,
+                                             const EffectiveMaterial& material, double friction,
+                                             bool track_energy = true);
+
+// One step of a contact list: contact i gets Step{normal, normal_values[i], tangential,
+// tangential_values[i]} (contact.h semantics, force targets per contact). Both spans have one
+// value per contact.
+struct ContactListStep {
+  NormalControl normal = NormalControl::kDepthIncrement;
+  std::span<const double> normal_values;
+  TangentialControl tangential = TangentialControl::kDisplacementIncrement;
+  std::span<const double> tangential_values;
+};
+
+struct InterfaceStepReport {
+  // Evaluations of the interface's total force by a force-target solve (0 otherwise).
+  int solver_iterations = 0;
+  // |total force - target| after the step for a force target, 0 otherwise (N).
+  double force_residual = 0;
+};
+
+// Relative tolerance of the interface's force targets: |F - F*| <= kInterfaceForceTolerance *
+// F* for a normal target, <= kInterfaceForceTolerance * (sum of mu F_N) for a tangential one.
+inline constexpr double kInterfaceForceTolerance = 1e-12;
+
+// Totals over all contacts, each summed in index order.
+struct InterfaceTotals {
+  double normal_force = 0;                         // N
+  double tangential_force = 0;                     // N
+  double dissipated_energy = 0;                    // J, since the start
+  double last_step_dissipation = 0;                // J, by the last step
+  double friction_limit = 0;                       // sum of mu F_N (N)
+  double normal_stiffness = 0;                     // dF_N/d(delta) = sum of 2 E* a_i (N/m)
+  TangentialStiffness tangential_stiffness{0, 0};  // sums of each contact's (N/m)
+  std::size_t in_contact = 0;                      // depth > 0
+  std::size_t sticking = 0;                        // in contact, no spring slips
+  std::size_t partial_slip = 0;                    // in contact, some springs slip
+  std::size_t gross_slip = 0;                      // in contact, every spring slips
+};
+
+// The state of an interface besides its config (export, journal).
+struct InterfaceSnapshot {
+  double approach = 0;                 // shared motion only
+  double tangential_displacement = 0;  // shared motion only
+  std::vector<ContactSnapshot> contacts;
+};
+
+class Interface {
+ public:
+  // Validates the config (fields contacts[i].*, heights[i], heights). A shared-motion interface
+  // starts touching its highest contact: delta = min h_i, ux = 0, every depth <= 0.
+  static Result<Interface> Create(InterfaceConfig config);
+  // Rebuilds an interface from a snapshot (fields contacts[i].*); for shared motion every
+  // contact's depth must be delta - h_i and its ux the interface's, exactly.
+  static Result<Interface> Restore(InterfaceConfig config, const InterfaceSnapshot& snapshot);
+  InterfaceSnapshot Snapshot() const;
+
+  // Shared motion: one step of the rigid motion (contact.h Step; depth = approach delta, normal
+  // force = total F_N, tangential force = total F_x). A force target is solved exactly for the
+  // whole interface when the other channel holds still (a force target together with a moving
+  // other channel is refused: split it into two steps). Atomic: on error no contact changes.
+  // interrupt is checked every kInterruptPeriod contacts (in-place steps: once, before they
+  // start; see kMaxInPlaceContacts).
+  Status Apply(const Step& step, InterfaceStepReport* report = nullptr,
+               const Interrupt& interrupt = {});
+  // Contact list: one step per contact, atomic over all of them.
+  Status ApplyEach(const ContactListStep& step, const Interrupt& interrupt = {});
+
+  // Runs the per-contact work on `parallel` (null: on the calling thread). Results do not depend
+  // on it.
+  void set_parallel(std::shared_ptr<ParallelFor> parallel) { parallel_ = std::move(parallel); }
+
+  InterfaceKind kind() const { return kind_; }
+  std::size_t size() const { return contacts_.size(); }
+  const Contact& contact(std::size_t i) const { return contacts_[i]; }
+  double height(std::size_t i) const { return heights_.empty() ? 0.0 : heights_[i]; }
+  double approach() const { return approach_; }
+  double tangential_displacement() const { return ux_; }
+
+  // Outputs, computed on request.
+  Result<InterfaceTotals> Totals(const Interrupt& interrupt = {}) const;
+  // Contacts in contact by slip fraction (slipping radius / contact radius) in `bins` equal bins
+  // of [0, 1] (the last one closed); bins in [1, 1000].
+  Result<std::vector<std::size_t>> SlipHistogram(int bins, const Interrupt& interrupt = {}) const;
+  // Bytes held (contacts with their memories and step buffers, heights, configs), an estimate
+  // from vector capacities and object sizes.
+  std::size_t MemoryBytes() const;
+
+  static constexpr std::size_t kInterruptPeriod = 4096;
+  // Shared-motion displacement steps of at most this many exact contacts, far from every limit,
+  // run in place without the step buffer's copy and are not interrupted once started (at
+  // ~0.2 us per contact that is ~13 ms); all others check interrupt every kInterruptPeriod.
+  static constexpr std::size_t kMaxInPlaceContacts = 1 << 16;
+
+ private:
+  Interface() = default;
+
+  // Runs per_contact(i, trial) on every contact with trial = a copy of contact i in the step
+  // buffer; the caller swaps the buffer in on success. On an error (the lowest index is
+  // reported) or an interrupt the state is untouched.
+  using TrialStep = std::function<Status(std::size_t i, Contact& trial)>;
+  Status StepAll(const TrialStep& per_contact, const Interrupt& interrupt);
+  // Stepping every contact to approach delta1 and tangential displacement ux1, into the step
+  // buffer (not committed).
+  Status TrialMove(double delta1, double ux1, const Interrupt& interrupt);
+  void Commit(double delta1, double ux1, double slide_scale);
+  // Steps every contact to (delta1, ux1): in place when no contact can fail, else through the
+  // step buffer.
+  Status Move(double delta1, double ux1, const Interrupt& interrupt);
+  // |dux| + 2 max(mu kappa) (max(delta0, delta1) - min h): how far any spring can slide.
+  double SlideScale(double delta1, double ux1) const;
+  bool CanStepInPlace(double slide_scale) const;
+  // A contact list's displacement step of contact i: its depth and ux after the step.
+  struct ListTarget {
+    double depth, ux;
+  };
+  static ListTarget DisplacementTarget(const ContactListStep& step, std::size_t i,
+                                       const Contact& contact);
+  // Finite, and within contact i's depth limit (fields normal_values[i], tangential_values[i]).
+  Status CheckListTarget(std::size_t i, const ListTarget& target) const;
+  // A contact list's displacement step in place when every target passes and no contact can
+  // fail (*stepped = true); otherwise nothing changes (*stepped stays false, or an error).
+  Status StepListInPlace(const ContactListStep& step, const Interrupt& interrupt, bool* stepped);
+  // Runs fn(i) for every contact index, split by parallel_, checking interrupt.
+  Status ForEach(const std::function<Status(std::size_t)>& fn, const Interrupt& interrupt) const;
+
+  Result<double> SolveApproach(double normal_force, InterfaceStepReport* report,
+                               const Interrupt& interrupt) const;
+  struct TangentialState {
+    double tangential_force, friction_limit;
+    // The increments at which every contact slides toward -x and +x: they bracket any target.
+    double gross_slip_down, gross_slip_up;
+  };
+  Result<TangentialState> MeasureTangentialState(const Interrupt& interrupt) const;
+  // Solves and leaves the solution in the step buffer; returns the tangential displacement.
+  Result<double> SolveTangential(double tangential_force, InterfaceStepReport* report,
+                                 const Interrupt& interrupt);
+  double TotalNormalForce(double delta, double* stiffness, const Interrupt& interrupt,
+                          Status* status) const;
+
+  InterfaceKind kind_ = InterfaceKind::kSharedMotion;
+  std::vector<Contact> contacts_;
+  std::vector<Contact> trial_;     // the step buffer: steps are made here and swapped in
+  std::vector<double> heights_;    // shared motion; empty: all 0
+  std::vector<double> max_depth_;  // per contact: the depth at which mu F_N reaches kForceCap
+  double max_approach_ = 0;        // min_i (h_i + max_depth_i)
+  double approach_ = 0;
+  double ux_ = 0;
+  // What decides whether a step can run in place (Move).
+  bool all_exact_ = true;        // no grid-method contact (whose reach a step may exceed)
+  double max_mu_kappa_ = 0;      // over all contacts
+  double min_height_ = 0;        // min h_i
+  bool vertex_headroom_ = true;  // every contact has room for one more step's vertices
+  bool trial_headroom_ = true;   // the same for the step buffer
+  double energy_bound_ = 0;      // >= every contact's dissipated energy
+  std::shared_ptr<ParallelFor> parallel_;
+};
+
+}  // namespace mdr

@@ -1,0 +1,885 @@
+#include "mdr/core/interface.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <limits>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+#include "mdr/core/validate.h"
+
+namespace mdr {
+namespace {
+
+// Largest mu F_N one contact may reach (N). Far below the overflow of a double, so that the sum
+// over kMaxInterfaceContacts contacts and the energies stay finite; a step beyond it is refused.
+constexpr double kForceCap = 1e250;
+// Approaches are kept in [-kMaxApproach, ...] so that delta - h_i never overflows.
+constexpr double kMaxApproach = 1e300;
+// Below this many contacts a pass runs on the calling thread (waking workers costs more).
+constexpr std::size_t kMinParallelContacts = 2048;
+// Force-target solves stop at this residual (relative), well inside kInterfaceForceTolerance.
+constexpr double kSolveStopTolerance = 1e-14;
+constexpr int kMaxSolveIterations = 200;
+// In-place steps (Interface::Move): the slide scale |dux| + 2 mu kappa delta of a step and the
+// bound on every contact's accumulated energy up to which no contact's energy can overflow. A
+// contact's step dissipates at most mu F_N * (|dux| + 2 mu kappa delta_max) (each spring slides
+// at most that far against at most its friction force), and mu F_N <= kForceCap.
+constexpr double kMaxInPlaceSlide = 1e40;
+constexpr double kMaxInPlaceEnergy = 1e300;
+
+std::string Indexed(const char* field, std::size_t i) {
+  return std::string(field) + "[" + std::to_string(i) + "]";
+}
+
+// Field names of the interface's Step channels (the normal channel is the approach delta).
+const char* NormalField(NormalControl c) {
+  switch (c) {
+    case NormalControl::kDepth:
+      return "approach";
+    case NormalControl::kDepthIncrement:
+      return "approach_increment";
+    case NormalControl::kForce:
+      return "normal_force";
+  }
+  return "normal";
+}
+
+const char* TangentialField(TangentialControl c) {
+  switch (c) {
+    case TangentialControl::kDisplacement:
+      return "displacement";
+    case TangentialControl::kDisplacementIncrement:
+      return "displacement_increment";
+    case TangentialControl::kForce:
+      return "tangential_force";
+  }
+  return "tangential";
+}
+
+double Sum(const std::vector<double>& values) {
+  double sum = 0;
+  for (double v : values) sum += v;
+  return sum;
+}
+
+// What a step must leave for the state to stay valid (and restorable), the limits that
+// Contact::Apply enforces after its own steps; field relative to the contact.
+Status CheckSteppedContact(const Contact& contact) {
+  const std::size_t vertices = contact.memory().vertex_count();
+  if (vertices > contact.config().max_memory_vertices) {
+    return ResourceExhausted("max_memory_vertices",
+                             "the step needs " + std::to_string(vertices) +
+                                 " memory vertices, above the limit of " +
+                                 std::to_string(contact.config().max_memory_vertices));
+  }
+  if (!std::isfinite(contact.dissipated_energy())) {
+    return InvalidArgument("dissipated_energy",
+                           "the energy dissipated by this step overflows a double");
+  }
+  return OkStatus();
+}
+
+// Room for one more step: a step turns n memory vertices into at most 3n + 1 (one new vertex at
+// the new depth, two bound crossings per segment) before merging.
+bool HasVertexHeadroom(const Contact& contact) {
+  return 3 * contact.memory().vertex_count() + 1 <= contact.config().max_memory_vertices;
+}
+
+// The depth at which this contact's mu F_N reaches kForceCap (+inf if never).
+double MaxDepth(const Contact& contact) {
+  const double depth =
+      contact.DepthAtNormalForce(kForceCap / std::max(contact.config().friction, 1.0));
+  return std::isfinite(depth) ? depth : std::numeric_limits<double>::infinity();
+}
+
+Status CheckDepthLimit(const std::string& field, double depth, double max_depth) {
+  if (depth <= max_depth) return OkStatus();
+  return InvalidArgument(field, "gives the depth " + FormatNumber(depth) +
+                                    " m, beyond this contact's limit of " +
+                                    FormatNumber(max_depth) + " m (where mu F_N reaches " +
+                                    FormatNumber(kForceCap) + " N)");
+}
+
+enum class SlipState { kOut, kSticking, kPartial, kGross };
+
+struct SlipSummary {
+  SlipState state;
+  double fraction;  // slipping radius / contact radius
+};
+
+// Gross slip: the slip intervals cover [0, a] without a gap (contact.cc merges touching
+// intervals of one direction from the same radii, so the comparisons are exact).
+SlipSummary ClassifySlip(const Contact& contact) {
+  const double a = contact.contact_radius();
+  if (!(contact.depth() > 0) || !(a > 0)) return {SlipState::kOut, 0};
+  const std::vector<SlipInterval> intervals = contact.slip_intervals();
+  if (intervals.empty()) return {SlipState::kSticking, 0};
+  double slipping = 0;
+  bool covers = intervals.front().r_begin <= 0 && intervals.back().r_end >= a;
+  for (std::size_t k = 0; k < intervals.size(); ++k) {
+    slipping += intervals[k].r_end - intervals[k].r_begin;
+    if (k > 0 && intervals[k].r_begin != intervals[k - 1].r_end) covers = false;
+  }
+  if (covers) return {SlipState::kGross, 1};
+  return {SlipState::kPartial, std::clamp(slipping / a, 0.0, 1.0)};
+}
+
+class ThreadParallelFor final : public ParallelFor {
+ public:
+  explicit ThreadParallelFor(int workers) : workers_(workers) {
+    for (int w = 1; w < workers; ++w) threads_.emplace_back([this, w] { Loop(w); });
+  }
+  ~ThreadParallelFor() override {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+  int workers() const override { return workers_; }
+
+  void Run(std::size_t n, const Body& body) override {
+    std::lock_guard one_run(run_mutex_);
+    {
+      std::lock_guard lock(mutex_);
+      body_ = &body;
+      n_ = n;
+      pending_ = workers_ - 1;
+      ++generation_;
+    }
+    wake_.notify_all();
+    RunShare(0);
+    std::unique_lock lock(mutex_);
+    done_.wait(lock, [&] { return pending_ == 0; });
+    body_ = nullptr;
+  }
+
+ private:
+  void RunShare(int worker) {
+    const std::size_t begin = n_ * worker / workers_, end = n_ * (worker + 1) / workers_;
+    if (begin < end) (*body_)(begin, end);
+  }
+  void Loop(int worker) {
+    std::uint64_t seen = 0;
+    for (;;) {
+      {
+        std::unique_lock lock(mutex_);
+        wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+        if (stop_) return;
+        seen = generation_;
+      }
+      RunShare(worker);
+      std::lock_guard lock(mutex_);
+      if (--pending_ == 0) done_.notify_one();
+    }
+  }
+
+  const int workers_;
+  std::vector<std::thread> threads_;
+  std::mutex run_mutex_;  // one Run at a time
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  const Body* body_ = nullptr;
+  std::size_t n_ = 0;
+  int pending_ = 0;
+  std::uint64_t generation_ = 0;
+  bool stop_ = false;
+};
+
+}  // namespace
+
+Result<std::shared_ptr<ParallelFor>> MakeThreadParallelFor(int workers) {
+  if (workers < 1 || workers > 64) {
+    return InvalidArgument("workers", "must be in [1, 64], got " + std::to_string(workers));
+  }
+  return std::shared_ptr<ParallelFor>(std::make_shared<ThreadParallelFor>(workers));
+}
+
+Result<InterfaceConfig> HertzInterfaceConfig(const Population& population,
+                                             const EffectiveMaterial& material, double friction,
+                                             bool track_energy) {
+  if (population.radii.size() != population.heights.size()) {
+    return InvalidArgument("radii", "must have one radius per height (" +
+                                        std::to_string(population.heights.size()) + "), got " +
+                                        std::to_string(population.radii.size()));
+  }
+  InterfaceConfig config;
+  config.contacts.reserve(population.radii.size());
+  config.heights.reserve(population.radii.size());
+  std::unordered_map<double, ProfilePtr> spheres;  // equal radii share one profile
+  for (std::size_t i = 0; i < population.radii.size(); ++i) {
+    ProfilePtr& sphere = spheres[population.radii[i]];
+    if (!sphere) {
+      Result<ProfilePtr> made = MakeSphere(population.radii[i]);
+      if (!made.ok()) return made.status().WithFieldPrefix(Indexed("radii", i));
+      sphere = *made;
+    }
+    ContactConfig contact;
+    contact.profile = sphere;
+    contact.material = material;
+    contact.friction = friction;
+    contact.track_energy = track_energy;
+    config.contacts.push_back(std::move(contact));
+    config.heights.push_back(-population.heights[i]);
+  }
+  return config;
+}
+
+Result<Interface> Interface::Create(InterfaceConfig config) {
+  const std::size_t n = config.contacts.size();
+  if (n < 1 || n > kMaxInterfaceContacts) {
+    return InvalidArgument("contacts", "must hold [1, " + std::to_string(kMaxInterfaceContacts) +
+                                           "] contacts, got " + std::to_string(n));
+  }
+  const bool shared = config.kind == InterfaceKind::kSharedMotion;
+  if (!shared && !config.heights.empty()) {
+    return InvalidArgument("heights",
+                           "must be empty for a contact list (its contacts move "
+                           "independently), got " +
+                               std::to_string(config.heights.size()) + " values");
+  }
+  if (shared && !config.heights.empty() && config.heights.size() != n) {
+    return InvalidArgument("heights", "must be empty or hold one value per contact (" +
+                                          std::to_string(n) + "), got " +
+                                          std::to_string(config.heights.size()));
+  }
+  for (std::size_t i = 0; i < config.heights.size(); ++i) {
+    if (Status s = RequireInRange(Indexed("heights", i), config.heights[i], -kMaxSceneScale,
+                                  kMaxSceneScale);
+        !s.ok()) {
+      return s;
+    }
+  }
+  Interface built;
+  built.kind_ = config.kind;
+  built.heights_ = std::move(config.heights);
+  built.contacts_.reserve(n);
+  built.max_depth_.reserve(n);
+  built.max_approach_ = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    Result<Contact> contact = Contact::Create(std::move(config.contacts[i]));
+    if (!contact.ok()) return contact.status().WithFieldPrefix(Indexed("contacts", i));
+    built.max_depth_.push_back(MaxDepth(*contact));
+    built.all_exact_ = built.all_exact_ && contact->config().method == Method::kExact;
+    built.max_mu_kappa_ = std::max(built.max_mu_kappa_, contact->mu_kappa());
+    built.max_approach_ = std::min(built.max_approach_, built.height(i) + built.max_depth_.back());
+    built.contacts_.push_back(std::move(contact).value());
+  }
+  if (shared) {
+    // Touching the highest contact: every depth delta - h_i <= 0, so nothing is loaded.
+    built.approach_ = built.heights_.empty()
+                          ? 0.0
+                          : *std::min_element(built.heights_.begin(), built.heights_.end());
+    built.min_height_ = built.approach_;
+    for (std::size_t i = 0; i < n; ++i) {
+      Status s = built.contacts_[i].MoveTo(built.approach_ - built.height(i), 0.0);
+      if (!s.ok()) return s.WithFieldPrefix(Indexed("contacts", i));
+    }
+  }
+  built.trial_ = built.contacts_;
+  return built;
+}
+
+Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnapshot& snapshot) {
+  if (snapshot.contacts.size() != config.contacts.size()) {
+    return InvalidArgument("contacts",
+                           "the snapshot holds " + std::to_string(snapshot.contacts.size()) +
+                               " contacts, the config " + std::to_string(config.contacts.size()));
+  }
+  std::vector<ContactConfig> configs = config.contacts;
+  Result<Interface> created = Create(std::move(config));
+  if (!created.ok()) return created;
+  Interface& restored = *created;
+  const bool shared = restored.kind_ == InterfaceKind::kSharedMotion;
+  if (shared) {
+    if (Status s =
+            RequireInRange("approach", snapshot.approach, -kMaxApproach, restored.max_approach_);
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = RequireFinite("tangential_displacement", snapshot.tangential_displacement);
+        !s.ok()) {
+      return s;
+    }
+  }
+  for (std::size_t i = 0; i < configs.size(); ++i) {
+    const std::string prefix = Indexed("contacts", i);
+    Result<Contact> contact = Contact::Restore(std::move(configs[i]), snapshot.contacts[i]);
+    if (!contact.ok()) return contact.status().WithFieldPrefix(prefix);
+    const double expected_depth = snapshot.approach - restored.height(i);
+    if (shared && contact->depth() != expected_depth) {
+      return InvalidArgument(prefix + ".depth",
+                             "must equal approach - heights[i] = " + FormatNumber(expected_depth) +
+                                 " m, got " + FormatNumber(contact->depth()));
+    }
+    if (shared && contact->tangential_displacement() != snapshot.tangential_displacement) {
+      return InvalidArgument(prefix + ".tangential_displacement",
+                             "must equal the interface's " +
+                                 FormatNumber(snapshot.tangential_displacement) + " m, got " +
+                                 FormatNumber(contact->tangential_displacement()));
+    }
+    if (Status s = CheckDepthLimit(prefix + ".depth", contact->depth(), restored.max_depth_[i]);
+        !s.ok()) {
+      return s;
+    }
+    restored.energy_bound_ = std::max(restored.energy_bound_, contact->dissipated_energy());
+    restored.vertex_headroom_ = restored.vertex_headroom_ && HasVertexHeadroom(*contact);
+    restored.contacts_[i] = std::move(contact).value();
+  }
+  if (shared) {
+    restored.approach_ = snapshot.approach;
+    restored.ux_ = snapshot.tangential_displacement;
+  }
+  restored.trial_ = restored.contacts_;
+  return created;
+}
+
+InterfaceSnapshot Interface::Snapshot() const {
+  InterfaceSnapshot snapshot;
+  snapshot.approach = approach_;
+  snapshot.tangential_displacement = ux_;
+  snapshot.contacts.reserve(contacts_.size());
+  for (const Contact& contact : contacts_) snapshot.contacts.push_back(contact.Snapshot());
+  return snapshot;
+}
+
+Status Interface::ForEach(const std::function<Status(std::size_t)>& fn,
+                          const Interrupt& interrupt) const {
+  std::mutex mutex;
+  std::size_t failed_at = contacts_.size();
+  Status failure;
+  auto run = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      Status s = interrupt.CheckEvery(kInterruptPeriod, i - begin);
+      if (s.ok()) s = fn(i);
+      if (s.ok()) continue;
+      // Keep the lowest failing index, so that the error does not depend on the split.
+      std::lock_guard lock(mutex);
+      if (i < failed_at) failed_at = i, failure = std::move(s);
+      return;
+    }
+  };
+  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
+    parallel_->Run(contacts_.size(), run);
+  } else {
+    run(0, contacts_.size());
+  }
+  return failure;
+}
+
+Status Interface::StepAll(const TrialStep& per_contact, const Interrupt& interrupt) {
+  return ForEach(
+      [&](std::size_t i) {
+        trial_[i] = contacts_[i];  // reuses the buffer's vectors: no allocation
+        return per_contact(i, trial_[i]);
+      },
+      interrupt);
+}
+
+Status Interface::TrialMove(double delta1, double ux1, const Interrupt& interrupt) {
+  std::atomic<bool> headroom_lost{false};
+  Status status = StepAll(
+      [&](std::size_t i, Contact& trial) {
+        Status s = trial.MoveTo(delta1 - height(i), ux1);
+        if (s.ok()) s = CheckSteppedContact(trial);
+        if (!HasVertexHeadroom(trial)) headroom_lost.store(true, std::memory_order_relaxed);
+        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+      },
+      interrupt);
+  trial_headroom_ = !headroom_lost.load();
+  return status;
+}
+
+void Interface::Commit(double delta1, double ux1, double slide_scale) {
+  contacts_.swap(trial_);
+  vertex_headroom_ = trial_headroom_;
+  approach_ = delta1;
+  ux_ = ux1;
+  energy_bound_ += kForceCap * slide_scale;
+}
+
+double Interface::SlideScale(double delta1, double ux1) const {
+  const double reach = std::max(std::max(approach_, delta1) - min_height_, 0.0);
+  return std::abs(ux1 - ux_) + 2 * max_mu_kappa_ * reach;
+}
+
+bool Interface::CanStepInPlace(double slide_scale) const {
+  return all_exact_ && vertex_headroom_ && contacts_.size() <= kMaxInPlaceContacts &&
+         slide_scale <= kMaxInPlaceSlide &&
+         energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy;
+}
+
+Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt) {
+  const double slide_scale = SlideScale(delta1, ux1);
+  if (!CanStepInPlace(slide_scale)) {
+    if (Status s = TrialMove(delta1, ux1, interrupt); !s.ok()) return s;
+    Commit(delta1, ux1, slide_scale);
+    return OkStatus();
+  }
+  // Nothing can fail below (CanStepInPlace), so the contacts are stepped in place, without the
+  // copy into the step buffer; the pass is bounded by kMaxInPlaceContacts and not interrupted.
+  if (Status s = interrupt.Check(); !s.ok()) return s;
+  std::atomic<bool> headroom_lost{false};
+  Status status = ForEach(
+      [&](std::size_t i) {
+        Contact& contact = contacts_[i];
+        Status s = contact.MoveTo(delta1 - height(i), ux1);
+        if (s.ok()) s = CheckSteppedContact(contact);
+        if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
+        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+      },
+      Interrupt{});
+  if (!status.ok()) {
+    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
+                                        status.message() + "); the interface is inconsistent");
+  }
+  vertex_headroom_ = !headroom_lost.load();
+  approach_ = delta1;
+  ux_ = ux1;
+  energy_bound_ += kForceCap * slide_scale;
+  return OkStatus();
+}
+
+Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Interrupt& interrupt) {
+  if (kind_ != InterfaceKind::kSharedMotion) {
+    return FailedPrecondition("kind", "a contact list is stepped per contact (ApplyEach)");
+  }
+  const char* normal_field = NormalField(step.normal);
+  const char* tangential_field = TangentialField(step.tangential);
+  if (Status s = RequireFinite(normal_field, step.normal_value); !s.ok()) return s;
+  if (Status s = RequireFinite(tangential_field, step.tangential_value); !s.ok()) return s;
+  InterfaceStepReport local;
+
+  const bool normal_force = step.normal == NormalControl::kForce;
+  const bool tangential_force = step.tangential == TangentialControl::kForce;
+  const double ux1 = step.tangential == TangentialControl::kDisplacement ? step.tangential_value
+                     : step.tangential == TangentialControl::kDisplacementIncrement
+                         ? ux_ + step.tangential_value
+                         : ux_;
+  if (Status s = RequireFinite(tangential_field, ux1); !s.ok()) return s;
+  // A force target with the other channel moving is a curved path in (delta, ux).
+  if (normal_force && ux1 != ux_) {
+    return InvalidArgument(tangential_field,
+                           "must hold still in a step with a normal force target (that path is "
+                           "curved in (delta, ux), which interfaces do not follow): apply the "
+                           "two as separate steps");
+  }
+
+  double delta1 = approach_;
+  if (normal_force) {
+    if (Status s = RequireNonNegative(normal_field, step.normal_value); !s.ok()) return s;
+    Result<double> solved = SolveApproach(step.normal_value, &local, interrupt);
+    if (!solved.ok()) return solved.status();
+    delta1 = *solved;
+  } else {
+    delta1 =
+        step.normal == NormalControl::kDepth ? step.normal_value : approach_ + step.normal_value;
+    if (Status s = RequireInRange(normal_field, delta1, -kMaxApproach, max_approach_); !s.ok()) {
+      return InvalidArgument(normal_field, "the approach after the step " + s.message() +
+                                               " (beyond it some contact's mu F_N exceeds " +
+                                               FormatNumber(kForceCap) + " N)");
+    }
+  }
+  if (tangential_force && delta1 != approach_) {
+    return InvalidArgument(normal_field,
+                           "must hold still in a step with a tangential force target (that path "
+                           "is curved in (delta, ux), which interfaces do not follow): apply the "
+                           "two as separate steps");
+  }
+
+  if (tangential_force) {
+    Result<double> solved = SolveTangential(step.tangential_value, &local, interrupt);
+    if (!solved.ok()) return solved.status();
+    // The step buffer holds the solution.
+    Commit(delta1, *solved, SlideScale(delta1, *solved));
+  } else if (Status s = Move(delta1, ux1, interrupt); !s.ok()) {
+    return s;
+  }
+  if (report) *report = local;
+  return OkStatus();
+}
+
+double Interface::TotalNormalForce(double delta, double* stiffness, const Interrupt& interrupt,
+                                   Status* status) const {
+  std::vector<double> force(contacts_.size()), slope(contacts_.size());
+  *status = ForEach(
+      [&](std::size_t i) {
+        const Contact& contact = contacts_[i];
+        const double depth = delta - height(i);
+        force[i] = contact.NormalForceAtDepth(depth);
+        // dF_N/d(delta) = 2 E* a (physics.md).
+        slope[i] = depth > 0 ? 2 * contact.config().material.e_star *
+                                   contact.config().profile->RadiusAtDepth(depth)
+                             : 0.0;
+        return OkStatus();
+      },
+      interrupt);
+  *stiffness = Sum(slope);
+  return Sum(force);
+}
+
+Result<double> Interface::SolveApproach(double target, InterfaceStepReport* report,
+                                        const Interrupt& interrupt) const {
+  Status status;
+  double slope = 0;
+  const double now = TotalNormalForce(approach_, &slope, interrupt, &status);
+  if (!status.ok()) return status;
+  // A target equal to the current force (to round-off) holds the approach exactly.
+  if (std::abs(target - now) <= 1e-14 * now) {
+    report->force_residual = std::abs(target - now);
+    return approach_;
+  }
+  // The highest contact touches at h_min: F = 0 there, and it alone carries the target at
+  // h_min + its depth at the target, so the root lies between.
+  const std::size_t first =
+      heights_.empty() ? 0
+                       : static_cast<std::size_t>(
+                             std::min_element(heights_.begin(), heights_.end()) - heights_.begin());
+  double lo = height(first);
+  if (target == 0) return lo;
+  double hi = std::min(lo + contacts_[first].DepthAtNormalForce(target), max_approach_);
+  if (hi == max_approach_) {
+    double unused = 0;
+    const double largest = TotalNormalForce(hi, &unused, interrupt, &status);
+    if (!status.ok()) return status;
+    if (largest < target) {
+      return InvalidArgument("normal_force", "must be <= " + FormatNumber(largest) +
+                                                 " N, the total force at the largest approach "
+                                                 "the interface's contacts allow, got " +
+                                                 FormatNumber(target));
+    }
+  }
+  // The current state is a point of F too: it narrows the bracket, and Newton starts from it.
+  if (now < target) {
+    lo = std::max(lo, approach_);
+  } else {
+    hi = std::min(hi, approach_);
+  }
+  double x = slope > 0 ? approach_ + (target - now) / slope : hi;
+  if (!(x > lo && x < hi)) x = hi;
+  double f = TotalNormalForce(x, &slope, interrupt, &status) - target;
+  if (!status.ok()) return status;
+  report->solver_iterations = 1;
+  double best_x = x, best_f = f;
+  // Safeguarded Newton: F is monotone (each F_i is), so [lo, hi] keeps a sign change; a Newton
+  // iterate outside it, or one that does not move, is replaced by the midpoint.
+  for (int iteration = 0; iteration < kMaxSolveIterations; ++iteration) {
+    if (std::abs(f) <= kSolveStopTolerance * target) break;
+    (f < 0 ? lo : hi) = x;
+    if (!(std::nextafter(lo, hi) < hi)) break;  // adjacent doubles: resolution reached
+    double next = slope > 0 ? x - f / slope : lo;
+    if (!(next > lo && next < hi) || next == x) next = 0.5 * (lo + hi);
+    x = next;
+    f = TotalNormalForce(x, &slope, interrupt, &status) - target;
+    if (!status.ok()) return status;
+    ++report->solver_iterations;
+    if (std::abs(f) < std::abs(best_f)) best_x = x, best_f = f;
+  }
+  report->force_residual = std::abs(best_f);
+  return best_x;
+}
+
+Result<Interface::TangentialState> Interface::MeasureTangentialState(
+    const Interrupt& interrupt) const {
+  const std::size_t n = contacts_.size();
+  std::vector<double> force(n), limit(n), lo(n), hi(n);
+  Status s = ForEach(
+      [&](std::size_t i) {
+        const Contact& c = contacts_[i];
+        force[i] = c.tangential_force();
+        limit[i] = c.friction_limit();
+        const double m = c.mu_kappa(), d = c.depth();
+        const GridMemory* grid = c.grid_memory();
+        lo[i] = !(d > 0) ? 0
+                : grid   ? grid->GrossSlipIncrement(d, m, -1)
+                         : c.memory().GrossSlipIncrement(d, m, -1);
+        hi[i] = !(d > 0) ? 0
+                : grid   ? grid->GrossSlipIncrement(d, m, +1)
+                         : c.memory().GrossSlipIncrement(d, m, +1);
+        return OkStatus();
+      },
+      interrupt);
+  if (!s.ok()) return s;
+  return TangentialState{Sum(force), Sum(limit), *std::min_element(lo.begin(), lo.end()),
+                         *std::max_element(hi.begin(), hi.end())};
+}
+
+Result<double> Interface::SolveTangential(double target, InterfaceStepReport* report,
+                                          const Interrupt& interrupt) {
+  Result<TangentialState> state = MeasureTangentialState(interrupt);
+  if (!state.ok()) return state.status();
+  const double total_limit = state->friction_limit;
+  if (!(std::abs(target) <= total_limit * (1 + 1e-12))) {
+    return FailedPrecondition("tangential_force",
+                              "|F_x| = " + FormatNumber(std::abs(target)) +
+                                  " N exceeds the interface's friction limit sum mu F_N = " +
+                                  FormatNumber(total_limit) + " N");
+  }
+  double lo = state->gross_slip_down, hi = state->gross_slip_up;
+  double x = 0, f = state->tangential_force - target;
+  const double stop = kSolveStopTolerance * total_limit;
+  const std::size_t n = contacts_.size();
+  std::vector<double> force(n), up(n), down(n);  // each contact's stiffness toward +x and -x
+  double slope = 0;                              // the total's toward the target
+  double evaluated = std::numeric_limits<double>::quiet_NaN();  // increment in the step buffer
+  // F_x and its slope toward the target after a step by dux (from `contacts`, the state or the
+  // step buffer).
+  auto measure = [&](const std::vector<Contact>& contacts) -> Status {
+    Status s = ForEach(
+        [&](std::size_t i) {
+          force[i] = contacts[i].tangential_force();
+          const TangentialStiffness k = contacts[i].tangential_stiffness();
+          up[i] = k.positive;
+          down[i] = k.negative;
+          return OkStatus();
+        },
+        interrupt);
+    f = Sum(force) - target;
+    slope = f < 0 ? Sum(up) : Sum(down);
+    return s;
+  };
+  auto evaluate = [&](double dux) -> Status {
+    if (Status s = TrialMove(approach_, ux_ + dux, interrupt); !s.ok()) return s;
+    evaluated = dux;
+    ++report->solver_iterations;
+    return measure(trial_);
+  };
+  if (total_limit == 0 || std::abs(f) <= stop) {
+    x = 0;  // F_x = 0 for any ux without contact; a held target keeps ux
+  } else if (target >= total_limit) {
+    x = hi;  // onset of gross slip
+  } else if (target <= -total_limit) {
+    x = lo;
+  } else {
+    // Newton from the current state: F_x(dux) is monotone, concave toward +x and convex toward
+    // -x (slip zones only grow along a monotone path), so Newton approaches the root from the
+    // start side; the bracket and the midpoint guard round-off and the kinks.
+    if (Status s = measure(contacts_); !s.ok()) return s;
+    for (int iteration = 0; iteration < kMaxSolveIterations; ++iteration) {
+      (f < 0 ? lo : hi) = x;
+      const double resolution =
+          4 * std::numeric_limits<double>::epsilon() * std::max({std::abs(ux_), lo, -lo, hi, -hi});
+      if (hi - lo <= resolution) break;
+      double next = slope > 0 ? x - f / slope : 0.5 * (lo + hi);
+      if (!(next > lo && next < hi) || next == x) next = 0.5 * (lo + hi);
+      x = next;
+      if (Status s = evaluate(x); !s.ok()) return s;
+      if (std::abs(f) <= stop) break;
+    }
+  }
+  if (!(evaluated == x)) {
+    if (Status s = evaluate(x); !s.ok()) return s;
+  }
+  report->force_residual = std::abs(f);
+  return ux_ + x;
+}
+
+Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interrupt) {
+  if (kind_ != InterfaceKind::kContactList) {
+    return FailedPrecondition("kind", "an interface under a shared motion is stepped by Apply");
+  }
+  const std::size_t n = contacts_.size();
+  if (step.normal_values.size() != n) {
+    return InvalidArgument("normal_values", "must hold one value per contact (" +
+                                                std::to_string(n) + "), got " +
+                                                std::to_string(step.normal_values.size()));
+  }
+  if (step.tangential_values.size() != n) {
+    return InvalidArgument("tangential_values", "must hold one value per contact (" +
+                                                    std::to_string(n) + "), got " +
+                                                    std::to_string(step.tangential_values.size()));
+  }
+  const bool displacements =
+      step.normal != NormalControl::kForce && step.tangential != TangentialControl::kForce;
+  if (displacements && all_exact_ && vertex_headroom_ && n <= kMaxInPlaceContacts) {
+    bool stepped = false;
+    if (Status s = StepListInPlace(step, interrupt, &stepped); !s.ok() || stepped) return s;
+  }
+  std::atomic<bool> headroom_lost{false};
+  std::vector<double> energy(n);
+  Status s = StepAll(
+      [&](std::size_t i, Contact& trial) {
+        Status status;
+        if (displacements) {
+          // The exact linear step of Contact::Apply for displacement channels (the same depth
+          // and ux arithmetic), without its copy of the contact: the step buffer is the copy.
+          const ListTarget target = DisplacementTarget(step, i, trial);
+          if (Status c = CheckListTarget(i, target); !c.ok()) return c;
+          status = trial.MoveTo(target.depth, target.ux);
+          if (status.ok()) status = CheckSteppedContact(trial);
+        } else {
+          status = trial.Apply(
+              {step.normal, step.normal_values[i], step.tangential, step.tangential_values[i]},
+              nullptr, interrupt);
+        }
+        if (!status.ok()) return status.WithFieldPrefix(Indexed("contacts", i));
+        if (!HasVertexHeadroom(trial)) headroom_lost.store(true, std::memory_order_relaxed);
+        energy[i] = trial.dissipated_energy();
+        if (trial.depth() <= max_depth_[i]) return OkStatus();
+        return CheckDepthLimit(Indexed("normal_values", i), trial.depth(), max_depth_[i]);
+      },
+      interrupt);
+  if (!s.ok()) return s;
+  contacts_.swap(trial_);
+  vertex_headroom_ = !headroom_lost.load();
+  energy_bound_ = std::max(energy_bound_, *std::max_element(energy.begin(), energy.end()));
+  return OkStatus();
+}
+
+Interface::ListTarget Interface::DisplacementTarget(const ContactListStep& step, std::size_t i,
+                                                    const Contact& contact) {
+  const double depth = step.normal == NormalControl::kDepth
+                           ? step.normal_values[i]
+                           : contact.depth() + step.normal_values[i];
+  const double ux = step.tangential == TangentialControl::kDisplacement
+                        ? step.tangential_values[i]
+                        : contact.tangential_displacement() + step.tangential_values[i];
+  return {depth, ux};
+}
+
+Status Interface::CheckListTarget(std::size_t i, const ListTarget& target) const {
+  // The common case without building field names (a string per contact and step).
+  if (std::isfinite(target.depth) && std::isfinite(target.ux) && target.depth <= max_depth_[i]) {
+    return OkStatus();
+  }
+  if (Status s = RequireFinite(Indexed("normal_values", i), target.depth); !s.ok()) return s;
+  if (Status s = RequireFinite(Indexed("tangential_values", i), target.ux); !s.ok()) return s;
+  return CheckDepthLimit(Indexed("normal_values", i), target.depth, max_depth_[i]);
+}
+
+Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
+                                  bool* stepped) {
+  // Every target is checked first, and the largest slide scale decides (as in Move).
+  std::vector<double> scale(contacts_.size());
+  Status checked = ForEach(
+      [&](std::size_t i) {
+        const Contact& c = contacts_[i];
+        const ListTarget target = DisplacementTarget(step, i, c);
+        if (Status s = CheckListTarget(i, target); !s.ok()) return s;
+        scale[i] = std::abs(target.ux - c.tangential_displacement()) +
+                   2 * c.mu_kappa() * std::max({c.depth(), target.depth, 0.0});
+        return OkStatus();
+      },
+      interrupt);
+  if (!checked.ok()) return checked;
+  const double slide_scale = *std::max_element(scale.begin(), scale.end());
+  if (!(slide_scale <= kMaxInPlaceSlide &&
+        energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy)) {
+    return OkStatus();
+  }
+  if (Status s = interrupt.Check(); !s.ok()) return s;
+  std::atomic<bool> headroom_lost{false};
+  Status status = ForEach(
+      [&](std::size_t i) {
+        Contact& contact = contacts_[i];
+        const ListTarget target = DisplacementTarget(step, i, contact);
+        Status s = contact.MoveTo(target.depth, target.ux);
+        if (s.ok()) s = CheckSteppedContact(contact);
+        if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
+        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+      },
+      Interrupt{});
+  if (!status.ok()) {
+    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
+                                        status.message() + "); the contact list is inconsistent");
+  }
+  vertex_headroom_ = !headroom_lost.load();
+  energy_bound_ += kForceCap * slide_scale;
+  *stepped = true;
+  return OkStatus();
+}
+
+Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
+  struct PerContact {
+    double fn, fx, energy, last, limit, kn, kt_plus, kt_minus;
+    SlipState state;
+  };
+  std::vector<PerContact> per(contacts_.size());
+  if (Status s = ForEach(
+          [&](std::size_t i) {
+            const Contact& c = contacts_[i];
+            const TangentialStiffness kt = c.tangential_stiffness();
+            per[i] = {c.normal_force(),      c.tangential_force(),
+                      c.dissipated_energy(), c.last_step_dissipation(),
+                      c.friction_limit(),    2 * c.config().material.e_star * c.contact_radius(),
+                      kt.positive,           kt.negative,
+                      ClassifySlip(c).state};
+            return OkStatus();
+          },
+          interrupt);
+      !s.ok()) {
+    return s;
+  }
+  InterfaceTotals totals;
+  for (const PerContact& p : per) {
+    totals.normal_force += p.fn;
+    totals.tangential_force += p.fx;
+    totals.dissipated_energy += p.energy;
+    totals.last_step_dissipation += p.last;
+    totals.friction_limit += p.limit;
+    totals.normal_stiffness += p.kn;
+    totals.tangential_stiffness.positive += p.kt_plus;
+    totals.tangential_stiffness.negative += p.kt_minus;
+    totals.in_contact += p.state != SlipState::kOut;
+    totals.sticking += p.state == SlipState::kSticking;
+    totals.partial_slip += p.state == SlipState::kPartial;
+    totals.gross_slip += p.state == SlipState::kGross;
+  }
+  return totals;
+}
+
+Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
+                                                          const Interrupt& interrupt) const {
+  if (bins < 1 || bins > 1000) {
+    return InvalidArgument("bins", "must be in [1, 1000], got " + std::to_string(bins));
+  }
+  std::vector<SlipSummary> slip(contacts_.size());
+  if (Status s = ForEach(
+          [&](std::size_t i) {
+            slip[i] = ClassifySlip(contacts_[i]);
+            return OkStatus();
+          },
+          interrupt);
+      !s.ok()) {
+    return s;
+  }
+  std::vector<std::size_t> histogram(static_cast<std::size_t>(bins), 0);
+  for (const SlipSummary& summary : slip) {
+    if (summary.state == SlipState::kOut) continue;
+    const auto bin = static_cast<std::size_t>(summary.fraction * bins);
+    ++histogram[std::min(bin, histogram.size() - 1)];
+  }
+  return histogram;
+}
+
+std::size_t Interface::MemoryBytes() const {
+  // The private step scratch of each memory holds about two polylines' worth (estimate).
+  constexpr std::size_t kVertexBytes = 2 * sizeof(double) + 1;
+  constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
+  std::size_t bytes =
+      sizeof(Interface) + (heights_.capacity() + max_depth_.capacity()) * sizeof(double);
+  std::unordered_set<const Profile*> profiles;
+  for (const std::vector<Contact>* buffer : {&contacts_, &trial_}) {
+    bytes += buffer->capacity() * sizeof(Contact);
+    for (const Contact& c : *buffer) {
+      const PiecewiseLinearMemory& m = c.memory();
+      bytes += m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
+               m.tags().capacity() + 2 * m.vertex_count() * kVertexBytes;
+      if (const GridMemory* grid = c.grid_memory()) {
+        bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
+      }
+      profiles.insert(c.config().profile.get());
+    }
+  }
+  return bytes + profiles.size() * kProfileBytes;
+}
+
+}  // namespace mdr

@@ -1,0 +1,591 @@
+// Interfaces and contact lists of many exact contacts (interface.h), and asperity populations
+// (population.h). Deterministic: fixed seeds, no timing.
+#include "mdr/core/interface.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "mdr/core/population.h"
+#include "test_util.h"
+
+namespace mdr {
+namespace {
+
+using testing::RandomHistory;
+using testing::SameBits;
+using testing::SameSnapshot;
+
+EffectiveMaterial Steel() { return *ElasticPair(210e9, 0.3, 210e9, 0.3); }
+
+::testing::AssertionResult SameInterfaceState(const InterfaceSnapshot& a,
+                                              const InterfaceSnapshot& b) {
+  if (!SameBits(a.approach, b.approach)) return ::testing::AssertionFailure() << "approach";
+  if (!SameBits(a.tangential_displacement, b.tangential_displacement)) {
+    return ::testing::AssertionFailure() << "tangential_displacement";
+  }
+  if (a.contacts.size() != b.contacts.size()) return ::testing::AssertionFailure() << "size";
+  for (std::size_t i = 0; i < a.contacts.size(); ++i) {
+    ::testing::AssertionResult same = SameSnapshot(a.contacts[i], b.contacts[i]);
+    if (!same) return same << " (contact " << i << ")";
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// n Hertz asperities, R = 0.1 mm, Gaussian summit heights of 1 um standard deviation.
+InterfaceConfig RoughInterface(std::size_t n, std::uint64_t seed, double friction = 0.3) {
+  PopulationSpec spec;
+  spec.count = n;
+  spec.height_scale = 1e-6;
+  spec.radius = 1e-4;
+  spec.seed = seed;
+  return *HertzInterfaceConfig(*GeneratePopulation(spec), Steel(), friction);
+}
+
+// ---------------------------------------------------------------- population
+
+TEST(PopulationTest, UniformsAreTheTop53Bits) {
+  EXPECT_EQ(UniformFrom64(0), 0.0);
+  EXPECT_EQ(UniformFrom64(~std::uint64_t{0}), 1.0 - 0x1p-53);
+  EXPECT_EQ(UniformFrom64(std::uint64_t{1} << 63), 0.5);
+  // The engine is the standard's: its 10000th output is fixed by [rand.predef].
+  std::mt19937_64 rng;
+  rng.discard(9999);
+  EXPECT_EQ(rng(), 9981545732273789042ULL);
+}
+
+TEST(PopulationTest, BoxMullerGivesTheClosedForm) {
+  double z1 = 0, z2 = 0;
+  BoxMuller(0.0, 0.0, &z1, &z2);  // 1 - u1 = 1: radius 0
+  EXPECT_EQ(z1, 0.0);
+  EXPECT_EQ(z2, 0.0);
+  BoxMuller(1 - std::exp(-0.5), 0.25, &z1, &z2);  // radius 1, angle pi/2
+  EXPECT_NEAR(z1, 0.0, 1e-15);
+  EXPECT_NEAR(z2, 1.0, 1e-15);
+}
+
+TEST(PopulationTest, GaussianHeightsHaveTheirMoments) {
+  PopulationSpec spec;
+  spec.count = 100001;  // odd: the last pair is cut
+  spec.height_scale = 2e-6;
+  spec.radius = 1e-4;
+  spec.seed = 7;
+  const Population p = *GeneratePopulation(spec);
+  ASSERT_EQ(p.heights.size(), spec.count);
+  double mean = 0, square = 0;
+  for (double h : p.heights) mean += h, square += h * h;
+  mean /= spec.count;
+  const double sigma = std::sqrt(square / spec.count - mean * mean);
+  // Sampling error of 1e5 draws: ~0.3 % of sigma; 5 standard errors.
+  EXPECT_NEAR(mean, 0, 5 * 2e-6 / std::sqrt(1e5));
+  EXPECT_NEAR(sigma, 2e-6, 0.02 * 2e-6);
+  for (double r : p.radii) EXPECT_EQ(r, 1e-4);
+}
+
+TEST(PopulationTest, ExponentialHeightsAndLognormalRadii) {
+  PopulationSpec spec;
+  spec.count = 100000;
+  spec.heights = HeightDistribution::kExponential;
+  spec.height_scale = 1e-6;
+  spec.radii = RadiusDistribution::kLognormal;
+  spec.radius = 1e-4;
+  spec.log_sigma = 0.5;
+  spec.seed = 11;
+  const Population p = *GeneratePopulation(spec);
+  double mean = 0, log_mean = 0;
+  for (double h : p.heights) {
+    EXPECT_GE(h, 0);
+    mean += h;
+  }
+  for (double r : p.radii) log_mean += std::log(r / 1e-4);
+  EXPECT_NEAR(mean / spec.count, 1e-6, 0.02e-6);
+  EXPECT_NEAR(log_mean / spec.count, 0, 0.01);  // median R = radius
+}
+
+TEST(PopulationTest, SameSeedSamePopulationAndHeightsIndependentOfRadii) {
+  PopulationSpec spec;
+  spec.count = 1001;
+  spec.height_scale = 1e-6;
+  spec.radius = 1e-4;
+  spec.seed = 3;
+  const Population a = *GeneratePopulation(spec);
+  const Population b = *GeneratePopulation(spec);
+  EXPECT_TRUE(SameBits(a.heights, b.heights));
+  spec.radii = RadiusDistribution::kLognormal;
+  spec.log_sigma = 1;
+  const Population c = *GeneratePopulation(spec);
+  EXPECT_TRUE(SameBits(a.heights, c.heights));
+  spec.seed = 4;
+  const Population d = *GeneratePopulation(spec);
+  EXPECT_NE(a.heights, d.heights);
+}
+
+TEST(PopulationTest, BadSpecsNameTheField) {
+  PopulationSpec spec;
+  spec.count = 10;
+  spec.height_scale = 1e-6;
+  spec.radius = 1e-4;
+  auto field = [](const PopulationSpec& s) { return GeneratePopulation(s).status().field(); };
+  PopulationSpec bad = spec;
+  bad.count = 0;
+  EXPECT_EQ(field(bad), "count");
+  bad = spec;
+  bad.count = kMaxInterfaceContacts + 1;
+  EXPECT_EQ(field(bad), "count");
+  bad = spec;
+  bad.height_scale = -1;
+  EXPECT_EQ(field(bad), "height_scale");
+  bad = spec;
+  bad.height_scale = NAN;
+  EXPECT_EQ(field(bad), "height_scale");
+  bad = spec;
+  bad.radius = 0;
+  EXPECT_EQ(field(bad), "radius");
+  bad = spec;
+  bad.radii = RadiusDistribution::kLognormal;
+  bad.log_sigma = 4;
+  EXPECT_EQ(field(bad), "log_sigma");
+  EXPECT_EQ(GeneratePopulation(bad).status().code(), StatusCode::kInvalidArgument);
+
+  EXPECT_EQ(ExplicitPopulation({}, {}).status().field(), "heights");
+  EXPECT_EQ(ExplicitPopulation({0, 1e-6}, {1e-4}).status().field(), "radii");
+  EXPECT_EQ(ExplicitPopulation({0, INFINITY}, {1e-4, 1e-4}).status().field(), "heights[1]");
+  EXPECT_EQ(ExplicitPopulation({0, 0}, {1e-4, -1}).status().field(), "radii[1]");
+  EXPECT_TRUE(ExplicitPopulation({0, -1e-6}, {1e-4, 2e-4}).ok());
+}
+
+// ---------------------------------------------------------------- shared motion
+
+// The reference: a single Contact driven at depth delta - h and displacement ux.
+Status MoveSingle(Contact& contact, double depth, double ux) {
+  return contact.Apply({NormalControl::kDepth, depth, TangentialControl::kDisplacement, ux});
+}
+
+TEST(InterfaceTest, OneContactIsBitIdenticalToASingleContact) {
+  for (const double height : {0.0, -3e-7, 2e-7}) {
+    ContactConfig config;
+    config.profile = *MakeSphere(0.01);
+    config.material = Steel();
+    config.friction = 0.3;
+    InterfaceConfig one;
+    one.contacts = {config};
+    one.heights = {height};
+    Interface interface = *Interface::Create(one);
+    Contact single = *Contact::Create(config);
+    ASSERT_TRUE(MoveSingle(single, interface.approach() - height, 0).ok());
+    ASSERT_TRUE(SameSnapshot(interface.contact(0).Snapshot(), single.Snapshot()));
+    const double d0 = 1e-6;
+    RandomHistory history{std::mt19937_64(5), d0, 0.3 * single.mu_kappa() * d0};
+    for (int k = 0; k < 400; ++k) {
+      const auto [depth, ux] = history.Next();
+      // Alternate absolute and incremental steps of the interface.
+      Step step =
+          k % 2 ? Step{NormalControl::kDepth, depth + height, TangentialControl::kDisplacement, ux}
+                : Step{NormalControl::kDepthIncrement, depth + height - interface.approach(),
+                       TangentialControl::kDisplacementIncrement,
+                       ux - interface.tangential_displacement()};
+      ASSERT_TRUE(interface.Apply(step).ok());
+      ASSERT_TRUE(
+          MoveSingle(single, interface.approach() - height, interface.tangential_displacement())
+              .ok());
+      ASSERT_TRUE(SameSnapshot(interface.contact(0).Snapshot(), single.Snapshot())) << "step " << k;
+      const InterfaceTotals totals = *interface.Totals();
+      ASSERT_TRUE(SameBits(totals.tangential_force, single.tangential_force()));
+      ASSERT_TRUE(SameBits(totals.normal_force, single.normal_force()));
+      ASSERT_TRUE(SameBits(totals.dissipated_energy, single.dissipated_energy()));
+    }
+  }
+}
+
+// Totals of an interface equal the in-order sums over independent contacts, bit for bit, with
+// and without worker threads.
+// with_grid: contact 1 uses the grid method, which sends every step through the step buffer
+// (Interface::Move) instead of in place.
+void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = false) {
+  InterfaceConfig config = RoughInterface(n, 21);
+  if (with_grid) {
+    config.contacts[1].method = Method::kGrid;
+    config.contacts[1].grid_size = 64;
+    config.contacts[1].grid_max_radius = 1e-4;
+  }
+  Interface interface = *Interface::Create(config);
+  if (workers > 1) interface.set_parallel(*MakeThreadParallelFor(workers));
+  std::vector<Contact> singles;
+  for (std::size_t i = 0; i < n; ++i) {
+    singles.push_back(*Contact::Create(config.contacts[i]));
+    // Where the interface starts: touching its highest summit.
+    ASSERT_TRUE(MoveSingle(singles[i], interface.approach() - config.heights[i], 0).ok());
+  }
+  const double d0 = 2e-6;
+  RandomHistory history{std::mt19937_64(9), d0, 0.3 * singles[0].mu_kappa() * d0};
+  for (int k = 0; k < 60; ++k) {
+    const auto [depth, ux] = history.Next();
+    ASSERT_TRUE(
+        interface.Apply({NormalControl::kDepth, depth - 2e-6, TangentialControl::kDisplacement, ux})
+            .ok());
+    double fn = 0, fx = 0, energy = 0, limit = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      ASSERT_TRUE(MoveSingle(singles[i], interface.approach() - config.heights[i], ux).ok());
+      fn += singles[i].normal_force();
+      fx += singles[i].tangential_force();
+      energy += singles[i].dissipated_energy();
+      limit += singles[i].friction_limit();
+    }
+    const InterfaceTotals totals = *interface.Totals();
+    ASSERT_TRUE(SameBits(totals.normal_force, fn)) << k;
+    ASSERT_TRUE(SameBits(totals.tangential_force, fx)) << k;
+    ASSERT_TRUE(SameBits(totals.dissipated_energy, energy)) << k;
+    ASSERT_TRUE(SameBits(totals.friction_limit, limit)) << k;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_TRUE(SameSnapshot(interface.contact(i).Snapshot(), singles[i].Snapshot())) << i;
+  }
+}
+
+TEST(InterfaceTest, TotalsAreSumsOfIndependentContacts) { CheckSumOfIndependentContacts(40, 1); }
+
+TEST(InterfaceTest, TwoWorkersGiveTheSameBits) { CheckSumOfIndependentContacts(5000, 2); }
+
+TEST(InterfaceTest, StepsThroughTheStepBufferGiveTheSameBits) {
+  CheckSumOfIndependentContacts(40, 1, /*with_grid=*/true);
+  CheckSumOfIndependentContacts(3000, 2, /*with_grid=*/true);
+}
+
+// A contact that fails in the middle of a step (grid reach, vertex limit): no contact changes.
+TEST(InterfaceTest, AContactFailingMidStepChangesNoContact) {
+  InterfaceConfig config = RoughInterface(30, 22);
+  config.contacts[17].method = Method::kGrid;
+  config.contacts[17].grid_size = 16;
+  config.contacts[17].grid_max_radius = 2e-6;
+  Interface interface = *Interface::Create(config);
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepth, config.heights[17] + 1e-8}).ok());
+  const InterfaceSnapshot before = interface.Snapshot();
+  const Status s = interface.Apply({NormalControl::kDepthIncrement, 1e-6});
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(s.field(), "contacts[17].grid_max_radius");
+  EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), before));
+
+  config = RoughInterface(30, 23);
+  for (ContactConfig& c : config.contacts) c.max_memory_vertices = 8;
+  interface = *Interface::Create(config);
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepth, 3e-6}).ok());
+  const double slip = interface.contact(0).mu_kappa() * 1e-6;
+  Status failed;
+  InterfaceSnapshot last_good;
+  for (int k = 0; k < 40 && failed.ok(); ++k) {  // a ring-down nests vertices
+    last_good = interface.Snapshot();
+    failed = interface.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement,
+                              slip * std::pow(-0.7, k)});
+  }
+  EXPECT_EQ(failed.code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(failed.field().find(".max_memory_vertices"), std::string::npos) << failed.field();
+  EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), last_good));
+}
+
+TEST(InterfaceTest, NormalForceTargetIsReached) {
+  Interface interface = *Interface::Create(RoughInterface(500, 2));
+  for (const double target : {10.0, 0.5, 40.0, 40.0, 1e-3, 0.0, 7.0}) {
+    InterfaceStepReport report;
+    ASSERT_TRUE(interface.Apply({NormalControl::kForce, target}, &report).ok()) << target;
+    const InterfaceTotals totals = *interface.Totals();
+    EXPECT_LE(std::abs(totals.normal_force - target), kInterfaceForceTolerance * target) << target;
+    EXPECT_EQ(report.force_residual, std::abs(totals.normal_force - target));
+    EXPECT_LE(report.solver_iterations, 30);
+  }
+}
+
+TEST(InterfaceTest, TangentialForceTargetIsReached) {
+  Interface interface = *Interface::Create(RoughInterface(300, 4));
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 20.0}).ok());
+  const double limit = interface.Totals()->friction_limit;
+  ASSERT_GT(limit, 0);
+  // Loading, reversal, reloading, gross slip and back: a Mindlin-Deresiewicz path in force.
+  for (const double fraction : {0.3, 0.9, -0.5, 0.6, 1.0, -1.0, 0.2, 0.2}) {
+    const double target = fraction * limit;
+    InterfaceStepReport report;
+    ASSERT_TRUE(interface
+                    .Apply({NormalControl::kDepthIncrement, 0,
+                            TangentialControl::kForce, target},
+                           &report)
+                    .ok())
+        << fraction;
+    const InterfaceTotals totals = *interface.Totals();
+    EXPECT_LE(std::abs(totals.tangential_force - target), kInterfaceForceTolerance * limit)
+        << fraction;
+    if (std::abs(fraction) == 1) {
+      EXPECT_EQ(totals.gross_slip, totals.in_contact);
+    }
+  }
+  const InterfaceSnapshot before = interface.Snapshot();
+  const Status beyond =
+      interface.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 1.01 * limit});
+  EXPECT_EQ(beyond.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(beyond.field(), "tangential_force");
+  EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), before));
+}
+
+TEST(InterfaceTest, AllOutOfContact) {
+  Interface interface = *Interface::Create(RoughInterface(100, 5));
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepthIncrement, -1e-5,
+                               TangentialControl::kDisplacementIncrement, 1e-6})
+                  .ok());
+  InterfaceTotals totals = *interface.Totals();
+  EXPECT_EQ(totals.in_contact, 0u);
+  EXPECT_EQ(totals.normal_force, 0);
+  EXPECT_EQ(totals.tangential_force, 0);
+  EXPECT_EQ(totals.dissipated_energy, 0);
+  EXPECT_EQ(totals.normal_stiffness, 0);
+  EXPECT_TRUE(
+      interface.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 0}).ok());
+  EXPECT_EQ(
+      interface.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 1e-9}).field(),
+      "tangential_force");
+  std::vector<std::size_t> histogram = *interface.SlipHistogram(4);
+  EXPECT_EQ(histogram, std::vector<std::size_t>(4, 0));
+  // A zero normal force target from no contact holds the approach.
+  const double approach = interface.approach();
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 0}).ok());
+  EXPECT_EQ(interface.approach(), approach);
+}
+
+TEST(InterfaceTest, AllInGrossSlip) {
+  Interface interface = *Interface::Create(RoughInterface(200, 6));
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 30.0}).ok());
+  const InterfaceTotals loaded = *interface.Totals();
+  ASSERT_GT(loaded.in_contact, 10u);
+  ASSERT_EQ(loaded.sticking, loaded.in_contact);
+  // Far beyond every contact's slip distance: every contact slides, F_x = sum mu F_N.
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepthIncrement, 0,
+                               TangentialControl::kDisplacementIncrement, 1e-3})
+                  .ok());
+  const InterfaceTotals sliding = *interface.Totals();
+  EXPECT_EQ(sliding.gross_slip, sliding.in_contact);
+  EXPECT_EQ(sliding.tangential_stiffness.positive, 0);
+  EXPECT_NEAR(sliding.tangential_force, sliding.friction_limit, 1e-12 * sliding.friction_limit);
+  EXPECT_GT(sliding.dissipated_energy, 0);
+  const std::vector<std::size_t> histogram = *interface.SlipHistogram(10);
+  EXPECT_EQ(histogram.back(), sliding.in_contact);
+  // A small reversal: every contact sticks again, then slips partially.
+  ASSERT_TRUE(interface.Apply({NormalControl::kDepthIncrement, 0,
+                               TangentialControl::kDisplacementIncrement, -1e-9})
+                  .ok());
+  const InterfaceTotals reversed = *interface.Totals();
+  EXPECT_EQ(reversed.gross_slip, 0u);
+  EXPECT_EQ(reversed.partial_slip + reversed.sticking, reversed.in_contact);
+}
+
+TEST(InterfaceTest, OneAsperityMatchesTheClosedFormDepth) {
+  Population population = *ExplicitPopulation({1e-6}, {1e-2});
+  Interface interface = *Interface::Create(*HertzInterfaceConfig(population, Steel(), 0.3));
+  EXPECT_EQ(interface.approach(), -1e-6);
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 100.0}).ok());
+  const Contact& c = interface.contact(0);
+  EXPECT_NEAR(c.depth(), c.DepthAtNormalForce(100.0), 1e-13 * c.depth());
+  EXPECT_LE(std::abs(c.normal_force() - 100.0), kInterfaceForceTolerance * 100.0);
+}
+
+TEST(InterfaceTest, SnapshotRestoreContinuesBitIdentically) {
+  const InterfaceConfig config = RoughInterface(120, 8);
+  Interface a = *Interface::Create(config);
+  ASSERT_TRUE(a.Apply({NormalControl::kForce, 15.0}).ok());
+  ASSERT_TRUE(
+      a.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 3e-7})
+          .ok());
+  Interface b = *Interface::Restore(config, a.Snapshot());
+  ASSERT_TRUE(SameInterfaceState(a.Snapshot(), b.Snapshot()));
+  const double d0 = 1e-6;
+  RandomHistory history{std::mt19937_64(13), d0, 1e-6};
+  for (int k = 0; k < 50; ++k) {
+    const auto [depth, ux] = history.Next();
+    const Step step{NormalControl::kDepth, depth - 1e-6, TangentialControl::kDisplacement, ux};
+    ASSERT_TRUE(a.Apply(step).ok());
+    ASSERT_TRUE(b.Apply(step).ok());
+  }
+  EXPECT_TRUE(SameInterfaceState(a.Snapshot(), b.Snapshot()));
+
+  InterfaceSnapshot bad = a.Snapshot();
+  bad.contacts[3].tangential_displacement += 1e-9;
+  EXPECT_EQ(Interface::Restore(config, bad).status().field(),
+            "contacts[3].tangential_displacement");
+  bad = a.Snapshot();
+  bad.approach += 1e-9;
+  EXPECT_EQ(Interface::Restore(config, bad).status().field(), "contacts[0].depth");
+  bad = a.Snapshot();
+  bad.contacts.pop_back();
+  EXPECT_EQ(Interface::Restore(config, bad).status().field(), "contacts");
+  bad = a.Snapshot();
+  bad.contacts[7].dissipated_energy = -1;
+  EXPECT_EQ(Interface::Restore(config, bad).status().field(), "contacts[7].dissipated_energy");
+}
+
+TEST(InterfaceTest, BadInputsNameTheFieldAndChangeNothing) {
+  InterfaceConfig config = RoughInterface(50, 10);
+  Interface interface = *Interface::Create(config);
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 5.0}).ok());
+  const InterfaceSnapshot before = interface.Snapshot();
+  auto field = [&](const Step& step) {
+    const Status s = interface.Apply(step);
+    EXPECT_FALSE(s.ok());
+    EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), before)) << s.ToString();
+    return s.field();
+  };
+  EXPECT_EQ(field({NormalControl::kDepth, NAN}), "approach");
+  EXPECT_EQ(field({NormalControl::kDepthIncrement, INFINITY}), "approach_increment");
+  EXPECT_EQ(field({NormalControl::kDepth, 1e200}), "approach");
+  EXPECT_EQ(field({NormalControl::kForce, -1}), "normal_force");
+  EXPECT_EQ(field({NormalControl::kForce, 1e300}), "normal_force");
+  EXPECT_EQ(field({NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement, NAN}),
+            "displacement");
+  EXPECT_EQ(field({NormalControl::kForce, 6.0, TangentialControl::kDisplacementIncrement, 1e-8}),
+            "displacement_increment");
+  EXPECT_EQ(field({NormalControl::kDepthIncrement, 1e-8, TangentialControl::kForce, 0.1}),
+            "approach_increment");
+  ContactListStep list;
+  EXPECT_EQ(interface.ApplyEach(list).field(), "kind");
+
+  InterfaceConfig bad = config;
+  bad.heights.pop_back();
+  EXPECT_EQ(Interface::Create(bad).status().field(), "heights");
+  bad = config;
+  bad.heights[4] = NAN;
+  EXPECT_EQ(Interface::Create(bad).status().field(), "heights[4]");
+  bad = config;
+  bad.contacts[2].friction = -1;
+  EXPECT_EQ(Interface::Create(bad).status().field(), "contacts[2].friction");
+  bad = config;
+  bad.contacts.clear();
+  EXPECT_EQ(Interface::Create(bad).status().field(), "contacts");
+  bad = config;
+  bad.kind = InterfaceKind::kContactList;
+  EXPECT_EQ(Interface::Create(bad).status().field(), "heights");
+  EXPECT_EQ(interface.SlipHistogram(0).status().field(), "bins");
+  EXPECT_EQ(MakeThreadParallelFor(0).status().field(), "workers");
+  Population population = *ExplicitPopulation({0, 0}, {1e-4, 1e-4});
+  EXPECT_EQ(HertzInterfaceConfig(population, EffectiveMaterial{-1, 1}, 0.3)
+                .value()
+                .contacts[0]
+                .material.e_star,
+            -1);  // built as given, refused at Create:
+  EXPECT_EQ(Interface::Create(*HertzInterfaceConfig(population, EffectiveMaterial{-1, 1}, 0.3))
+                .status()
+                .field(),
+            "contacts[0].material.e_star");
+}
+
+TEST(InterfaceTest, ACancelledStepChangesNothing) {
+  Interface interface = *Interface::Create(RoughInterface(3 * Interface::kInterruptPeriod, 12));
+  interface.set_parallel(*MakeThreadParallelFor(2));
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 50.0}).ok());
+  const InterfaceSnapshot before = interface.Snapshot();
+  std::atomic<bool> cancelled{true};
+  const Interrupt interrupt(Interrupt::Clock::time_point::max(), &cancelled);
+  for (const Step& step :
+       {Step{NormalControl::kDepthIncrement, 1e-7}, Step{NormalControl::kForce, 60.0},
+        Step{NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 1.0}}) {
+    EXPECT_EQ(interface.Apply(step, nullptr, interrupt).code(), StatusCode::kCancelled);
+    EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), before));
+  }
+  EXPECT_EQ(interface.Totals(interrupt).status().code(), StatusCode::kCancelled);
+}
+
+TEST(InterfaceTest, MemoryPerContactIsReported) {
+  Interface interface = *Interface::Create(RoughInterface(1000, 14));
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 50.0}).ok());
+  const double per_contact = static_cast<double>(interface.MemoryBytes()) / interface.size();
+  // Two Contacts (state and step buffer) at least; a few polylines of a few vertices at most.
+  EXPECT_GE(per_contact, 2.0 * sizeof(Contact));
+  EXPECT_LE(per_contact, 2.0 * sizeof(Contact) + 1024);
+}
+
+// ---------------------------------------------------------------- contact list
+
+// with_grid: contact 2 uses the grid method, which sends every step through the step buffer.
+void CheckListAgainstSingleContacts(bool with_grid) {
+  const std::size_t n = 30;
+  InterfaceConfig config = RoughInterface(n, 15);
+  config.kind = InterfaceKind::kContactList;
+  config.heights.clear();
+  if (with_grid) {
+    config.contacts[2].method = Method::kGrid;
+    config.contacts[2].grid_size = 64;
+    config.contacts[2].grid_max_radius = 1e-4;
+  }
+  Interface list = *Interface::Create(config);
+  std::vector<Contact> singles;
+  for (const ContactConfig& c : config.contacts) singles.push_back(*Contact::Create(c));
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const double slip = singles[0].mu_kappa() * 1e-6;
+  std::vector<double> dn(n), dt(n);
+  for (int k = 0; k < 100; ++k) {
+    const bool force = k % 10 == 9;  // a force-controlled tangential step now and then
+    for (std::size_t i = 0; i < n; ++i) {
+      dn[i] = force ? 0 : (k == 0 ? 1e-6 : 2e-7 * u(rng));
+      dt[i] = force ? 0.5 * u(rng) * singles[i].friction_limit() : 0.5 * slip * u(rng);
+    }
+    ContactListStep step{
+        NormalControl::kDepthIncrement, dn,
+        force ? TangentialControl::kForce : TangentialControl::kDisplacementIncrement, dt};
+    ASSERT_TRUE(list.ApplyEach(step).ok()) << k;
+    for (std::size_t i = 0; i < n; ++i) {
+      ASSERT_TRUE(singles[i].Apply({step.normal, dn[i], step.tangential, dt[i]}).ok());
+      ASSERT_TRUE(SameSnapshot(list.contact(i).Snapshot(), singles[i].Snapshot())) << k << " " << i;
+    }
+  }
+}
+
+TEST(ContactListTest, EachContactIsBitIdenticalToASingleContact) {
+  CheckListAgainstSingleContacts(false);
+  CheckListAgainstSingleContacts(true);
+}
+
+TEST(ContactListTest, AFailingContactChangesNoContact) {
+  const std::size_t n = 10;
+  InterfaceConfig config = RoughInterface(n, 16);
+  config.kind = InterfaceKind::kContactList;
+  config.heights.clear();
+  Interface list = *Interface::Create(config);
+  std::vector<double> dn(n, 1e-6), dt(n, 0);
+  ASSERT_TRUE(list.ApplyEach({NormalControl::kDepthIncrement, dn,
+                              TangentialControl::kDisplacementIncrement, dt})
+                  .ok());
+  const InterfaceSnapshot before = list.Snapshot();
+  std::vector<double> fx(n, 0);
+  for (std::size_t i = 0; i < n; ++i) fx[i] = 0.5 * list.contact(i).friction_limit();
+  fx[6] = 2 * list.contact(6).friction_limit();
+  std::vector<double> zero(n, 0);
+  Status s = list.ApplyEach({NormalControl::kDepthIncrement, zero, TangentialControl::kForce, fx});
+  EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(s.field(), "contacts[6].tangential_force");
+  EXPECT_TRUE(SameInterfaceState(list.Snapshot(), before));
+
+  std::vector<double> bad = zero;
+  bad[3] = NAN;
+  EXPECT_EQ(list.ApplyEach({NormalControl::kDepthIncrement, bad,
+                            TangentialControl::kDisplacementIncrement, zero})
+                .field(),
+            "normal_values[3]");
+  EXPECT_EQ(list.ApplyEach({NormalControl::kDepthIncrement, zero,
+                            TangentialControl::kDisplacementIncrement, bad})
+                .field(),
+            "tangential_values[3]");
+  bad = zero;
+  bad[8] = 1e200;
+  EXPECT_EQ(
+      list.ApplyEach({NormalControl::kDepth, bad, TangentialControl::kDisplacementIncrement, zero})
+          .field(),
+      "normal_values[8]");
+  std::vector<double> short_values(n - 1, 0);
+  EXPECT_EQ(list.ApplyEach({NormalControl::kDepthIncrement, short_values,
+                            TangentialControl::kDisplacementIncrement, zero})
+                .field(),
+            "normal_values");
+  EXPECT_EQ(list.Apply({}).field(), "kind");
+  EXPECT_TRUE(SameInterfaceState(list.Snapshot(), before));
+}
+
+}  // namespace
+}  // namespace mdr
