@@ -1,7 +1,5 @@
 #include "mdr/core/memory.h"
 
-#include <gsl/gsl_integration.h>
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -16,36 +14,13 @@
 namespace mdr {
 namespace {
 
-// integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2.
-// Uses the profile's moments unless they cancel: the shifted moments lose a factor
-// za/(zb - za) (linear term) or its square (quadratic term) to round-off, so thin pieces (a slip
-// annulus just starting) are integrated by 16-point Gauss-Legendre in x with z - za from
-// Profile::Rise, exact to round-off there. (Differences of moments also lose a/(xb - xa); the
-// thresholds keep the total loss near 1e2..1e3 eps.)
+// integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2,
+// from the profile's piece integrals (exact to round-off also for thin pieces).
 double IntegrateQuadratic(const Profile& profile, double za, double zb, double c0, double c1,
                           double c2) {
-  const double xa = profile.RadiusAtDepth(za), xb = profile.RadiusAtDepth(zb);
-  if (!(xb > xa)) return 0;
-  const double thin = c2 != 0 ? 4 * (zb - za) : 1e3 * (zb - za);
-  if (za > thin) {
-    static const gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(16);
-    double sum = 0;
-    for (std::size_t i = 0; i < 16; ++i) {
-      double x = 0, w = 0;
-      gsl_integration_glfixed_point(xa, xb, i, &x, &w, table);
-      const double rise = profile.Rise(x, xa);
-      sum += w * (c0 + rise * (c1 + rise * c2));
-    }
-    return sum;
-  }
-  const double d0 = xb - xa;
-  const double d1 = profile.Moment(1, xb) - profile.Moment(1, xa);
-  double total = c0 * d0 + c1 * (d1 - za * d0);
-  if (c2 != 0) {
-    const double d2 = profile.Moment(2, xb) - profile.Moment(2, xa);
-    total += c2 * (d2 - 2 * za * d1 + za * za * d0);
-  }
-  return total;
+  const PieceIntegrals piece = profile.IntegratePiece(za, zb, profile.RadiusAtDepth(za),
+                                                      profile.RadiusAtDepth(zb), c2 != 0);
+  return c0 * piece.i0 + c1 * piece.i1 + c2 * piece.i2;
 }
 
 // A linear function of zeta = z - z_a.
@@ -160,11 +135,19 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
 
 double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
                                             const Profile* profile) {
+  InsertCrossings(mu_kappa);
+  const double dissipated = profile != nullptr && mu_kappa > 0
+                                ? SlidingDissipation(depth0, dux, mu_kappa, *profile)
+                                : 0.0;
+  ClampRefinedVertices(mu_kappa);
+  return dissipated;
+}
+
+void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
+  // The points where v crosses +bound or -bound (both linear in z) are tagged with their bound;
+  // the original vertices are classified by ClampRefinedVertices.
   const double depth1 = depth_;
   auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
-
-  // 1. Refine: insert the points where v crosses +bound or -bound (both linear in z).
-  // Crossings are tagged here with their bound; original vertices are classified in step 3.
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& tags = next_.tag;
@@ -200,54 +183,72 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
       was.push_back(kInside);
     }
   }
+}
 
-  // 2. Dissipation of springs that slid along the bound (physics: exact per spring, see
-  //    docs/engine.md): density 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2] per G*, with e the
-  //    amount clamped away and r = sigma dux - mu_kappa ddelta the sliding rate.
+double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, double mu_kappa,
+                                                 const Profile& profile) const {
+  // Springs that slid along the bound (physics: exact per spring, see docs/engine.md): density
+  // 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2] per G*, with e the amount clamped away and
+  // r = sigma dux - mu_kappa ddelta the sliding rate.
+  const auto& rz = next_.z;
+  const auto& rv = next_.u;
+  const auto& tags = next_.tag;
+  const double depth1 = depth_, ddelta = depth1 - depth0;
+  auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
+  // Radius of the vertex last asked for: neighbouring sliding segments share a vertex.
+  std::size_t known = rz.size();
+  double known_radius = 0;
+  auto radius = [&](std::size_t i) {
+    if (i != known) known = i, known_radius = profile.RadiusAtDepth(rz[i]);
+    return known_radius;
+  };
   double dissipated = 0;
-  if (profile != nullptr && mu_kappa > 0) {
-    const double ddelta = depth1 - depth0;
-    auto excess = [&](std::size_t i, int sigma) {
+  for (int sigma : {+1, -1}) {
+    auto excess = [&](std::size_t i) {
       return tags[i] != kInside ? 0.0 : sigma * rv[i] - bound(rz[i]);  // crossings: exactly 0
     };
-    auto rate_factor = [&](int sigma) {
-      const double r = sigma * dux - mu_kappa * ddelta;
-      return r > 0 ? mu_kappa * ddelta / (2 * r) : 0.0;
-    };
-    for (int sigma : {+1, -1}) {
-      const double k = rate_factor(sigma);
-      const double atom = profile->RadiusAtDepth(0);
-      if (atom > 0 && excess(0, sigma) > 0) {
-        dissipated +=
-            2 * atom * (excess(0, sigma) * bound(0) - k * excess(0, sigma) * excess(0, sigma));
+    const double r = sigma * dux - mu_kappa * ddelta;
+    const double k = r > 0 ? mu_kappa * ddelta / (2 * r) : 0.0;
+    double e_next = excess(0);
+    if (e_next > 0 && radius(0) > 0) {  // the z = 0 atom of a flat punch
+      dissipated += 2 * radius(0) * (e_next * bound(0) - k * e_next * e_next);
+    }
+    for (std::size_t i = 0; i + 1 < rz.size(); ++i) {
+      // Sign changes of the excess were split at crossings, unless round-off put the crossing
+      // on a vertex: then the segment slides if the crossing is at its non-positive end (the end
+      // nearer zero), and sticks otherwise.
+      double ea = e_next, eb = excess(i + 1);
+      e_next = eb;
+      if (ea <= 0 && eb <= 0) continue;
+      if (ea < 0 || eb < 0) {
+        if (std::min(ea, eb) + std::max(ea, eb) <= 0) continue;
+        ea = std::max(ea, 0.0);
+        eb = std::max(eb, 0.0);
       }
-      for (std::size_t i = 0; i + 1 < rz.size(); ++i) {
-        // Sign changes of the excess were split at crossings above, unless round-off put the
-        // crossing on a vertex: then the segment slides if the crossing is at its
-        // non-positive end (the end nearer zero), and sticks otherwise.
-        double ea = excess(i, sigma), eb = excess(i + 1, sigma);
-        if (ea <= 0 && eb <= 0) continue;
-        if (ea < 0 || eb < 0) {
-          if (std::min(ea, eb) + std::max(ea, eb) <= 0) continue;
-          ea = std::max(ea, 0.0);
-          eb = std::max(eb, 0.0);
-        }
-        const double width = rz[i + 1] - rz[i];
-        const Quadratic q =
-            ProductMinusSquare({ea, (eb - ea) / width}, {bound(rz[i]), -mu_kappa}, k);
-        dissipated += 2 * IntegrateQuadratic(*profile, rz[i], rz[i + 1], q.c0, q.c1, q.c2);
-      }
+      const double width = rz[i + 1] - rz[i];
+      const Quadratic q = ProductMinusSquare({ea, (eb - ea) / width}, {bound(rz[i]), -mu_kappa}, k);
+      const PieceIntegrals piece =
+          profile.IntegratePiece(rz[i], rz[i + 1], radius(i), radius(i + 1), q.c2 != 0);
+      dissipated += 2 * (q.c0 * piece.i0 + q.c1 * piece.i1 + q.c2 * piece.i2);
     }
   }
+  return dissipated;
+}
 
-  // 3. Clamp and tag the original vertices. A vertex that was on a bound and is still on it to
-  // rounding stays there: a crossing sits up to a few ulps inside its bound (PlaceCrossing), and
-  // a step that does not move it off (dux = 0, a depth held) must not turn its slip zone into a
-  // stick zone (tangential stiffness, slip intervals).
+void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa) {
+  // A vertex that was on a bound and is still on it to rounding stays there: a crossing sits up
+  // to a few ulps inside its bound (PlaceCrossing), and a step that does not move it off
+  // (dux = 0, a depth held) must not turn its slip zone into a stick zone (tangential stiffness,
+  // slip intervals).
+  const double depth1 = depth_;
+  auto& rz = next_.z;
+  auto& rv = next_.u;
+  auto& tags = next_.tag;
+  const auto& was = next_.was;
   const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
   for (std::size_t i = 0; i < rz.size(); ++i) {
     if (tags[i] != kInside) continue;  // a crossing, already on its bound
-    const double b = bound(rz[i]);
+    const double b = CoulombBound(mu_kappa, depth1, rz[i]);
     if (b <= 0) {
       rv[i] = 0;
       tags[i] = kOnBoth;
@@ -262,7 +263,6 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
   std::swap(z_, next_.z);
   std::swap(u_, next_.u);
   std::swap(tag_, next_.tag);
-  return dissipated;
 }
 
 void PiecewiseLinearMemory::MergeRedundantVertices() {
@@ -363,10 +363,14 @@ double PiecewiseLinearMemory::UAtDepth(double z) const {
 
 double PiecewiseLinearMemory::IntegralU(const Profile& profile) const {
   if (z_.empty()) return 0;
-  double total = u_[0] * profile.RadiusAtDepth(0);  // flat punch: springs at z = 0
+  double xa = profile.RadiusAtDepth(0);
+  double total = u_[0] * xa;  // flat punch: springs at z = 0
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
+    const double xb = profile.RadiusAtDepth(z_[i + 1]);
+    const PieceIntegrals piece = profile.IntegratePiece(z_[i], z_[i + 1], xa, xb, false);
     const double slope = (u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i]);
-    total += IntegrateQuadratic(profile, z_[i], z_[i + 1], u_[i], slope, 0);
+    total += u_[i] * piece.i0 + slope * piece.i1;
+    xa = xb;
   }
   return total;
 }
@@ -376,7 +380,11 @@ double PiecewiseLinearMemory::MeasureOnBound(const Profile& profile, BoundTag bo
   double measure = (tag_[0] & bound) ? profile.RadiusAtDepth(0) : 0;
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
     if (tag_[i] & tag_[i + 1] & bound) {
-      measure += profile.RadiusAtDepth(z_[i + 1]) - profile.RadiusAtDepth(z_[i]);
+      // I_0 is x(zb) - x(za) without the cancellation of the difference on a thin annulus.
+      measure += profile
+                     .IntegratePiece(z_[i], z_[i + 1], profile.RadiusAtDepth(z_[i]),
+                                     profile.RadiusAtDepth(z_[i + 1]), false)
+                     .i0;
     }
   }
   return measure;

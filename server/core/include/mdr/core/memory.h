@@ -90,7 +90,15 @@ class PiecewiseLinearMemory {
   void ShiftAndResize(double depth0, double depth1, double dux);
   // Clamps v into the bounds +-mu_kappa*(depth1 - z), inserting the crossing vertices; returns
   // the energy dissipated by springs that stay in or enter contact (per G*) if profile != null.
+  // Three phases on the refined polyline in next_:
   double ClampToBounds(double depth0, double dux, double mu_kappa, const Profile* profile);
+  // 1. v with a vertex inserted wherever it crosses a bound line (tagged with that bound);
+  void InsertCrossings(double mu_kappa);
+  // 2. the energy (per G*) that the clamp of phase 3 dissipates, spring by spring, exactly;
+  double SlidingDissipation(double depth0, double dux, double mu_kappa,
+                            const Profile& profile) const;
+  // 3. every vertex clamped to the bounds and tagged; the refined polyline becomes the state.
+  void ClampRefinedVertices(double mu_kappa);
   void MergeRedundantVertices();
   // Energy dissipated (per G*) by springs in (max(depth1, 0), depth0] that leave contact.
   double LeavingDissipation(double depth1, double dux, double mu_kappa,

@@ -10,6 +10,13 @@
 
 namespace mdr {
 
+// The integrals of the profile over one memory piece, I_m = integral over x in [x(za), x(zb)] of
+// (g(x) - za)^m dx for m = 0, 1, 2: the forces and the dissipation of a piece are linear in them
+// (a piece's u and its dissipation density are polynomials in z - za of degree <= 2).
+struct PieceIntegrals {
+  double i0 = 0, i1 = 0, i2 = 0;
+};
+
 class Profile {
  public:
   virtual ~Profile() = default;
@@ -26,6 +33,13 @@ class Profile {
   virtual double Rise(double x, double x_ref) const { return G(x) - G(x_ref); }
   // Moments M_j(x) = integral_0^x g(t)^j dt for j = 0, 1, 2 (forces and dissipation).
   virtual double Moment(int j, double x) const = 0;
+  // I_0, I_1 and (if with_square, else 0) I_2 of the piece za <= zb, given its radii
+  // xa = RadiusAtDepth(za) and xb = RadiusAtDepth(zb) (callers have them per vertex), accurate
+  // to round-off also for a thin piece (zb - za << za: a slip annulus that has just started),
+  // where differences of moments cancel. Zero when xb <= xa. The default combines Moment and,
+  // for thin pieces, Gauss-Legendre with Rise; closed forms override it.
+  virtual PieceIntegrals IntegratePiece(double za, double zb, double xa, double xb,
+                                        bool with_square) const;
   // Pressure of the frictionless normal contact at depth z, per unit E*:
   // p/E* = (1/pi) integral_r^a g'(x)/sqrt(x^2-r^2) dx with a = RadiusAtDepth(z) (a jump of g
   // counts as a delta function in g'); 0 for r >= a. Taking depth, not radius, keeps the flat
