@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
+
+#include "monotone_solve.h"
 
 namespace mdr {
 namespace {
@@ -21,6 +24,12 @@ double UnclampedEnd(const LinearStep& step, GridStepRule rule, double z, double 
   if (z < step.depth0) return u + step.dux;  // in contact throughout
   if (rule == GridStepRule::kNaive) return step.dux;
   return step.dux * ((step.depth1 - z) / step.ddelta());  // (1 - s_e) dux, entering at s_e
+}
+
+// d UnclampedEnd / d dux.
+double UnclampedEndSlope(const LinearStep& step, GridStepRule rule, double z) {
+  if (z < step.depth0 || rule == GridStepRule::kNaive) return 1;
+  return (step.depth1 - z) / step.ddelta();
 }
 
 // Energy per G* and unit radius of a spring that stays or enters and ends clamped from v to
@@ -80,16 +89,29 @@ double GridMemory::Step(double depth1, double dux, double mu_kappa, bool track_e
   return dissipated * spacing_;
 }
 
-double GridMemory::IntegralUAfterStep(double depth1, double dux, double mu_kappa) const {
-  const LinearStep step{depth_, depth1, dux, mu_kappa};
-  double sum = 0;
-  for (Eigen::Index j = 0; j < z_.size(); ++j) {
-    const double z = z_[j];
-    if (!(z < depth1)) continue;
-    const double b1 = step.BoundAtEnd(z);
-    sum += std::clamp(UnclampedEnd(step, rule_, z, u_[j]), -b1, b1);
-  }
-  return sum * spacing_;
+double GridMemory::IncrementForIntegralU(double depth1, double mu_kappa, double target) const {
+  const LinearStep step{depth_, depth1, 0, mu_kappa};
+  // IntegralU after the step with increment dux, and its slope in dux.
+  auto integral = [&](double dux) {
+    LinearStep moved = step;
+    moved.dux = dux;
+    internal::ValueAndSlope sum{0, 0};
+    for (Eigen::Index j = 0; j < z_.size(); ++j) {
+      const double z = z_[j];
+      if (!(z < depth1)) continue;
+      const double b1 = moved.BoundAtEnd(z);
+      const double v = UnclampedEnd(moved, rule_, z, u_[j]);
+      sum.value += std::clamp(v, -b1, b1);
+      if (std::abs(v) < b1) sum.slope += UnclampedEndSlope(moved, rule_, z);
+    }
+    return internal::ValueAndSlope{sum.value * spacing_, sum.slope * spacing_};
+  };
+  const double lo = GrossSlipIncrement(depth1, mu_kappa, -1);
+  const double hi = GrossSlipIncrement(depth1, mu_kappa, +1);
+  // No breakpoints: one per spring would cost a sort of the grid, and Newton steps land exactly
+  // on the root of each linear piece.
+  std::vector<double> breakpoints;
+  return internal::SolveNondecreasing(integral, breakpoints, lo, hi, target);
 }
 
 double GridMemory::MeasureInContact() const {

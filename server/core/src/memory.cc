@@ -10,9 +10,12 @@
 #include <utility>
 
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
+
+using internal::Interpolate;
 
 // integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2,
 // from the profile's piece integrals (exact to round-off also for thin pieces).
@@ -36,10 +39,6 @@ Quadratic ProductMinusSquare(Linear p, Linear q, double k) {
   return {p.at_a * q.at_a - k * p.at_a * p.at_a,
           p.slope * q.at_a + p.at_a * q.slope - 2 * k * p.at_a * p.slope,
           p.slope * q.slope - k * p.slope * p.slope};
-}
-
-double Interpolate(double za, double ua, double zb, double ub, double z) {
-  return ua + (ub - ua) * ((z - za) / (zb - za));
 }
 
 // Ulps a crossing vertex may move toward the inside before it is put on the bound line instead.
@@ -152,11 +151,17 @@ void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
   auto& rv = next_.u;
   auto& tags = next_.tag;
   auto& was = next_.was;
+  const std::size_t n = z_.size();
   rz.clear();
   rv.clear();
   tags.clear();
   was.clear();
-  const std::size_t n = z_.size();
+  // At most two crossings per segment: one allocation per buffer at most (a copied memory starts
+  // with empty ones), none once they have grown.
+  rz.reserve(3 * n);
+  rv.reserve(3 * n);
+  tags.reserve(3 * n);
+  was.reserve(3 * n);
   for (std::size_t i = 0; i < n; ++i) {
     rz.push_back(z_[i]);
     rv.push_back(u_[i]);
