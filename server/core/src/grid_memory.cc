@@ -6,17 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "dissipation.h"
 #include "monotone_solve.h"
 
 namespace mdr {
 namespace {
 
-// One step linear in (delta, ux): depth0 -> depth1, ux -> ux + dux.
-struct LinearStep {
-  double depth0, depth1, dux, mu_kappa;
-  double ddelta() const { return depth1 - depth0; }
-  double BoundAtEnd(double z) const { return CoulombBound(mu_kappa, depth1, z); }
-};
+using internal::LinearStep;
 
 // Unclamped end value of a spring at z with start value u that is in contact at the end
 // (z < depth1), by the given rule (see GridStepRule).
@@ -33,27 +29,19 @@ double UnclampedEndSlope(const LinearStep& step, GridStepRule rule, double z) {
 }
 
 // Energy per G* and unit radius of a spring that stays or enters and ends clamped from v to
-// the bound b1: 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2], e = |v| - b1, r the sliding rate
-// (memory.cc, ClampToBounds).
+// the bound b1.
 double ClampedSpringDissipation(const LinearStep& step, double v, double b1) {
-  const double sigma = v > 0 ? 1.0 : -1.0;
-  const double excess = sigma * v - b1;
-  const double rate = sigma * step.dux - step.mu_kappa * step.ddelta();
-  const double k = rate > 0 ? step.mu_kappa * step.ddelta() / (2 * rate) : 0.0;
-  return 2 * (excess * b1 - k * excess * excess);
+  const int sigma = v > 0 ? +1 : -1;
+  return internal::ClampedSpringDissipation(step, sigma, sigma * v - b1, b1);
 }
 
 // Energy per G* and unit radius of a spring at z with start value u0 that leaves contact
-// during an unloading step: r b*^2 / (-mu_kappa ddelta) (memory.cc, LeavingDissipation).
+// during an unloading step, on the side of its value when it leaves.
 double LeavingSpringDissipation(const LinearStep& step, double z, double u0) {
-  const double ddelta = step.ddelta(), m = step.mu_kappa;
-  const double at_leaving = u0 + (step.depth0 - z) / -ddelta * step.dux;
+  const double at_leaving = u0 + (step.depth0 - z) / -step.ddelta() * step.dux;
   if (at_leaving == 0) return 0;
-  const double sigma = at_leaving > 0 ? 1.0 : -1.0;
-  const double rate = sigma * step.dux - m * ddelta;
-  const double b0 = m * (step.depth0 - z);
-  const double b_star = std::clamp(b0 + m * ddelta * (b0 - sigma * u0) / rate, 0.0, b0);
-  return rate * b_star * b_star / (-m * ddelta);
+  const int sigma = at_leaving > 0 ? +1 : -1;
+  return internal::LeavingSpringDissipation(step, sigma, step.SlideOnsetBound(z, u0, sigma));
 }
 
 }  // namespace

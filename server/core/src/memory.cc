@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include "dissipation.h"
 #include "mdr/core/validate.h"
 #include "numerics.h"
 
@@ -17,28 +18,17 @@ namespace {
 
 using internal::Interpolate;
 
-// integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2,
-// from the profile's piece integrals (exact to round-off also for thin pieces).
-double IntegrateQuadratic(const Profile& profile, double za, double zb, double c0, double c1,
-                          double c2) {
-  const PieceIntegrals piece = profile.IntegratePiece(za, zb, profile.RadiusAtDepth(za),
-                                                      profile.RadiusAtDepth(zb), c2 != 0);
-  return c0 * piece.i0 + c1 * piece.i1 + c2 * piece.i2;
-}
+using internal::Linear;
+using internal::LinearStep;
+using internal::Quadratic;
 
-// A linear function of zeta = z - z_a.
-struct Linear {
-  double at_a, slope;
-};
-
-// Coefficients (c0, c1, c2) of p*q - k*p^2 for linear p, q.
-struct Quadratic {
-  double c0, c1, c2;
-};
-Quadratic ProductMinusSquare(Linear p, Linear q, double k) {
-  return {p.at_a * q.at_a - k * p.at_a * p.at_a,
-          p.slope * q.at_a + p.at_a * q.slope - 2 * k * p.at_a * p.slope,
-          p.slope * q.slope - k * p.slope * p.slope};
+// integral over the piece [x(za), x(zb)] with radii xa, xb of q, a quadratic in the normalised
+// depth t = (g(x) - za) / (zb - za), from the profile's piece integrals (exact to round-off also
+// for thin pieces).
+double IntegrateQuadratic(const Profile& profile, double za, double zb, double xa, double xb,
+                          const Quadratic& q) {
+  const PieceIntegrals piece = profile.IntegratePiece(za, zb, xa, xb, q.c2 != 0);
+  return q.c0 * piece.j0 + q.c1 * piece.j1 + q.c2 * piece.j2;
 }
 
 // Ulps a crossing vertex may move toward the inside before it is put on the bound line instead.
@@ -192,14 +182,13 @@ void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
 
 double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, double mu_kappa,
                                                  const Profile& profile) const {
-  // Springs that slid along the bound (physics: exact per spring, see docs/engine.md): density
-  // 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2] per G*, with e the amount clamped away and
-  // r = sigma dux - mu_kappa ddelta the sliding rate.
+  // Springs that slid along the bound (exact per spring, dissipation.h): e, the amount the clamp
+  // removes, and the bound b1 are linear in z, so in t = (z - za)/(zb - za), on each refined
+  // segment.
   const auto& rz = next_.z;
   const auto& rv = next_.u;
   const auto& tags = next_.tag;
-  const double depth1 = depth_, ddelta = depth1 - depth0;
-  auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
+  const LinearStep step{depth0, depth_, dux, mu_kappa};
   // Radius of the vertex last asked for: neighbouring sliding segments share a vertex.
   std::size_t known = rz.size();
   double known_radius = 0;
@@ -209,14 +198,13 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   };
   double dissipated = 0;
   for (int sigma : {+1, -1}) {
-    auto excess = [&](std::size_t i) {
-      return tags[i] != kInside ? 0.0 : sigma * rv[i] - bound(rz[i]);  // crossings: exactly 0
+    auto excess = [&](std::size_t i) {  // crossings: exactly 0
+      return tags[i] != kInside ? 0.0 : sigma * rv[i] - step.BoundAtEnd(rz[i]);
     };
-    const double r = sigma * dux - mu_kappa * ddelta;
-    const double k = r > 0 ? mu_kappa * ddelta / (2 * r) : 0.0;
     double e_next = excess(0);
     if (e_next > 0 && radius(0) > 0) {  // the z = 0 atom of a flat punch
-      dissipated += 2 * radius(0) * (e_next * bound(0) - k * e_next * e_next);
+      dissipated +=
+          radius(0) * internal::ClampedSpringDissipation(step, sigma, e_next, step.BoundAtEnd(0));
     }
     for (std::size_t i = 0; i + 1 < rz.size(); ++i) {
       // Sign changes of the excess were split at crossings, unless round-off put the crossing
@@ -230,11 +218,10 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
         ea = std::max(ea, 0.0);
         eb = std::max(eb, 0.0);
       }
-      const double width = rz[i + 1] - rz[i];
-      const Quadratic q = ProductMinusSquare({ea, (eb - ea) / width}, {bound(rz[i]), -mu_kappa}, k);
-      const PieceIntegrals piece =
-          profile.IntegratePiece(rz[i], rz[i + 1], radius(i), radius(i + 1), q.c2 != 0);
-      dissipated += 2 * (q.c0 * piece.i0 + q.c1 * piece.i1 + q.c2 * piece.i2);
+      const Linear e{ea, eb - ea};
+      const Linear b1{step.BoundAtEnd(rz[i]), -mu_kappa * (rz[i + 1] - rz[i])};
+      dissipated += IntegrateQuadratic(profile, rz[i], rz[i + 1], radius(i), radius(i + 1),
+                                       internal::ClampedSpringDissipation(step, sigma, e, b1));
     }
   }
   return dissipated;
@@ -301,29 +288,22 @@ void PiecewiseLinearMemory::MergeRedundantVertices() {
 
 double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, double mu_kappa,
                                                  const Profile& profile) const {
-  // A spring at z leaves at s_l = (depth0 - z)/(depth0 - depth1). It slides on the bound sigma
-  // = sign(u0 + s_l dux) from s* on; per G* it dissipates r b*^2 / (-mu_kappa ddelta), with
-  // r = sigma dux - mu_kappa ddelta and b* = b0 + mu_kappa ddelta s* the bound when it starts to
-  // slide, s* = (b0 - sigma u0)/r. b* is linear in z between sign changes of u0 + s_l dux.
+  // A spring at z leaves at s_l = (depth0 - z)/(depth0 - depth1), on the side sigma =
+  // sign(u0 + s_l dux), and dissipates from the onset bound b* on (dissipation.h); b* is linear
+  // in z (and in t) between sign changes of u0 + s_l dux.
   if (!(mu_kappa > 0)) return 0;
+  const LinearStep step{depth_, depth1, dux, mu_kappa};
   const double depth0 = depth_;
-  const double ddelta = depth1 - depth0;
-  auto leave_value = [&](double z, double u0) { return u0 + (depth0 - z) / -ddelta * dux; };
-  auto slide_bound = [&](double z, double u0, int sigma) {
-    const double b0 = mu_kappa * (depth0 - z);
-    const double r = sigma * dux - mu_kappa * ddelta;
-    return std::clamp(b0 + mu_kappa * ddelta * (b0 - sigma * u0) / r, 0.0, b0);
-  };
+  auto leave_value = [&](double z, double u0) { return u0 + (depth0 - z) / -step.ddelta() * dux; };
   auto add_piece = [&](double za, double ua, double zb, double ub) {
     const double wa = leave_value(za, ua), wb = leave_value(zb, ub);
-    const int sigma = (wa + wb) > 0 ? +1 : -1;
     if (wa == 0 && wb == 0) return 0.0;
-    const double r = sigma * dux - mu_kappa * ddelta;
-    if (!(r > 0)) return 0.0;  // moves no faster than the bound shrinks: a sign from round-off
-    const double ba = slide_bound(za, ua, sigma), bb = slide_bound(zb, ub, sigma);
-    const double k = r / (-mu_kappa * ddelta);
-    const double slope = (bb - ba) / (zb - za);
-    return IntegrateQuadratic(profile, za, zb, k * ba * ba, 2 * k * ba * slope, k * slope * slope);
+    const int sigma = (wa + wb) > 0 ? +1 : -1;
+    if (!(step.SlidingRate(sigma) > 0)) return 0.0;  // the bound is never reached
+    const double ba = step.SlideOnsetBound(za, ua, sigma), bb = step.SlideOnsetBound(zb, ub, sigma);
+    const Linear b_star{ba, bb - ba};
+    return IntegrateQuadratic(profile, za, zb, profile.RadiusAtDepth(za), profile.RadiusAtDepth(zb),
+                              internal::LeavingSpringDissipation(step, sigma, b_star));
   };
 
   double dissipated = 0;
@@ -332,10 +312,9 @@ double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, doub
   if (depth1 <= 0 && atom > 0) {
     const double w = leave_value(0, u_[0]);
     const int sigma = w > 0 ? +1 : -1;
-    const double r = sigma * dux - mu_kappa * ddelta;
-    if (w != 0 && r > 0) {
-      const double b = slide_bound(0, u_[0], sigma);
-      dissipated += atom * r * b * b / (-mu_kappa * ddelta);
+    if (w != 0 && step.SlidingRate(sigma) > 0) {
+      dissipated += atom * internal::LeavingSpringDissipation(
+                               step, sigma, step.SlideOnsetBound(0, u_[0], sigma));
     }
   }
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
@@ -373,8 +352,7 @@ double PiecewiseLinearMemory::IntegralU(const Profile& profile) const {
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
     const double xb = profile.RadiusAtDepth(z_[i + 1]);
     const PieceIntegrals piece = profile.IntegratePiece(z_[i], z_[i + 1], xa, xb, false);
-    const double slope = (u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i]);
-    total += u_[i] * piece.i0 + slope * piece.i1;
+    total += u_[i] * piece.j0 + (u_[i + 1] - u_[i]) * piece.j1;
     xa = xb;
   }
   return total;
@@ -384,13 +362,13 @@ double PiecewiseLinearMemory::MeasureOnBound(const Profile& profile, BoundTag bo
   if (z_.empty()) return 0;
   double measure = (tag_[0] & bound) ? profile.RadiusAtDepth(0) : 0;
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
-    if (tag_[i] & tag_[i + 1] & bound) {
-      // I_0 is x(zb) - x(za) without the cancellation of the difference on a thin annulus.
-      measure += profile
-                     .IntegratePiece(z_[i], z_[i + 1], profile.RadiusAtDepth(z_[i]),
-                                     profile.RadiusAtDepth(z_[i + 1]), false)
-                     .i0;
-    }
+    if (!(tag_[i] & tag_[i + 1] & bound)) continue;
+    // The difference xb - xa loses xb/(xb - xa) to cancellation on a thin annulus, where J_0 is
+    // used instead; elsewhere it is exact to an ulp, so a contact that slips everywhere has
+    // measure a exactly (zero stiffness).
+    const double xa = profile.RadiusAtDepth(z_[i]), xb = profile.RadiusAtDepth(z_[i + 1]);
+    measure +=
+        xa <= 0.5 * xb ? xb - xa : profile.IntegratePiece(z_[i], z_[i + 1], xa, xb, false).j0;
   }
   return measure;
 }

@@ -18,9 +18,9 @@ using internal::ValueAndSlope;
 // A vertex of the polyline before the step, with what the integral after the step needs of it.
 struct StepVertex {
   double z, u, x;
+  double bound;          // b1 = CoulombBound(mu_kappa, depth1, z)
   double up, lo;         // the dux at which it reaches the upper / lower bound: +-b1 - u
-  double slope;          // du/dz of the segment to the next vertex
-  PieceIntegrals piece;  // I_0, I_1 of that segment
+  PieceIntegrals piece;  // J_0, J_1 of the segment to the next vertex
 };
 
 // integral_0^a1 u dx after a linear step from depth0 to depth1 with increment dux, as a function
@@ -29,7 +29,8 @@ struct StepVertex {
 // and the entering springs end at clamp(dux, -L, L) (depth1 - z) / ddelta, L = mu_kappa ddelta.
 // On a segment of the polyline, b1 - u - dux and -b1 - u - dux are linear in z, so each segment
 // splits into at most three pieces (upper bound, stick, lower bound) where the end value is
-// linear in z and integrates exactly with Profile::IntegratePiece.
+// linear in z, hence in the piece's t = (z - z_begin) / (z_end - z_begin), and integrates
+// exactly with Profile::IntegratePiece.
 class IntegralAfterStep {
  public:
   IntegralAfterStep(const PiecewiseLinearMemory& memory, double depth1, double mu_kappa,
@@ -89,11 +90,10 @@ class IntegralAfterStep {
 
   void AddVertex(double z, double u) {
     const double bound = Bound(z);
-    vertices_.push_back({z, u, profile_.RadiusAtDepth(z), bound - u, -bound - u, 0, {}});
+    vertices_.push_back({z, u, profile_.RadiusAtDepth(z), bound, bound - u, -bound - u, {}});
     if (vertices_.size() < 2) return;
     Vertex& a = vertices_[vertices_.size() - 2];
     const Vertex& b = vertices_.back();
-    a.slope = (b.u - a.u) / (b.z - a.z);
     a.piece = profile_.IntegratePiece(a.z, b.z, a.x, b.x, false);
   }
 
@@ -103,23 +103,23 @@ class IntegralAfterStep {
     const double ddelta = depth1_ - depth0, z_enter = std::max(depth0, 0.0);
     const PieceIntegrals piece = profile_.IntegratePiece(
         z_enter, depth1_, profile_.RadiusAtDepth(z_enter), profile_.RadiusAtDepth(depth1_), false);
-    double weight = (depth1_ - z_enter) * piece.i0 - piece.i1;    // integral (depth1 - z) dx
+    double weight = (depth1_ - z_enter) * (piece.j0 - piece.j1);     // integral (depth1 - z) dx
     if (depth0 <= 0) weight += profile_.RadiusAtDepth(0) * depth1_;  // a flat punch's atom
     entering_limit_ = mu_kappa_ * ddelta;
     entering_weight_ = weight / ddelta;
   }
 
-  // integral over the piece of +-b1 (on a bound) or of u + dux (sticking; adds I_0 to the slope).
+  // integral over the piece of +-b1 (on a bound) or of u + dux (sticking; adds J_0 to the slope).
   void AddSegment(std::size_t i, double dux, ValueAndSlope& total) const {
     const Vertex& a = vertices_[i];
     const Vertex& b = vertices_[i + 1];
     const bool a_sticks = a.lo < dux && dux < a.up, b_sticks = b.lo < dux && dux < b.up;
     if (a_sticks && b_sticks) {
-      AddPiece(a, a.z, dux, a.piece, +0, total);
+      AddPiece(a, b, 0, 1, dux, a.piece, +0, total);
       return;
     }
     if ((dux >= a.up && dux >= b.up) || (dux <= a.lo && dux <= b.lo)) {
-      AddPiece(a, a.z, dux, a.piece, dux >= a.up ? +1 : -1, total);
+      AddPiece(a, b, 0, 1, dux, a.piece, dux >= a.up ? +1 : -1, total);
       return;
     }
     // Split where the segment reaches a bound: up(t) = dux or lo(t) = dux, t in (0, 1).
@@ -137,23 +137,25 @@ class IntegralAfterStep {
       const double t_mid = 0.5 * (t_begin + t[k]);
       const double up = a.up + t_mid * (b.up - a.up), lo = a.lo + t_mid * (b.lo - a.lo);
       const int bound = dux >= up ? +1 : (dux <= lo ? -1 : 0);
-      AddPiece(a, z_begin, dux, profile_.IntegratePiece(z_begin, z_end, x_begin, x_end, false),
-               bound, total);
+      AddPiece(a, b, t_begin, t[k], dux,
+               profile_.IntegratePiece(z_begin, z_end, x_begin, x_end, false), bound, total);
       t_begin = t[k], z_begin = z_end, x_begin = x_end;
     }
   }
 
-  // The piece from z_begin of the segment that starts at a: on the bound `bound` (+-1), or
-  // sticking (0).
-  void AddPiece(const Vertex& a, double z_begin, double dux, const PieceIntegrals& piece,
-                int bound, ValueAndSlope& total) const {
+  // The piece [t_begin, t_end] of the segment a-b: on the bound `bound` (+-1), or sticking (0).
+  // Its end value is linear in the piece's own t, from its value at the begin to that at the end.
+  void AddPiece(const Vertex& a, const Vertex& b, double t_begin, double t_end, double dux,
+                const PieceIntegrals& piece, int bound, ValueAndSlope& total) const {
+    auto at = [&](double ua, double ub, double t) { return t == 1 ? ub : ua + t * (ub - ua); };
     if (bound != 0) {
-      total.value += bound * mu_kappa_ * ((depth1_ - z_begin) * piece.i0 - piece.i1);
+      const double begin = at(a.bound, b.bound, t_begin), end = at(a.bound, b.bound, t_end);
+      total.value += bound * (begin * piece.j0 + (end - begin) * piece.j1);
       return;
     }
-    const double u_begin = a.u + a.slope * (z_begin - a.z);
-    total.value += (u_begin + dux) * piece.i0 + a.slope * piece.i1;
-    total.slope += piece.i0;
+    const double begin = at(a.u, b.u, t_begin), end = at(a.u, b.u, t_end);
+    total.value += (begin + dux) * piece.j0 + (end - begin) * piece.j1;
+    total.slope += piece.j0;
   }
 
   double depth1_, mu_kappa_;

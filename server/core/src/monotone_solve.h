@@ -56,8 +56,9 @@ double SolveNondecreasing(const Function& f, std::vector<double>& breakpoints, d
     const double newton = s - residual / at.slope, step = std::abs(newton - s);
     const bool inside = newton >= lo && newton <= hi;  // may land on an end that is the root
     const bool converging = inside && 2 * std::abs(residual) <= last_residual;
-    if (inside && (step <= tolerance || (converging && step < 0.5 * last_step &&
-                                         step * step * step <= tolerance * last_step * last_step))) {
+    if (inside &&
+        (step <= tolerance || (converging && step < 0.5 * last_step &&
+                               step * step * step <= tolerance * last_step * last_step))) {
       return newton;
     }
     last_residual = std::abs(residual);

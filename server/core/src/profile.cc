@@ -94,7 +94,8 @@ class PowerLawProfile final : public Profile {
 // g = k x^2 (sphere, power law n = 2): x = sqrt(z/k), no pow anywhere.
 class ParabolicProfile final : public Profile {
  public:
-  ParabolicProfile(double scale, std::string name) : k_(scale), name_(std::move(name)) {}
+  ParabolicProfile(double scale, std::string name)
+      : k_(scale), inverse_k_(1 / scale), name_(std::move(name)) {}
 
   double G(double x) const override { return k_ * (x * x); }
   double Slope(double x) const override { return 2 * k_ * x; }
@@ -109,13 +110,11 @@ class ParabolicProfile final : public Profile {
   PieceIntegrals IntegratePiece(double za, double zb, double xa, double xb,
                                 bool with_square) const override {
     if (!(zb > za)) return {};
-    // With d = xb - xa = (zb - za) / (k (xa + xb)) (no cancellation) and t = x - xa:
-    // g - za = k (2 xa t + t^2), so every term below is positive.
-    const double d = (zb - za) / (k_ * (xa + xb));
-    PieceIntegrals result{d, k_ * (d * d) * (xa + d / 3), 0};
-    if (with_square) {
-      result.i2 = k_ * k_ * (d * d * d) * (4.0 / 3 * xa * xa + xa * d + d * d / 5);
-    }
+    // With s = 1 / (xa + xb), d = xb - xa = (zb - za) s / k (no cancellation) and y = x - xa:
+    // t = k (2 xa y + y^2) / (zb - za) = s (2 xa y + y^2) / d, so every term below is positive.
+    const double s = 1 / (xa + xb), d = (zb - za) * s * inverse_k_;
+    PieceIntegrals result{d, d * s * (xa + d / 3), 0};
+    if (with_square) result.j2 = d * (s * s) * (4.0 / 3 * xa * xa + xa * d + d * d / 5);
     return result;
   }
   double PressurePerModulus(double r, double depth) const override {
@@ -132,7 +131,7 @@ class ParabolicProfile final : public Profile {
   std::string Describe() const override { return name_; }
 
  private:
-  double k_;
+  double k_, inverse_k_;
   std::string name_;
 };
 
@@ -154,9 +153,9 @@ class ConicalProfile final : public Profile {
   PieceIntegrals IntegratePiece(double za, double zb, double, double,
                                 bool with_square) const override {
     if (!(zb > za)) return {};
-    // g - za = k t with t = x - xa: I_m = (zb - za)^(m+1) / ((m + 1) k).
-    const double w = zb - za, i0 = w / k_;
-    return {i0, i0 * w / 2, with_square ? i0 * (w * w) / 3 : 0.0};
+    // t is linear in x: J_m = (xb - xa) / (m + 1), xb - xa = (zb - za) / k.
+    const double j0 = (zb - za) / k_;
+    return {j0, j0 / 2, with_square ? j0 / 3 : 0.0};
   }
   double PressurePerModulus(double r, double depth) const override {
     const double a = RadiusAtDepth(depth);
@@ -220,12 +219,12 @@ double Profile::NormalForcePerModulus(double depth) const {
 }
 
 PieceIntegrals Profile::IntegratePiece(double za, double zb, double xa, double xb,
-                                      bool with_square) const {
-  if (!(xb > xa)) return {};
-  // The shifted moments lose a factor za/(zb - za) (I_1) or its square (I_2) to round-off, so
-  // thin pieces are integrated by 16-point Gauss-Legendre in x with g - za from Rise, exact to
-  // round-off there. (Differences of moments also lose a/(xb - xa); the thresholds keep the
-  // total loss near 1e2..1e3 eps.)
+                                       bool with_square) const {
+  if (!(xb > xa) || !(zb > za)) return {};
+  // The shifted moments I_m = integral (g - za)^m dx = (zb - za)^m J_m lose a factor
+  // za/(zb - za) (I_1) or its square (I_2) to round-off, so thin pieces are integrated by 16-point
+  // Gauss-Legendre in x with g - za from Rise, exact to round-off there. (Differences of moments
+  // also lose a/(xb - xa); the thresholds keep the total loss near 1e2..1e3 eps.)
   const double width = zb - za;
   if (za > (with_square ? 4 : 1e3) * width) {
     static const gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(16);
@@ -233,20 +232,20 @@ PieceIntegrals Profile::IntegratePiece(double za, double zb, double xa, double x
     for (std::size_t i = 0; i < 16; ++i) {
       double x = 0, w = 0;
       gsl_integration_glfixed_point(xa, xb, i, &x, &w, table);
-      const double rise = Rise(x, xa);
-      sum.i0 += w;
-      sum.i1 += w * rise;
-      sum.i2 += w * rise * rise;
+      const double t = Rise(x, xa) / width;
+      sum.j0 += w;
+      sum.j1 += w * t;
+      sum.j2 += w * t * t;
     }
-    if (!with_square) sum.i2 = 0;
+    if (!with_square) sum.j2 = 0;
     return sum;
   }
   const double d0 = xb - xa;
   const double d1 = Moment(1, xb) - Moment(1, xa);
-  PieceIntegrals result{d0, d1 - za * d0, 0};
+  PieceIntegrals result{d0, (d1 - za * d0) / width, 0};
   if (with_square) {
     const double d2 = Moment(2, xb) - Moment(2, xa);
-    result.i2 = d2 - 2 * za * d1 + za * za * d0;
+    result.j2 = (d2 - 2 * za * d1 + za * za * d0) / (width * width);
   }
   return result;
 }
