@@ -6,15 +6,16 @@
 #include <string>
 
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
 
-constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+using internal::kEps;
 // Slack of the Coulomb checks and bound tags, in units of mu_kappa * depth: the engine places
 // bound crossings with round-off ~eps * depth in z (memory.cc), so its own vertices may sit that
 // far outside a bound or off it.
-constexpr double kBoundSlack = 8 * kEpsilon;
+constexpr double kBoundSlack = 8 * kEps;
 
 // Jäger's weight of a memory segment, F = -(du/dz)/(mu kappa) (physics.md), from the spring
 // displacements at its inner and outer ends and its extent in depth.
@@ -55,7 +56,7 @@ bool OnOneLine(const std::vector<double>& z, const std::vector<double>& u, std::
   const double line =
       u[first] + (u[last] - u[first]) * ((z[middle] - z[first]) / (z[last] - z[first]));
   const double scale = std::max({std::abs(u[first]), std::abs(u[middle]), std::abs(u[last])});
-  return std::abs(u[middle] - line) <= 4 * kEpsilon * scale;
+  return std::abs(u[middle] - line) <= 4 * kEps * scale;
 }
 
 // The memory's maximal runs of segments of one weight, from the centre out. Each run's weight is
@@ -155,7 +156,7 @@ Status ValidateTerms(const std::vector<CattaneoMindlinTerm>& terms, double depth
 
 // Tag of a vertex against the bounds +-mu_kappa (depth - z), with the engine's round-off slack.
 BoundTag TagVertex(double z, double u, double depth, double mu_kappa) {
-  const double bound = mu_kappa * (depth - z);
+  const double bound = CoulombBound(mu_kappa, depth, z);
   const double slack = kBoundSlack * mu_kappa * depth;
   if (bound <= 0) return kOnBoth;
   if (std::abs(u - bound) <= slack) return kOnUpper;
@@ -168,7 +169,7 @@ Status CheckCoulomb(const std::vector<double>& z, const std::vector<double>& u, 
                     double mu_kappa) {
   const double slack = kBoundSlack * mu_kappa * depth;
   for (std::size_t i = 0; i < z.size(); ++i) {
-    if (std::abs(u[i]) > mu_kappa * (depth - z[i]) + slack) {
+    if (std::abs(u[i]) > CoulombBound(mu_kappa, depth, z[i]) + slack) {
       return InvalidArgument("terms", "the superposition exceeds the Coulomb bound at z = " +
                                           std::to_string(z[i]) + " (|sum of weights| > 1 there)");
     }

@@ -387,7 +387,7 @@ double PiecewiseLinearMemory::GrossSlipIncrement(double depth1, double mu_kappa,
       z = depth1;
       u = UAtDepth(depth1);
     }
-    needed = std::max(needed, mu_kappa * (depth1 - z) - sigma * u);
+    needed = std::max(needed, CoulombBound(mu_kappa, depth1, z) - sigma * u);
     if (z == depth1) break;
   }
   return needed == kNone ? 0.0 : sigma * needed;

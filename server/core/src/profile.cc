@@ -10,12 +10,13 @@
 
 #include "gsl_errors.h"
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kPi = std::numbers::pi;
+using internal::kInf;
+using internal::kPi;
 
 // f = C r^n maps to g = k x^n (physics.md, "Power law").
 double PowerLawScale(double coefficient, double exponent) {
@@ -227,11 +228,11 @@ PieceIntegrals Profile::IntegratePiece(double za, double zb, double xa, double x
   // also lose a/(xb - xa); the thresholds keep the total loss near 1e2..1e3 eps.)
   const double width = zb - za;
   if (za > (with_square ? 4 : 1e3) * width) {
-    static const gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(16);
+    static const internal::GaussLegendreRule rule(16);
+    const double centre = 0.5 * (xa + xb), half = 0.5 * (xb - xa);
     PieceIntegrals sum;
-    for (std::size_t i = 0; i < 16; ++i) {
-      double x = 0, w = 0;
-      gsl_integration_glfixed_point(xa, xb, i, &x, &w, table);
+    for (std::size_t i = 0; i < rule.size; ++i) {
+      const double x = centre + half * rule.nodes[i], w = half * rule.weights[i];
       const double t = Rise(x, xa) / width;
       sum.j0 += w;
       sum.j1 += w * t;
