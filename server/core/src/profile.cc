@@ -100,7 +100,8 @@ class ParabolicProfile final : public Profile {
 
   double G(double x) const override { return k_ * (x * x); }
   double Slope(double x) const override { return 2 * k_ * x; }
-  double RadiusAtDepth(double z) const override { return z > 0 ? std::sqrt(z / k_) : 0; }
+  // z * (1/k): a product instead of a division per vertex and query; x within 1.25 ulp.
+  double RadiusAtDepth(double z) const override { return z > 0 ? std::sqrt(z * inverse_k_) : 0; }
   double Rise(double x, double x_ref) const override { return k_ * ((x - x_ref) * (x + x_ref)); }
   double Moment(int j, double x) const override {
     // integral_0^x (k t^2)^j dt = x g(x)^j / (2 j + 1).
