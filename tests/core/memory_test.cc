@@ -140,6 +140,38 @@ TEST(MemoryTest, DissipationEqualsWorkMinusStoredEnergy) {
   }
 }
 
+TEST(MemoryTest, IncrementForIntegralUGivesTheTargetAfterTheStep) {
+  // The closed-form solve against the step itself, from states of random histories, to depths
+  // that cut the memory, hold it or add entering springs, for targets across the whole range.
+  for (const ProfilePtr& profile : Profiles()) {
+    Contact c = MakeContact(profile, *RigidOnHalfSpace(1e9, 0.3), 0.4);
+    const double d0 = 1e-6, m = c.mu_kappa();
+    RandomSteps steps{.d0 = d0, .slip = m * d0};
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> uniform(0, 1);
+    for (int i = 0; i < 300; ++i) {
+      auto [depth, ux] = steps.Next();
+      ASSERT_TRUE(c.MoveTo(depth, ux).ok());
+      const PiecewiseLinearMemory& memory = c.memory();
+      const double depth1 =
+          i % 3 == 0 ? memory.depth() : d0 * (i % 3 == 1 ? 0.3 + uniform(rng) : 0.05);
+      auto integral_after = [&](double dux) {
+        PiecewiseLinearMemory stepped = memory;
+        stepped.Step(depth1, dux, m, nullptr);
+        return stepped.IntegralU(*profile);
+      };
+      const double lo = integral_after(memory.GrossSlipIncrement(depth1, m, -1));
+      const double hi = integral_after(memory.GrossSlipIncrement(depth1, m, +1));
+      for (double q : {1e-9, 0.1, 0.5 + 0.4 * uniform(rng), 1 - 1e-9}) {
+        const double target = lo + q * (hi - lo);
+        const double dux = memory.IncrementForIntegralU(depth1, m, *profile, target);
+        ASSERT_LE(std::abs(integral_after(dux) - target), 1e-12 * std::max(-lo, hi))
+            << profile->Describe() << " step " << i << " q " << q;
+      }
+    }
+  }
+}
+
 TEST(MemoryTest, StickRegionsMoveRigidlyAndSlipRegionsMerge) {
   PiecewiseLinearMemory m;
   const double k = 2.0;  // mu kappa

@@ -1,14 +1,9 @@
 #include "mdr/core/contact.h"
 
-#include <gsl/gsl_errno.h>
-#include <gsl/gsl_roots.h>
-
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <sstream>
 
-#include "gsl_errors.h"
 #include "mdr/core/validate.h"
 
 namespace mdr {
@@ -16,28 +11,6 @@ namespace {
 
 // Largest grid the config accepts (32 MiB of spring state).
 constexpr std::size_t kMaxGridSize = std::size_t{1} << 22;
-
-// Curved force paths: bisection depth cap (at most 2^13 intervals, 3 exact sub-steps each), so
-// a pathological request ends; a depth cap rather than a sub-step budget keeps the resolution
-// uniform along the path when it is reached.
-constexpr int kMaxBisections = 13;
-
-// Largest |u_a(z) - u_b(z)| over the vertices of both memories (both are polylines).
-double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory& b) {
-  double diff = 0;
-  for (double z : a.z()) diff = std::max(diff, std::abs(a.UAtDepth(z) - b.UAtDepth(z)));
-  for (double z : b.z()) diff = std::max(diff, std::abs(a.UAtDepth(z) - b.UAtDepth(z)));
-  return diff;
-}
-
-}  // namespace
-
-double Contact::MemoryDifference(const Contact& a, const Contact& b) {
-  if (const GridMemory* grid = a.grid_memory()) return grid->MaxDifference(*b.grid_memory());
-  return MaxDifference(a.memory(), b.memory());
-}
-
-namespace {
 
 const char* NormalField(NormalControl c) {
   switch (c) {
@@ -263,67 +236,6 @@ double Contact::LinearStep(double depth1, double ux1, double dux) {
   return dissipated;
 }
 
-double Contact::TangentialForceAfterStep(double depth1, double dux) const {
-  double integral = 0;
-  if (const GridMemory* grid = grid_memory()) {
-    integral = grid->IntegralUAfterStep(depth1, dux, mu_kappa());
-  } else {
-    PiecewiseLinearMemory memory = this->memory();
-    memory.Step(depth1, dux, mu_kappa(), nullptr);
-    integral = memory.IntegralU(*config_.profile);
-  }
-  return 2 * config_.material.g_star * integral;
-}
-
-Result<double> Contact::SolveTangentialIncrement(double depth1, double fx) const {
-  const double limit = config_.friction * NormalForceAtDepth(depth1);
-  if (!(std::abs(fx) <= limit * (1 + 1e-12))) {
-    return FailedPrecondition("tangential_force",
-                              "|F_x| = " + FormatNumber(std::abs(fx)) +
-                                  " N exceeds the friction limit mu F_N = " + FormatNumber(limit) +
-                                  " N at the step's end (no tangential force without contact)");
-  }
-  if (limit == 0) return 0.0;  // F_x = 0 holds for any ux: keep it
-  // The unknown is the increment, not ux itself: after long sliding |ux| can exceed the memory's
-  // scale mu kappa delta by many orders, and a root in ux would carry eps |ux| of noise.
-  const double m = mu_kappa();
-  const GridMemory* grid = grid_memory();
-  const double lo =
-      grid ? grid->GrossSlipIncrement(depth1, m, -1) : memory().GrossSlipIncrement(depth1, m, -1);
-  const double hi =
-      grid ? grid->GrossSlipIncrement(depth1, m, +1) : memory().GrossSlipIncrement(depth1, m, +1);
-  if (fx >= limit) return hi;  // onset of gross slip
-  if (fx <= -limit) return lo;
-
-  struct Trial {
-    const Contact* contact;
-    double depth1, fx;
-  } trial{this, depth1, fx};
-  gsl_function f;
-  f.params = &trial;
-  f.function = [](double dux, void* p) {
-    const auto* t = static_cast<const Trial*>(p);
-    return t->contact->TangentialForceAfterStep(t->depth1, dux) - t->fx;
-  };
-  const double f_lo = f.function(lo, f.params), f_hi = f.function(hi, f.params);
-  if (f_lo >= 0) return lo;
-  if (f_hi <= 0) return hi;
-
-  internal::ReturnGslErrorCodes();
-  gsl_root_fsolver* solver = gsl_root_fsolver_alloc(gsl_root_fsolver_brent);
-  gsl_root_fsolver_set(solver, &f, lo, hi);
-  const double tolerance = 1e-15 * std::max({std::abs(lo), std::abs(hi), hi - lo});
-  double root = 0.5 * (lo + hi);
-  for (int iteration = 0; iteration < 200; ++iteration) {
-    if (gsl_root_fsolver_iterate(solver) != GSL_SUCCESS) break;
-    root = gsl_root_fsolver_root(solver);
-    const double x_lo = gsl_root_fsolver_x_lower(solver), x_hi = gsl_root_fsolver_x_upper(solver);
-    if (x_hi - x_lo <= tolerance) break;
-  }
-  gsl_root_fsolver_free(solver);
-  return root;
-}
-
 Status Contact::MoveTo(double depth, double tangential_displacement, StepReport* report) {
   if (Status s = RequireFinite("depth", depth); !s.ok()) return s;
   if (Status s = RequireFinite("displacement", tangential_displacement); !s.ok()) return s;
@@ -367,7 +279,6 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
   }
   if (Status s = CheckGridReach(depth1); !s.ok()) return s;
 
-  Contact trial = *this;
   StepReport local;
   const bool tangential_force = step.tangential == TangentialControl::kForce;
   const bool depth_changes = depth1 != depth();
@@ -386,92 +297,38 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
       if (!solved.ok()) return solved.status();
       dux = *solved;
     }
-    local = {1, 0, trial.LinearStep(depth1, tangential_force ? ux_ + dux : ux1, dux)};
-  } else if (Status s = trial.ApplyCurvedPath(step, depth1, &local, interrupt); !s.ok()) {
-    return s;
+    // One exact step in place, undone if its result fails the checks.
+    undo_.memory = memory_;
+    const double ux0 = ux_, dissipated0 = dissipated_;
+    local = {1, 0, LinearStep(depth1, tangential_force ? ux_ + dux : ux1, dux)};
+    if (Status s = CheckStepResult(tangential_field); !s.ok()) {
+      std::swap(memory_, undo_.memory);
+      ux_ = ux0;
+      dissipated_ = dissipated0;
+      return s;
+    }
+  } else {
+    Contact trial = *this;
+    if (Status s = trial.ApplyCurvedPath(step, depth1, &local, interrupt); !s.ok()) return s;
+    if (Status s = trial.CheckStepResult(tangential_field); !s.ok()) return s;
+    *this = std::move(trial);
   }
-  if (!std::isfinite(trial.dissipated_energy())) {
-    return InvalidArgument(tangential_field,
-                           "the energy dissipated by this step overflows a double");
-  }
-  if (trial.memory().vertex_count() > config_.max_memory_vertices) {
-    return ResourceExhausted("max_memory_vertices",
-                             "the step needs " + std::to_string(trial.memory().vertex_count()) +
-                                 " memory vertices, above the session limit of " +
-                                 std::to_string(config_.max_memory_vertices));
-  }
-  trial.last_dissipated_ = local.dissipated;
-  *this = std::move(trial);
+  last_dissipated_ = local.dissipated;
   if (report) *report = local;
   return OkStatus();
 }
 
-Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
-                                const Interrupt& interrupt) {
-  const double depth0 = depth(), ux0 = ux_;
-  const double fn0 = normal_force(), fx0 = tangential_force();
-  const double ux_target = step.tangential == TangentialControl::kDisplacement
-                               ? step.tangential_value
-                               : ux0 + step.tangential_value;
-  auto depth_at = [&](double s) {
-    if (s == 1) return depth_target;
-    if (step.normal == NormalControl::kForce) {
-      return DepthAtNormalForce(fn0 + s * (step.normal_value - fn0));
-    }
-    return depth0 + s * (depth_target - depth0);
-  };
-  // One exact linear sub-step of `contact` to the path point at s.
-  auto advance = [&](Contact& contact, double s, double* dissipated) -> Status {
-    const double d = depth_at(s);
-    double ux = ux0 + s * (ux_target - ux0);
-    double dux = ux - contact.ux_;
-    if (step.tangential == TangentialControl::kForce) {
-      Result<double> solved =
-          contact.SolveTangentialIncrement(d, fx0 + s * (step.tangential_value - fx0));
-      if (!solved.ok()) return solved.status();
-      dux = *solved;
-      ux = contact.ux_ + dux;
-    }
-    *dissipated += contact.LinearStep(d, ux, dux);
-    return OkStatus();
-  };
-  const double scale = std::max(mu_kappa() * std::max(depth0, depth_target), 1e-300);
-
-  // Adaptive bisection: accept [s0, s1] when one sub-step and two half sub-steps agree to the
-  // tolerance. A chord's error sits in the springs that enter or slide during that interval and
-  // is not accumulated afterwards (sticking springs move rigidly with exact sub-step ends, the
-  // clamp is non-expansive), so the estimate of the whole step is the largest local one; it
-  // converges at second order in the sub-step length.
-  StepReport total;
-  // Up to 2^kMaxBisections intervals: the interrupt is checked at each.
-  auto refine = [&](auto&& self, double s0, double s1, int level) -> Status {
-    if (Status s = interrupt.Check(); !s.ok()) return s;
-    Contact one = *this, two = *this;
-    double d_one = 0, d_two = 0;
-    const double mid = 0.5 * (s0 + s1);
-    if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
-    if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
-    if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
-    const double error = MemoryDifference(one, two) / scale;
-    if (error <= config_.force_path_tolerance || level >= kMaxBisections) {
-      *this = std::move(two);
-      total.substeps += 2;
-      total.path_error = std::max(total.path_error, error);
-      total.dissipated += d_two;
-      return OkStatus();
-    }
-    if (Status s = self(self, s0, mid, level + 1); !s.ok()) return s;
-    return self(self, mid, s1, level + 1);
-  };
-  if (Status s = refine(refine, 0.0, 1.0, 0); !s.ok()) return s;
-  // The largest local difference bounds the chords' error by itself: the accepted two half
-  // sub-steps err by about a third of it (second order; measured 0.25..0.35 of it against a
-  // much finer reference, which contact_test.cc checks). Each exact sub-step adds its own rounding,
-  // a few eps of mu kappa delta per spring (u += dux, the clamp), which the difference of two runs
-  // does not show.
-  constexpr double kSubstepRounding = 4 * std::numeric_limits<double>::epsilon();
-  total.path_error += total.substeps * kSubstepRounding;
-  *report = total;
+Status Contact::CheckStepResult(const char* tangential_field) const {
+  if (!std::isfinite(dissipated_energy())) {
+    return InvalidArgument(tangential_field,
+                           "the energy dissipated by this step overflows a double");
+  }
+  if (memory().vertex_count() > config_.max_memory_vertices) {
+    return ResourceExhausted("max_memory_vertices",
+                             "the step needs " + std::to_string(memory().vertex_count()) +
+                                 " memory vertices, above the session limit of " +
+                                 std::to_string(config_.max_memory_vertices));
+  }
   return OkStatus();
 }
 

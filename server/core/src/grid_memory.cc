@@ -4,16 +4,15 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
+
+#include "dissipation.h"
+#include "monotone_solve.h"
 
 namespace mdr {
 namespace {
 
-// One step linear in (delta, ux): depth0 -> depth1, ux -> ux + dux.
-struct LinearStep {
-  double depth0, depth1, dux, mu_kappa;
-  double ddelta() const { return depth1 - depth0; }
-  double BoundAtEnd(double z) const { return CoulombBound(mu_kappa, depth1, z); }
-};
+using internal::LinearStep;
 
 // Unclamped end value of a spring at z with start value u that is in contact at the end
 // (z < depth1), by the given rule (see GridStepRule).
@@ -23,28 +22,26 @@ double UnclampedEnd(const LinearStep& step, GridStepRule rule, double z, double 
   return step.dux * ((step.depth1 - z) / step.ddelta());  // (1 - s_e) dux, entering at s_e
 }
 
+// d UnclampedEnd / d dux.
+double UnclampedEndSlope(const LinearStep& step, GridStepRule rule, double z) {
+  if (z < step.depth0 || rule == GridStepRule::kNaive) return 1;
+  return (step.depth1 - z) / step.ddelta();
+}
+
 // Energy per G* and unit radius of a spring that stays or enters and ends clamped from v to
-// the bound b1: 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2], e = |v| - b1, r the sliding rate
-// (memory.cc, ClampToBounds).
+// the bound b1.
 double ClampedSpringDissipation(const LinearStep& step, double v, double b1) {
-  const double sigma = v > 0 ? 1.0 : -1.0;
-  const double excess = sigma * v - b1;
-  const double rate = sigma * step.dux - step.mu_kappa * step.ddelta();
-  const double k = rate > 0 ? step.mu_kappa * step.ddelta() / (2 * rate) : 0.0;
-  return 2 * (excess * b1 - k * excess * excess);
+  const int sigma = v > 0 ? +1 : -1;
+  return internal::ClampedSpringDissipation(step, sigma, sigma * v - b1, b1);
 }
 
 // Energy per G* and unit radius of a spring at z with start value u0 that leaves contact
-// during an unloading step: r b*^2 / (-mu_kappa ddelta) (memory.cc, LeavingDissipation).
+// during an unloading step, on the side of its value when it leaves.
 double LeavingSpringDissipation(const LinearStep& step, double z, double u0) {
-  const double ddelta = step.ddelta(), m = step.mu_kappa;
-  const double at_leaving = u0 + (step.depth0 - z) / -ddelta * step.dux;
+  const double at_leaving = u0 + (step.depth0 - z) / -step.ddelta() * step.dux;
   if (at_leaving == 0) return 0;
-  const double sigma = at_leaving > 0 ? 1.0 : -1.0;
-  const double rate = sigma * step.dux - m * ddelta;
-  const double b0 = m * (step.depth0 - z);
-  const double b_star = std::clamp(b0 + m * ddelta * (b0 - sigma * u0) / rate, 0.0, b0);
-  return rate * b_star * b_star / (-m * ddelta);
+  const int sigma = at_leaving > 0 ? +1 : -1;
+  return internal::LeavingSpringDissipation(step, sigma, step.SlideOnsetBound(z, u0, sigma));
 }
 
 }  // namespace
@@ -80,16 +77,29 @@ double GridMemory::Step(double depth1, double dux, double mu_kappa, bool track_e
   return dissipated * spacing_;
 }
 
-double GridMemory::IntegralUAfterStep(double depth1, double dux, double mu_kappa) const {
-  const LinearStep step{depth_, depth1, dux, mu_kappa};
-  double sum = 0;
-  for (Eigen::Index j = 0; j < z_.size(); ++j) {
-    const double z = z_[j];
-    if (!(z < depth1)) continue;
-    const double b1 = step.BoundAtEnd(z);
-    sum += std::clamp(UnclampedEnd(step, rule_, z, u_[j]), -b1, b1);
-  }
-  return sum * spacing_;
+double GridMemory::IncrementForIntegralU(double depth1, double mu_kappa, double target) const {
+  const LinearStep step{depth_, depth1, 0, mu_kappa};
+  // IntegralU after the step with increment dux, and its slope in dux.
+  auto integral = [&](double dux) {
+    LinearStep moved = step;
+    moved.dux = dux;
+    internal::ValueAndSlope sum{0, 0};
+    for (Eigen::Index j = 0; j < z_.size(); ++j) {
+      const double z = z_[j];
+      if (!(z < depth1)) continue;
+      const double b1 = moved.BoundAtEnd(z);
+      const double v = UnclampedEnd(moved, rule_, z, u_[j]);
+      sum.value += std::clamp(v, -b1, b1);
+      if (std::abs(v) < b1) sum.slope += UnclampedEndSlope(moved, rule_, z);
+    }
+    return internal::ValueAndSlope{sum.value * spacing_, sum.slope * spacing_};
+  };
+  const double lo = GrossSlipIncrement(depth1, mu_kappa, -1);
+  const double hi = GrossSlipIncrement(depth1, mu_kappa, +1);
+  // No breakpoints: one per spring would cost a sort of the grid, and Newton steps land exactly
+  // on the root of each linear piece.
+  std::vector<double> breakpoints;
+  return internal::SolveNondecreasing(integral, breakpoints, lo, hi, target);
 }
 
 double GridMemory::MeasureInContact() const {

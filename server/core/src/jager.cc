@@ -7,6 +7,7 @@
 
 #include "jager_terms.h"
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
@@ -16,11 +17,11 @@ using internal::CheckMuKappa;
 using internal::Indexed;
 using internal::SegmentWeight;
 
-constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+using internal::kEps;
 // Slack of the Coulomb checks and bound tags, in units of mu_kappa * depth: the engine places
 // bound crossings with round-off ~eps * depth in z (memory.cc), so its own vertices may sit that
 // far outside a bound or off it.
-constexpr double kBoundSlack = 8 * kEpsilon;
+constexpr double kBoundSlack = 8 * kEps;
 
 // A run of memory segments of one weight, in depth.
 struct DepthRun {
@@ -36,7 +37,7 @@ bool OnOneLine(const std::vector<double>& z, const std::vector<double>& u, std::
   const double line =
       u[first] + (u[last] - u[first]) * ((z[middle] - z[first]) / (z[last] - z[first]));
   const double scale = std::max({std::abs(u[first]), std::abs(u[middle]), std::abs(u[last])});
-  return std::abs(u[middle] - line) <= 4 * kEpsilon * scale;
+  return std::abs(u[middle] - line) <= 4 * kEps * scale;
 }
 
 // The memory's maximal runs of segments of one weight, from the centre out. Each run's weight is

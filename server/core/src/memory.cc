@@ -1,7 +1,5 @@
 #include "mdr/core/memory.h"
 
-#include <gsl/gsl_integration.h>
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -11,60 +9,26 @@
 #include <string>
 #include <utility>
 
+#include "dissipation.h"
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
 
-// integral over x in [x(za), x(zb)] of q(g(x)) with q(z) = c0 + c1 (z - za) + c2 (z - za)^2.
-// Uses the profile's moments unless they cancel: the shifted moments lose a factor
-// za/(zb - za) (linear term) or its square (quadratic term) to round-off, so thin pieces (a slip
-// annulus just starting) are integrated by 16-point Gauss-Legendre in x with z - za from
-// Profile::Rise, exact to round-off there. (Differences of moments also lose a/(xb - xa); the
-// thresholds keep the total loss near 1e2..1e3 eps.)
-double IntegrateQuadratic(const Profile& profile, double za, double zb, double c0, double c1,
-                          double c2) {
-  const double xa = profile.RadiusAtDepth(za), xb = profile.RadiusAtDepth(zb);
-  if (!(xb > xa)) return 0;
-  const double thin = c2 != 0 ? 4 * (zb - za) : 1e3 * (zb - za);
-  if (za > thin) {
-    static const gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(16);
-    double sum = 0;
-    for (std::size_t i = 0; i < 16; ++i) {
-      double x = 0, w = 0;
-      gsl_integration_glfixed_point(xa, xb, i, &x, &w, table);
-      const double rise = profile.Rise(x, xa);
-      sum += w * (c0 + rise * (c1 + rise * c2));
-    }
-    return sum;
-  }
-  const double d0 = xb - xa;
-  const double d1 = profile.Moment(1, xb) - profile.Moment(1, xa);
-  double total = c0 * d0 + c1 * (d1 - za * d0);
-  if (c2 != 0) {
-    const double d2 = profile.Moment(2, xb) - profile.Moment(2, xa);
-    total += c2 * (d2 - 2 * za * d1 + za * za * d0);
-  }
-  return total;
-}
+using internal::Interpolate;
 
-// A linear function of zeta = z - z_a.
-struct Linear {
-  double at_a, slope;
-};
+using internal::Linear;
+using internal::LinearStep;
+using internal::Quadratic;
 
-// Coefficients (c0, c1, c2) of p*q - k*p^2 for linear p, q.
-struct Quadratic {
-  double c0, c1, c2;
-};
-Quadratic ProductMinusSquare(Linear p, Linear q, double k) {
-  return {p.at_a * q.at_a - k * p.at_a * p.at_a,
-          p.slope * q.at_a + p.at_a * q.slope - 2 * k * p.at_a * p.slope,
-          p.slope * q.slope - k * p.slope * p.slope};
-}
-
-double Interpolate(double za, double ua, double zb, double ub, double z) {
-  return ua + (ub - ua) * ((z - za) / (zb - za));
+// integral over the piece [x(za), x(zb)] with radii xa, xb of q, a quadratic in the normalised
+// depth t = (g(x) - za) / (zb - za), from the profile's piece integrals (exact to round-off also
+// for thin pieces).
+double IntegrateQuadratic(const Profile& profile, double za, double zb, double xa, double xb,
+                          const Quadratic& q) {
+  const PieceIntegrals piece = profile.IntegratePiece(za, zb, xa, xb, q.c2 != 0);
+  return q.c0 * piece.j0 + q.c1 * piece.j1 + q.c2 * piece.j2;
 }
 
 // Ulps a crossing vertex may move toward the inside before it is put on the bound line instead.
@@ -160,20 +124,34 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
 
 double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
                                             const Profile* profile) {
+  InsertCrossings(mu_kappa);
+  const double dissipated = profile != nullptr && mu_kappa > 0
+                                ? SlidingDissipation(depth0, dux, mu_kappa, *profile)
+                                : 0.0;
+  ClampRefinedVertices(mu_kappa);
+  return dissipated;
+}
+
+void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
+  // The points where v crosses +bound or -bound (both linear in z) are tagged with their bound;
+  // the original vertices are classified by ClampRefinedVertices.
   const double depth1 = depth_;
   auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
-
-  // 1. Refine: insert the points where v crosses +bound or -bound (both linear in z).
-  // Crossings are tagged here with their bound; original vertices are classified in step 3.
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& tags = next_.tag;
   auto& was = next_.was;
+  const std::size_t n = z_.size();
   rz.clear();
   rv.clear();
   tags.clear();
   was.clear();
-  const std::size_t n = z_.size();
+  // At most two crossings per segment: one allocation per buffer at most (a copied memory starts
+  // with empty ones), none once they have grown.
+  rz.reserve(3 * n);
+  rv.reserve(3 * n);
+  tags.reserve(3 * n);
+  was.reserve(3 * n);
   for (std::size_t i = 0; i < n; ++i) {
     rz.push_back(z_[i]);
     rv.push_back(u_[i]);
@@ -200,54 +178,69 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
       was.push_back(kInside);
     }
   }
+}
 
-  // 2. Dissipation of springs that slid along the bound (physics: exact per spring, see
-  //    docs/engine.md): density 2 [e b1 - (mu_kappa ddelta / (2 r)) e^2] per G*, with e the
-  //    amount clamped away and r = sigma dux - mu_kappa ddelta the sliding rate.
+double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, double mu_kappa,
+                                                 const Profile& profile) const {
+  // Springs that slid along the bound (exact per spring, dissipation.h): e, the amount the clamp
+  // removes, and the bound b1 are linear in z, so in t = (z - za)/(zb - za), on each refined
+  // segment.
+  const auto& rz = next_.z;
+  const auto& rv = next_.u;
+  const auto& tags = next_.tag;
+  const LinearStep step{depth0, depth_, dux, mu_kappa};
+  // Radius of the vertex last asked for: neighbouring sliding segments share a vertex.
+  std::size_t known = rz.size();
+  double known_radius = 0;
+  auto radius = [&](std::size_t i) {
+    if (i != known) known = i, known_radius = profile.RadiusAtDepth(rz[i]);
+    return known_radius;
+  };
   double dissipated = 0;
-  if (profile != nullptr && mu_kappa > 0) {
-    const double ddelta = depth1 - depth0;
-    auto excess = [&](std::size_t i, int sigma) {
-      return tags[i] != kInside ? 0.0 : sigma * rv[i] - bound(rz[i]);  // crossings: exactly 0
+  for (int sigma : {+1, -1}) {
+    auto excess = [&](std::size_t i) {  // crossings: exactly 0
+      return tags[i] != kInside ? 0.0 : sigma * rv[i] - step.BoundAtEnd(rz[i]);
     };
-    auto rate_factor = [&](int sigma) {
-      const double r = sigma * dux - mu_kappa * ddelta;
-      return r > 0 ? mu_kappa * ddelta / (2 * r) : 0.0;
-    };
-    for (int sigma : {+1, -1}) {
-      const double k = rate_factor(sigma);
-      const double atom = profile->RadiusAtDepth(0);
-      if (atom > 0 && excess(0, sigma) > 0) {
-        dissipated +=
-            2 * atom * (excess(0, sigma) * bound(0) - k * excess(0, sigma) * excess(0, sigma));
+    double e_next = excess(0);
+    if (e_next > 0 && radius(0) > 0) {  // the z = 0 atom of a flat punch
+      dissipated +=
+          radius(0) * internal::ClampedSpringDissipation(step, sigma, e_next, step.BoundAtEnd(0));
+    }
+    for (std::size_t i = 0; i + 1 < rz.size(); ++i) {
+      // Sign changes of the excess were split at crossings, unless round-off put the crossing
+      // on a vertex: then the segment slides if the crossing is at its non-positive end (the end
+      // nearer zero), and sticks otherwise.
+      double ea = e_next, eb = excess(i + 1);
+      e_next = eb;
+      if (ea <= 0 && eb <= 0) continue;
+      if (ea < 0 || eb < 0) {
+        if (std::min(ea, eb) + std::max(ea, eb) <= 0) continue;
+        ea = std::max(ea, 0.0);
+        eb = std::max(eb, 0.0);
       }
-      for (std::size_t i = 0; i + 1 < rz.size(); ++i) {
-        // Sign changes of the excess were split at crossings above, unless round-off put the
-        // crossing on a vertex: then the segment slides if the crossing is at its
-        // non-positive end (the end nearer zero), and sticks otherwise.
-        double ea = excess(i, sigma), eb = excess(i + 1, sigma);
-        if (ea <= 0 && eb <= 0) continue;
-        if (ea < 0 || eb < 0) {
-          if (std::min(ea, eb) + std::max(ea, eb) <= 0) continue;
-          ea = std::max(ea, 0.0);
-          eb = std::max(eb, 0.0);
-        }
-        const double width = rz[i + 1] - rz[i];
-        const Quadratic q =
-            ProductMinusSquare({ea, (eb - ea) / width}, {bound(rz[i]), -mu_kappa}, k);
-        dissipated += 2 * IntegrateQuadratic(*profile, rz[i], rz[i + 1], q.c0, q.c1, q.c2);
-      }
+      const Linear e{ea, eb - ea};
+      const Linear b1{step.BoundAtEnd(rz[i]), -mu_kappa * (rz[i + 1] - rz[i])};
+      dissipated += IntegrateQuadratic(profile, rz[i], rz[i + 1], radius(i), radius(i + 1),
+                                       internal::ClampedSpringDissipation(step, sigma, e, b1));
     }
   }
+  return dissipated;
+}
 
-  // 3. Clamp and tag the original vertices. A vertex that was on a bound and is still on it to
-  // rounding stays there: a crossing sits up to a few ulps inside its bound (PlaceCrossing), and
-  // a step that does not move it off (dux = 0, a depth held) must not turn its slip zone into a
-  // stick zone (tangential stiffness, slip intervals).
+void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa) {
+  // A vertex that was on a bound and is still on it to rounding stays there: a crossing sits up
+  // to a few ulps inside its bound (PlaceCrossing), and a step that does not move it off
+  // (dux = 0, a depth held) must not turn its slip zone into a stick zone (tangential stiffness,
+  // slip intervals).
+  const double depth1 = depth_;
+  auto& rz = next_.z;
+  auto& rv = next_.u;
+  auto& tags = next_.tag;
+  const auto& was = next_.was;
   const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
   for (std::size_t i = 0; i < rz.size(); ++i) {
     if (tags[i] != kInside) continue;  // a crossing, already on its bound
-    const double b = bound(rz[i]);
+    const double b = CoulombBound(mu_kappa, depth1, rz[i]);
     if (b <= 0) {
       rv[i] = 0;
       tags[i] = kOnBoth;
@@ -262,7 +255,6 @@ double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu
   std::swap(z_, next_.z);
   std::swap(u_, next_.u);
   std::swap(tag_, next_.tag);
-  return dissipated;
 }
 
 void PiecewiseLinearMemory::MergeRedundantVertices() {
@@ -296,29 +288,22 @@ void PiecewiseLinearMemory::MergeRedundantVertices() {
 
 double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, double mu_kappa,
                                                  const Profile& profile) const {
-  // A spring at z leaves at s_l = (depth0 - z)/(depth0 - depth1). It slides on the bound sigma
-  // = sign(u0 + s_l dux) from s* on; per G* it dissipates r b*^2 / (-mu_kappa ddelta), with
-  // r = sigma dux - mu_kappa ddelta and b* = b0 + mu_kappa ddelta s* the bound when it starts to
-  // slide, s* = (b0 - sigma u0)/r. b* is linear in z between sign changes of u0 + s_l dux.
+  // A spring at z leaves at s_l = (depth0 - z)/(depth0 - depth1), on the side sigma =
+  // sign(u0 + s_l dux), and dissipates from the onset bound b* on (dissipation.h); b* is linear
+  // in z (and in t) between sign changes of u0 + s_l dux.
   if (!(mu_kappa > 0)) return 0;
+  const LinearStep step{depth_, depth1, dux, mu_kappa};
   const double depth0 = depth_;
-  const double ddelta = depth1 - depth0;
-  auto leave_value = [&](double z, double u0) { return u0 + (depth0 - z) / -ddelta * dux; };
-  auto slide_bound = [&](double z, double u0, int sigma) {
-    const double b0 = mu_kappa * (depth0 - z);
-    const double r = sigma * dux - mu_kappa * ddelta;
-    return std::clamp(b0 + mu_kappa * ddelta * (b0 - sigma * u0) / r, 0.0, b0);
-  };
+  auto leave_value = [&](double z, double u0) { return u0 + (depth0 - z) / -step.ddelta() * dux; };
   auto add_piece = [&](double za, double ua, double zb, double ub) {
     const double wa = leave_value(za, ua), wb = leave_value(zb, ub);
-    const int sigma = (wa + wb) > 0 ? +1 : -1;
     if (wa == 0 && wb == 0) return 0.0;
-    const double r = sigma * dux - mu_kappa * ddelta;
-    if (!(r > 0)) return 0.0;  // moves no faster than the bound shrinks: a sign from round-off
-    const double ba = slide_bound(za, ua, sigma), bb = slide_bound(zb, ub, sigma);
-    const double k = r / (-mu_kappa * ddelta);
-    const double slope = (bb - ba) / (zb - za);
-    return IntegrateQuadratic(profile, za, zb, k * ba * ba, 2 * k * ba * slope, k * slope * slope);
+    const int sigma = (wa + wb) > 0 ? +1 : -1;
+    if (!(step.SlidingRate(sigma) > 0)) return 0.0;  // the bound is never reached
+    const double ba = step.SlideOnsetBound(za, ua, sigma), bb = step.SlideOnsetBound(zb, ub, sigma);
+    const Linear b_star{ba, bb - ba};
+    return IntegrateQuadratic(profile, za, zb, profile.RadiusAtDepth(za), profile.RadiusAtDepth(zb),
+                              internal::LeavingSpringDissipation(step, sigma, b_star));
   };
 
   double dissipated = 0;
@@ -327,10 +312,9 @@ double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, doub
   if (depth1 <= 0 && atom > 0) {
     const double w = leave_value(0, u_[0]);
     const int sigma = w > 0 ? +1 : -1;
-    const double r = sigma * dux - mu_kappa * ddelta;
-    if (w != 0 && r > 0) {
-      const double b = slide_bound(0, u_[0], sigma);
-      dissipated += atom * r * b * b / (-mu_kappa * ddelta);
+    if (w != 0 && step.SlidingRate(sigma) > 0) {
+      dissipated += atom * internal::LeavingSpringDissipation(
+                               step, sigma, step.SlideOnsetBound(0, u_[0], sigma));
     }
   }
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
@@ -363,10 +347,13 @@ double PiecewiseLinearMemory::UAtDepth(double z) const {
 
 double PiecewiseLinearMemory::IntegralU(const Profile& profile) const {
   if (z_.empty()) return 0;
-  double total = u_[0] * profile.RadiusAtDepth(0);  // flat punch: springs at z = 0
+  double xa = profile.RadiusAtDepth(0);
+  double total = u_[0] * xa;  // flat punch: springs at z = 0
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
-    const double slope = (u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i]);
-    total += IntegrateQuadratic(profile, z_[i], z_[i + 1], u_[i], slope, 0);
+    const double xb = profile.RadiusAtDepth(z_[i + 1]);
+    const PieceIntegrals piece = profile.IntegratePiece(z_[i], z_[i + 1], xa, xb, false);
+    total += u_[i] * piece.j0 + (u_[i + 1] - u_[i]) * piece.j1;
+    xa = xb;
   }
   return total;
 }
@@ -375,9 +362,13 @@ double PiecewiseLinearMemory::MeasureOnBound(const Profile& profile, BoundTag bo
   if (z_.empty()) return 0;
   double measure = (tag_[0] & bound) ? profile.RadiusAtDepth(0) : 0;
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
-    if (tag_[i] & tag_[i + 1] & bound) {
-      measure += profile.RadiusAtDepth(z_[i + 1]) - profile.RadiusAtDepth(z_[i]);
-    }
+    if (!(tag_[i] & tag_[i + 1] & bound)) continue;
+    // The difference xb - xa loses xb/(xb - xa) to cancellation on a thin annulus, where J_0 is
+    // used instead; elsewhere it is exact to an ulp, so a contact that slips everywhere has
+    // measure a exactly (zero stiffness).
+    const double xa = profile.RadiusAtDepth(z_[i]), xb = profile.RadiusAtDepth(z_[i + 1]);
+    measure +=
+        xa <= 0.5 * xb ? xb - xa : profile.IntegratePiece(z_[i], z_[i + 1], xa, xb, false).j0;
   }
   return measure;
 }
@@ -396,7 +387,7 @@ double PiecewiseLinearMemory::GrossSlipIncrement(double depth1, double mu_kappa,
       z = depth1;
       u = UAtDepth(depth1);
     }
-    needed = std::max(needed, mu_kappa * (depth1 - z) - sigma * u);
+    needed = std::max(needed, CoulombBound(mu_kappa, depth1, z) - sigma * u);
     if (z == depth1) break;
   }
   return needed == kNone ? 0.0 : sigma * needed;

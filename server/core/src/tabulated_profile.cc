@@ -15,13 +15,14 @@
 
 #include "gsl_errors.h"
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kEps = std::numeric_limits<double>::epsilon();
+using internal::kEps;
+using internal::kInf;
+using internal::kPi;
 constexpr std::size_t kMinSamples = 4;
 
 // The cubic with values y0, y1 and slopes d0, d1 at the ends of [x0, x0 + h], in monomial form
@@ -80,19 +81,7 @@ constexpr double kGaussNodes4[4] = {-0.8611363115940526, -0.3399810435848563, 0.
 constexpr double kGaussWeights4[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
                                       0.3478548451374538};
 
-// Gauss-Legendre nodes and weights on [-1, 1], taken from GSL once.
-struct GaussRule {
-  explicit GaussRule(std::size_t n) : size(n), nodes(n), weights(n) {
-    gsl_integration_glfixed_table* table = gsl_integration_glfixed_table_alloc(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      gsl_integration_glfixed_point(-1, 1, i, &nodes[i], &weights[i], table);
-    }
-    gsl_integration_glfixed_table_free(table);
-  }
-  std::size_t size;
-  std::vector<double> nodes, weights;
-};
-const GaussRule kGauss12(12);
+const internal::GaussLegendreRule kGauss12(12);
 
 // Sums of integral_{r_a}^{r_b} w(r) / sqrt(x^2 - r^2) dr over sample pieces far below x, for
 // w = f' and w = r f'' (the two parts of g and g', see SampledShape). A binary tree over the pieces

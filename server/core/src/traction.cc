@@ -12,13 +12,14 @@
 
 #include "gsl_errors.h"
 #include "mdr/core/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+using internal::kEps;
+using internal::kInf;
+using internal::kPi;
 constexpr std::size_t kQuadratureLimit = 512;
 
 // Adaptive Gauss-Kronrod with endpoint extrapolation (QAGS) over one workspace. A tolerance that
@@ -97,7 +98,7 @@ double VertexRounding(const DepthPolyline& springs, const Profile& profile, doub
   const std::size_t n = springs.z.size();
   // Radii from the reported contact radius on carry no load by definition (traction.h).
   if (n < 2 || !(r < profile.RadiusAtDepth(springs.z.back()))) return 0;
-  const double dz = springs.rounded ? kVertexDepthUlps * kEpsilon * springs.z.back() : 0;
+  const double dz = springs.rounded ? kVertexDepthUlps * kEps * springs.z.back() : 0;
   auto slope = [&](std::size_t k) {
     if (k + 1 >= n) return 0.0;
     return (springs.v[k + 1] - springs.v[k]) / (springs.z[k + 1] - springs.z[k]);
@@ -107,8 +108,8 @@ double VertexRounding(const DepthPolyline& springs, const Profile& profile, doub
     if (springs.rounded) {
       const double dp = std::abs(profile.PressurePerModulus(r, springs.z[k]) -
                                  profile.PressurePerModulus(r, springs.z[k - 1]));
-      const double du = kVertexValueUlps * kEpsilon *
-                        std::max(std::abs(springs.v[k - 1]), std::abs(springs.v[k]));
+      const double du =
+          kVertexValueUlps * kEps * std::max(std::abs(springs.v[k - 1]), std::abs(springs.v[k]));
       if (std::isfinite(dp)) bound += 2 * du / (springs.z[k] - springs.z[k - 1]) * dp;
     }
     const double jump = std::abs(slope(k) - slope(k - 1));
@@ -119,7 +120,7 @@ double VertexRounding(const DepthPolyline& springs, const Profile& profile, doub
     const double depth_error = k + 1 < n ? dz : 0;
     // A jump of g (flat punch) sits at the profile's own radius, exactly.
     const double g_dx =
-        std::isinf(g_slope) ? depth_error : depth_error + g_slope * kRadiusUlps * kEpsilon * x;
+        std::isinf(g_slope) ? depth_error : depth_error + g_slope * kRadiusUlps * kEps * x;
     if (g_dx == 0) continue;
     bound += jump * EdgeShift(x, g_slope, g_dx, r);
   }
@@ -198,7 +199,7 @@ RouteValue JagerRoute(const DepthPolyline& springs, const Profile& profile, doub
   }
   if (infinite_sign != 0) return {infinite_sign * kInf, 0, !conflicting};
   if (indeterminate) return {0, 0, false};
-  return {sum, 4 * kEpsilon * magnitude, true};
+  return {sum, 4 * kEps * magnitude, true};
 }
 
 // |a - b|, with 0 for the same infinity.

@@ -158,15 +158,16 @@ class Contact {
   double LinearStep(double depth1, double ux1, double dux);
   // FailedPrecondition if the grid method's contact would outgrow the grid at depth1.
   Status CheckGridReach(double depth1) const;
-  // F_x after a linear step to depth1 with tangential increment dux, the state unchanged.
-  double TangentialForceAfterStep(double depth1, double dux) const;
   // Largest |u_a - u_b| between two contacts of this config (curved-path refinement).
   static double MemoryDifference(const Contact& a, const Contact& b);
   // The increment dux that gives tangential force fx at depth1 after a linear step from the
-  // current state.
+  // current state (force_control.cc, like the curved paths).
   Result<double> SolveTangentialIncrement(double depth1, double fx) const;
   Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
                          const Interrupt& interrupt);
+  // What a step's result must satisfy to be kept: a finite dissipated energy and at most
+  // max_memory_vertices vertices (errors name tangential_field or max_memory_vertices).
+  Status CheckStepResult(const char* tangential_field) const;
 
   static inline const PiecewiseLinearMemory kNoExactMemory{};
 
@@ -176,6 +177,16 @@ class Contact {
   double ux_ = 0;
   double dissipated_ = 0;
   double last_dissipated_ = 0;
+  // The memory before a straight step, to undo it if its result fails CheckStepResult: a buffer
+  // reused across steps (Apply then allocates nothing once it has grown), not part of the state,
+  // so copies start with an empty one.
+  struct UndoBuffer {
+    UndoBuffer() = default;
+    UndoBuffer(const UndoBuffer&) {}
+    UndoBuffer& operator=(const UndoBuffer&) { return *this; }
+    std::variant<PiecewiseLinearMemory, GridMemory> memory;
+  };
+  UndoBuffer undo_;
 };
 
 // The Jäger picture and the tangential tractions are functions of the exact memory; the grid

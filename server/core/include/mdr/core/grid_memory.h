@@ -49,8 +49,12 @@ class GridMemory {
 
   // h sum_j u_j, the midpoint rule for integral_0^a u dx (F_x = 2 G* times this).
   double IntegralU() const { return spacing_ * u_.sum(); }
-  // IntegralU after the step, without changing the state (force-controlled steps).
-  double IntegralUAfterStep(double depth1, double dux, double mu_kappa) const;
+  // The increment dux in [GrossSlipIncrement(-1), GrossSlipIncrement(+1)] after which a step to
+  // depth1 leaves IntegralU() = target, the state unchanged (force-controlled steps). IntegralU
+  // is piecewise linear in dux with slope h times the springs that stick (entering ones weighted
+  // by their share of dux): Newton's method on it, safeguarded by bisection. Targets beyond the
+  // range give its ends.
+  double IncrementForIntegralU(double depth1, double mu_kappa, double target) const;
   // Radius measure h * count of the springs in contact, and of those on the given bound.
   double MeasureInContact() const;
   double MeasureOnBound(double mu_kappa, BoundTag bound) const;

@@ -62,6 +62,14 @@ class PiecewiseLinearMemory {
   // of gross slip in +x, or in -x for direction < 0, as a positive number for +x and negative
   // for -x). Brackets force-controlled steps.
   double GrossSlipIncrement(double depth1, double mu_kappa, int direction) const;
+  // The increment dux in [GrossSlipIncrement(-1), GrossSlipIncrement(+1)] after which a linear
+  // step to depth1 leaves integral_0^a u dx = target (F_x = 2 G* target), the state unchanged.
+  // That integral is continuous and nondecreasing in dux, smooth between the dux at which a
+  // vertex reaches a bound, with slope the radius measure of the springs that stick: the
+  // breakpoints are walked to the bracket of the root, which Newton's method then finds
+  // (memory_force.cc). Targets beyond the range give its ends.
+  double IncrementForIntegralU(double depth1, double mu_kappa, const Profile& profile,
+                               double target) const;
   // The pieces in x (one per polyline segment, plus the z = 0 atom of a flat punch when present).
   std::vector<MemoryPiece> Pieces(const Profile& profile) const;
 
@@ -90,7 +98,15 @@ class PiecewiseLinearMemory {
   void ShiftAndResize(double depth0, double depth1, double dux);
   // Clamps v into the bounds +-mu_kappa*(depth1 - z), inserting the crossing vertices; returns
   // the energy dissipated by springs that stay in or enter contact (per G*) if profile != null.
+  // Three phases on the refined polyline in next_:
   double ClampToBounds(double depth0, double dux, double mu_kappa, const Profile* profile);
+  // 1. v with a vertex inserted wherever it crosses a bound line (tagged with that bound);
+  void InsertCrossings(double mu_kappa);
+  // 2. the energy (per G*) that the clamp of phase 3 dissipates, spring by spring, exactly;
+  double SlidingDissipation(double depth0, double dux, double mu_kappa,
+                            const Profile& profile) const;
+  // 3. every vertex clamped to the bounds and tagged; the refined polyline becomes the state.
+  void ClampRefinedVertices(double mu_kappa);
   void MergeRedundantVertices();
   // Energy dissipated (per G*) by springs in (max(depth1, 0), depth0] that leave contact.
   double LeavingDissipation(double depth1, double dux, double mu_kappa,

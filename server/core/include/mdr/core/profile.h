@@ -10,6 +10,14 @@
 
 namespace mdr {
 
+// The integrals of the profile over one memory piece [x(za), x(zb)] in its normalised depth
+// t = (g(x) - za) / (zb - za) in [0, 1]: J_m = integral t^m dx for m = 0, 1, 2. The forces and
+// the dissipation of a piece are linear in them (a piece's u and its dissipation density are
+// polynomials of degree <= 2 in t), and in t they need no division by the piece's width.
+struct PieceIntegrals {
+  double j0 = 0, j1 = 0, j2 = 0;
+};
+
 class Profile {
  public:
   virtual ~Profile() = default;
@@ -26,6 +34,13 @@ class Profile {
   virtual double Rise(double x, double x_ref) const { return G(x) - G(x_ref); }
   // Moments M_j(x) = integral_0^x g(t)^j dt for j = 0, 1, 2 (forces and dissipation).
   virtual double Moment(int j, double x) const = 0;
+  // J_0, J_1 and (if with_square, else 0) J_2 of the piece za <= zb, given its radii
+  // xa = RadiusAtDepth(za) and xb = RadiusAtDepth(zb) (callers have them per vertex), accurate
+  // to round-off also for a thin piece (zb - za << za: a slip annulus that has just started),
+  // where differences of moments cancel. Zero when xb <= xa. The default combines Moment and,
+  // for thin pieces, Gauss-Legendre with Rise; closed forms override it.
+  virtual PieceIntegrals IntegratePiece(double za, double zb, double xa, double xb,
+                                        bool with_square) const;
   // Pressure of the frictionless normal contact at depth z, per unit E*:
   // p/E* = (1/pi) integral_r^a g'(x)/sqrt(x^2-r^2) dx with a = RadiusAtDepth(z) (a jump of g
   // counts as a delta function in g'); 0 for r >= a. Taking depth, not radius, keeps the flat
