@@ -146,8 +146,8 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
     std::shared_lock lock(mutex_);
     auto it = sessions_.find(name);
     if (it == sessions_.end() || !it->second->VisibleTo(caller)) return NotFound(field, name);
-    if (!it->second->IsExpired(Session::Clock::now())) {
-      it->second->Touch();
+    if (const auto now = Session::Clock::now(); !it->second->IsExpired(now)) {
+      it->second->Touch(now);
       *session = it->second;
       return OkStatus();
     }
