@@ -3,12 +3,15 @@
 // run, so the ratio apply/echo says what the service adds to the framework's own cost (absolute
 // figures on a shared machine vary by tens of percent, the ratio much less):
 //   build/release/tests/bench/mdr_load [--seconds S] [--rounds R] [--window W] [--json FILE]
+//                                      [--energy false] [--only "sessions:1/"]
 //   build/release/tests/bench/mdr_load --execution [--execution-seconds S]   (see below)
 //
 // Workload: H1, a steel sphere R = 10 mm on steel (E = 210 GPa, nu = 0.3 for both), mu = 0.3,
 // loaded to F_N = 100 N; then Mindlin-Deresiewicz cycling at constant F_N: the tangential
 // displacement follows a triangle wave between -0.6 and +0.6 mu kappa delta, 8 steps per half
 // cycle, every session at its own phase (partial slip, so the contact memory stays bounded).
+// Energy is tracked (the scene's default); --energy false leaves it off, so that the service's
+// own cost per step shows beside a cheaper engine step.
 //
 // Scenarios, each with 1, 10 and 100 sessions:
 // - "apply batch N": unary Apply through mdr_client with N steps per call (N = 1, 10, 100, 1000;
@@ -158,8 +161,9 @@ struct Workload {
   double amplitude = 0;  // m
 };
 
-SessionCursor CreateLoadedSession(mdr::client::ContactClient& client, double* depth) {
-  auto session = client.CreateSession(HertzScene());
+SessionCursor CreateLoadedSession(mdr::client::ContactClient& client, const mdr::v1::Scene& scene,
+                                  double* depth) {
+  auto session = client.CreateSession(scene);
   if (!session.ok()) Fail("CreateSession: " + session.status().error_message());
   Steps load;
   load.Add()->set_normal_force(kNormalForce);
@@ -169,10 +173,12 @@ SessionCursor CreateLoadedSession(mdr::client::ContactClient& client, double* de
   return {session->name()};
 }
 
-Workload CreateWorkload(mdr::client::ContactClient& client, int session_count) {
+Workload CreateWorkload(mdr::client::ContactClient& client, int session_count, bool track_energy) {
+  mdr::v1::Scene scene = HertzScene();
+  scene.mutable_options()->set_track_energy(track_energy);
   Workload workload;
   for (int i = 0; i < session_count; ++i) {
-    workload.sessions.push_back(CreateLoadedSession(client, &workload.depth));
+    workload.sessions.push_back(CreateLoadedSession(client, scene, &workload.depth));
   }
   workload.kappa = HertzKappa();
   workload.amplitude = kCycleAmplitude * kFriction * workload.kappa * workload.depth;
@@ -493,6 +499,13 @@ LoadTargets ConnectClients(int contact_port, int echo_port) {
   return targets;
 }
 
+std::string UnaryScenario(int batch) { return "apply batch " + std::to_string(batch); }
+
+// "<scenario>/sessions:<n>", the prefix of the scenario's figures in the JSON.
+std::string FigureName(const std::string& scenario, int sessions) {
+  return scenario + "/sessions:" + std::to_string(sessions);
+}
+
 struct ScenarioResult {
   std::string scenario;
   int sessions = 0;
@@ -506,7 +519,9 @@ struct LoadSettings {
   int rounds = 3;
   int window = 32;
   std::string json_path;
-  bool execution = false;  // run the execution scenarios instead
+  bool track_energy = true;  // scene.options.track_energy of the sessions
+  std::string only;          // run only the scenarios whose name contains it
+  bool execution = false;    // run the execution scenarios instead
   double execution_seconds = 5;
 };
 
@@ -532,13 +547,14 @@ class LoadRun {
         }) {}
 
   ScenarioResult UnaryBatch(int sessions, int batch) {
-    return Compare("apply batch " + std::to_string(batch), sessions,
-                   UnaryBody(apply_, steps_, batch, kAppliesSteps),
+    return Compare(UnaryScenario(batch), sessions, UnaryBody(apply_, steps_, batch, kAppliesSteps),
                    UnaryBody(echo_apply_, steps_, batch, kAppliesNothing));
   }
 
+  std::string StreamScenario() const { return "stream window " + std::to_string(settings_.window); }
+
   ScenarioResult Stream(int sessions) {
-    return Compare("stream window " + std::to_string(settings_.window), sessions,
+    return Compare(StreamScenario(), sessions,
                    StreamBody(open_apply_stream_, steps_, settings_.window, kAppliesSteps),
                    StreamBody(open_echo_stream_, steps_, settings_.window, kAppliesNothing));
   }
@@ -592,13 +608,12 @@ void PrintRow(const ScenarioResult& r) {
 
 void AddFigure(nlohmann::json& figures, const ScenarioResult& r, const std::string& metric,
                double value, const std::string& unit) {
-  figures.push_back(
-      {{"name", r.scenario + "/sessions:" + std::to_string(r.sessions) + "/" + metric},
-       {"scenario", r.scenario},
-       {"sessions", r.sessions},
-       {"metric", metric},
-       {"value", value},
-       {"unit", unit}});
+  figures.push_back({{"name", FigureName(r.scenario, r.sessions) + "/" + metric},
+                     {"scenario", r.scenario},
+                     {"sessions", r.sessions},
+                     {"metric", metric},
+                     {"value", value},
+                     {"unit", unit}});
 }
 
 void AddRunFigures(nlohmann::json& figures, const ScenarioResult& r, const std::string& prefix,
@@ -637,6 +652,9 @@ std::string UtcNow() {
 
 nlohmann::json ContextJson(const Workload& workload, const LoadSettings& settings,
                            const ApplyResponse& canned) {
+  const std::string scene =
+      std::string("H1: sphere R = 0.01 m, steel on steel (E = 210e9 Pa, nu = 0.3), mu = 0.3, ") +
+      (settings.track_energy ? "energy tracked (the default)" : "energy not tracked");
   return {{"date", UtcNow()},
           {"host_cpus", std::thread::hardware_concurrency()},
           {"grpc_version", grpc::Version()},
@@ -644,9 +662,8 @@ nlohmann::json ContextJson(const Workload& workload, const LoadSettings& setting
           {"rounds", settings.rounds},
           {"stream_window", settings.window},
           {"client_threads", "min(sessions, 8), sessions round-robin, one channel each"},
-          {"scene",
-           "H1: sphere R = 0.01 m, steel on steel (E = 210e9 Pa, nu = 0.3), mu = 0.3, energy "
-           "tracked (the default)"},
+          {"scene", scene},
+          {"track_energy", settings.track_energy},
           {"normal_force_n", kNormalForce},
           {"depth_m", workload.depth},
           {"kappa", workload.kappa},
@@ -677,10 +694,11 @@ void PrintSessionCheck(mdr::client::ContactClient& client, const SessionCursor& 
 void PrintPreamble(const Workload& workload, const LoadSettings& settings, int contact_port,
                    int echo_port) {
   std::printf(
-      "mdr_load: H1 at F_N = %g N (delta = %.6g m), cycling +-%.6g m (0.6 mu kappa delta); "
-      "%g s per side in %d rounds, stream window %d; servers on 127.0.0.1:%d (mdr), :%d (echo)\n",
-      kNormalForce, workload.depth, workload.amplitude, settings.seconds, settings.rounds,
-      settings.window, contact_port, echo_port);
+      "mdr_load: H1 at F_N = %g N (delta = %.6g m), cycling +-%.6g m (0.6 mu kappa delta), "
+      "energy %s; %g s per side in %d rounds, stream window %d; servers on 127.0.0.1:%d (mdr), "
+      ":%d (echo)\n",
+      kNormalForce, workload.depth, workload.amplitude, settings.track_energy ? "on" : "off",
+      settings.seconds, settings.rounds, settings.window, contact_port, echo_port);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -901,7 +919,7 @@ void RunExecutionScenarios(double seconds) {
   // The cycling amplitude of H1 (as CreateWorkload computes it).
   mdr::client::ContactClient setup(ConnectLoopback(port), kCallTimeout);
   double depth = 0;
-  CreateLoadedSession(setup, &depth);
+  CreateLoadedSession(setup, HertzScene(), &depth);
   const CyclingSteps steps(kCycleAmplitude * kFriction * HertzKappa() * depth);
   const double one = BatchThroughput(port, 1, seconds, steps);
   const double two = BatchThroughput(port, 2, seconds, steps);
@@ -923,6 +941,12 @@ LoadSettings ParseSettings(int argc, char** argv) {
   app.add_option("--window", settings.window, "stream messages in flight per stream")
       ->check(CLI::Range(1, 1024));
   app.add_option("--json", settings.json_path, "write every figure to this JSON file");
+  app.add_option("--energy", settings.track_energy,
+                 "scene.options.track_energy of the sessions (true: the default scene; false "
+                 "shows the service's own cost per step beside a cheaper engine step)");
+  app.add_option("--only", settings.only,
+                 "run only the scenarios whose \"<scenario>/sessions:<n>/\" contains this text, "
+                 "e.g. \"apply batch 1000/sessions:1/\" or \"sessions:1/\"");
   app.add_flag("--execution", settings.execution,
                "instead: health/GetSession latency under 4 and 16 heavy calls, and 1000-step "
                "batch throughput on 1 against 2 sessions");
@@ -937,16 +961,20 @@ LoadSettings ParseSettings(int argc, char** argv) {
   return settings;
 }
 
-std::vector<ScenarioResult> RunScenarios(LoadRun& run) {
+std::vector<ScenarioResult> RunScenarios(LoadRun& run, const std::string& only) {
   std::vector<ScenarioResult> results;
+  const auto run_selected = [&](const std::string& scenario, int sessions,
+                                const std::function<ScenarioResult()>& measure) {
+    if ((FigureName(scenario, sessions) + '/').find(only) == std::string::npos) return;
+    results.push_back(measure());
+    PrintRow(results.back());
+  };
   PrintTableHeader();
   for (const int sessions : kSessionCounts) {
     for (const int batch : kBatchSizes) {
-      results.push_back(run.UnaryBatch(sessions, batch));
-      PrintRow(results.back());
+      run_selected(UnaryScenario(batch), sessions, [&] { return run.UnaryBatch(sessions, batch); });
     }
-    results.push_back(run.Stream(sessions));
-    PrintRow(results.back());
+    run_selected(run.StreamScenario(), sessions, [&] { return run.Stream(sessions); });
   }
   std::printf(
       "ratio: apply steps/s / echo steps/s; * server compute per step "
@@ -972,7 +1000,7 @@ int main(int argc, char** argv) {
   const int contact_port = (*contact_server)->port();
 
   mdr::client::ContactClient setup_client(ConnectLoopback(contact_port), kCallTimeout);
-  Workload workload = CreateWorkload(setup_client, kSessionCounts.back());
+  Workload workload = CreateWorkload(setup_client, kSessionCounts.back(), settings.track_energy);
   const CyclingSteps steps(workload.amplitude);
   const ApplyResponse canned = OneCyclingStep(setup_client, workload.sessions[0], steps);
 
@@ -984,7 +1012,7 @@ int main(int argc, char** argv) {
   PrintPreamble(workload, settings, contact_port, echo_port);
   LoadRun run(targets, workload, steps, settings);
   run.WarmUp();
-  const std::vector<ScenarioResult> results = RunScenarios(run);
+  const std::vector<ScenarioResult> results = RunScenarios(run, settings.only);
   PrintSessionCheck(setup_client, workload.sessions[0]);
   std::printf("total %.1f s\n", std::chrono::duration<double>(Clock::now() - begin).count());
 

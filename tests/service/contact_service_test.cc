@@ -1,5 +1,7 @@
 // CreateSession, GetSession, DeleteSession, Apply and Query through the generated stub against a
 // real server on a free port.
+#include "mdr/service/contact_service.h"
+
 #include <google/protobuf/util/message_differencer.h>
 
 #include <thread>
@@ -218,6 +220,57 @@ TEST_F(ContactServiceTest, StepMaskSelectsPerStepFields) {
       Apply(session, {DisplacementStep(1e-7)}, &response, {"state", "state.no_such_field"});
   ExpectInvalidArgument(status, "step_mask.paths[1]");
   EXPECT_EQ(StateOf(session).applied_steps(), 4u);
+}
+
+// Apply's messages are reused from call to call: nothing of an earlier call shows in a later one.
+TEST_F(ContactServiceTest, LaterCallsCarryNothingOfEarlierOnes) {
+  const std::string session = CreateOrDie();
+  v1::ApplyResponse response;
+  ASSERT_TRUE(Apply(session, {DepthStep(kDepth)}, &response).ok());
+  for (int i = 0; i < 4; ++i) {  // the server's message pool hands the messages around
+    ASSERT_TRUE(Apply(session, {DisplacementStep(1e-7), DisplacementStep(2e-7)}, &response,
+                      {"state"}, "masked-" + std::to_string(i))
+                    .ok());
+    ASSERT_EQ(response.step_results_size(), 2);
+    ExpectInvalidArgument(Apply(session, {DepthStep(std::nan(""))}, &response), "steps[0].depth");
+    ASSERT_TRUE(Apply(session, {DisplacementStep(0)}, &response).ok());
+    EXPECT_EQ(response.step_results_size(), 0) << "per-step results of an earlier call";
+    EXPECT_FALSE(response.replayed());
+    EXPECT_EQ(response.state().applied_steps(), 1u + 3u * (i + 1));
+  }
+}
+
+TEST(ApplyMessagePoolTest, ReusesClearedMessagesAndKeepsABoundedAmount) {
+  service::ApplyMessagePool pool;
+  auto* first = pool.AllocateMessages();
+  first->request()->set_session("sessions/a");
+  first->request()->add_steps()->set_depth(1e-6);
+  first->response()->add_step_results()->set_substeps(1);
+  const v1::Step* step = &first->request()->steps(0);
+  first->Release();
+  EXPECT_EQ(pool.kept(), 1u);
+
+  auto* again = pool.AllocateMessages();
+  EXPECT_EQ(again, first) << "the kept pair is reused";
+  EXPECT_EQ(again->request()->ByteSizeLong(), 0u) << "and cleared";
+  EXPECT_EQ(again->response()->ByteSizeLong(), 0u);
+  again->request()->add_steps()->set_displacement(2e-7);
+  EXPECT_EQ(&again->request()->steps(0), step) << "its parsed steps are reused";
+  EXPECT_FALSE(again->request()->steps(0).has_depth());
+
+  // A request above kMaxKeptSteps is freed, not kept.
+  for (int i = 0; i < service::ApplyMessagePool::kMaxKeptSteps; ++i) {
+    again->request()->add_steps();
+  }
+  again->Release();
+  EXPECT_EQ(pool.kept(), 0u);
+
+  std::vector<grpc::MessageHolder<v1::ApplyRequest, v1::ApplyResponse>*> many;
+  for (std::size_t i = 0; i < service::ApplyMessagePool::kMaxKept + 3; ++i) {
+    many.push_back(pool.AllocateMessages());
+  }
+  for (auto* messages : many) messages->Release();
+  EXPECT_EQ(pool.kept(), service::ApplyMessagePool::kMaxKept);
 }
 
 TEST_F(ContactServiceTest, FailingBatchLeavesSessionUnchanged) {

@@ -100,6 +100,55 @@ class QueuedCall final : public grpc::ServerUnaryReactor {
 
 }  // namespace
 
+class ApplyMessagePool::Messages final
+    : public grpc::MessageHolder<v1::ApplyRequest, v1::ApplyResponse> {
+ public:
+  explicit Messages(ApplyMessagePool* pool) : pool_(pool) {
+    set_request(&request_);
+    set_response(&response_);
+  }
+  void Release() override { pool_->Return(this); }
+  // Whether the messages are worth keeping, and then cleared for the next call.
+  bool Recycle() {
+    if (request_.steps_size() > kMaxKeptSteps) return false;
+    request_.Clear();
+    response_.Clear();
+    return true;
+  }
+
+ private:
+  ApplyMessagePool* const pool_;
+  v1::ApplyRequest request_;
+  v1::ApplyResponse response_;
+};
+
+ApplyMessagePool::ApplyMessagePool() = default;
+ApplyMessagePool::~ApplyMessagePool() = default;
+
+grpc::MessageHolder<v1::ApplyRequest, v1::ApplyResponse>* ApplyMessagePool::AllocateMessages() {
+  {
+    std::lock_guard lock(mutex_);
+    if (!kept_.empty()) {
+      Messages* messages = kept_.back().release();
+      kept_.pop_back();
+      return messages;
+    }
+  }
+  return new Messages(this);
+}
+
+void ApplyMessagePool::Return(Messages* returned) {
+  std::unique_ptr<Messages> messages(returned);
+  if (!messages->Recycle()) return;  // cleared outside the lock
+  std::lock_guard lock(mutex_);
+  if (kept_.size() < kMaxKept) kept_.push_back(std::move(messages));
+}
+
+std::size_t ApplyMessagePool::kept() const {
+  std::lock_guard lock(mutex_);
+  return kept_.size();
+}
+
 template <typename Operation>
 grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext* context,
                                                     const char* method, const std::string& strand,

@@ -96,13 +96,15 @@ Family<Series>::Family(std::string name, std::string help, std::vector<std::stri
       bounds_(std::move(bounds)) {}
 
 template <typename Series>
-Series& Family<Series>::With(const std::vector<std::string>& label_values) {
+Series& Family<Series>::With(std::initializer_list<std::string_view> label_values) {
+  const std::span<const std::string_view> values(label_values.begin(), label_values.size());
   {
     std::shared_lock lock(mutex_);
-    if (auto it = series_.find(label_values); it != series_.end()) return *it->second;
+    if (auto it = series_.find(values); it != series_.end()) return *it->second;
   }
   std::unique_lock lock(mutex_);
-  std::unique_ptr<Series>& series = series_[label_values];
+  std::unique_ptr<Series>& series =
+      series_[std::vector<std::string>(label_values.begin(), label_values.end())];
   if (series == nullptr) {
     if constexpr (std::is_same_v<Series, Histogram>) {
       series = std::make_unique<Histogram>(&bounds_);

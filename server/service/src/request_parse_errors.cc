@@ -20,7 +20,7 @@ class UnparseableRequestInterceptor final : public grpc::experimental::Intercept
         methods->GetSendStatus().error_code() == grpc::StatusCode::UNIMPLEMENTED) {
       methods->ModifySendStatus(
           grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
-                       "the request bytes of " + method_ +
+                       "the request bytes of " + std::string(method_) +
                            " do not parse as its request message (a client built from another "
                            "contact_service.proto, or corrupted bytes)"));
     }
@@ -28,7 +28,7 @@ class UnparseableRequestInterceptor final : public grpc::experimental::Intercept
   }
 
  private:
-  const std::string method_;
+  const char* const method_;  // the registered method's name: lives as long as the server
   bool unparsed_ = false;
 };
 

@@ -19,8 +19,10 @@ using google::protobuf::util::TimeUtil;
 
 class Stopwatch {
  public:
-  double Seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  // Seconds from the start to `end`.
+  double Seconds(
+      std::chrono::steady_clock::time_point end = std::chrono::steady_clock::now()) const {
+    return std::chrono::duration<double>(end - start_).count();
   }
 
  private:
@@ -145,7 +147,8 @@ Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& st
     response->Clear();
     return status;
   }
-  response->set_compute_seconds(stopwatch.Seconds());
+  const Clock::time_point end = Clock::now();  // one clock read for both
+  response->set_compute_seconds(stopwatch.Seconds(end));
   if (deduplicated) completed_.Add({request.request_id(), fingerprint, *response});
   if (journal_ != nullptr &&
       journal_sequence_ - journal_snapshot_sequence_ >= journal_->options().snapshot_every) {
@@ -155,7 +158,7 @@ Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& st
                     Quoted(status.ToString(), kMaxLoggedErrorBytes));
     }
   }
-  Touch();  // a long batch counts as use until its end
+  Touch(end);  // a long batch counts as use until its end
   return OkStatus();
 }
 
@@ -286,8 +289,8 @@ void Session::ExportLocked(v1::SessionSnapshot* snapshot) const {
   snapshot->set_applied_steps(applied_steps_);
 }
 
-void Session::Touch() {
-  last_used_.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
+void Session::Touch(Clock::time_point now) {
+  last_used_.store(now.time_since_epoch().count(), std::memory_order_relaxed);
 }
 
 bool Session::IsExpired(Clock::time_point now) const {

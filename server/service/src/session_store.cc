@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <mutex>
+#include <string_view>
 #include <utility>
 
 #include "mdr/core/status.h"
@@ -18,7 +19,7 @@ constexpr std::size_t kMaxSessionIdLength = 63;
 constexpr char kSessionIdForm[] = "1-63 characters of [a-z0-9-] starting with a letter";
 
 // RFC 1034 style, as the API design guide recommends: [a-z][a-z0-9-]{0,62}.
-bool IsValidSessionId(const std::string& id) {
+bool IsValidSessionId(std::string_view id) {
   if (id.empty() || id.size() > kMaxSessionIdLength) return false;
   if (id.front() < 'a' || id.front() > 'z') return false;
   for (char c : id) {
@@ -41,8 +42,8 @@ Status SessionStore::CheckSessionId(const std::string& field, const std::string&
 }
 
 bool SessionStore::IsSessionName(const std::string& name) {
-  const std::string prefix = kCollection;
-  return name.starts_with(prefix) && IsValidSessionId(name.substr(prefix.size()));
+  const std::string_view prefix = kCollection;
+  return name.starts_with(prefix) && IsValidSessionId(std::string_view(name).substr(prefix.size()));
 }
 
 SessionStore::SessionStore(std::size_t max_sessions, std::size_t max_sessions_per_owner)
@@ -145,8 +146,8 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
     std::shared_lock lock(mutex_);
     auto it = sessions_.find(name);
     if (it == sessions_.end() || !it->second->VisibleTo(caller)) return NotFound(field, name);
-    if (!it->second->IsExpired(Session::Clock::now())) {
-      it->second->Touch();
+    if (const auto now = Session::Clock::now(); !it->second->IsExpired(now)) {
+      it->second->Touch(now);
       *session = it->second;
       return OkStatus();
     }

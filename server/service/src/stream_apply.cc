@@ -43,17 +43,19 @@ StreamApplyReactor::StreamApplyReactor(grpc::CallbackServerContext* context,
       registry_(registry),
       executor_(executor),
       interrupt_(InterruptOf(context, &cancelled_, &server_stopping)),
-      interruption_(InterruptionOf(interrupt_)) {
+      interruption_(InterruptionOf(interrupt_)),
+      metadata_request_id_(RequestIdOf(context)) {
   // No reaction runs before the handler returns this reactor, so the flags need no lock yet.
   if (Status status = CallerOf(context, authenticator, &caller_); !status.ok()) {
     const grpc::Status sent = ToGrpcStatus(status);
-    LogCall("StreamApply", "", RequestIdOf(context), sent, 0);
+    LogCall("StreamApply", "", metadata_request_id_, sent, 0);
     finished_ = true;
     Finish(sent);
     return;
   }
   reading_ = true;
-  StartRead(&request_);
+  read_buffer_ = std::make_unique<Message>();
+  StartRead(read_buffer_.get());
   if (!registry_.Add(this)) Drain();
 }
 
@@ -61,7 +63,7 @@ void StreamApplyReactor::Drain() {
   Actions actions;
   {
     std::lock_guard lock(mutex_);
-    draining_ = true;
+    draining_ = true;  // the owner of applying_ drops the unapplied messages
     actions = NextActionsLocked();
   }
   Start(actions);
@@ -69,45 +71,106 @@ void StreamApplyReactor::Drain() {
 
 void StreamApplyReactor::OnReadDone(bool ok) {
   Actions actions;
-  bool apply = false;
+  bool submit = false;
   {
     std::lock_guard lock(mutex_);
     reading_ = false;
     if (!ok) reads_done_ = true;
     // Once a drain started (or the client is gone) nothing more is applied.
-    apply = ok && !draining_ && !finished_ && !write_failed_;
-    if (apply) {
-      processing_ = true;
+    if (ok && !StoppedLocked()) {
+      unapplied_.push_back(std::move(read_buffer_));
+      submit = !applying_;
+      applying_ = true;
     } else {
+      RecycleLocked(std::move(read_buffer_));
+    }
+    actions = NextActionsLocked();
+  }
+  Start(actions);  // never a finish while applying_
+  if (submit) SubmitNext();
+}
+
+void StreamApplyReactor::SubmitNext() {
+  const Message* next = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    next = unapplied_.front().get();  // stays until this owner removes it
+  }
+  while (next != nullptr) {
+    const std::string& session = next->apply().session();
+    // The strand is copied before the task can run.
+    if (executor_.Submit(session, [this] { ApplyRun(); })) return;
+    v1::StreamApplyResponse busy;
+    const grpc::Status refused = ToGrpcStatus(BusyStatus(executor_));
+    ToRpcStatus(refused, busy.mutable_status());
+    LogCall("StreamApply", session, metadata_request_id_, refused, 0);
+    bool same_session = false;
+    next = Answered(std::move(busy), &same_session);
+  }
+}
+
+void StreamApplyReactor::ApplyRun() {
+  const Message* message = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    if (!StoppedLocked()) message = unapplied_.front().get();
+  }
+  if (message == nullptr) {  // stopped before applying anything: drop what is left
+    Actions actions;
+    {
+      std::lock_guard lock(mutex_);
+      DropUnappliedLocked();
       actions = NextActionsLocked();
     }
-  }
-  if (!apply) {
     Start(actions);
     return;
   }
-  // No further read starts while processing_, so request_ stays as read until Process is done.
-  if (executor_.Submit(request_.apply().session(), [this] { Process(); })) return;
-  v1::StreamApplyResponse busy;
-  const grpc::Status refused = ToGrpcStatus(BusyStatus(executor_));
-  ToRpcStatus(refused, busy.mutable_status());
-  LogCall("StreamApply", request_.apply().session(),
-          RequestIdOf(context_, request_.apply().request_id()), refused, 0);
-  Answered(std::move(busy));
+  for (int applied = 1;; ++applied) {
+    bool same_session = false;
+    message = Answered(Answer(message->apply()), &same_session);
+    if (message == nullptr) return;
+    if (!same_session || applied == kMaxRunLength) {
+      SubmitNext();  // another strand, or a fair turn for the other strands
+      return;
+    }
+  }
 }
 
-void StreamApplyReactor::Process() { Answered(Answer()); }
-
-void StreamApplyReactor::Answered(v1::StreamApplyResponse response) {
+const StreamApplyReactor::Message* StreamApplyReactor::Answered(v1::StreamApplyResponse response,
+                                                                bool* same_session) {
   Actions actions;
+  const Message* next = nullptr;
   {
     std::lock_guard lock(mutex_);
-    processing_ = false;
     pending_.push_back(std::move(response));
     ++answered_;
+    std::unique_ptr<Message> done = std::move(unapplied_.front());
+    unapplied_.pop_front();
+    if (StoppedLocked()) {
+      DropUnappliedLocked();
+    } else if (unapplied_.empty()) {
+      applying_ = false;
+    } else {
+      next = unapplied_.front().get();
+      *same_session = next->apply().session() == done->apply().session();
+    }
+    RecycleLocked(std::move(done));  // a read may reuse it as soon as the lock is released
     actions = NextActionsLocked();
   }
-  Start(actions);
+  Start(actions);  // a finish only when nothing more is applied: `this` is not used after it
+  return next;
+}
+
+void StreamApplyReactor::DropUnappliedLocked() {
+  while (!unapplied_.empty()) {
+    RecycleLocked(std::move(unapplied_.front()));
+    unapplied_.pop_front();
+  }
+  applying_ = false;
+}
+
+void StreamApplyReactor::RecycleLocked(std::unique_ptr<Message> message) {
+  if (message != nullptr) spare_.push_back(std::move(message));
 }
 
 void StreamApplyReactor::OnWriteDone(bool ok) {
@@ -132,10 +195,9 @@ void StreamApplyReactor::OnDone() {
   delete this;
 }
 
-v1::StreamApplyResponse StreamApplyReactor::Answer() {
+v1::StreamApplyResponse StreamApplyReactor::Answer(const v1::ApplyRequest& apply) {
   const auto start = std::chrono::steady_clock::now();
   v1::StreamApplyResponse response;
-  const v1::ApplyRequest& apply = request_.apply();
   const grpc::Status status = ToGrpcStatus(
       operations_.Apply(caller_, apply, interruption_, response.mutable_result(), interrupt_));
   if (status.ok()) {
@@ -144,7 +206,8 @@ v1::StreamApplyResponse StreamApplyReactor::Answer() {
     response.clear_result();
     ToRpcStatus(status, response.mutable_status());
   }
-  LogCall("StreamApply", apply.session(), RequestIdOf(context_, apply.request_id()), status,
+  LogCall("StreamApply", apply.session(),
+          apply.request_id().empty() ? metadata_request_id_ : apply.request_id(), status,
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return response;
 }
@@ -157,11 +220,17 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked() {
     actions.write = &pending_.front();  // deque::push_back keeps it valid
   }
   const bool more_wanted = !reads_done_ && !draining_ && !write_failed_;
-  if (more_wanted && !reading_ && !processing_ && pending_.size() < kMaxPendingResponses) {
+  if (more_wanted && !reading_ && unapplied_.size() + pending_.size() < kMaxPendingResponses) {
     reading_ = true;
-    actions.read = true;
+    if (spare_.empty()) {
+      read_buffer_ = std::make_unique<Message>();
+    } else {
+      read_buffer_ = std::move(spare_.back());
+      spare_.pop_back();
+    }
+    actions.read = read_buffer_.get();
   }
-  if (writing_ || processing_) return actions;
+  if (writing_ || applying_) return actions;
   if (write_failed_) {
     actions.finish = ToGrpcStatus(Cancelled("", "the client stopped reading"));
   } else if (draining_) {
@@ -178,7 +247,7 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked() {
 
 void StreamApplyReactor::Start(const Actions& actions) {
   if (actions.write != nullptr) StartWrite(actions.write);
-  if (actions.read) StartRead(&request_);
+  if (actions.read != nullptr) StartRead(actions.read);
   if (actions.finish) Finish(*actions.finish);
 }
 

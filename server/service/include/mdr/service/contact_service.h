@@ -10,8 +10,14 @@
 // is not run.
 #pragma once
 
+#include <grpcpp/support/message_allocator.h>
+
 #include <atomic>
+#include <cstddef>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
 #include "mdr/service/auth.h"
 #include "mdr/service/executor.h"
@@ -20,6 +26,32 @@
 #include "mdr/v1/contact_service.grpc.pb.h"
 
 namespace mdr::service {
+
+// Apply's request and response messages, reused from call to call: a message cleared by
+// protobuf keeps its repeated elements for the next parse, so a batch of N steps costs no N
+// allocations and frees per call. Keeps at most kMaxKept pairs, and none whose request had more
+// than kMaxKeptSteps steps (so the pool holds a bounded amount of memory). Thread-safe.
+class ApplyMessagePool final : public grpc::MessageAllocator<v1::ApplyRequest, v1::ApplyResponse> {
+ public:
+  static constexpr std::size_t kMaxKept = 64;
+  static constexpr int kMaxKeptSteps = 10000;
+
+  // Defined where Messages is complete.
+  ApplyMessagePool();
+  ~ApplyMessagePool() override;
+
+  grpc::MessageHolder<v1::ApplyRequest, v1::ApplyResponse>* AllocateMessages() override;
+  // Pairs kept for reuse now.
+  std::size_t kept() const;
+
+ private:
+  class Messages;
+  // Called by Messages::Release when gRPC is done with the call.
+  void Return(Messages* messages);
+
+  mutable std::mutex mutex_;
+  std::vector<std::unique_ptr<Messages>> kept_;  // guarded by mutex_
+};
 
 class ContactServiceImpl final : public v1::ContactService::CallbackService {
  public:
@@ -30,7 +62,9 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
       : operations_(operations),
         authenticator_(authenticator),
         executor_(executor),
-        server_stopping_(server_stopping) {}
+        server_stopping_(server_stopping) {
+    SetMessageAllocatorFor_Apply(&apply_messages_);
+  }
 
   grpc::ServerUnaryReactor* CreateSession(grpc::CallbackServerContext* context,
                                           const v1::CreateSessionRequest* request,
@@ -79,6 +113,7 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
   Executor& executor_;
   const std::atomic<bool>& server_stopping_;
   StreamRegistry streams_;
+  ApplyMessagePool apply_messages_;  // outlives the server that allocates from it
 };
 
 }  // namespace mdr::service

@@ -4,12 +4,16 @@
 // one. Label values come from fixed sets (method names, status code names), never from clients.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <shared_mutex>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mdr::service {
@@ -51,6 +55,18 @@ class Histogram {
   std::atomic<double> sum_{0};
 };
 
+// Orders label value lists; transparent, so that a series is found from string views without
+// building its key (recording a call allocates nothing).
+struct LabelValuesLess {
+  using is_transparent = void;
+  template <typename A, typename B>
+  bool operator()(const A& a, const B& b) const {
+    return std::lexicographical_compare(
+        a.begin(), a.end(), b.begin(), b.end(),
+        [](std::string_view x, std::string_view y) { return x < y; });
+  }
+};
+
 // Every series of one metric: one per combination of label values.
 template <typename Series>
 class Family {
@@ -58,7 +74,7 @@ class Family {
   Family(std::string name, std::string help, std::vector<std::string> label_names,
          std::vector<double> bounds = {});
   // The series of these label values (as many as label names), created on first use.
-  Series& With(const std::vector<std::string>& label_values);
+  Series& With(std::initializer_list<std::string_view> label_values);
   // Appends the HELP and TYPE lines and every series, in label order.
   void Render(std::string* text) const;
 
@@ -70,7 +86,8 @@ class Family {
   const std::vector<std::string> label_names_;
   const std::vector<double> bounds_;  // histograms only
   mutable std::shared_mutex mutex_;
-  std::map<std::vector<std::string>, std::unique_ptr<Series>> series_;  // guarded by mutex_
+  // guarded by mutex_
+  std::map<std::vector<std::string>, std::unique_ptr<Series>, LabelValuesLess> series_;
 };
 
 // The metrics of this process (names and meaning: docs/operations.md, Metrics).

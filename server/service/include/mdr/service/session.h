@@ -137,8 +137,9 @@ class Session {
   // The exact, portable state; FAILED_PRECONDITION for an unavailable session.
   Status Export(v1::SessionSnapshot* snapshot) const;
 
-  // Restarts the idle timer; IsExpired tells whether it ran out (never without an idle timeout).
-  void Touch();
+  // Restarts the idle timer at `now`; IsExpired tells whether it ran out (never without an idle
+  // timeout).
+  void Touch(Clock::time_point now = Clock::now());
   bool IsExpired(Clock::time_point now) const;
 
  private:

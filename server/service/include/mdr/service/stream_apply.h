@@ -1,9 +1,13 @@
 // StreamApply: one atomic batch per request message, one response per message, in order
 // (contract in contact_service.proto). Back-pressure: one write in flight and at most
-// kMaxPendingResponses responses queued; reading pauses while the queue is full, so a client that
-// stops reading stalls in HTTP/2 flow control instead of growing the server's memory. Each
-// message is applied on the Executor (strand: its session); a message the full queue refuses is
-// answered with UNAVAILABLE in its response status, unapplied, and the stream goes on.
+// kMaxPendingResponses messages read and not yet written (applied or waiting to be); reading
+// pauses while that many are held, so a client that stops reading stalls in HTTP/2 flow control
+// instead of growing the server's memory. Reading goes on while a message is applied, so the
+// next ones are at hand when it is done: the messages are applied one at a time and in order on
+// the Executor (strand: the message's session), a run of consecutive messages for one session
+// in one task (at most kMaxRunLength, then the task queues behind the others). A message the
+// full queue refuses is answered with UNAVAILABLE in its response status, unapplied, and the
+// stream goes on.
 #pragma once
 
 #include <grpcpp/server_context.h>
@@ -12,9 +16,12 @@
 #include <atomic>
 #include <cstddef>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "mdr/service/auth.h"
 #include "mdr/service/executor.h"
@@ -46,6 +53,8 @@ class StreamApplyReactor final
     : public grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse> {
  public:
   static constexpr std::size_t kMaxPendingResponses = 8;
+  // Messages one executor task applies at most before it yields the worker to other strands.
+  static constexpr int kMaxRunLength = 8;
 
   // An unauthenticated stream ends at once (UNAUTHENTICATED); an authenticated one applies
   // every message as its caller.
@@ -63,21 +72,35 @@ class StreamApplyReactor final
   void OnCancel() override { cancelled_.store(true, std::memory_order_relaxed); }
 
  private:
-  // Applies the message in request_ and returns its response (errors in response.status).
-  v1::StreamApplyResponse Answer();
-  // On a worker: answers the message in request_ and queues its response.
-  void Process();
-  // Queues the response to the message just read and starts what follows.
-  void Answered(v1::StreamApplyResponse response);
+  using Message = v1::StreamApplyRequest;
+
+  // Applies one message's batch and returns its response (errors in response.status).
+  v1::StreamApplyResponse Answer(const v1::ApplyRequest& apply);
+  // On a worker: applies the oldest unapplied messages while they are for the session of the
+  // first (the task's strand), at most kMaxRunLength, then hands the rest to SubmitNext.
+  void ApplyRun();
+  // Queues a task for the oldest unapplied message; while the executor refuses, answers it
+  // UNAVAILABLE (unapplied) and tries the next.
+  void SubmitNext();
+  // Queues the response to the oldest unapplied message and starts what follows. Returns the
+  // next unapplied message for the caller (the owner of applying_) to go on with, and whether
+  // it is for the same session; null when there is none (applying_ is cleared).
+  const Message* Answered(v1::StreamApplyResponse response, bool* same_session);
   // What to start after a state change, decided under mutex_ and started outside it (gRPC may
   // run reactions inline, so no Start* call is made while holding the lock).
   struct Actions {
     const v1::StreamApplyResponse* write = nullptr;
-    bool read = false;
+    Message* read = nullptr;
     std::optional<grpc::Status> finish;
   };
   Actions NextActionsLocked();
   void Start(const Actions& actions);
+  // Once draining, the client gone or the stream finished: no message is applied any more.
+  bool StoppedLocked() const { return draining_ || write_failed_ || finished_; }
+  // Gives up the unapplied messages (they get no response: the contract says they were not
+  // applied) and clears applying_.
+  void DropUnappliedLocked();
+  void RecycleLocked(std::unique_ptr<Message> message);
 
   grpc::CallbackServerContext* const context_;
   ContactOperations& operations_;
@@ -87,15 +110,23 @@ class StreamApplyReactor final
   const Interrupt interrupt_;                           // after cancelled_, which it reads
   const ContactOperations::Interruption interruption_;  // interrupt_ between steps
   Principal caller_;                                    // set once by the constructor
-  v1::StreamApplyRequest request_;                      // the read buffer; one read at a time
+  std::string metadata_request_id_;  // the stream's x-request-id (or "-"), for the call logs
 
   std::mutex mutex_;
+  std::unique_ptr<Message> read_buffer_;  // the outstanding read's target while reading_
+  // Read and not yet answered, oldest first; the front is being applied while applying_. Only
+  // the owner of applying_ removes messages.
+  std::deque<std::unique_ptr<Message>> unapplied_;
+  // Answered messages, kept for the next reads (their parsed fields are reused).
+  std::vector<std::unique_ptr<Message>> spare_;
   std::deque<v1::StreamApplyResponse> pending_;  // front is being written when writing_
   bool reading_ = false;                         // a read is outstanding
-  bool processing_ = false;                      // a message is being applied
-  bool writing_ = false;                         // a write is outstanding
-  bool reads_done_ = false;                      // the client half-closed (or the call ended)
-  bool write_failed_ = false;                    // the client is gone
+  // A task is queued or running for unapplied_ (or the thread that queues one owns it): set
+  // exactly while unapplied_ is not empty.
+  bool applying_ = false;
+  bool writing_ = false;       // a write is outstanding
+  bool reads_done_ = false;    // the client half-closed (or the call ended)
+  bool write_failed_ = false;  // the client is gone
   bool draining_ = false;
   bool finished_ = false;
   std::size_t answered_ = 0;
