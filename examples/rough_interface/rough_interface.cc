@@ -1,8 +1,8 @@
 // A rough steel interface under a bolt-like normal load and a fretting cycle, with the core's
-// Interface (docs/interfaces.md): a few thousand exact Hertz asperities with Gaussian summit heights
-// share one rigid motion. The total normal force is a target solved exactly; the tangential
-// displacement then runs a triangle wave. Writes the hysteresis loop (CSV), the energy dissipated per
-// cycle, and checks the energy balance: after the first cycle the loop's area (the work of F_x)
+// Interface (docs/interfaces.md): a few thousand exact Hertz asperities with Gaussian summit
+// heights share one rigid motion. The total normal force is a target solved exactly; the tangential
+// displacement then runs a triangle wave. Writes the hysteresis loop (CSV), the energy dissipated
+// per cycle, and checks the energy balance: after the first cycle the loop's area (the work of F_x)
 // equals the energy the contacts dissipate, to the trapezoidal rule's error.
 //
 //   mdr_rough_interface [--asperities N] [--normal-force F] [--cycles C] [--steps S] [--out DIR]
@@ -30,11 +30,16 @@ Options Parse(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
     const char* value = argv[i + 1];
-    if (flag == "--asperities") options.asperities = std::strtoull(value, nullptr, 10);
-    else if (flag == "--normal-force") options.normal_force = std::strtod(value, nullptr);
-    else if (flag == "--cycles") options.cycles = std::atoi(value);
-    else if (flag == "--steps") options.steps_per_cycle = std::atoi(value);
-    else if (flag == "--out") options.out = value;
+    if (flag == "--asperities")
+      options.asperities = std::strtoull(value, nullptr, 10);
+    else if (flag == "--normal-force")
+      options.normal_force = std::strtod(value, nullptr);
+    else if (flag == "--cycles")
+      options.cycles = std::atoi(value);
+    else if (flag == "--steps")
+      options.steps_per_cycle = std::atoi(value);
+    else if (flag == "--out")
+      options.out = value;
     else {
       std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
       std::exit(2);
@@ -73,10 +78,11 @@ int main(int argc, char** argv) {
   const mdr::InterfaceTotals loaded = *interface.Totals();
   // Fretting at half the displacement that makes the whole interface slide.
   const double slide = 0.5 * loaded.friction_limit / loaded.tangential_stiffness.positive;
-  std::printf("%zu asperities, %zu in contact at F_N = %.6g N (approach %.4g um); "
-              "amplitude %.4g um\n",
-              interface.size(), loaded.in_contact, loaded.normal_force,
-              interface.approach() * 1e6, slide * 1e6);
+  std::printf(
+      "%zu asperities, %zu in contact at F_N = %.6g N (approach %.4g um); "
+      "amplitude %.4g um\n",
+      interface.size(), loaded.in_contact, loaded.normal_force, interface.approach() * 1e6,
+      slide * 1e6);
 
   std::ofstream loop(options.out + "/rough_interface_loop.csv");
   loop << "cycle,ux_m,fx_n,dissipated_j,partial_slip,gross_slip\n";
@@ -107,14 +113,15 @@ int main(int argc, char** argv) {
     const double difference = (area - dissipated) / dissipated;
     if (cycle > 0) worst = std::max(worst, std::abs(difference));
     per_cycle << cycle << ',' << dissipated << ',' << area << ',' << difference << '\n';
-    std::printf("cycle %d: dissipated %.6e J, loop area %.6e J (%+.2e)\n", cycle, dissipated,
-                area, difference);
+    std::printf("cycle %d: dissipated %.6e J, loop area %.6e J (%+.2e)\n", cycle, dissipated, area,
+                difference);
   }
   // The trapezoidal rule on n steps per cycle: error ~ (amplitude / n)^2 curvature terms, well
   // below 1e-3 for n >= 100 on this loop.
   const double tolerance = 1e-3;
-  std::printf("energy balance after the first cycle: worst |area - dissipated| / dissipated = "
-              "%.2e (tolerance %.0e)\n",
-              worst, tolerance);
+  std::printf(
+      "energy balance after the first cycle: worst |area - dissipated| / dissipated = "
+      "%.2e (tolerance %.0e)\n",
+      worst, tolerance);
   return worst <= tolerance ? 0 : 1;
 }

@@ -1,4 +1,4 @@
-// The exact engine against the closed forms of ../shared/physics.md and reference-values.md.
+// The exact engine against the closed forms of docs/physics.md and docs/reference-values.md.
 #include "mdr/core/contact.h"
 
 #include <gtest/gtest.h>
@@ -61,7 +61,7 @@ TEST(ContactTest, CattaneoMindlinAnyProfileFormula) {
 }
 
 TEST(ContactTest, PowerLawStickRadiusAndDisplacementTable) {
-  // reference-values.md 3.2: c/a and u0/(mu kappa d) at constant F_N.
+  // docs/reference-values.md 3.2: c/a and u0/(mu kappa d) at constant F_N.
   struct Row {
     double n, s, c_over_a, u0;
   } rows[] = {{1, 0.1, 0.9486832981, 0.0513167020},
@@ -78,7 +78,7 @@ TEST(ContactTest, PowerLawStickRadiusAndDisplacementTable) {
 }
 
 TEST(ContactTest, MindlinDeresiewiczLoopAndEnergyPerCycle) {
-  // reference-values.md 3.2: W/(mu^2 F_N kappa d) per full cycle of amplitude T* = s mu F_N.
+  // docs/reference-values.md 3.2: W/(mu^2 F_N kappa d) per full cycle of amplitude T* = s mu F_N.
   struct Row {
     double n, s, w;
   } rows[] = {{1, 0.1, 1.801834707e-4}, {1, 0.5, 3.35016878e-2},

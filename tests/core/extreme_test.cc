@@ -1,4 +1,4 @@
-// The stiff and extreme cases of ../shared/physics.md: each must stay finite and exact.
+// The stiff and extreme cases of docs/physics.md: each must stay finite and exact.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -251,8 +251,8 @@ TEST(JagerDecompositionTest, RoundTripIsExactAndTheRebuiltStateEvolvesAlike) {
       if (i % 10 == 0) {
         PiecewiseLinearMemory original = memory, copy = *rebuilt;
         const auto [depth1, ux1] = history.Next();
-        original.Step(depth1, ux1 - ux, m, nullptr);
-        copy.Step(depth1, ux1 - ux, m, nullptr);
+        original.ApplyLinearStep(depth1, ux1 - ux, m, nullptr);
+        copy.ApplyLinearStep(depth1, ux1 - ux, m, nullptr);
         EXPECT_LE(MaxDifference(original, copy), 1e-15 * std::max(MaxAbsU(original), scale));
       }
     }

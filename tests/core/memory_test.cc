@@ -157,7 +157,7 @@ TEST(MemoryTest, IncrementForIntegralUGivesTheTargetAfterTheStep) {
           i % 3 == 0 ? memory.depth() : d0 * (i % 3 == 1 ? 0.3 + uniform(rng) : 0.05);
       auto integral_after = [&](double dux) {
         PiecewiseLinearMemory stepped = memory;
-        stepped.Step(depth1, dux, m, nullptr);
+        stepped.ApplyLinearStep(depth1, dux, m, nullptr);
         return stepped.IntegralU(*profile);
       };
       const double lo = integral_after(memory.GrossSlipIncrement(depth1, m, -1));
@@ -175,18 +175,18 @@ TEST(MemoryTest, IncrementForIntegralUGivesTheTargetAfterTheStep) {
 TEST(MemoryTest, StickRegionsMoveRigidlyAndSlipRegionsMerge) {
   PiecewiseLinearMemory m;
   const double k = 2.0;  // mu kappa
-  m.Step(1.0, 0.0, k, nullptr);
+  m.ApplyLinearStep(1.0, 0.0, k, nullptr);
   EXPECT_EQ(m.vertex_count(), 2u);
-  m.Step(1.0, 0.5, k, nullptr);  // slip annulus from z = 0.75
+  m.ApplyLinearStep(1.0, 0.5, k, nullptr);  // slip annulus from z = 0.75
   ASSERT_EQ(m.vertex_count(), 3u);
   EXPECT_DOUBLE_EQ(m.z()[1], 0.75);
   EXPECT_EQ(m.tags()[1], kOnUpper);
-  m.Step(1.0, 0.25, k, nullptr);  // annulus grows to z = 0.625, old vertex merged away
+  m.ApplyLinearStep(1.0, 0.25, k, nullptr);  // annulus grows to z = 0.625, old vertex merged away
   ASSERT_EQ(m.vertex_count(), 3u);
   EXPECT_DOUBLE_EQ(m.z()[1], 0.625);
-  m.Step(1.0, -0.5, k, nullptr);  // reversal: a new annulus inside the old one
+  m.ApplyLinearStep(1.0, -0.5, k, nullptr);  // reversal: a new annulus inside the old one
   EXPECT_EQ(m.vertex_count(), 4u);
-  m.Step(1.0, 10.0, k, nullptr);  // gross slip wipes everything
+  m.ApplyLinearStep(1.0, 10.0, k, nullptr);  // gross slip wipes everything
   EXPECT_EQ(m.vertex_count(), 2u);
   EXPECT_EQ(m.tags()[0], kOnUpper);
 }

@@ -88,7 +88,7 @@ void ExpectHertzWithin(int count, TabulatedOptions::Interpolation interpolation,
   EXPECT_LE(e.normal_force, bound);
   EXPECT_LE(e.tangential_force, bound);
   const auto& tabulated = dynamic_cast<const TabulatedProfile&>(*p);
-  EXPECT_LE(tabulated.tolerance_estimate(), TabulatedOptions{}.tolerance);
+  EXPECT_LE(tabulated.ToleranceEstimate(), TabulatedOptions{}.tolerance);
 }
 
 // Measured largest relative errors of g, a(delta), F_N(delta) and the Cattaneo-Mindlin F_x for

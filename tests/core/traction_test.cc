@@ -80,7 +80,7 @@ double CattaneoMindlin(double mu, Pressure pressure, double a, double c, double 
   return mu * (pressure(a, r) - pressure(c, r));
 }
 
-// Cone C1 of reference-values.md: E = 3 GPa, nu = 0.35, theta = 10 deg, mu = 0.5.
+// Cone C1 of docs/reference-values.md: E = 3 GPa, nu = 0.35, theta = 10 deg, mu = 0.5.
 constexpr double kConeAngle = 10 * kPi / 180;
 Contact PolymerCone() {
   return MakeContact(*MakeCone(kConeAngle), *RigidOnHalfSpace(3e9 / 2.7, 0.35), 0.5);

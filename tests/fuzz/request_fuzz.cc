@@ -22,7 +22,7 @@
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 #include "mdr/service/operations.h"
-#include "mdr/service/status.h"
+#include "mdr/service/grpc_status.h"
 
 namespace {
 

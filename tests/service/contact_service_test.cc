@@ -372,7 +372,7 @@ TEST_F(ContactServiceTest, QueryComputesOnlyTheSelectedOutputs) {
   for (Output unselected :
        {Output::kTangentialForce, Output::kContactRadius, Output::kMemoryPieces,
         Output::kSlipIntervals, Output::kStiffnessPositive, Output::kSpringTangentialDisplacement,
-        Output::kSpringNormalDisplacement, Output::kEnergyDissipated, Output::kJagerWeights,
+        Output::kSpringNormalDisplacement, Output::kEnergyDissipatedEnergy, Output::kJagerWeights,
         Output::kJagerDecomposition, Output::kTractions, Output::kPressure}) {
     EXPECT_EQ(counters_[unselected], 0u) << static_cast<int>(unselected);
   }

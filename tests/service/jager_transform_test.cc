@@ -23,7 +23,7 @@ struct CattaneoMindlinState {
   double a, c, p0;
 };
 
-// The closed form (physics.md): a = sqrt(R delta), c = a (1 - F_x / (mu F_N))^(1/3).
+// The closed form (docs/physics.md): a = sqrt(R delta), c = a (1 - F_x / (mu F_N))^(1/3).
 CattaneoMindlinState H1State(double fx, double fn) {
   const double a = std::sqrt(kRadius * kDepth);
   return {a, a * std::cbrt(1 - fx / (kFriction * fn)),
@@ -35,7 +35,7 @@ double HertzPressure(double r, double radius, double p0_of_radius) {
   return r < radius ? p0_of_radius * std::sqrt((radius - r) * (radius + r)) / radius : 0;
 }
 
-// Cattaneo-Mindlin: tau = mu [p(r; a) - p(r; c)] (physics.md).
+// Cattaneo-Mindlin: tau = mu [p(r; a) - p(r; c)] (docs/physics.md).
 double CattaneoMindlinTraction(double r, const CattaneoMindlinState& s) {
   const double p0_c = s.p0 * s.c / s.a;
   return kFriction * (HertzPressure(r, s.a, s.p0) - HertzPressure(r, s.c, p0_c));

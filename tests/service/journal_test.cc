@@ -19,7 +19,7 @@
 #include <random>
 
 #include "mdr/service/operations.h"
-#include "mdr/service/status.h"
+#include "mdr/service/grpc_status.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {

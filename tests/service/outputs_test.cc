@@ -33,10 +33,10 @@ TEST(OutputsTest, MasksSelectLeavesAndSubtrees) {
   const OutputSelection step =
       *service::SelectStepOutputs(Mask({"state.tangential_force", "dissipated_energy"}));
   EXPECT_TRUE(step.has(Output::kTangentialForce));
-  EXPECT_TRUE(step.has(Output::kStepDissipatedEnergy));
+  EXPECT_TRUE(step.has(Output::kStepResultDissipatedEnergy));
   EXPECT_FALSE(step.has(Output::kNormalForce));
   const OutputSelection energy = *service::SelectQueryOutputs(Mask({"energy"}));
-  EXPECT_TRUE(energy.has(Output::kEnergyDissipated) && energy.has(Output::kEnergyLastStep));
+  EXPECT_TRUE(energy.has(Output::kEnergyDissipatedEnergy) && energy.has(Output::kEnergyLastStepDissipatedEnergy));
   EXPECT_FALSE(energy.any_state());
 }
 

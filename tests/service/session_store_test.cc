@@ -15,12 +15,12 @@ namespace {
 
 using service::Principal;
 using service::Session;
-using service::SessionState;
+using service::SessionOrigin;
 using service::SessionStore;
 
-SessionState FreshState(std::chrono::nanoseconds idle_timeout = std::chrono::hours(1)) {
+SessionOrigin FreshState(std::chrono::nanoseconds idle_timeout = std::chrono::hours(1)) {
   const v1::Scene scene = SteelSphereOnSteelFlat();
-  SessionState state{.scene = scene,
+  SessionOrigin state{.scene = scene,
                      .limits = {},
                      .contact = *Contact::Create(*service::ToContactConfig(scene, 1 << 16))};
   state.limits.set_max_steps_per_batch(100);

@@ -223,9 +223,9 @@ double Contact::LinearStep(double depth1, double ux1, double dux) {
   double per_modulus = 0;
   if (auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_)) [[likely]] {
     const Profile* energy_profile = config_.track_energy ? config_.profile.get() : nullptr;
-    per_modulus = exact->Step(depth1, dux, mu_kappa(), energy_profile);
+    per_modulus = exact->ApplyLinearStep(depth1, dux, mu_kappa(), energy_profile);
   } else {
-    per_modulus = std::get<GridMemory>(memory_).Step(depth1, dux, mu_kappa(), config_.track_energy);
+    per_modulus = std::get<GridMemory>(memory_).ApplyLinearStep(depth1, dux, mu_kappa(), config_.track_energy);
   }
   // Every spring's dissipation is >= 0; the sum's round-off must not make it negative, or the
   // state would not pass Restore (energies >= 0).

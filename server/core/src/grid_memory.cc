@@ -57,7 +57,7 @@ GridMemory::GridMemory(const Profile& profile, std::size_t size, double max_radi
   }
 }
 
-double GridMemory::Step(double depth1, double dux, double mu_kappa, bool track_energy) {
+double GridMemory::ApplyLinearStep(double depth1, double dux, double mu_kappa, bool track_energy) {
   const LinearStep step{depth_, depth1, dux, mu_kappa};
   const bool energy = track_energy && mu_kappa > 0;
   double dissipated = 0;

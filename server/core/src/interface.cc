@@ -515,7 +515,7 @@ double Interface::TotalNormalForce(double delta, double* stiffness, const Interr
         const Contact& contact = contacts_[i];
         const double depth = delta - height(i);
         force[i] = contact.NormalForceAtDepth(depth);
-        // dF_N/d(delta) = 2 E* a (physics.md).
+        // dF_N/d(delta) = 2 E* a (docs/physics.md).
         slope[i] = depth > 0 ? 2 * contact.config().material.e_star *
                                    contact.config().profile->RadiusAtDepth(depth)
                              : 0.0;

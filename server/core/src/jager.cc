@@ -157,7 +157,7 @@ Status CheckCoulomb(const std::vector<double>& z, const std::vector<double>& u, 
 
 namespace internal {
 
-// Jäger's weight of a memory segment, F = -(du/dz)/(mu kappa) (physics.md), from the spring
+// Jäger's weight of a memory segment, F = -(du/dz)/(mu kappa) (docs/physics.md), from the spring
 // displacements at its inner and outer ends and its extent in depth.
 double SegmentWeight(double u_inner, double u_outer, double depth_span, double mu_kappa) {
   return (u_inner - u_outer) / (mu_kappa * depth_span);

@@ -73,7 +73,7 @@ std::optional<Vertex> PlaceCrossing(double za, double ua, double zb, double ub, 
 
 }  // namespace
 
-double PiecewiseLinearMemory::Step(double depth1, double dux, double mu_kappa,
+double PiecewiseLinearMemory::ApplyLinearStep(double depth1, double dux, double mu_kappa,
                                    const Profile* profile) {
   const double depth0 = depth_;
   double dissipated = 0;

@@ -18,7 +18,7 @@ namespace {
 using internal::kInf;
 using internal::kPi;
 
-// f = C r^n maps to g = k x^n (physics.md, "Power law").
+// f = C r^n maps to g = k x^n (docs/physics.md, "Power law").
 double PowerLawScale(double coefficient, double exponent) {
   return coefficient * std::sqrt(kPi) * std::tgamma(exponent / 2 + 1) /
          std::tgamma(exponent / 2 + 0.5);

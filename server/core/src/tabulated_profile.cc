@@ -412,7 +412,7 @@ class GridBuilder {
   Status stop_;  // why Refine stopped
 };
 
-// g must not decrease (the contact must stay a disc, physics.md "MDR"). Slopes within round-off
+// g must not decrease (the contact must stay a disc, docs/physics.md "MDR"). Slopes within round-off
 // of zero are set to zero so the interpolant stays monotone.
 Status RequireIncreasing(TabulatedProfile::Grid& grid) {
   double slope_scale = 0;

@@ -5,8 +5,8 @@
 #include <string>
 #include <utility>
 
-#include "mdr/service/call.h"
-#include "mdr/service/status.h"
+#include "mdr/service/call_context.h"
+#include "mdr/service/grpc_status.h"
 
 namespace mdr::service {
 namespace {

@@ -565,7 +565,7 @@ void Journal::ReadRequests(JournaledSession* session, std::vector<std::string>* 
   int result = SQLITE_ROW;
   std::string problem;
   while (problem.empty() && (result = sqlite3_step(read.get())) == SQLITE_ROW) {
-    JournaledRequest& request = session->completed.emplace_back();
+    CompletedRequest& request = session->completed.emplace_back();
     const std::uint64_t position = ColumnInteger(read.get(), 0);
     request.request_id = ColumnText(read.get(), 1);
     request.fingerprint = ColumnInteger(read.get(), 2);
@@ -705,7 +705,7 @@ bool Journal::RewriteInPlace(const std::vector<JournaledSession>& intact, std::s
     written = written && WriteSession(session, error).ok();
   }
   BindInteger(count_commit_, 1, commit);
-  if (written && count_commit_ != nullptr && Step(count_commit_, error) &&
+  if (written && count_commit_ != nullptr && Execute(count_commit_, error) &&
       Execute("COMMIT", error)) {
     commits_ = commit;
     return true;
@@ -726,9 +726,9 @@ Status Journal::WriteSession(const JournaledSession& session, std::string* error
   BindInteger(insert_session_, 7,
               SessionChecksum(session.name, session.owner, session.create_time,
                               session.snapshot_sequence, snapshot));
-  if (!Step(insert_session_, error)) return Unusable(options_.path, *error);
+  if (!Execute(insert_session_, error)) return Unusable(options_.path, *error);
   for (std::size_t position = 0; position < session.completed.size(); ++position) {
-    const JournaledRequest& request = session.completed[position];
+    const CompletedRequest& request = session.completed[position];
     const std::string response = request.response.SerializeAsString();
     BindText(insert_request_, 1, session.name);
     BindInteger(insert_request_, 2, position);
@@ -738,7 +738,7 @@ Status Journal::WriteSession(const JournaledSession& session, std::string* error
     BindInteger(
         insert_request_, 6,
         RequestChecksum(session.name, position, request.request_id, request.fingerprint, response));
-    if (!Step(insert_request_, error)) return Unusable(options_.path, *error);
+    if (!Execute(insert_request_, error)) return Unusable(options_.path, *error);
   }
   for (const JournaledBatch& batch : session.batches) {
     const std::string request = batch.request.SerializeAsString();
@@ -750,7 +750,7 @@ Status Journal::WriteSession(const JournaledSession& session, std::string* error
     BindInteger(
         insert_batch_, 6,
         BatchChecksum(session.name, batch.sequence, batch.request.request_id(), request, 0));
-    if (!Step(insert_batch_, error)) return Unusable(options_.path, *error);
+    if (!Execute(insert_batch_, error)) return Unusable(options_.path, *error);
   }
   return OkStatus();
 }
@@ -767,7 +767,7 @@ Status Journal::AddSession(const std::string& name, const std::string& owner,
                        [&](std::uint64_t, std::string* error) {
                          BindText(delete_all_batches_, 1, name);
                          BindText(delete_requests_, 1, name);
-                         return Step(delete_all_batches_, error) && Step(delete_requests_, error) &&
+                         return Execute(delete_all_batches_, error) && Execute(delete_requests_, error) &&
                                 WriteSession(session, error).ok();
                        });
 }
@@ -785,13 +785,13 @@ Status Journal::AddBatch(const std::string& session, std::uint64_t sequence,
                          BindInteger(
                              insert_batch_, 6,
                              BatchChecksum(session, sequence, request.request_id(), bytes, commit));
-                         return Step(insert_batch_, error);
+                         return Execute(insert_batch_, error);
                        });
 }
 
 Status Journal::Compact(const std::string& session, std::uint64_t sequence,
                         const v1::SessionSnapshot& snapshot,
-                        const std::vector<JournaledRequest>& completed) {
+                        const std::vector<CompletedRequest>& completed) {
   const std::string bytes = snapshot.SerializeAsString();
   return InTransaction(
       "compact the session", /*row_carries_commit=*/false, [&](std::uint64_t, std::string* error) {
@@ -816,8 +816,8 @@ Status Journal::Compact(const std::string& session, std::uint64_t sequence,
         BindText(delete_batches_up_to_, 1, session);
         BindInteger(delete_batches_up_to_, 2, sequence);
         BindText(delete_requests_, 1, session);
-        if (!Step(update_snapshot_, error) || !Step(delete_batches_up_to_, error) ||
-            !Step(delete_requests_, error)) {
+        if (!Execute(update_snapshot_, error) || !Execute(delete_batches_up_to_, error) ||
+            !Execute(delete_requests_, error)) {
           return false;
         }
         for (std::size_t position = 0; position < completed.size(); ++position) {
@@ -830,7 +830,7 @@ Status Journal::Compact(const std::string& session, std::uint64_t sequence,
           BindInteger(insert_request_, 6,
                       RequestChecksum(session, position, completed[position].request_id,
                                       completed[position].fingerprint, response));
-          if (!Step(insert_request_, error)) return false;
+          if (!Execute(insert_request_, error)) return false;
         }
         return true;
       });
@@ -842,8 +842,8 @@ Status Journal::RemoveSession(const std::string& session) {
                          BindText(delete_session_, 1, session);
                          BindText(delete_all_batches_, 1, session);
                          BindText(delete_requests_, 1, session);
-                         return Step(delete_session_, error) && Step(delete_all_batches_, error) &&
-                                Step(delete_requests_, error);
+                         return Execute(delete_session_, error) && Execute(delete_all_batches_, error) &&
+                                Execute(delete_requests_, error);
                        });
 }
 
@@ -866,7 +866,7 @@ bool Journal::Execute(const char* sql, std::string* error) {
   return false;
 }
 
-bool Journal::Step(sqlite3_stmt* statement, std::string* error) {
+bool Journal::Execute(sqlite3_stmt* statement, std::string* error) {
   const int result = sqlite3_step(statement);
   if (result != SQLITE_DONE) *error = sqlite3_errmsg(db_);
   sqlite3_reset(statement);
@@ -882,10 +882,10 @@ Status Journal::InTransaction(const char* what, bool row_carries_commit, Body bo
   std::lock_guard lock(mutex_);
   const JournalWriteTimer timer;
   std::string error;
-  if (!Step(begin_, &error)) return WriteError(what, error);
+  if (!Execute(begin_, &error)) return WriteError(what, error);
   BindInteger(count_commit_, 1, commits_ + 1);
-  if (body(commits_ + 1, &error) && (row_carries_commit || Step(count_commit_, &error)) &&
-      Step(commit_, &error)) {
+  if (body(commits_ + 1, &error) && (row_carries_commit || Execute(count_commit_, &error)) &&
+      Execute(commit_, &error)) {
     ++commits_;
     if (!RecordCommits(&error)) {
       // The commit stands; a side file behind the database is never taken for damage.
@@ -895,7 +895,7 @@ Status Journal::InTransaction(const char* what, bool row_carries_commit, Body bo
     return OkStatus();
   }
   std::string ignored;
-  Step(rollback_, &ignored);
+  Execute(rollback_, &ignored);
   return WriteError(what, error);
 }
 

@@ -11,6 +11,7 @@
 
 #include "mdr/core/validate.h"
 #include "mdr/service/conversion.h"
+#include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"
 #include "mdr/service/transform.h"
 
@@ -110,7 +111,7 @@ UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const 
 
 Status ContactOperations::Restore(const JournaledSession& journaled,
                                   std::shared_ptr<Session>* session) const {
-  std::optional<SessionState> state;
+  std::optional<SessionOrigin> state;
   if (Status status = StateOf(journaled.snapshot, &state); !status.ok()) return status;
   state->owner = journaled.owner;
   state->create_time = journaled.create_time;
@@ -162,7 +163,7 @@ Result<ContactConfig> ContactOperations::SessionConfig(const v1::Scene& scene,
 }
 
 Status ContactOperations::AddSession(const Principal& caller, const std::string& id_field,
-                                     const std::string& session_id, SessionState state,
+                                     const std::string& session_id, SessionOrigin state,
                                      v1::Session* response, const char* verb,
                                      const std::string& state_field, const Interrupt& interrupt) {
   if (hooks_.before_add_session) hooks_.before_add_session();
@@ -201,7 +202,7 @@ Status ContactOperations::CreateSession(const Principal& caller,
   if (!config.ok()) return config.status();
   Result<Contact> contact = Contact::Create(std::move(config).value());
   if (!contact.ok()) return contact.status().WithFieldPrefix("session.scene");
-  SessionState state{
+  SessionOrigin state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   return AddSession(caller, "session_id", request.session_id(), std::move(state), response,
                     "created", "session.scene", interrupt);
@@ -255,7 +256,7 @@ Status ContactOperations::ExportSession(const Principal& caller,
 }
 
 Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
-                                  std::optional<SessionState>* state,
+                                  std::optional<SessionOrigin>* state,
                                   const Interrupt& interrupt) const {
   if (snapshot.version() != Session::kSnapshotVersion) {
     return InvalidArgument("snapshot.version",
@@ -288,7 +289,7 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
   Result<Contact> contact =
       Contact::Restore(std::move(config).value(), ToCoreSnapshot(snapshot.contact()));
   if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
-  state->emplace(SessionState{.scene = snapshot.scene(),
+  state->emplace(SessionOrigin{.scene = snapshot.scene(),
                               .limits = *limits,
                               .contact = std::move(contact).value(),
                               .applied_steps = snapshot.applied_steps()});
@@ -302,7 +303,7 @@ Status ContactOperations::ImportSession(const Principal& caller,
       !status.ok()) {
     return status;
   }
-  std::optional<SessionState> state;
+  std::optional<SessionOrigin> state;
   if (Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
     return status;
   }

@@ -78,7 +78,7 @@ const std::vector<Leaf>& StepResultLeaves() {
     std::vector<Leaf> all = StateLeaves();
     all.push_back({"substeps", Output::kSubsteps});
     all.push_back({"path_error", Output::kPathError});
-    all.push_back({"dissipated_energy", Output::kStepDissipatedEnergy});
+    all.push_back({"dissipated_energy", Output::kStepResultDissipatedEnergy});
     return all;
   }();
   return leaves;
@@ -93,8 +93,8 @@ const std::vector<Leaf>& QueryResponseLeaves() {
     all.push_back({"springs.tangential_displacement", Output::kSpringTangentialDisplacement});
     all.push_back({"springs.normal_displacement", Output::kSpringNormalDisplacement});
     all.push_back({"memory_pieces", Output::kMemoryPieces});
-    all.push_back({"energy.dissipated_energy", Output::kEnergyDissipated});
-    all.push_back({"energy.last_step_dissipated_energy", Output::kEnergyLastStep});
+    all.push_back({"energy.dissipated_energy", Output::kEnergyDissipatedEnergy});
+    all.push_back({"energy.last_step_dissipated_energy", Output::kEnergyLastStepDissipatedEnergy});
     all.push_back({"jager_weights", Output::kJagerWeights});
     all.push_back({"jager_decomposition", Output::kJagerDecomposition});
     all.push_back({"tractions", Output::kTractions});
@@ -281,14 +281,9 @@ Status CheckRadiiCount(int count, const OutputSelection& selection, int max_mess
                                       std::to_string(count) + "; split the request");
 }
 
-double ProfileTolerance(const Profile& profile) {
-  const auto* tabulated = dynamic_cast<const TabulatedProfile*>(&profile);
-  return tabulated != nullptr ? tabulated->tolerance_estimate() : 0.0;
-}
-
 void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimate) {
   estimate->set_grid_spacing(contact.grid_spacing());
-  estimate->set_profile_tolerance(ProfileTolerance(*contact.config().profile));
+  estimate->set_profile_tolerance(contact.config().profile->ToleranceEstimate());
 }
 
 OutputSelection OutputSelection::FullState() {
@@ -330,7 +325,7 @@ void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const 
   }
   if (selection.has(Output::kSubsteps)) result->set_substeps(report.substeps);
   if (selection.has(Output::kPathError)) result->set_path_error(report.path_error);
-  if (selection.has(Output::kStepDissipatedEnergy)) {
+  if (selection.has(Output::kStepResultDissipatedEnergy)) {
     result->set_dissipated_energy(report.dissipated);
   }
 }
@@ -363,13 +358,13 @@ Status WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
     WriteMemoryPieces(contact, response->mutable_memory_pieces());
     Count(counters, Output::kMemoryPieces);
   }
-  if (selection.has(Output::kEnergyDissipated)) {
+  if (selection.has(Output::kEnergyDissipatedEnergy)) {
     response->mutable_energy()->set_dissipated_energy(contact.dissipated_energy());
-    Count(counters, Output::kEnergyDissipated);
+    Count(counters, Output::kEnergyDissipatedEnergy);
   }
-  if (selection.has(Output::kEnergyLastStep)) {
+  if (selection.has(Output::kEnergyLastStepDissipatedEnergy)) {
     response->mutable_energy()->set_last_step_dissipated_energy(contact.last_step_dissipation());
-    Count(counters, Output::kEnergyLastStep);
+    Count(counters, Output::kEnergyLastStepDissipatedEnergy);
   }
   if (selection.has(Output::kJagerWeights)) {
     if (Status s = WriteJagerWeights(contact, response->mutable_jager_weights()); !s.ok()) return s;

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <vector>
 
+#include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
 #include "mdr/service/request_parse_errors.h"

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "mdr/service/conversion.h"
+#include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
@@ -40,19 +41,7 @@ std::uint64_t Fingerprint(const v1::ApplyRequest& request) {
 
 }  // namespace
 
-const CompletedRequests::Entry* CompletedRequests::Find(const std::string& request_id) const {
-  for (const Entry& entry : entries_) {
-    if (entry.request_id == request_id) return &entry;
-  }
-  return nullptr;
-}
-
-void CompletedRequests::Add(Entry entry) {
-  entries_.push_back(std::move(entry));
-  if (entries_.size() > kCapacity) entries_.pop_front();
-}
-
-Session::Session(std::string name, SessionState state)
+Session::Session(std::string name, SessionOrigin state)
     : name_(std::move(name)),
       owner_(std::move(state.owner)),
       scene_(std::move(state.scene)),
@@ -67,7 +56,7 @@ Session::Session(std::string name, SessionState state)
       journal_sequence_(state.journal_sequence),
       journal_snapshot_sequence_(state.journal_snapshot_sequence),
       charge_(std::move(state.charge)) {
-  for (JournaledRequest& completed : state.completed) completed_.Add(std::move(completed));
+  for (CompletedRequest& completed : state.completed) completed_.Add(std::move(completed));
   WriteState(*contact_, applied_steps_, OutputSelection::FullState(), &committed_state_);
 }
 
@@ -109,7 +98,7 @@ Status Session::CompactJournal() {
 Status Session::CompactJournalLocked() {
   v1::SessionSnapshot snapshot;
   ExportLocked(&snapshot);
-  const std::vector<JournaledRequest> completed(completed_.entries().begin(),
+  const std::vector<CompletedRequest> completed(completed_.entries().begin(),
                                                 completed_.entries().end());
   Status status = journal_->Compact(name_, journal_sequence_, snapshot, completed);
   if (status.ok()) journal_snapshot_sequence_ = journal_sequence_;
@@ -130,7 +119,7 @@ Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& st
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
   if (deduplicated) {
-    if (const CompletedRequests::Entry* done = completed_.Find(request.request_id())) {
+    if (const CompletedRequest* done = completed_.Find(request.request_id())) {
       if (done->fingerprint != fingerprint) {
         return InvalidArgument(
             "request_id", "\"" + request.request_id() +

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "mdr/core/status.h"
+#include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"
 
 namespace mdr::service {
@@ -102,7 +103,7 @@ Status SessionStore::CheckRoomLocked(const Principal& caller) {
 }
 
 Status SessionStore::Create(const std::string& id_field, const std::string& session_id,
-                            const Principal& caller, SessionState state,
+                            const Principal& caller, SessionOrigin state,
                             std::shared_ptr<Session>* session) {
   if (Status status = CheckSessionId(id_field, session_id); !status.ok()) return status;
   state.owner = caller.value_or("");

@@ -120,7 +120,7 @@ Status RunTransform(const v1::TransformRequest& request, const ServiceLimits& li
   ToProtoMemory(*memory, response->mutable_memory());
 
   v1::ErrorEstimate* estimate = response->mutable_error_estimate();
-  estimate->set_profile_tolerance(ProfileTolerance(*config->profile));
+  estimate->set_profile_tolerance(config->profile->ToleranceEstimate());
   if (!sampling->radii.empty()) {
     Result<std::vector<RadialValue>> tractions = ComputeTangentialTraction(
         *memory, *config->profile, config->material, sampling->radii, sampling->traction_options);

@@ -1,4 +1,4 @@
-// One contact's state and the loading steps applied to it (physics.md). No gRPC in here.
+// One contact's state and the loading steps applied to it (docs/physics.md). No gRPC in here.
 #pragma once
 
 #include <cstddef>

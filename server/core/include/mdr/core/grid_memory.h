@@ -1,5 +1,5 @@
 // The classical MDR tangential memory: one spring per cell of a uniform grid in x
-// (physics.md, "MDR"), kept next to the exact PiecewiseLinearMemory for comparison and for users
+// (docs/physics.md, "MDR"), kept next to the exact PiecewiseLinearMemory for comparison and for users
 // who want the textbook method.
 //
 // Springs sit at the cell midpoints x_j = (j + 1/2) h, h = max_radius / size, with z_j = g(x_j)
@@ -21,7 +21,7 @@ namespace mdr {
 
 // How a spring's end value is found along a step linear in (delta, ux).
 enum class GridStepRule {
-  // physics.md "Exactness for linear steps": clamp(u + dux) for springs in contact throughout,
+  // docs/physics.md "Exactness for linear steps": clamp(u + dux) for springs in contact throughout,
   // clamp((1 - s_e) dux) for springs entering at s_e; independent of how a step is split.
   kExact,
   // "Add dux, then clamp" for every spring in contact at the end, entering ones included: the
@@ -36,7 +36,7 @@ class GridMemory {
   // Same contract as PiecewiseLinearMemory::Step: applies a step linear in (delta, ux) to
   // depth1 with increment dux and returns the dissipated energy per G* (J/Pa), summed spring by
   // spring with the exact per-spring formulas, if track_energy (else 0).
-  double Step(double depth1, double dux, double mu_kappa, bool track_energy);
+  double ApplyLinearStep(double depth1, double dux, double mu_kappa, bool track_energy);
 
   double depth() const { return depth_; }
   bool in_contact() const { return depth_ > 0; }

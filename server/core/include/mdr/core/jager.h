@@ -1,4 +1,4 @@
-// The Jäger picture of a tangential contact state (physics.md, "Jäger picture and the
+// The Jäger picture of a tangential contact state (docs/physics.md, "Jäger picture and the
 // transformation"): the state as a superposition of Cattaneo-Mindlin basis solutions, and back.
 //
 // The MDR memory u is a polyline in z = g(x), so u'(x) = (du/dz) g'(x) and the Jäger weight
@@ -62,7 +62,7 @@ Result<JagerWeights> ComputeJagerWeights(const Contact& contact);
 Result<std::vector<double>> SampleJagerWeights(const JagerWeights& weights,
                                                const std::vector<double>& radii);
 
-// One Cattaneo-Mindlin basis solution with its weight (the kappa_i of physics.md, named weight
+// One Cattaneo-Mindlin basis solution with its weight (the kappa_i of docs/physics.md, named weight
 // here to keep kappa = E*/G*): in MDR form
 //   u = weight * mu kappa (depth_a - max(z, depth_c)) for z = g(x) <= depth_a, 0 beyond,
 // i.e. weight * u_B(x; a, c) with u_B = mu kappa (g(a) - g(max(x, c))); its traction is

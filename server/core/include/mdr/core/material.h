@@ -1,4 +1,4 @@
-// Elastic constants of the contact in the Hertz-Mindlin approximation (physics.md, "Symbols").
+// Elastic constants of the contact in the Hertz-Mindlin approximation (docs/physics.md, "Symbols").
 #pragma once
 
 #include "mdr/core/status.h"

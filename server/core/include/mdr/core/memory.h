@@ -1,4 +1,4 @@
-// The exact MDR tangential memory (physics.md, "MDR" and "Exactness for linear steps").
+// The exact MDR tangential memory (docs/physics.md, "MDR" and "Exactness for linear steps").
 //
 // Springs are indexed by z = g(x) instead of x. In z the Coulomb bound mu*kappa*(delta - z) is a
 // straight line, so after any piecewise-linear loading history u is a continuous polyline in z:
@@ -28,7 +28,7 @@ inline double CoulombBound(double mu_kappa, double depth, double z) {
   return mu_kappa * (depth - z);
 }
 
-// One memory piece, u = intercept + slope * g(x) for x in [x_begin, x_end] (physics.md:
+// One memory piece, u = intercept + slope * g(x) for x in [x_begin, x_end] (docs/physics.md:
 // u = A_k + B_k g(x)); bound is the tag shared by both ends (kInside: sticking piece).
 struct MemoryPiece {
   double x_begin, x_end;  // radii
@@ -42,7 +42,7 @@ class PiecewiseLinearMemory {
   // Applies one step linear in (delta, ux) from the current depth to depth1 with tangential
   // increment dux, exactly. mu_kappa = mu * kappa >= 0. If profile is non-null, returns the
   // energy dissipated along the step divided by G* (J / Pa); otherwise returns 0.
-  double Step(double depth1, double dux, double mu_kappa, const Profile* profile);
+  double ApplyLinearStep(double depth1, double dux, double mu_kappa, const Profile* profile);
 
   double depth() const { return depth_; }
   bool in_contact() const { return depth_ > 0; }

@@ -1,5 +1,5 @@
 // Axisymmetric indenter profiles f(r) in their MDR form: the equivalent 1D profile g(x)
-// (physics.md, "MDR"). Everything the engine needs of a profile is here; the per-increment
+// (docs/physics.md, "MDR"). Everything the engine needs of a profile is here; the per-increment
 // update never calls a profile (it works in z = g(x)), only force and profile queries do.
 #pragma once
 
@@ -52,6 +52,9 @@ class Profile {
   virtual double DepthAtNormalForcePerModulus(double force_per_modulus) const = 0;
   // Human-readable description, e.g. "power law f = 1e3 r^2".
   virtual std::string Describe() const = 0;
+  // Relative tolerance of g against the profile it stands for: 0 for the closed forms, the
+  // achieved spline tolerance for a tabulated profile (ErrorEstimate.profile_tolerance).
+  virtual double ToleranceEstimate() const { return 0; }
 };
 
 using ProfilePtr = std::shared_ptr<const Profile>;

@@ -1,7 +1,7 @@
 // An indenter profile f(r) given as samples (measured or designed shapes).
 //
 // f is interpolated by a C1 piecewise cubic (GSL's monotone Steffen spline, or a natural cubic
-// spline); its MDR form g(x) = x integral_0^{pi/2} f'(x sin t) dt (physics.md, "MDR"; the
+// spline); its MDR form g(x) = x integral_0^{pi/2} f'(x sin t) dt (docs/physics.md, "MDR"; the
 // substitution r = x sin t removes the 1/sqrt singularity) is evaluated by Gauss-Legendre
 // quadrature split at the sample radii, where f' is one quadratic, over the sample intervals
 // near x, and by a convergent series of exact moments over groups of intervals far below x
@@ -67,7 +67,7 @@ class TabulatedProfile final : public Profile {
   // Achieved max relative error of g between grid nodes, measured at every interval midpoint
   // against the direct quadrature (relative to g there; relative to max_depth() in the interval
   // next to a flat centre, where g starts like (x - b)^(3/2)). <= TabulatedOptions::tolerance.
-  double tolerance_estimate() const { return tolerance_estimate_; }
+  double ToleranceEstimate() const override { return tolerance_estimate_; }
   // g at the last sample radius: deeper contacts are extrapolated.
   double max_depth() const { return grid_.g.back(); }
   double max_radius() const { return grid_.x.back(); }

@@ -1,5 +1,5 @@
 // Surface tractions of a contact state: tangential tau(r) and normal p(r), each by two
-// independent routes (physics.md, "Tractions, two routes that must agree"):
+// independent routes (docs/physics.md, "Tractions, two routes that must agree"):
 //   (1) Abel: the inverse MDR transform of the springs,
 //       tau(r) = -(G*/pi) integral_r^a u'(x)/sqrt(x^2 - r^2) dx and
 //       p(r) = -(E*/pi) integral_r^a w'(x)/sqrt(x^2 - r^2) dx with w = delta - g,

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "mdr/core/status.h"
-#include "mdr/service/session.h"
+#include "mdr/service/principal.h"
 
 namespace mdr::service {
 

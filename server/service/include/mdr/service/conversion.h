@@ -17,11 +17,16 @@
 #include "mdr/core/memory.h"
 #include "mdr/core/status.h"
 #include "mdr/core/traction.h"
-#include "mdr/service/outputs.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"
 
 namespace mdr::service {
+
+// Where the radial outputs (springs, tractions, pressure) are evaluated, validated.
+struct RadialSampling {
+  std::vector<double> radii;  // m, finite, >= 0
+  TractionOptions traction_options;
+};
 
 // Builds and validates the core's configuration. max_memory_vertices is the server's limit: the
 // default when scene.options leaves it unset (if below the core's default) and the largest value

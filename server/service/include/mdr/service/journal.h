@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "mdr/core/status.h"
+#include "mdr/service/completed_requests.h"
 #include "mdr/v1/contact_service.pb.h"
 
 struct sqlite3;
@@ -76,12 +77,6 @@ struct JournaledBatch {
 
 // A response remembered for a request id (CompletedRequests), kept with a snapshot so that a
 // retry after a restart is still recognised.
-struct JournaledRequest {
-  std::string request_id;
-  std::uint64_t fingerprint = 0;
-  v1::ApplyResponse response;
-};
-
 // A live session as journaled: its base snapshot, which includes the batches up to
 // snapshot_sequence, the request ids remembered at that point (oldest first), and the later
 // batches in order.
@@ -91,7 +86,7 @@ struct JournaledSession {
   google::protobuf::Timestamp create_time;
   std::uint64_t snapshot_sequence = 0;
   v1::SessionSnapshot snapshot;
-  std::vector<JournaledRequest> completed;
+  std::vector<CompletedRequest> completed;
   std::vector<JournaledBatch> batches;
 };
 
@@ -132,7 +127,7 @@ class Journal {
   // up to `sequence` and deletes those batches.
   Status Compact(const std::string& session, std::uint64_t sequence,
                  const v1::SessionSnapshot& snapshot,
-                 const std::vector<JournaledRequest>& completed);
+                 const std::vector<CompletedRequest>& completed);
   Status RemoveSession(const std::string& session);
 
   const JournalOptions& options() const { return options_; }
@@ -166,7 +161,7 @@ class Journal {
   // Runs SQL without results; the SQLite error message otherwise.
   bool Execute(const char* sql, std::string* error);
   // Runs a prepared statement to completion and resets it.
-  bool Step(sqlite3_stmt* statement, std::string* error);
+  bool Execute(sqlite3_stmt* statement, std::string* error);
   template <typename Body>
   // Runs body(commit number, error) in a transaction (committed if it returns true, rolled back
   // otherwise). The commit counter is advanced in the commits table, or by the body in the batch

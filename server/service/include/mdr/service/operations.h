@@ -85,12 +85,12 @@ class ContactOperations {
                                       const Interrupt& interrupt) const;
   // The state a snapshot describes (ImportSession and the journal); errors name
   // "snapshot.<field>".
-  Status StateOf(const v1::SessionSnapshot& snapshot, std::optional<SessionState>* state,
+  Status StateOf(const v1::SessionSnapshot& snapshot, std::optional<SessionOrigin>* state,
                  const Interrupt& interrupt = {}) const;
   // Adds the session unless the interrupt fired, its export would not fit a message or its
   // state the budget (errors name state_field).
   Status AddSession(const Principal& caller, const std::string& id_field,
-                    const std::string& session_id, SessionState state, v1::Session* response,
+                    const std::string& session_id, SessionOrigin state, v1::Session* response,
                     const char* verb, const std::string& state_field, const Interrupt& interrupt);
   // A journaled session: its snapshot imported, its later batches replayed.
   Status Restore(const JournaledSession& journaled, std::shared_ptr<Session>* session) const;

@@ -16,6 +16,7 @@
 #include "mdr/core/contact.h"
 #include "mdr/core/status.h"
 #include "mdr/core/traction.h"
+#include "mdr/service/conversion.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -35,7 +36,7 @@ enum class Output : std::uint8_t {
   // StepResult.
   kSubsteps,
   kPathError,
-  kStepDissipatedEnergy,
+  kStepResultDissipatedEnergy,
   // QueryResponse.
   kStiffnessPositive,
   kStiffnessNegative,
@@ -43,8 +44,8 @@ enum class Output : std::uint8_t {
   kSpringTangentialDisplacement,
   kSpringNormalDisplacement,
   kMemoryPieces,
-  kEnergyDissipated,
-  kEnergyLastStep,
+  kEnergyDissipatedEnergy,
+  kEnergyLastStepDissipatedEnergy,
   kJagerWeights,
   kJagerDecomposition,
   kTractions,
@@ -90,12 +91,6 @@ struct OutputCounters {
   }
 };
 
-// Where the radial outputs (springs, tractions, pressure) are evaluated, validated.
-struct RadialSampling {
-  std::vector<double> radii;  // m, finite, >= 0
-  TractionOptions traction_options;
-};
-
 // The most radii whose selected radial outputs (springs, tractions, pressure) fit in a response
 // of max_message_bytes; no limit (SIZE_MAX) when none is selected. Derived from the encoded size
 // of the outputs, so a request within it never fails for the size of its response.
@@ -106,8 +101,6 @@ Status CheckRadiiCount(int count, const OutputSelection& selection, int max_mess
 // The error estimates of the scene's approximations: ErrorEstimate.grid_spacing of the grid
 // method and profile_tolerance of a tabulated profile.
 void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimate);
-// A tabulated profile's achieved tolerance; 0 for closed-form profiles.
-double ProfileTolerance(const Profile& profile);
 
 // The selected ContactState fields (nothing else is evaluated).
 void WriteState(const Contact& contact, std::uint64_t applied_steps,

@@ -20,37 +20,19 @@
 
 #include "mdr/core/contact.h"
 #include "mdr/core/status.h"
-#include "mdr/service/journal.h"
+#include "mdr/service/completed_requests.h"
+#include "mdr/service/principal.h"
 #include "mdr/service/outputs.h"
 #include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
 
-// The responses of a session's last kCapacity successful batches that carried a request_id.
-class CompletedRequests {
- public:
-  static constexpr std::size_t kCapacity = 64;
+class Journal;
 
-  // The request id, the fingerprint of the steps and step mask (to detect a reused request_id)
-  // and the response.
-  using Entry = JournaledRequest;
-
-  const Entry* Find(const std::string& request_id) const;
-  // Forgets the oldest entry beyond kCapacity.
-  void Add(Entry entry);
-  const std::deque<Entry>& entries() const { return entries_; }
-
- private:
-  std::deque<Entry> entries_;  // oldest first
-};
-
-// Who makes a call: the principal (token name) when authentication is on; nullopt when it is
-// off, and then every caller sees every session and new sessions belong to no one (owner "").
-using Principal = std::optional<std::string>;
 
 // Everything a session starts from (a fresh contact, an imported or a journaled one).
-struct SessionState {
+struct SessionOrigin {
   v1::Scene scene;
   v1::SessionLimits limits;  // effective
   Contact contact;
@@ -63,7 +45,7 @@ struct SessionState {
   std::uint64_t journal_sequence = 0;
   std::uint64_t journal_snapshot_sequence = 0;
   // The responses remembered for request ids, oldest first.
-  std::vector<JournaledRequest> completed{};
+  std::vector<CompletedRequest> completed{};
   // The contact's bytes, charged to the server's state budget; every commit resizes it.
   StateCharge charge{};
   // The message limit that every export of the session must fit (0: unchecked).
@@ -92,7 +74,7 @@ class Session {
   // wrapping); a step beyond fails with FAILED_PRECONDITION.
   static constexpr std::uint64_t kMaxAppliedSteps = std::uint64_t{1} << 53;
 
-  Session(std::string name, SessionState state);
+  Session(std::string name, SessionOrigin state);
   // An unavailable session: Apply, Query and Export fail with FAILED_PRECONDITION naming the
   // reason, it never expires, and the journal entry is never rewritten.
   Session(std::string name, UnavailableSession unavailable);

@@ -28,7 +28,7 @@ class SessionStore {
   // a generated one. Errors: INVALID_ARGUMENT (session_id, named by id_field), ALREADY_EXISTS,
   // RESOURCE_EXHAUSTED, UNAVAILABLE (the journal failed; nothing was created).
   Status Create(const std::string& id_field, const std::string& session_id, const Principal& caller,
-                SessionState state, std::shared_ptr<Session>* session);
+                SessionOrigin state, std::shared_ptr<Session>* session);
   // Finds a live session visible to the caller and restarts its idle timer. NOT_FOUND for an
   // unknown, expired or someone else's session, INVALID_ARGUMENT for a name not of the form
   // "sessions/{id}"; field names the request field.

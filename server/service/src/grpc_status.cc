@@ -1,4 +1,4 @@
-#include "mdr/service/status.h"
+#include "mdr/service/grpc_status.h"
 
 #include <grpcpp/support/error_details.h>
 

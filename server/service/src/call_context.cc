@@ -1,4 +1,4 @@
-#include "mdr/service/call.h"
+#include "mdr/service/call_context.h"
 
 #include <spdlog/spdlog.h>
 
@@ -6,7 +6,7 @@
 
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
-#include "mdr/service/status.h"
+#include "mdr/service/grpc_status.h"
 
 namespace mdr::service {
 
