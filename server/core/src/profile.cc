@@ -8,7 +8,6 @@
 #include <numbers>
 #include <sstream>
 
-#include "gsl_errors.h"
 #include "mdr/core/validate.h"
 #include "numerics.h"
 
@@ -25,29 +24,15 @@ double PowerLawScale(double coefficient, double exponent) {
 }
 
 // integral_0^S (r^2 + s^2)^beta ds by adaptive Gauss-Kronrod; the integrand is smooth for r > 0
-// but peaks in a layer of width r at s = 0 when beta < 0, so that layer is a separate interval.
+// but peaks in a layer of width r at s = 0 when beta < 0 (ForEachAbelInterval).
 double IntegratePowerOfHypotenuse(double r, double span, double beta) {
-  struct Params {
-    double r2, beta;
-  } params{r * r, beta};
-  gsl_function f;
-  f.function = [](double s, void* p) {
-    const auto* q = static_cast<const Params*>(p);
-    return std::pow(q->r2 + s * s, q->beta);
-  };
-  f.params = &params;
-  constexpr std::size_t kWorkspace = 256;
-  gsl_integration_workspace* w = gsl_integration_workspace_alloc(kWorkspace);
-  internal::ReturnGslErrorCodes();
-  double total = 0;
-  const double split = std::min(r, span);
-  for (auto [lo, hi] : {std::pair{0.0, split}, std::pair{split, span}}) {
-    if (hi <= lo) continue;
-    double value = 0, error = 0;
-    gsl_integration_qag(&f, lo, hi, 0, 1e-13, kWorkspace, GSL_INTEG_GAUSS31, w, &value, &error);
-    total += value;
-  }
-  gsl_integration_workspace_free(w);
+  const double r2 = r * r;
+  auto integrand = [&](double s) { return std::pow(r2 + s * s, beta); };
+  internal::Quadrature quadrature(256);
+  double total = 0, error = 0;
+  internal::ForEachAbelInterval(r, 0.0, span, [&](double lo, double hi) {
+    quadrature.AddWithRule(integrand, lo, hi, 0, 1e-13, GSL_INTEG_GAUSS31, &total, &error);
+  });
   return total;
 }
 

@@ -13,7 +13,6 @@
 #include <sstream>
 #include <utility>
 
-#include "gsl_errors.h"
 #include "mdr/core/validate.h"
 #include "numerics.h"
 
@@ -546,32 +545,18 @@ double TabulatedProfile::PressurePerModulus(double r, double depth) const {
   if (!(r < a) || !(depth > 0)) return 0;
   r = std::abs(r);
   if (r == 0 && Slope(0) > 0) return kInf;  // g'(x)/x ~ 1/x at the axis, like a cone
-  // x = sqrt(r^2 + s^2): p/E* = (1/pi) integral_0^S g'(x)/x ds, S = sqrt(a^2 - r^2). The
-  // integrand varies on the scale r near s = 0, so [0, r] is integrated separately.
-  struct Params {
-    const TabulatedProfile* profile;
-    double r2;
-  } params{this, r * r};
-  gsl_function f;
-  f.function = [](double s, void* p) {
-    const auto* q = static_cast<const Params*>(p);
-    const double x = std::sqrt(q->r2 + s * s);
-    return q->profile->Slope(x) / x;
+  // x = sqrt(r^2 + s^2): p/E* = (1/pi) integral_0^S g'(x)/x ds, S = sqrt(a^2 - r^2), with the
+  // layer of width r near s = 0 integrated separately (ForEachAbelInterval).
+  const double r2 = r * r;
+  auto integrand = [&](double s) {
+    const double x = std::sqrt(r2 + s * s);
+    return Slope(x) / x;
   };
-  f.params = &params;
-  constexpr std::size_t kWorkspace = 512;
-  gsl_integration_workspace* w = gsl_integration_workspace_alloc(kWorkspace);
-  internal::ReturnGslErrorCodes();
-  const double span = std::sqrt((a - r) * (a + r));
-  const double split = std::min(r, span);
-  double total = 0;
-  for (auto [lo, hi] : {std::pair{0.0, split}, std::pair{split, span}}) {
-    if (hi <= lo) continue;
-    double value = 0, error = 0;
-    gsl_integration_qag(&f, lo, hi, 0, 1e-12, kWorkspace, GSL_INTEG_GAUSS21, w, &value, &error);
-    total += value;
-  }
-  gsl_integration_workspace_free(w);
+  internal::Quadrature quadrature(512);
+  double total = 0, error = 0;
+  internal::ForEachAbelInterval(r, 0.0, std::sqrt((a - r) * (a + r)), [&](double lo, double hi) {
+    quadrature.AddWithRule(integrand, lo, hi, 0, 1e-12, GSL_INTEG_GAUSS21, &total, &error);
+  });
   return total / kPi;
 }
 

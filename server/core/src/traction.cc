@@ -10,7 +10,6 @@
 #include <span>
 #include <string>
 
-#include "gsl_errors.h"
 #include "mdr/core/validate.h"
 #include "numerics.h"
 
@@ -20,34 +19,9 @@ namespace {
 using internal::kEps;
 using internal::kInf;
 using internal::kPi;
+using internal::ForEachAbelInterval;
+using internal::Quadrature;
 constexpr std::size_t kQuadratureLimit = 512;
-
-// Adaptive Gauss-Kronrod with endpoint extrapolation (QAGS) over one workspace. A tolerance that
-// round-off prevents is reported through the error estimate, not by aborting (gsl_errors.h).
-class Quadrature {
- public:
-  Quadrature() : workspace_(gsl_integration_workspace_alloc(kQuadratureLimit)) {
-    internal::ReturnGslErrorCodes();
-  }
-  ~Quadrature() { gsl_integration_workspace_free(workspace_); }
-  Quadrature(const Quadrature&) = delete;
-  Quadrature& operator=(const Quadrature&) = delete;
-
-  // Adds integral_lo^hi f to *value and its error estimate to *error.
-  template <typename F>
-  void Add(F& f, double lo, double hi, double abs_tolerance, double rel_tolerance, double* value,
-           double* error) {
-    gsl_function function{[](double x, void* p) { return (*static_cast<F*>(p))(x); }, &f};
-    double result = 0, abserr = 0;
-    gsl_integration_qags(&function, lo, hi, abs_tolerance, rel_tolerance, kQuadratureLimit,
-                         workspace_, &result, &abserr);
-    *value += result;
-    *error += abserr;
-  }
-
- private:
-  gsl_integration_workspace* workspace_;
-};
 
 // One route's value at one radius, per unit modulus (G* for tau, E* for p).
 struct RouteValue {
@@ -158,12 +132,9 @@ RouteValue AbelRoute(const DepthPolyline& springs, const Profile& profile, doubl
     const double s_lo = std::sqrt((lo - r) * (lo + r)), s_hi = std::sqrt((xb - r) * (xb + r));
     // For n < 2, g'(x)/x peaks in a layer of width r at s = 0: integrate that layer separately.
     double integral = 0, error = 0;
-    if (s_lo < r && r < s_hi) {
-      quadrature.Add(integrand, s_lo, r, 0, rel_tolerance, &integral, &error);
-      quadrature.Add(integrand, r, s_hi, 0, rel_tolerance, &integral, &error);
-    } else {
-      quadrature.Add(integrand, s_lo, s_hi, 0, rel_tolerance, &integral, &error);
-    }
+    ForEachAbelInterval(r, s_lo, s_hi, [&](double lo_s, double hi_s) {
+      quadrature.AddWithExtrapolation(integrand, lo_s, hi_s, 0, rel_tolerance, &integral, &error);
+    });
     out.value -= slope * integral / kPi;
     out.error += std::abs(slope) * error / kPi;
   }
@@ -292,7 +263,7 @@ Result<std::vector<RadialValue>> EvaluateAtRadii(const DepthPolyline& springs,
       return s;
     }
   }
-  Quadrature quadrature;
+  Quadrature quadrature(kQuadratureLimit);
   std::vector<RadialValue> values;
   values.reserve(radii.size());
   for (double r : radii) {
@@ -342,13 +313,13 @@ Result<IntegratedForce> IntegrateRadially(const DepthPolyline& springs, const Pr
 
   TractionOptions options;
   options.routes = route;
-  Quadrature outer, inner;
+  Quadrature outer(kQuadratureLimit), inner(kQuadratureLimit);
   auto integrand = [&](double r) {
     return 2 * kPi * r * Evaluate(springs, profile, modulus, r, options, inner).value;
   };
   for (std::size_t i = 0; i + 1 < breaks.size(); ++i) {
-    outer.Add(integrand, breaks[i], breaks[i + 1], abs_tolerance, relative_tolerance, &out.value,
-              &out.error_estimate);
+    outer.AddWithExtrapolation(integrand, breaks[i], breaks[i + 1], abs_tolerance,
+                               relative_tolerance, &out.value, &out.error_estimate);
   }
   return out;
 }
