@@ -222,6 +222,30 @@ bool AnyContactOutput(const OutputSelection& selection) {
   return false;
 }
 
+// The totals a ContactState shows, each summed in index order like Interface::Totals (so the
+// values are the same bits), without the stiffnesses and slip states that Totals also computes
+// (several times the cost: this runs after every batch). Only the selected sums are taken.
+struct StateSums {
+  double normal_force = 0, tangential_force = 0, dissipated_energy = 0, friction_limit = 0;
+};
+StateSums SumStateFields(const Interface& interface, const OutputSelection& selection) {
+  const bool normal = selection.has(Output::kNormalForce) || selection.has(Output::kFrictionLimit);
+  const bool tangential = selection.has(Output::kTangentialForce);
+  const bool energy = selection.has(Output::kDissipatedEnergy);
+  StateSums sums;
+  for (std::size_t i = 0; i < interface.size(); ++i) {
+    const Contact& contact = interface.contact(i);
+    if (normal) {
+      const double normal_force = contact.normal_force();
+      sums.normal_force += normal_force;
+      sums.friction_limit += contact.config().friction * normal_force;  // = friction_limit()
+    }
+    if (tangential) sums.tangential_force += contact.tangential_force();
+    if (energy) sums.dissipated_energy += contact.dissipated_energy();
+  }
+  return sums;
+}
+
 void WriteTotals(const InterfaceTotals& totals, v1::InterfaceTotals* proto) {
   proto->set_normal_force(totals.normal_force);
   proto->set_tangential_force(totals.tangential_force);
@@ -325,16 +349,13 @@ void WriteInterfaceState(const Interface& interface, std::uint64_t applied_steps
   if (selection.has(Output::kContactRadius)) state->set_contact_radius(0);
   if (selection.has(Output::kNormalForce) || selection.has(Output::kTangentialForce) ||
       selection.has(Output::kDissipatedEnergy) || selection.has(Output::kFrictionLimit)) {
-    // Without an interrupt the totals cannot fail.
-    const InterfaceTotals totals = interface.Totals().value();
-    if (selection.has(Output::kNormalForce)) state->set_normal_force(totals.normal_force);
-    if (selection.has(Output::kTangentialForce)) {
-      state->set_tangential_force(totals.tangential_force);
-    }
+    const StateSums sums = SumStateFields(interface, selection);
+    if (selection.has(Output::kNormalForce)) state->set_normal_force(sums.normal_force);
+    if (selection.has(Output::kTangentialForce)) state->set_tangential_force(sums.tangential_force);
     if (selection.has(Output::kDissipatedEnergy)) {
-      state->set_dissipated_energy(totals.dissipated_energy);
+      state->set_dissipated_energy(sums.dissipated_energy);
     }
-    if (selection.has(Output::kFrictionLimit)) state->set_friction_limit(totals.friction_limit);
+    if (selection.has(Output::kFrictionLimit)) state->set_friction_limit(sums.friction_limit);
   }
   if (selection.has(Output::kAppliedSteps)) state->set_applied_steps(applied_steps);
   if (selection.has(Output::kMemoryVertices)) {
@@ -354,7 +375,11 @@ void WriteInterfaceStepResult(const Interface& interface, std::uint64_t applied_
   if (selection.has(Output::kSubsteps)) result->set_substeps(1);
   if (selection.has(Output::kPathError)) result->set_path_error(0);
   if (selection.has(Output::kStepDissipatedEnergy)) {
-    result->set_dissipated_energy(interface.Totals().value().last_step_dissipation);
+    double energy = 0;  // summed in index order, as Interface::Totals
+    for (std::size_t i = 0; i < interface.size(); ++i) {
+      energy += interface.contact(i).last_step_dissipation();
+    }
+    result->set_dissipated_energy(energy);
   }
 }
 

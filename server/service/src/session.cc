@@ -216,7 +216,12 @@ Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
                                   const OutputSelection& step_outputs, const StepGuard& guard,
                                   std::size_t max_response_bytes, v1::ApplyResponse* response,
                                   const Interrupt& interrupt) {
-  Interface target = *interface_;
+  if (interface_batch_) {
+    *interface_batch_ = *interface_;
+  } else {
+    interface_batch_.emplace(*interface_);
+  }
+  Interface& target = *interface_batch_;
   std::uint64_t applied = applied_steps_;
   for (int i = 0; i < request.steps_size(); ++i) {
     if (Status status = CheckNextStep(guard, i, applied); !status.ok()) return status;
@@ -230,7 +235,7 @@ Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
   }
   return CommitBatchLocked(
       request, applied, 0.0, max_response_bytes, StateBytes(target),
-      ExportBytesBound(target, scene_bytes_), [&] { *interface_ = std::move(target); }, response);
+      ExportBytesBound(target, scene_bytes_), [&] { std::swap(*interface_, target); }, response);
 }
 
 Status Session::CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied) {

@@ -38,7 +38,8 @@ std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
          contact.memory().vertex_count() * kExportBytesPerVertex;
 }
 
-std::size_t StateBytes(const Interface& interface) { return interface.MemoryBytes(); }
+// Twice: the session keeps a batch copy of the interface beside it (Session::RunInterfaceBatch).
+std::size_t StateBytes(const Interface& interface) { return 2 * interface.MemoryBytes(); }
 
 std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes) {
   std::size_t vertices = 0;

@@ -193,6 +193,9 @@ class Session {
   mutable std::mutex mutex_;
   std::optional<Contact> contact_;           // guarded by mutex_; unset: unavailable
   std::optional<Interface> interface_;       // guarded by mutex_; set: an interface session
+  // The batch copy of interface_, kept so that each batch copy-assigns into vectors that are
+  // already allocated (a fresh copy of 10^4 contacts costs more than a step); guarded by mutex_.
+  std::optional<Interface> interface_batch_;
   std::uint64_t applied_steps_;              // guarded by mutex_
   CompletedRequests completed_;              // guarded by mutex_
   Journal* journal_ = nullptr;               // guarded by mutex_

@@ -28,7 +28,8 @@ std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact);
 // ExportedSceneBytes (every other field of the snapshot fits in a fixed allowance).
 std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes);
 
-// An interface session's state: Interface::MemoryBytes (contacts, step buffer, heights, profiles).
+// An interface session's state: twice Interface::MemoryBytes (contacts, step buffer, heights,
+// profiles), for the interface and the batch copy its session keeps.
 std::size_t StateBytes(const Interface& interface);
 // An upper bound of the ExportSession message of an interface session: every contact's snapshot
 // as for a single contact, beside the scene.
