@@ -279,6 +279,36 @@ TEST_F(InterfaceSessionTest, ExportImportAndJournalContinueBitIdentically) {
   std::filesystem::remove(journal);
 }
 
+TEST_F(InterfaceSessionTest, StreamApplyStepsAContactListAtomically) {
+  const std::string list = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  const std::string reference = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  const std::vector<v1::Step> load = {ListStep({kDepth, kDepth, kDepth}, {0, 0, 0})};
+  const std::vector<v1::Step> slide = {ListStep({0, 0, 0}, {1e-7, -1e-7, 2e-7})};
+  auto context = Context();
+  auto stream = stub_->StreamApply(context.get());
+  v1::StreamApplyResponse answer;
+  v1::StreamApplyRequest message;
+  *message.mutable_apply() = ApplyRequestFor(list, load);
+  ASSERT_TRUE(stream->Write(message));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), 0) << answer.status().message();
+  // A batch whose second step has a bad count: refused in its answer, nothing of it applied.
+  *message.mutable_apply() = ApplyRequestFor(list, {slide[0], ListStep({0}, {0, 0, 0})});
+  ASSERT_TRUE(stream->Write(message));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(answer.status().message(), testing::StartsWith("steps[1].contact_normal_values: "));
+  *message.mutable_apply() = ApplyRequestFor(list, slide);
+  ASSERT_TRUE(stream->Write(message));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), 0) << answer.status().message();
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+  ApplyOrDie(reference, load);
+  ApplyOrDie(reference, slide);
+  EXPECT_EQ(StateBytesOf(list), StateBytesOf(reference));
+}
+
 TEST_F(InterfaceSessionTest, BadScenesNameTheField) {
   v1::Session session;
   v1::Scene scene = GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 0);
