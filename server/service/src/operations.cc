@@ -44,6 +44,21 @@ Status CheckSnapshotMethod(const v1::ContactSnapshot& contact, Method method) {
   return OkStatus();
 }
 
+// An interface session's state is in snapshot.interface, a single contact's in snapshot.contact.
+Status CheckSnapshotKind(const v1::SessionSnapshot& snapshot) {
+  if (snapshot.scene().has_interface() && snapshot.has_contact()) {
+    return InvalidArgument("snapshot.contact",
+                           "must be unset for an interface session (its state is in "
+                           "snapshot.interface)");
+  }
+  if (!snapshot.scene().has_interface() && snapshot.has_interface()) {
+    return InvalidArgument("snapshot.interface",
+                           "must be unset: the scene has no interface (the state is in "
+                           "snapshot.contact)");
+  }
+  return OkStatus();
+}
+
 Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
                                      const OutputSelection& selection, int max_message_bytes) {
   if (selection.any_radial() && request.radii().empty()) {
@@ -118,7 +133,7 @@ Status ContactOperations::Restore(const JournaledSession& journaled,
   state->journal_sequence = journaled.snapshot_sequence;
   state->journal_snapshot_sequence = journaled.snapshot_sequence;
   state->completed = journaled.completed;
-  state->charge = StateCharge::Force(&budget_, StateBytes(state->contact));
+  state->charge = StateCharge::Force(&budget_, StateBytes(*state));
   state->max_message_bytes = limits_.max_message_bytes;
   auto restored = std::make_shared<Session>(journaled.name, std::move(*state));
   // Replayed exactly as first applied: same steps, same step mask (so the responses remembered
@@ -168,14 +183,12 @@ Status ContactOperations::AddSession(const Principal& caller, const std::string&
                                      const std::string& state_field, const Interrupt& interrupt) {
   if (hooks_.before_add_session) hooks_.before_add_session();
   if (Status s = interrupt.Check(); !s.ok()) return s;
-  if (Status status = CheckExportable(
-          ExportBytesBound(state.contact, ExportedSceneBytes(state.scene, state.contact)),
-          limits_.max_message_bytes, state_field);
+  if (Status status =
+          CheckExportable(ExportBytesBound(state), limits_.max_message_bytes, state_field);
       !status.ok()) {
     return status;
   }
-  if (Status status = StateCharge::Take(&budget_, StateBytes(state.contact), &state.charge);
-      !status.ok()) {
+  if (Status status = StateCharge::Take(&budget_, StateBytes(state), &state.charge); !status.ok()) {
     return status.WithFieldPrefix(state_field);
   }
   state.max_message_bytes = limits_.max_message_bytes;
@@ -204,6 +217,11 @@ Status ContactOperations::CreateSession(const Principal& caller,
   if (!contact.ok()) return contact.status().WithFieldPrefix("session.scene");
   SessionOrigin state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
+  if (resource.scene().has_interface()) {
+    Result<Interface> interface = CreateInterface(resource.scene(), state.contact.config());
+    if (!interface.ok()) return interface.status().WithFieldPrefix("session");
+    state.interface.emplace(std::move(interface).value());
+  }
   return AddSession(caller, "session_id", request.session_id(), std::move(state), response,
                     "created", "session.scene", interrupt);
 }
@@ -276,6 +294,7 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
   if (!limits.ok()) return limits.status().WithFieldPrefix("snapshot.limits");
   Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot", interrupt);
   if (!config.ok()) return config.status();
+  if (Status s = CheckSnapshotKind(snapshot); !s.ok()) return s;
   if (Status s = CheckSnapshotMethod(snapshot.contact(), config->method); !s.ok()) {
     return s;
   }
@@ -289,10 +308,18 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
   Result<Contact> contact =
       Contact::Restore(std::move(config).value(), ToCoreSnapshot(snapshot.contact()));
   if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
+  std::optional<Interface> interface;
+  if (snapshot.scene().has_interface()) {
+    Result<Interface> restored =
+        RestoreInterface(snapshot.scene(), contact->config(), snapshot.interface());
+    if (!restored.ok()) return restored.status().WithFieldPrefix("snapshot");
+    interface.emplace(std::move(restored).value());
+  }
   state->emplace(SessionOrigin{.scene = snapshot.scene(),
                               .limits = *limits,
                               .contact = std::move(contact).value(),
-                              .applied_steps = snapshot.applied_steps()});
+                              .applied_steps = snapshot.applied_steps(),
+                              .interface = std::move(interface)});
   return OkStatus();
 }
 
@@ -307,8 +334,10 @@ Status ContactOperations::ImportSession(const Principal& caller,
   if (Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
     return status;
   }
+  const char* state_field =
+      request.snapshot().scene().has_interface() ? "snapshot.interface" : "snapshot.contact";
   return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,
-                    "imported", "snapshot.contact", interrupt);
+                    "imported", state_field, interrupt);
 }
 
 Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
@@ -348,7 +377,10 @@ Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest&
       !status.ok()) {
     return status;
   }
-  return session->Query(*selection, *sampling, hooks_.output_counters, response);
+  InterfaceQuery interface_query;
+  interface_query.slip_histogram_bins = request.slip_histogram_bins();
+  if (request.has_contact_index()) interface_query.contact_index = request.contact_index();
+  return session->Query(*selection, *sampling, hooks_.output_counters, response, interface_query);
 }
 
 Status ContactOperations::Transform(const v1::TransformRequest& request,

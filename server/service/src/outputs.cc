@@ -100,6 +100,9 @@ const std::vector<Leaf>& QueryResponseLeaves() {
     all.push_back({"tractions", Output::kTractions});
     all.push_back({"pressure", Output::kPressure});
     all.push_back({"compute_seconds", Output::kComputeSeconds});
+    all.push_back({"interface.totals", Output::kInterfaceTotals});
+    all.push_back({"interface.slip_histogram", Output::kInterfaceSlipHistogram});
+    all.push_back({"interface.memory_bytes", Output::kInterfaceMemoryBytes});
     return all;
   }();
   return leaves;

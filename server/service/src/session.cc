@@ -41,6 +41,16 @@ std::uint64_t Fingerprint(const v1::ApplyRequest& request) {
 
 }  // namespace
 
+std::size_t StateBytes(const SessionOrigin& state) {
+  return state.interface ? StateBytes(*state.interface) : StateBytes(state.contact);
+}
+
+std::size_t ExportBytesBound(const SessionOrigin& state) {
+  const std::size_t scene_bytes = ExportedSceneBytes(state.scene, state.contact);
+  return state.interface ? ExportBytesBound(*state.interface, scene_bytes)
+                         : ExportBytesBound(state.contact, scene_bytes);
+}
+
 Session::Session(std::string name, SessionOrigin state)
     : name_(std::move(name)),
       owner_(std::move(state.owner)),
@@ -52,12 +62,13 @@ Session::Session(std::string name, SessionOrigin state)
       scene_bytes_(ExportedSceneBytes(scene_, state.contact)),
       last_used_(Clock::now().time_since_epoch().count()),
       contact_(std::move(state.contact)),
+      interface_(std::move(state.interface)),
       applied_steps_(state.applied_steps),
       journal_sequence_(state.journal_sequence),
       journal_snapshot_sequence_(state.journal_snapshot_sequence),
       charge_(std::move(state.charge)) {
   for (CompletedRequest& completed : state.completed) completed_.Add(std::move(completed));
-  WriteState(*contact_, applied_steps_, OutputSelection::FullState(), &committed_state_);
+  WriteStateLocked(OutputSelection::FullState(), &committed_state_);
 }
 
 Session::Session(std::string name, UnavailableSession unavailable)
@@ -154,6 +165,9 @@ Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& st
 Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                          const StepGuard& guard, std::size_t max_response_bytes,
                          v1::ApplyResponse* response, const Interrupt& interrupt) {
+  if (interface_) {
+    return RunInterfaceBatch(request, step_outputs, guard, max_response_bytes, response, interrupt);
+  }
   // A single step is atomic in the core; a longer batch (or any batch that the journal must
   // accept before it counts, or that may grow the state past its budget: an exact memory) runs
   // on a copy that is committed at the end, so a failing step, an expired deadline, an exceeded
@@ -166,12 +180,9 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
   std::uint64_t applied = applied_steps_;
   double path_error = 0;
   for (int i = 0; i < request.steps_size(); ++i) {
-    if (guard) {
-      if (Status status = guard(i); !status.ok()) return status;
-    }
-    if (applied >= kMaxAppliedSteps) {
-      return FailedPrecondition("steps[" + std::to_string(i) + "]",
-                                "the session has applied its maximum of 2^53 steps");
+    if (Status status = CheckNextStep(guard, i, applied); !status.ok()) return status;
+    if (Status status = CheckSingleContactStep(request.steps(i)); !status.ok()) {
+      return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }
     StepReport report;
     if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report, interrupt);
@@ -184,6 +195,57 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
       WriteStepResult(target, applied, report, step_outputs, response->add_step_results());
     }
   }
+  return CommitBatchLocked(
+      request, applied, path_error, max_response_bytes, StateBytes(target),
+      ExportBytesBound(target, scene_bytes_),
+      [&] {
+        if (copy) *contact_ = std::move(*copy);
+      },
+      response);
+}
+
+Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
+                                  const OutputSelection& step_outputs, const StepGuard& guard,
+                                  std::size_t max_response_bytes, v1::ApplyResponse* response,
+                                  const Interrupt& interrupt) {
+  if (interface_batch_) {
+    *interface_batch_ = *interface_;
+  } else {
+    interface_batch_.emplace(*interface_);
+  }
+  Interface& target = *interface_batch_;
+  std::uint64_t applied = applied_steps_;
+  for (int i = 0; i < request.steps_size(); ++i) {
+    if (Status status = CheckNextStep(guard, i, applied); !status.ok()) return status;
+    if (Status status = ApplyInterfaceStep(target, request.steps(i), interrupt); !status.ok()) {
+      return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
+    }
+    ++applied;
+    if (!step_outputs.empty()) {
+      WriteInterfaceStepResult(target, applied, step_outputs, response->add_step_results());
+    }
+  }
+  return CommitBatchLocked(
+      request, applied, 0.0, max_response_bytes, StateBytes(target),
+      ExportBytesBound(target, scene_bytes_), [&] { std::swap(*interface_, target); }, response);
+}
+
+Status Session::CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied) {
+  if (guard) {
+    if (Status status = guard(i); !status.ok()) return status;
+  }
+  if (applied >= kMaxAppliedSteps) {
+    return FailedPrecondition("steps[" + std::to_string(i) + "]",
+                              "the session has applied its maximum of 2^53 steps");
+  }
+  return OkStatus();
+}
+
+Status Session::CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t applied,
+                                  double path_error, std::size_t max_response_bytes,
+                                  std::size_t state_bytes, std::size_t export_bytes,
+                                  const std::function<void()>& commit,
+                                  v1::ApplyResponse* response) {
   // Checked before the commit (a single step, applied in place, has a response far below any
   // allowed limit).
   if (const std::size_t bytes = response->ByteSizeLong(); bytes > max_response_bytes) {
@@ -194,7 +256,7 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
                                  "; select fewer fields or split the batch (nothing was applied)");
   }
   const std::size_t charged = charge_.bytes();
-  if (Status status = ChargeStateLocked(target); !status.ok()) return status;
+  if (Status status = ChargeStateLocked(state_bytes, export_bytes); !status.ok()) return status;
   if (journal_ != nullptr) {
     if (Status status = journal_->AddBatch(name_, journal_sequence_ + 1, request); !status.ok()) {
       (void)charge_.Resize(charged);  // a release: cannot fail
@@ -202,10 +264,10 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
     }
   }
   ++journal_sequence_;
-  if (copy) *contact_ = std::move(*copy);
+  commit();
   ProcessMetrics().steps_applied.Increment(applied - applied_steps_);
   applied_steps_ = applied;
-  WriteState(*contact_, applied_steps_, OutputSelection::FullState(), response->mutable_state());
+  WriteStateLocked(OutputSelection::FullState(), response->mutable_state());
   {
     std::lock_guard committed_lock(committed_mutex_);
     committed_state_ = response->state();
@@ -215,25 +277,37 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
   return OkStatus();
 }
 
-Status Session::ChargeStateLocked(const Contact& contact) {
+Status Session::ChargeStateLocked(std::size_t state_bytes, std::size_t export_bytes) {
   if (max_message_bytes_ > 0) {
-    if (Status status =
-            CheckExportable(ExportBytesBound(contact, scene_bytes_), max_message_bytes_, "steps");
-        !status.ok()) {
+    if (Status status = CheckExportable(export_bytes, max_message_bytes_, "steps"); !status.ok()) {
       return status;
     }
   }
-  return charge_.Resize(StateBytes(contact));
+  return charge_.Resize(state_bytes);
+}
+
+void Session::WriteStateLocked(const OutputSelection& selection, v1::ContactState* state) const {
+  if (interface_) {
+    WriteInterfaceState(*interface_, applied_steps_, selection, state);
+  } else {
+    WriteState(*contact_, applied_steps_, selection, state);
+  }
 }
 
 Status Session::Query(const OutputSelection& selection, const RadialSampling& sampling,
-                      OutputCounters* counters, v1::QueryResponse* response) const {
+                      OutputCounters* counters, v1::QueryResponse* response,
+                      const InterfaceQuery& interface_query) const {
   if (Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
   const Stopwatch stopwatch;
-  if (Status status =
-          WriteQueryOutputs(*contact_, applied_steps_, selection, sampling, response, counters);
-      !status.ok()) {
+  Status status = interface_
+                      ? WriteInterfaceQueryOutputs(*interface_, applied_steps_, selection, sampling,
+                                                   interface_query, response, counters)
+                      : CheckSingleContactQuery(selection, interface_query);
+  if (status.ok() && !interface_) {
+    status = WriteQueryOutputs(*contact_, applied_steps_, selection, sampling, response, counters);
+  }
+  if (!status.ok()) {
     response->Clear();
     return status;
   }
@@ -274,7 +348,11 @@ void Session::ExportLocked(v1::SessionSnapshot* snapshot) const {
   snapshot->set_source_name(name_);
   *snapshot->mutable_limits() = limits_;
   *snapshot->mutable_scene() = WithEffectiveOptions(scene_, contact_->config());
-  ToProtoSnapshot(contact_->Snapshot(), snapshot->mutable_contact());
+  if (interface_) {
+    ToProtoInterfaceSnapshot(*interface_, snapshot->mutable_interface());
+  } else {
+    ToProtoSnapshot(contact_->Snapshot(), snapshot->mutable_contact());
+  }
   snapshot->set_applied_steps(applied_steps_);
 }
 

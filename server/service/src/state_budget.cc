@@ -15,6 +15,8 @@ constexpr std::size_t kBytesPerVertex = 2 * sizeof(double) + 1;
 constexpr std::size_t kExportBytesPerSpring = sizeof(double);
 constexpr std::size_t kExportBytesPerVertex = 24;
 constexpr std::size_t kExportAllowance = 1024;
+// An interface's ContactSnapshot: four doubles with their tags, its own tag and length.
+constexpr std::size_t kExportBytesPerContact = 48;
 
 std::size_t Springs(const Contact& contact) {
   const GridMemory* grid = contact.grid_memory();
@@ -34,6 +36,18 @@ std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact) {
 std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
   return scene_bytes + kExportAllowance + Springs(contact) * kExportBytesPerSpring +
          contact.memory().vertex_count() * kExportBytesPerVertex;
+}
+
+// Twice: the session keeps a batch copy of the interface beside it (Session::RunInterfaceBatch).
+std::size_t StateBytes(const Interface& interface) { return 2 * interface.MemoryBytes(); }
+
+std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes) {
+  std::size_t vertices = 0;
+  for (std::size_t i = 0; i < interface.size(); ++i) {
+    vertices += interface.contact(i).memory().vertex_count();
+  }
+  return scene_bytes + kExportAllowance + interface.size() * kExportBytesPerContact +
+         vertices * kExportBytesPerVertex;
 }
 
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field) {

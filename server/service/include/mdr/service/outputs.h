@@ -51,6 +51,10 @@ enum class Output : std::uint8_t {
   kTractions,
   kPressure,
   kComputeSeconds,
+  // QueryResponse.interface (interface sessions).
+  kInterfaceTotals,
+  kInterfaceSlipHistogram,
+  kInterfaceMemoryBytes,
   kCount,
 };
 constexpr std::size_t kOutputCount = static_cast<std::size_t>(Output::kCount);
@@ -70,6 +74,10 @@ class OutputSelection {
   // Springs, tractions or pressure: outputs sampled at QueryRequest.radii.
   bool any_radial() const {
     return any_springs() || has(Output::kTractions) || has(Output::kPressure);
+  }
+  bool any_interface() const {
+    return has(Output::kInterfaceTotals) || has(Output::kInterfaceSlipHistogram) ||
+           has(Output::kInterfaceMemoryBytes);
   }
 
  private:

@@ -19,9 +19,11 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/interface.h"
 #include "mdr/core/status.h"
 #include "mdr/service/completed_requests.h"
 #include "mdr/service/principal.h"
+#include "mdr/service/interface_session.h"
 #include "mdr/service/outputs.h"
 #include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
@@ -35,6 +37,8 @@ class Journal;
 struct SessionOrigin {
   v1::Scene scene;
   v1::SessionLimits limits;  // effective
+  // The scene's contact. An interface session steps `interface` instead and keeps this unloaded
+  // contact for what the scene resolves (effective options, approximation errors).
   Contact contact;
   std::uint64_t applied_steps = 0;
   std::string owner{};
@@ -50,7 +54,13 @@ struct SessionOrigin {
   StateCharge charge{};
   // The message limit that every export of the session must fit (0: unchecked).
   int max_message_bytes = 0;
+  // Set for an interface session (scene.interface).
+  std::optional<Interface> interface{};
 };
+
+// The bytes a session's state holds and an upper bound of its export message.
+std::size_t StateBytes(const SessionOrigin& state);
+std::size_t ExportBytesBound(const SessionOrigin& state);
 
 // A journaled session whose state could not be restored at start: kept (with its journal entry)
 // so that it is listed with the reason and can be deleted, but without a state to use.
@@ -109,9 +119,11 @@ class Session {
                const Interrupt& interrupt = {});
 
   // The selected outputs of the current state; on error (an output this contact does not have)
-  // the response is cleared.
+  // the response is cleared. interface_query: contact_index and histogram bins of an interface
+  // session (a single session refuses them).
   Status Query(const OutputSelection& selection, const RadialSampling& sampling,
-               OutputCounters* counters, v1::QueryResponse* response) const;
+               OutputCounters* counters, v1::QueryResponse* response,
+               const InterfaceQuery& interface_query = {}) const;
 
   // Scene, limits, state, creation and expiry time, availability as the API resource. The state
   // is the one after the last committed batch: read without waiting for a batch that is running.
@@ -128,9 +140,23 @@ class Session {
   Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                   const StepGuard& guard, std::size_t max_response_bytes,
                   v1::ApplyResponse* response, const Interrupt& interrupt);
+  // Always on a copy of the interface: any step may grow its state past the budget.
+  Status RunInterfaceBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                           const StepGuard& guard, std::size_t max_response_bytes,
+                           v1::ApplyResponse* response, const Interrupt& interrupt);
+  // The guard and the step counter's limit before step i.
+  static Status CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied);
+  // The end of a batch whose steps all succeeded: the response size and state checks, the
+  // journal, then commit() moves the new state in.
+  Status CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t applied,
+                           double path_error, std::size_t max_response_bytes,
+                           std::size_t state_bytes, std::size_t export_bytes,
+                           const std::function<void()>& commit, v1::ApplyResponse* response);
+  void WriteStateLocked(const OutputSelection& selection, v1::ContactState* state) const;
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
-  // Resizes charge_ to the contact's state, unless it exceeds the budget or the export limit.
-  Status ChargeStateLocked(const Contact& contact);
+  // Resizes charge_ to state_bytes, unless it exceeds the budget or export_bytes the export
+  // limit.
+  Status ChargeStateLocked(std::size_t state_bytes, std::size_t export_bytes);
   Status CompactJournalLocked();
   // FAILED_PRECONDITION naming the reason for an unavailable session; OK otherwise.
   Status RequireAvailable() const;
@@ -149,6 +175,10 @@ class Session {
 
   mutable std::mutex mutex_;
   std::optional<Contact> contact_;           // guarded by mutex_; unset: unavailable
+  std::optional<Interface> interface_;       // guarded by mutex_; set: an interface session
+  // The batch copy of interface_, kept so that each batch copy-assigns into vectors that are
+  // already allocated (a fresh copy of 10^4 contacts costs more than a step); guarded by mutex_.
+  std::optional<Interface> interface_batch_;
   std::uint64_t applied_steps_;              // guarded by mutex_
   CompletedRequests completed_;              // guarded by mutex_
   Journal* journal_ = nullptr;               // guarded by mutex_

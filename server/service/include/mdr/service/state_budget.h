@@ -11,6 +11,7 @@
 #include <string>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/interface.h"
 #include "mdr/core/status.h"
 #include "mdr/v1/scene.pb.h"
 
@@ -26,6 +27,13 @@ std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact);
 // An upper bound of the ExportSession message of a session with this contact, given
 // ExportedSceneBytes (every other field of the snapshot fits in a fixed allowance).
 std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes);
+
+// An interface session's state: twice Interface::MemoryBytes (contacts, step buffer, heights,
+// profiles), for the interface and the batch copy its session keeps.
+std::size_t StateBytes(const Interface& interface);
+// An upper bound of the ExportSession message of an interface session: every contact's snapshot
+// as for a single contact, beside the scene.
+std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes);
 
 // RESOURCE_EXHAUSTED (field: `field`) when a snapshot of export_bytes would not fit
 // max_message_bytes.

@@ -1,0 +1,420 @@
+// Interface sessions (scene.interface): many exact contacts through the real server. Each
+// contact must behave bit for bit like a single session driven the same way, and the sessions
+// must be atomic, exportable and journaled like single ones.
+#include <filesystem>
+#include <random>
+
+#include "service_test_util.h"
+
+namespace mdr::service_testing {
+namespace {
+
+// Summit heights and radii of the explicit populations (m): around the H1 contact's depth.
+const std::vector<double> kHeights = {0, 0.4 * kDepth, -0.3 * kDepth};
+const std::vector<double> kRadii = {kRadius, 0.5 * kRadius, 2 * kRadius};
+
+v1::Scene ExplicitScene(v1::Interface::Kind kind) {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_interface()->set_kind(kind);
+  auto* list = scene.mutable_interface()->mutable_explicit_list();
+  list->mutable_heights()->Add(kHeights.begin(), kHeights.end());
+  list->mutable_radii()->Add(kRadii.begin(), kRadii.end());
+  return scene;
+}
+
+v1::Scene GeneratedScene(v1::Interface::Kind kind, std::uint64_t count) {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_interface()->set_kind(kind);
+  auto* generated = scene.mutable_interface()->mutable_generated();
+  generated->set_count(count);
+  generated->set_height_scale(0.3 * kDepth);
+  generated->set_radius_distribution(v1::GeneratedPopulation::RADIUS_DISTRIBUTION_LOGNORMAL);
+  generated->set_log_sigma(0.2);
+  generated->set_seed(17);
+  return scene;
+}
+
+// A single session of contact i of the explicit population.
+v1::Scene SingleScene(std::size_t i) {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_sphere()->set_radius(kRadii[i]);
+  return scene;
+}
+
+v1::Step ListStep(const std::vector<double>& normal, const std::vector<double>& tangential) {
+  v1::Step step;
+  step.set_depth_increment(0);  // the values are per contact
+  step.mutable_contact_normal_values()->Add(normal.begin(), normal.end());
+  step.set_displacement_increment(0);
+  step.mutable_contact_tangential_values()->Add(tangential.begin(), tangential.end());
+  return step;
+}
+
+v1::Step Increments(double depth, double displacement) {
+  v1::Step step;
+  step.set_depth_increment(depth);
+  step.set_displacement_increment(displacement);
+  return step;
+}
+
+class InterfaceSessionTest : public ServiceTest {
+ protected:
+  std::string CreateScene(const v1::Scene& scene) {
+    v1::Session session;
+    grpc::Status status = Create(scene, &session);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return session.name();
+  }
+
+  void ApplyOrDie(const std::string& session, const std::vector<v1::Step>& steps) {
+    v1::ApplyResponse response;
+    grpc::Status status = Apply(session, steps, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+
+  grpc::Status QueryInterface(const std::string& session, const std::vector<std::string>& mask,
+                              v1::QueryResponse* response,
+                              std::optional<std::uint64_t> contact_index = std::nullopt,
+                              int bins = 0, const std::vector<double>& radii = {}) {
+    v1::QueryRequest request;
+    request.set_session(session);
+    *request.mutable_read_mask() = Mask(mask);
+    if (contact_index) request.set_contact_index(*contact_index);
+    request.set_slip_histogram_bins(bins);
+    request.mutable_radii()->Add(radii.begin(), radii.end());
+    return stub_->Query(Context().get(), request, response);
+  }
+
+  v1::InterfaceTotals TotalsOf(const std::string& session) {
+    v1::QueryResponse response;
+    grpc::Status status = QueryInterface(session, {"interface.totals"}, &response);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return response.interface().totals();
+  }
+
+  // The snapshot without its source name: what must match bit for bit.
+  std::string StateBytesOf(const std::string& session) {
+    v1::SessionSnapshot snapshot = ExportOrDie(session);
+    snapshot.clear_source_name();
+    return snapshot.SerializeAsString();
+  }
+
+  std::string Import(const v1::SessionSnapshot& snapshot) {
+    v1::ImportSessionRequest request;
+    *request.mutable_snapshot() = snapshot;
+    v1::Session session;
+    grpc::Status status = stub_->ImportSession(Context().get(), request, &session);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return session.name();
+  }
+};
+
+TEST_F(InterfaceSessionTest, CreatesGeneratedAndExplicitInterfaces) {
+  const std::string generated = CreateScene(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 200));
+  const std::string listed = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  v1::QueryResponse response;
+  ASSERT_TRUE(QueryInterface(generated, {"interface"}, &response, std::nullopt, 10).ok());
+  EXPECT_EQ(response.interface().contact_count(), 200u);
+  EXPECT_GT(response.interface().memory_bytes(), 200u * sizeof(Contact));
+  // A new shared-motion interface touches its highest summit: nothing is loaded yet.
+  EXPECT_EQ(response.interface().totals().normal_force(), 0);
+  EXPECT_EQ(response.interface().slip_histogram_size(), 10);
+  ASSERT_TRUE(QueryInterface(listed, {"interface.memory_bytes"}, &response).ok());
+  EXPECT_EQ(response.interface().contact_count(), 3u);
+  EXPECT_FALSE(response.interface().has_totals());  // only what is asked
+  EXPECT_EQ(StateOf(listed).applied_steps(), 0u);
+}
+
+TEST_F(InterfaceSessionTest, SharedMotionTotalsAreTheSumOfSingleSessionsBitForBit) {
+  const std::string interface = CreateScene(ExplicitScene(v1::Interface::KIND_SHARED_MOTION));
+  const double approach = 0.8 * kDepth;
+  const std::vector<double> displacements = {0.2 * kDisplacementAt15N, -0.1 * kDisplacementAt15N,
+                                             0.3 * kDisplacementAt15N};
+  std::vector<v1::Step> steps = {DepthStep(approach)};
+  for (double ux : displacements) steps.push_back(DisplacementStep(ux));
+  ApplyOrDie(interface, steps);
+
+  double normal_force = 0, tangential_force = 0, energy = 0;
+  for (std::size_t i = 0; i < kHeights.size(); ++i) {
+    const std::string single = CreateScene(SingleScene(i));
+    // Contact i has the depth approach - h_i with h_i = -heights[i].
+    std::vector<v1::Step> single_steps = {DepthStep(approach + kHeights[i])};
+    for (double ux : displacements) single_steps.push_back(DisplacementStep(ux));
+    ApplyOrDie(single, single_steps);
+    const v1::ContactState state = StateOf(single);
+    normal_force += state.normal_force();
+    tangential_force += state.tangential_force();
+    energy += state.dissipated_energy();
+    // The contact by index answers exactly as the single session.
+    v1::QueryResponse by_index, alone;
+    ASSERT_TRUE(QueryInterface(interface, {"state", "jager_weights", "energy"}, &by_index, i).ok());
+    ASSERT_TRUE(QueryInterface(single, {"state", "jager_weights", "energy"}, &alone).ok());
+    by_index.clear_compute_seconds();
+    alone.clear_compute_seconds();
+    EXPECT_EQ(by_index.SerializeAsString(), alone.SerializeAsString()) << "contact " << i;
+  }
+  const v1::InterfaceTotals totals = TotalsOf(interface);
+  EXPECT_EQ(totals.normal_force(), normal_force);
+  EXPECT_EQ(totals.tangential_force(), tangential_force);
+  EXPECT_EQ(totals.dissipated_energy(), energy);
+  EXPECT_GT(totals.in_contact(), 0u);
+  const v1::ContactState state = StateOf(interface);
+  EXPECT_EQ(state.depth(), approach);
+  EXPECT_EQ(state.tangential_displacement(), displacements.back());
+  EXPECT_EQ(state.normal_force(), normal_force);
+  EXPECT_EQ(state.applied_steps(), steps.size());
+}
+
+TEST_F(InterfaceSessionTest, NormalForceTargetOfTheWholeInterfaceIsReached) {
+  const std::string interface = CreateScene(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 300));
+  const double target = 250;  // N
+  v1::ApplyResponse applied;
+  ASSERT_TRUE(Apply(interface,
+                    {NormalForceStep(target), TangentialForceStep(0.5 * kFriction * target)},
+                    &applied, {"state.normal_force", "substeps"})
+                  .ok());
+  ASSERT_EQ(applied.step_results_size(), 2);
+  EXPECT_NEAR(applied.step_results(0).state().normal_force(), target, 1e-12 * target);
+  EXPECT_EQ(applied.step_results(1).substeps(), 1);
+  EXPECT_EQ(applied.step_results(1).state().tangential_force(), 0);  // not asked for
+  const v1::InterfaceTotals totals = TotalsOf(interface);
+  EXPECT_EQ(applied.state().normal_force(), totals.normal_force());
+  EXPECT_NEAR(totals.normal_force(), target, 1e-12 * target);
+  EXPECT_NEAR(totals.tangential_force(), 0.5 * kFriction * target, 1e-12 * totals.friction_limit());
+  EXPECT_EQ(totals.sticking() + totals.partial_slip() + totals.gross_slip(), totals.in_contact());
+  v1::QueryResponse response;
+  ASSERT_TRUE(
+      QueryInterface(interface, {"interface.slip_histogram"}, &response, std::nullopt, 7).ok());
+  std::uint64_t binned = 0;
+  for (std::uint64_t count : response.interface().slip_histogram()) binned += count;
+  EXPECT_EQ(binned, totals.in_contact());
+}
+
+TEST_F(InterfaceSessionTest, ContactListStepsEachContactLikeASingleSession) {
+  const std::string list = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  const std::vector<std::vector<double>> depth_increments = {{kDepth, 0.5 * kDepth, 1.5 * kDepth},
+                                                             {0, -0.1 * kDepth, 0.2 * kDepth}};
+  const std::vector<std::vector<double>> displacement_increments = {
+      {0.1 * kDisplacementAt15N, -0.2 * kDisplacementAt15N, 0},
+      {-0.3 * kDisplacementAt15N, 0.1 * kDisplacementAt15N, 0.05 * kDisplacementAt15N}};
+  ApplyOrDie(list, {ListStep(depth_increments[0], displacement_increments[0]),
+                    ListStep(depth_increments[1], displacement_increments[1])});
+  // A per-contact force target as a third step.
+  v1::Step forces;
+  forces.set_normal_force(0);
+  for (double force : {80.0, 30.0, 200.0}) forces.add_contact_normal_values(force);
+  ApplyOrDie(list, {forces});
+
+  const std::vector<double> radii = {0, 1e-5, 5e-5};
+  for (std::size_t i = 0; i < kRadii.size(); ++i) {
+    const std::string single = CreateScene(SingleScene(i));
+    ApplyOrDie(single, {Increments(depth_increments[0][i], displacement_increments[0][i]),
+                        Increments(depth_increments[1][i], displacement_increments[1][i])});
+    ApplyOrDie(single, {NormalForceStep(forces.contact_normal_values(static_cast<int>(i)))});
+    v1::QueryResponse by_index, alone;
+    const std::vector<std::string> mask = {"state", "jager_weights", "tractions",
+                                           "tangential_stiffness", "memory_pieces"};
+    ASSERT_TRUE(QueryInterface(list, mask, &by_index, i, 0, radii).ok());
+    ASSERT_TRUE(QueryInterface(single, mask, &alone, std::nullopt, 0, radii).ok());
+    by_index.clear_compute_seconds();
+    alone.clear_compute_seconds();
+    EXPECT_EQ(by_index.SerializeAsString(), alone.SerializeAsString()) << "contact " << i;
+  }
+}
+
+// Random batches of either kind: list steps with per-contact increments, shared steps with
+// increments of the rigid motion.
+std::vector<v1::Step> RandomBatch(std::mt19937_64& random, v1::Interface::Kind kind,
+                                  std::size_t contacts) {
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::vector<v1::Step> steps(1 + random() % 3);
+  for (v1::Step& step : steps) {
+    if (kind == v1::Interface::KIND_SHARED_MOTION) {
+      step = Increments(0.2 * kDepth * unit(random), 0.3 * kDisplacementAt15N * unit(random));
+      continue;
+    }
+    std::vector<double> normal(contacts), tangential(contacts);
+    for (double& value : normal) value = 0.2 * kDepth * (unit(random) + 0.3);
+    for (double& value : tangential) value = 0.3 * kDisplacementAt15N * unit(random);
+    step = ListStep(normal, tangential);
+  }
+  return steps;
+}
+
+TEST_F(InterfaceSessionTest, ExportImportAndJournalContinueBitIdentically) {
+  const std::filesystem::path journal =
+      std::filesystem::temp_directory_path() /
+      ("mdr-interface-journal-" + std::to_string(::getpid()) + ".sqlite");
+  std::filesystem::remove(journal);
+  service::ServerOptions options = LocalServerOptions();
+  options.journal.path = journal.string();
+  options.journal.snapshot_every = 3;
+  Restart(options);
+  for (const v1::Interface::Kind kind :
+       {v1::Interface::KIND_SHARED_MOTION, v1::Interface::KIND_CONTACT_LIST}) {
+    SCOPED_TRACE(v1::Interface::Kind_Name(kind));
+    const std::size_t count = 40;
+    const std::string original = CreateScene(GeneratedScene(kind, count));
+    std::mt19937_64 random(5);
+    ApplyOrDie(original, {kind == v1::Interface::KIND_SHARED_MOTION
+                              ? Increments(0.9 * kDepth, 0)
+                              : ListStep(std::vector<double>(count, 0.9 * kDepth),
+                                         std::vector<double>(count, 0))});
+    for (int batch = 0; batch < 8; ++batch) ApplyOrDie(original, RandomBatch(random, kind, count));
+    const std::string copy = Import(ExportOrDie(original));
+    EXPECT_EQ(StateBytesOf(copy), StateBytesOf(original));
+    // The server restarts on its journal: the session comes back exactly.
+    const std::string before_restart = StateBytesOf(original);
+    Restart(options);
+    EXPECT_EQ(StateBytesOf(original), before_restart);
+    for (int batch = 0; batch < 8; ++batch) {
+      const std::vector<v1::Step> steps = RandomBatch(random, kind, count);
+      ApplyOrDie(original, steps);
+      ApplyOrDie(copy, steps);
+    }
+    EXPECT_EQ(StateBytesOf(copy), StateBytesOf(original));
+    EXPECT_EQ(TotalsOf(copy).SerializeAsString(), TotalsOf(original).SerializeAsString());
+  }
+  server_.reset();
+  std::filesystem::remove(journal);
+}
+
+TEST_F(InterfaceSessionTest, StreamApplyStepsAContactListAtomically) {
+  const std::string list = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  const std::string reference = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  const std::vector<v1::Step> load = {ListStep({kDepth, kDepth, kDepth}, {0, 0, 0})};
+  const std::vector<v1::Step> slide = {ListStep({0, 0, 0}, {1e-7, -1e-7, 2e-7})};
+  auto context = Context();
+  auto stream = stub_->StreamApply(context.get());
+  v1::StreamApplyResponse answer;
+  v1::StreamApplyRequest message;
+  *message.mutable_apply() = ApplyRequestFor(list, load);
+  ASSERT_TRUE(stream->Write(message));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), 0) << answer.status().message();
+  // A batch whose second step has a bad count: refused in its answer, nothing of it applied.
+  *message.mutable_apply() = ApplyRequestFor(list, {slide[0], ListStep({0}, {0, 0, 0})});
+  ASSERT_TRUE(stream->Write(message));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(answer.status().message(), testing::StartsWith("steps[1].contact_normal_values: "));
+  *message.mutable_apply() = ApplyRequestFor(list, slide);
+  ASSERT_TRUE(stream->Write(message));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), 0) << answer.status().message();
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+  ApplyOrDie(reference, load);
+  ApplyOrDie(reference, slide);
+  EXPECT_EQ(StateBytesOf(list), StateBytesOf(reference));
+}
+
+TEST_F(InterfaceSessionTest, BadScenesNameTheField) {
+  v1::Session session;
+  v1::Scene scene = GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 0);
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.generated.count");
+  scene = GeneratedScene(v1::Interface::KIND_UNSPECIFIED, 10);
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.kind");
+  scene = GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 10);
+  scene.mutable_interface()->mutable_generated()->set_log_sigma(4);
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.generated.log_sigma");
+  scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
+  scene.mutable_interface()->mutable_explicit_list()->add_radii(kRadius);
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.explicit_list.radii");
+  scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
+  scene.mutable_interface()->mutable_explicit_list()->set_radii(1, -1);
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.explicit_list.radii[1]");
+  scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
+  scene.mutable_cone()->set_slope_angle(0.1);
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.sphere");
+  scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
+  scene.mutable_interface()->clear_explicit_list();
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.population");
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Context().get(), {}, &list).ok());
+  EXPECT_EQ(list.sessions_size(), 0);
+}
+
+TEST_F(InterfaceSessionTest, BadStepsAndQueriesNameTheFieldAndChangeNothing) {
+  const std::string list = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  const std::string shared = CreateScene(ExplicitScene(v1::Interface::KIND_SHARED_MOTION));
+  const std::string single = CreateOrDie();
+  ApplyOrDie(list, {ListStep({kDepth, kDepth, kDepth}, {0, 0, 0})});
+  ApplyOrDie(shared, {DepthStep(kDepth)});
+  const std::string list_before = StateBytesOf(list);
+  const std::string shared_before = StateBytesOf(shared);
+  v1::ApplyResponse response;
+  // The first step is fine; the second has two values for three contacts.
+  ExpectInvalidArgument(
+      Apply(list, {ListStep({0, 0, 0}, {1e-7, 0, 0}), ListStep({0, 0}, {0, 0, 0})}, &response),
+      "steps[1].contact_normal_values");
+  ExpectInvalidArgument(Apply(list, {ListStep({0, std::nan(""), 0}, {0, 0, 0})}, &response),
+                        "steps[0].contact_normal_values[1]");
+  v1::Step own_value = ListStep({0, 0, 0}, {0, 0, 0});
+  own_value.set_depth_increment(1e-6);
+  ExpectInvalidArgument(Apply(list, {own_value}, &response), "steps[0].depth_increment");
+  v1::Step no_channel;
+  no_channel.add_contact_tangential_values(0);
+  ExpectInvalidArgument(Apply(list, {no_channel}, &response), "steps[0].contact_tangential_values");
+  ExpectInvalidArgument(Apply(shared, {ListStep({0, 0, 0}, {0, 0, 0})}, &response),
+                        "steps[0].contact_normal_values");
+  ExpectInvalidArgument(Apply(single, {ListStep({0}, {0})}, &response),
+                        "steps[0].contact_normal_values");
+  EXPECT_EQ(StateBytesOf(list), list_before);
+  EXPECT_EQ(StateBytesOf(shared), shared_before);
+
+  v1::QueryResponse query;
+  ExpectInvalidArgument(QueryInterface(list, {"state"}, &query, 3), "contact_index");
+  EXPECT_THAT(QueryInterface(list, {"state"}, &query, 3).error_message(),
+              testing::HasSubstr("[0, 2]"));
+  ExpectInvalidArgument(QueryInterface(list, {"jager_weights"}, &query), "contact_index");
+  ExpectInvalidArgument(QueryInterface(list, {"interface.slip_histogram"}, &query),
+                        "slip_histogram_bins");
+  ExpectInvalidArgument(QueryInterface(single, {"state"}, &query, 0), "contact_index");
+  EXPECT_EQ(QueryInterface(single, {"interface.totals"}, &query).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+TEST_F(InterfaceSessionTest, BadSnapshotsNameTheField) {
+  const std::string list = CreateScene(ExplicitScene(v1::Interface::KIND_CONTACT_LIST));
+  ApplyOrDie(list, {ListStep({kDepth, kDepth, kDepth}, {1e-7, 0, 0})});
+  const v1::SessionSnapshot good = ExportOrDie(list);
+  ASSERT_EQ(good.interface().contacts_size(), 3);
+  EXPECT_FALSE(good.has_contact());
+  v1::ImportSessionRequest request;
+  v1::Session session;
+  *request.mutable_snapshot() = good;
+  request.mutable_snapshot()->mutable_interface()->mutable_contacts(1)->set_dissipated_energy(-1);
+  ExpectInvalidArgument(stub_->ImportSession(Context().get(), request, &session),
+                        "snapshot.interface.contacts[1].dissipated_energy");
+  *request.mutable_snapshot() = good;
+  request.mutable_snapshot()->mutable_contact()->set_depth(1e-6);
+  ExpectInvalidArgument(stub_->ImportSession(Context().get(), request, &session),
+                        "snapshot.contact");
+  *request.mutable_snapshot() = ExportOrDie(CreateOrDie());
+  *request.mutable_snapshot()->mutable_interface() = good.interface();
+  ExpectInvalidArgument(stub_->ImportSession(Context().get(), request, &session),
+                        "snapshot.interface");
+}
+
+TEST_F(InterfaceSessionTest, StateBudgetAndExportLimitApply) {
+  service::ServerOptions options = LocalServerOptions();
+  options.limits.max_state_bytes = 100000;
+  Restart(options);
+  v1::Session session;
+  grpc::Status refused = Create(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 1000), &session);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-state-bytes"));
+  EXPECT_TRUE(Create(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 10), &session).ok());
+
+  options.limits.max_state_bytes = 0;
+  options.limits.max_message_bytes = 64 << 10;
+  Restart(options);
+  // 2000 contacts export to at least 2000 * 48 bytes: above 64 KiB.
+  refused = Create(GeneratedScene(v1::Interface::KIND_CONTACT_LIST, 2000), &session);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-message-bytes"));
+}
+
+}  // namespace
+}  // namespace mdr::service_testing
