@@ -644,3 +644,18 @@ TEST_F(JagerTransformTest, ForcesOnlyQueryComputesNoTractions) {
 
 }  // namespace
 }  // namespace mdr::service_testing
+
+namespace mdr::service_testing {
+namespace {
+
+// Transform works on one contact: a scene describing an interface is refused, not ignored.
+TEST_F(JagerTransformTest, AnInterfaceSceneIsRefused) {
+  v1::TransformRequest request;
+  *request.mutable_scene() = SteelSphereOnSteelFlat();
+  request.mutable_scene()->mutable_interface()->set_kind(v1::Interface::KIND_SHARED_MOTION);
+  v1::TransformResponse response;
+  ExpectInvalidArgument(Transform(request, &response), "scene.interface");
+}
+
+}  // namespace
+}  // namespace mdr::service_testing

@@ -111,6 +111,11 @@ Status CheckRequestSize(const v1::TransformRequest& request, int max_message_byt
 Status RunTransform(const v1::TransformRequest& request, const ServiceLimits& limits,
                     v1::TransformResponse* response) {
   if (Status s = CheckRequestSize(request, limits.max_message_bytes); !s.ok()) return s;
+  if (request.scene().has_interface()) {
+    return InvalidArgument("scene.interface",
+                           "must be unset: Transform works on one contact's memory (query an "
+                           "interface's contact with QueryRequest.contact_index instead)");
+  }
   Result<ContactConfig> config = ToContactConfig(request.scene(), limits.max_memory_vertices);
   if (!config.ok()) return config.status();
   Result<RadialSampling> sampling = ToRadialSampling(request.radii(), request.traction_route());
