@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/v1/scene_file.pb.h"
 
 namespace mdrctl {

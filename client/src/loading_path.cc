@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr::client {
 namespace {

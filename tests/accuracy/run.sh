@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Regenerates docs/report/: accuracy against run time (CSV, Markdown, PNG plots), the core
 # benchmarks, and the service load test (mdr_load: unary, batched and streamed Apply beside an
-# echo of the same shape, 1/10/100 sessions; about a minute). One command, a few minutes on 2 cores:
+# echo of the same shape, 1/10/100 sessions; about a minute), the many-contact benchmarks. One command, a few minutes on 2 cores:
 #   bash tests/accuracy/run.sh            (full study)
 #   bash tests/accuracy/run.sh --quick    (fewer resolutions, for a smoke run)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 quick=${1:-}
 out=docs/report
-bash deploy/build.sh release --target mdr_accuracy_study mdr_core_bench mdr_load
+bash deploy/build.sh release --target mdr_accuracy_study mdr_core_bench mdr_load \
+  mdr_interface_bench mdr_interface_load
 mkdir -p "$out"
 echo "accuracy study -> $out/accuracy.csv"
 build/release/tests/accuracy/mdr_accuracy_study $quick > "$out/accuracy.csv"
@@ -16,6 +17,13 @@ echo "core benchmarks -> $out/core_bench.json"
 build/release/tests/bench/mdr_core_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \
   --benchmark_out="$out/core_bench.json" > /dev/null
+echo "interface benchmarks -> $out/interface_bench.json"
+build/release/tests/bench/mdr_interface_bench --benchmark_repetitions=3 \
+  --benchmark_report_aggregates_only=true --benchmark_out_format=json \
+  --benchmark_out="$out/interface_bench.json" > /dev/null
+echo "contact list through the service -> $out/interface_load.txt"
+{ build/release/tests/bench/mdr_interface_load --seconds 3
+  build/release/tests/bench/mdr_interface_load --seconds 3 --no-energy; } > "$out/interface_load.txt"
 echo "load test -> $out/load.json"
 build/release/tests/bench/mdr_load --json "$out/load.json" > /dev/null
 /usr/bin/python3 tests/accuracy/report.py "$out"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr {
 namespace {

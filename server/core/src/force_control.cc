@@ -5,7 +5,7 @@
 #include <limits>
 
 #include "mdr/core/contact.h"
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr {
 namespace {

@@ -12,7 +12,7 @@
 #include <unordered_set>
 #include <utility>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr {
 namespace {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "jager_terms.h"
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 #include "numerics.h"
 
 namespace mdr {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "mdr/core/jager.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr::internal {
 

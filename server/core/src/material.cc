@@ -1,6 +1,6 @@
 #include "mdr/core/material.h"
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr {
 namespace {

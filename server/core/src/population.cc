@@ -6,7 +6,8 @@
 #include <string>
 #include <utility>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
@@ -65,7 +66,7 @@ double UniformFrom64(std::uint64_t bits) { return static_cast<double>(bits >> 11
 void BoxMuller(double uniform_1, double uniform_2, double* normal_1, double* normal_2) {
   // 1 - u1 is in (0, 1], so the logarithm is finite; the radius is at most sqrt(2 ln 2^53) = 8.6.
   const double radius = std::sqrt(-2 * std::log(1 - uniform_1));
-  const double angle = 2 * std::numbers::pi * uniform_2;
+  const double angle = 2 * internal::kPi * uniform_2;
   *normal_1 = radius * std::cos(angle);
   *normal_2 = radius * std::sin(angle);
 }

@@ -8,7 +8,7 @@
 #include <numbers>
 #include <sstream>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 #include "numerics.h"
 
 namespace mdr {

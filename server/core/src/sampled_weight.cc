@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "jager_terms.h"
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr {
 namespace {

@@ -13,7 +13,7 @@
 #include <sstream>
 #include <utility>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 #include "numerics.h"
 
 namespace mdr {

@@ -10,7 +10,7 @@
 #include <span>
 #include <string>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 #include "numerics.h"
 
 namespace mdr {

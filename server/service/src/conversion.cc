@@ -7,7 +7,7 @@
 #include "mdr/core/material.h"
 #include "mdr/core/profile.h"
 #include "mdr/core/tabulated_profile.h"
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr::service {
 namespace {

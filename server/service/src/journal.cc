@@ -18,7 +18,7 @@
 #include <string_view>
 #include <utility>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/metrics.h"
 #include "mdr/service/session_store.h"
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 namespace mdr::service {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <utility>
 
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 #include "mdr/service/conversion.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <utility>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"
 

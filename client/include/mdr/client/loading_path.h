@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/v1/scene_file.pb.h"
 
 namespace mdr::client {

@@ -5,7 +5,7 @@
 
 #include <grpcpp/support/status.h>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr::client {
 

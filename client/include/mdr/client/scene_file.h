@@ -7,7 +7,7 @@
 #include <map>
 #include <string>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/v1/scene_file.pb.h"
 
 namespace mdr::client {

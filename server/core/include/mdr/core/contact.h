@@ -13,7 +13,7 @@
 #include "mdr/core/material.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

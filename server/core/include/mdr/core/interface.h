@@ -14,7 +14,7 @@
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/population.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

@@ -9,7 +9,7 @@
 #include <chrono>
 #include <cstdint>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

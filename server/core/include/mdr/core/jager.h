@@ -17,7 +17,7 @@
 #include "mdr/core/contact.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

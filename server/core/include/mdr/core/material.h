@@ -1,7 +1,7 @@
 // Elastic constants of the contact in the Hertz-Mindlin approximation (docs/physics.md, "Symbols").
 #pragma once
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

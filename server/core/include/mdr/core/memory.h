@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "mdr/core/profile.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

@@ -6,7 +6,7 @@
 #include <memory>
 #include <string>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

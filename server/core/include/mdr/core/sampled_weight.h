@@ -7,7 +7,7 @@
 
 #include "mdr/core/jager.h"
 #include "mdr/core/profile.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

@@ -24,7 +24,7 @@
 
 #include "mdr/core/interrupt.h"
 #include "mdr/core/profile.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/principal.h"
 
 namespace mdr::service {

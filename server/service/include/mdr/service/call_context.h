@@ -10,7 +10,7 @@
 #include <string>
 
 #include "mdr/core/interrupt.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/auth.h"
 #include "mdr/service/executor.h"
 #include "mdr/service/operations.h"

@@ -15,7 +15,7 @@
 #include "mdr/core/jager.h"
 #include "mdr/core/sampled_weight.h"
 #include "mdr/core/memory.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/core/traction.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"

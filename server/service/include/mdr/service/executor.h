@@ -19,7 +19,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr::service {
 

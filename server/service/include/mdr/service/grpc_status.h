@@ -10,7 +10,7 @@
 #include <string>
 
 #include "google/rpc/status.pb.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr::service {
 

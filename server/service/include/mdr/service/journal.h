@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/completed_requests.h"
 #include "mdr/v1/contact_service.pb.h"
 

@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {

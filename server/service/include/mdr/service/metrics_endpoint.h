@@ -8,7 +8,7 @@
 #include <string>
 #include <thread>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace httplib {
 class Server;

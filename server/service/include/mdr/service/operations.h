@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "mdr/core/interrupt.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/outputs.h"

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/core/traction.h"
 #include "mdr/service/conversion.h"
 #include "mdr/v1/contact_service.pb.h"

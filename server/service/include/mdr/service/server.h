@@ -16,7 +16,7 @@
 #include <string>
 #include <thread>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/auth.h"
 #include "mdr/service/contact_service.h"
 #include "mdr/service/executor.h"

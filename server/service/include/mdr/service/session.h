@@ -20,7 +20,7 @@
 
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/completed_requests.h"
 #include "mdr/service/principal.h"
 #include "mdr/service/interface_session.h"

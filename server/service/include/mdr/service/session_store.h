@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/session.h"
 
 namespace mdr::service {

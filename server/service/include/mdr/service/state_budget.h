@@ -12,7 +12,7 @@
 
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/v1/scene.pb.h"
 
 namespace mdr::service {

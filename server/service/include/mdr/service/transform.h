@@ -5,7 +5,7 @@
 
 #include <cstddef>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 #include "mdr/service/limits.h"
 #include "mdr/v1/contact_service.pb.h"
 

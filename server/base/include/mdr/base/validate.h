@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "mdr/core/status.h"
+#include "mdr/base/status.h"
 
 namespace mdr {
 

@@ -1,4 +1,4 @@
-#include "mdr/core/validate.h"
+#include "mdr/base/validate.h"
 
 #include <cmath>
 #include <sstream>
