@@ -405,6 +405,9 @@ TEST_F(InterfaceSessionTest, StateBudgetAndExportLimitApply) {
   grpc::Status refused = Create(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 1000), &session);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-state-bytes"));
+  // Refused before the interface is built, naming the count.
+  EXPECT_THAT(refused.error_message(),
+              testing::StartsWith("session.scene.interface.generated.count: "));
   EXPECT_TRUE(Create(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 10), &session).ok());
 
   options.limits.max_state_bytes = 0;
@@ -414,6 +417,15 @@ TEST_F(InterfaceSessionTest, StateBudgetAndExportLimitApply) {
   refused = Create(GeneratedScene(v1::Interface::KIND_CONTACT_LIST, 2000), &session);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-message-bytes"));
+
+  // A count far beyond every limit is refused up front: nothing of it is allocated (building 10^7
+  // contacts would take gigabytes and seconds).
+  options.limits = {};
+  Restart(options);
+  refused = Create(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 10000000), &session);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(),
+              testing::StartsWith("session.scene.interface.generated.count: "));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "mdr/core/population.h"
 #include "mdr/service/conversion.h"
+#include "mdr/service/state_budget.h"
 
 namespace mdr::service {
 namespace {
@@ -288,6 +289,37 @@ Status WriteInterfaceOutputs(const Interface& interface, const OutputSelection& 
 }
 
 }  // namespace
+
+Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
+                          std::size_t state_bytes_left, int max_message_bytes) {
+  const v1::Interface& interface = scene.interface();
+  const bool generated = interface.population_case() == v1::Interface::kGenerated;
+  const std::size_t count =
+      generated ? interface.generated().count()
+                : static_cast<std::size_t>(interface.explicit_list().heights_size());
+  const std::string field =
+      generated ? "scene.interface.generated.count" : "scene.interface.explicit_list.heights";
+  constexpr std::size_t kEmptySnapshotBytes = 2;  // tag and length of an empty ContactSnapshot
+  if (count > static_cast<std::size_t>(max_message_bytes) / kEmptySnapshotBytes) {
+    return ResourceExhausted(field, std::to_string(count) +
+                                        " contacts could not be exported within the message "
+                                        "limit of " +
+                                        std::to_string(max_message_bytes) +
+                                        " bytes (mdrd --max-message-bytes)");
+  }
+  if (state_bytes_left == 0) return OkStatus();
+  Result<Interface> probe =
+      Interface::Create({.kind = InterfaceKind::kContactList, .contacts = {base}, .heights = {}});
+  if (!probe.ok()) return OkStatus();  // the real construction reports the error
+  const std::size_t per_contact = StateBytes(*probe);
+  if (count > state_bytes_left / per_contact) {
+    return ResourceExhausted(
+        field, std::to_string(count) + " contacts need at least " + std::to_string(per_contact) +
+                   " bytes each; the server's state budget has " +
+                   std::to_string(state_bytes_left) + " bytes left (mdrd --max-state-bytes)");
+  }
+  return OkStatus();
+}
 
 Result<Interface> CreateInterface(const v1::Scene& scene, const ContactConfig& base) {
   Result<InterfaceConfig> config = ToInterfaceConfig(scene, base);

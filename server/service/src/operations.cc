@@ -218,6 +218,11 @@ Status ContactOperations::CreateSession(const Principal& caller,
   SessionOrigin state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   if (resource.scene().has_interface()) {
+    if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(), StateBytesLeft(),
+                                      limits_.max_message_bytes);
+        !s.ok()) {
+      return s.WithFieldPrefix("session");
+    }
     Result<Interface> interface = CreateInterface(resource.scene(), state.contact.config());
     if (!interface.ok()) return interface.status().WithFieldPrefix("session");
     state.interface.emplace(std::move(interface).value());
@@ -310,6 +315,11 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
   if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
   std::optional<Interface> interface;
   if (snapshot.scene().has_interface()) {
+    if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateBytesLeft(),
+                                      limits_.max_message_bytes);
+        !s.ok()) {
+      return s.WithFieldPrefix("snapshot");
+    }
     Result<Interface> restored =
         RestoreInterface(snapshot.scene(), contact->config(), snapshot.interface());
     if (!restored.ok()) return restored.status().WithFieldPrefix("snapshot");

@@ -20,6 +20,13 @@ namespace mdr::service {
 // friction and options. Errors name the field from the Scene down ("scene.interface.kind",
 // "scene.interface.generated.count", "scene.interface.explicit_list.radii[3]", "scene.method").
 Result<Interface> CreateInterface(const v1::Scene& scene, const ContactConfig& base);
+// Checked before anything of an interface is built, so that a client's count cannot make the
+// server allocate beyond its limits first: RESOURCE_EXHAUSTED (field ".generated.count" or
+// ".explicit_list.heights" under scene.interface) when count fresh contacts would already hold
+// more than state_bytes_left (0: no limit) or could not be exported within max_message_bytes (an
+// empty contact snapshot costs 2 bytes). A fresh contact's bytes come from a one-contact probe.
+Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
+                          std::size_t state_bytes_left, int max_message_bytes);
 // An interface restored from a snapshot's state; errors name "interface.contacts[i]..." (relative
 // to the snapshot) or the scene's fields as CreateInterface.
 Result<Interface> RestoreInterface(const v1::Scene& scene, const ContactConfig& base,

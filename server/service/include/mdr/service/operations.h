@@ -80,6 +80,11 @@ class ContactOperations {
   const ServiceLimits& limits() const { return limits_; }
 
  private:
+  // What the state budget has left (0: no limit); for checks made before a state is built.
+  std::size_t StateBytesLeft() const {
+    if (budget_.limit() == 0) return 0;
+    return budget_.used() < budget_.limit() ? budget_.limit() - budget_.used() : 1;
+  }
   // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
   Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix,
                                       const Interrupt& interrupt) const;
