@@ -12,8 +12,10 @@ namespace {
 // Largest grid the config accepts (32 MiB of spring state).
 constexpr std::size_t kMaxGridSize = std::size_t{1} << 22;
 
-const char* NormalField(NormalControl c) {
-  switch (c) {
+}  // namespace
+
+const char* FieldName(NormalControl control) {
+  switch (control) {
     case NormalControl::kDepth:
       return "depth";
     case NormalControl::kDepthIncrement:
@@ -24,8 +26,8 @@ const char* NormalField(NormalControl c) {
   return "normal";
 }
 
-const char* TangentialField(TangentialControl c) {
-  switch (c) {
+const char* FieldName(TangentialControl control) {
+  switch (control) {
     case TangentialControl::kDisplacement:
       return "displacement";
     case TangentialControl::kDisplacementIncrement:
@@ -35,8 +37,6 @@ const char* TangentialField(TangentialControl c) {
   }
   return "tangential";
 }
-
-}  // namespace
 
 Status ValidateContactConfig(const ContactConfig& config) {
   if (!config.profile) {
@@ -248,8 +248,8 @@ Status Contact::MoveTo(double depth, double tangential_displacement, StepReport*
 }
 
 Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& interrupt) {
-  const char* normal_field = NormalField(step.normal);
-  const char* tangential_field = TangentialField(step.tangential);
+  const char* normal_field = FieldName(step.normal);
+  const char* tangential_field = FieldName(step.tangential);
   if (Status s = RequireFinite(normal_field, step.normal_value); !s.ok()) return s;
   if (Status s = RequireFinite(tangential_field, step.tangential_value); !s.ok()) return s;
 

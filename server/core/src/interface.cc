@@ -38,7 +38,8 @@ std::string Indexed(const char* field, std::size_t i) {
   return std::string(field) + "[" + std::to_string(i) + "]";
 }
 
-// Field names of the interface's Step channels (the normal channel is the approach delta).
+// Field names of the interface's normal channel, which is the approach delta (the tangential
+// channel's are a contact's: FieldName).
 const char* NormalField(NormalControl c) {
   switch (c) {
     case NormalControl::kDepth:
@@ -49,18 +50,6 @@ const char* NormalField(NormalControl c) {
       return "normal_force";
   }
   return "normal";
-}
-
-const char* TangentialField(TangentialControl c) {
-  switch (c) {
-    case TangentialControl::kDisplacement:
-      return "displacement";
-    case TangentialControl::kDisplacementIncrement:
-      return "displacement_increment";
-    case TangentialControl::kForce:
-      return "tangential_force";
-  }
-  return "tangential";
 }
 
 double Sum(const std::vector<double>& values) {
@@ -453,7 +442,7 @@ Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Int
     return FailedPrecondition("kind", "a contact list is stepped per contact (ApplyEach)");
   }
   const char* normal_field = NormalField(step.normal);
-  const char* tangential_field = TangentialField(step.tangential);
+  const char* tangential_field = FieldName(step.tangential);
   if (Status s = RequireFinite(normal_field, step.normal_value); !s.ok()) return s;
   if (Status s = RequireFinite(tangential_field, step.tangential_value); !s.ok()) return s;
   InterfaceStepReport local;

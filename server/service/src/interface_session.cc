@@ -139,28 +139,6 @@ InterfaceSnapshot ToCoreInterfaceSnapshot(const v1::InterfaceSnapshot& proto) {
   return snapshot;
 }
 
-const char* NormalFieldName(v1::Step::NormalCase normal) {
-  switch (normal) {
-    case v1::Step::kDepth:
-      return "depth";
-    case v1::Step::kDepthIncrement:
-      return "depth_increment";
-    default:
-      return "normal_force";
-  }
-}
-
-const char* TangentialFieldName(v1::Step::TangentialCase tangential) {
-  switch (tangential) {
-    case v1::Step::kDisplacement:
-      return "displacement";
-    case v1::Step::kDisplacementIncrement:
-      return "displacement_increment";
-    default:
-      return "tangential_force";
-  }
-}
-
 // The per-contact values of one channel of a contact-list step: `values` when the channel is set
 // (its own value must be 0, exactly n values), else n zeros (the contacts hold).
 Result<std::span<const double>> ListChannel(bool channel_set, double own_value,
@@ -197,12 +175,12 @@ Status ApplyListStep(Interface& interface, const v1::Step& step, const Interrupt
   std::vector<double> normal_zeros, tangential_zeros;
   Result<std::span<const double>> normal =
       ListChannel(step.normal_case() != v1::Step::NORMAL_NOT_SET, core.normal_value,
-                  NormalFieldName(step.normal_case()), step.contact_normal_values(),
+                  FieldName(core.normal), step.contact_normal_values(),
                   "contact_normal_values", n, &normal_zeros);
   if (!normal.ok()) return normal.status();
   Result<std::span<const double>> tangential =
       ListChannel(step.tangential_case() != v1::Step::TANGENTIAL_NOT_SET, core.tangential_value,
-                  TangentialFieldName(step.tangential_case()), step.contact_tangential_values(),
+                  FieldName(core.tangential), step.contact_tangential_values(),
                   "contact_tangential_values", n, &tangential_zeros);
   if (!tangential.ok()) return tangential.status();
   const ContactListStep list{.normal = core.normal,

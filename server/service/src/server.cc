@@ -197,12 +197,20 @@ std::shared_ptr<grpc::Channel> ContactServer::InProcessChannel() {
 void ContactServer::Shutdown(std::chrono::system_clock::time_point deadline) {
   service_.DrainStreams();
   // gRPC cancels the calls still running at the deadline, but only the stopping flag reaches the
-  // work they queued: set it then, so Shutdown returns soon after the deadline.
-  std::jthread interrupter([this, deadline](std::stop_token stop) {
+  // work they queued. It is set a little before the deadline (a quarter of the grace, at most
+  // 250 ms): work that completes (a session created, a batch committed) does so early enough for
+  // its answer to go out before gRPC cancels the call, and work still running then is
+  // interrupted and changes nothing. So Shutdown returns soon after the deadline.
+  const auto margin = std::min<std::chrono::system_clock::duration>(
+      std::chrono::milliseconds(250),
+      std::max<std::chrono::system_clock::duration>(deadline - std::chrono::system_clock::now(),
+                                                    std::chrono::system_clock::duration::zero()) /
+          4);
+  std::jthread interrupter([this, stop_at = deadline - margin](std::stop_token stop) {
     std::mutex mutex;
     std::condition_variable_any wakeup;
     std::unique_lock lock(mutex);
-    wakeup.wait_until(lock, stop, deadline, [] { return false; });
+    wakeup.wait_until(lock, stop, stop_at, [] { return false; });
     if (!stop.stop_requested()) stopping_ = true;
   });
   server_->Shutdown(deadline);

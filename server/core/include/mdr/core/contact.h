@@ -63,6 +63,10 @@ enum class TangentialControl { kDisplacement, kDisplacementIncrement, kForce };
 // the step is exact. Otherwise (a force channel changing together with the other channel) the
 // path is curved in (delta, ux); it is followed by adaptive sub-steps that are each exact, until
 // two successive refinements agree to force_path_tolerance (StepReport::path_error).
+// The name of each control's value in a Step (the proto Step's field), for error messages.
+const char* FieldName(NormalControl control);
+const char* FieldName(TangentialControl control);
+
 struct Step {
   NormalControl normal = NormalControl::kDepthIncrement;
   double normal_value = 0;
