@@ -81,6 +81,16 @@ bool HasVertexHeadroom(const Contact& contact) {
   return 3 * contact.memory().vertex_count() + 1 <= contact.config().max_memory_vertices;
 }
 
+// Moves contact i to (depth, ux) and checks what an interface needs after it; errors name
+// contacts[i]. A contact left without vertex headroom for the next step is recorded, not an error.
+Status MoveContact(Contact& contact, std::size_t i, double depth, double ux,
+                   std::atomic<bool>& headroom_lost) {
+  Status s = contact.MoveTo(depth, ux);
+  if (s.ok()) s = CheckSteppedContact(contact);
+  if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
+  return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+}
+
 // The depth at which this contact's mu F_N reaches kForceCap (+inf if never).
 double MaxDepth(const Contact& contact) {
   const double depth =
@@ -377,10 +387,7 @@ Status Interface::TrialMove(double delta1, double ux1, const Interrupt& interrup
   std::atomic<bool> headroom_lost{false};
   Status status = StepAll(
       [&](std::size_t i, Contact& trial) {
-        Status s = trial.MoveTo(delta1 - height(i), ux1);
-        if (s.ok()) s = CheckSteppedContact(trial);
-        if (!HasVertexHeadroom(trial)) headroom_lost.store(true, std::memory_order_relaxed);
-        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+        return MoveContact(trial, i, delta1 - height(i), ux1, headroom_lost);
       },
       interrupt);
   trial_headroom_ = !headroom_lost.load();
@@ -406,6 +413,24 @@ bool Interface::CanStepInPlace(double slide_scale) const {
          energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy;
 }
 
+template <typename Target>
+Status Interface::StepInPlace(const Target& target, double slide_scale) {
+  std::atomic<bool> headroom_lost{false};
+  Status status = ForEach(
+      [&](std::size_t i) {
+        const ContactTarget to = target(i);
+        return MoveContact(contacts_[i], i, to.depth, to.ux, headroom_lost);
+      },
+      Interrupt{});
+  if (!status.ok()) {
+    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
+                                        status.message() + "); the interface is inconsistent");
+  }
+  vertex_headroom_ = !headroom_lost.load();
+  energy_bound_ += kForceCap * slide_scale;
+  return OkStatus();
+}
+
 Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt) {
   const double slide_scale = SlideScale(delta1, ux1);
   if (!CanStepInPlace(slide_scale)) {
@@ -416,24 +441,16 @@ Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt) {
   // Nothing can fail below (CanStepInPlace), so the contacts are stepped in place, without the
   // copy into the step buffer; the pass is bounded by kMaxInPlaceContacts and not interrupted.
   if (Status s = interrupt.Check(); !s.ok()) return s;
-  std::atomic<bool> headroom_lost{false};
-  Status status = ForEach(
-      [&](std::size_t i) {
-        Contact& contact = contacts_[i];
-        Status s = contact.MoveTo(delta1 - height(i), ux1);
-        if (s.ok()) s = CheckSteppedContact(contact);
-        if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
-        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
-      },
-      Interrupt{});
-  if (!status.ok()) {
-    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
-                                        status.message() + "); the interface is inconsistent");
+  if (Status s = StepInPlace(
+          [&](std::size_t i) {
+            return ContactTarget{delta1 - height(i), ux1};
+          },
+          slide_scale);
+      !s.ok()) {
+    return s;
   }
-  vertex_headroom_ = !headroom_lost.load();
   approach_ = delta1;
   ux_ = ux1;
-  energy_bound_ += kForceCap * slide_scale;
   return OkStatus();
 }
 
@@ -700,7 +717,7 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
         if (displacements) {
           // The exact linear step of Contact::Apply for displacement channels (the same depth
           // and ux arithmetic), without its copy of the contact: the step buffer is the copy.
-          const ListTarget target = DisplacementTarget(step, i, trial);
+          const ContactTarget target = DisplacementTarget(step, i, trial);
           if (Status c = CheckListTarget(i, target); !c.ok()) return c;
           status = trial.MoveTo(target.depth, target.ux);
           if (status.ok()) status = CheckSteppedContact(trial);
@@ -723,8 +740,8 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
   return OkStatus();
 }
 
-Interface::ListTarget Interface::DisplacementTarget(const ContactListStep& step, std::size_t i,
-                                                    const Contact& contact) {
+Interface::ContactTarget Interface::DisplacementTarget(const ContactListStep& step, std::size_t i,
+                                                       const Contact& contact) {
   const double depth = step.normal == NormalControl::kDepth
                            ? step.normal_values[i]
                            : contact.depth() + step.normal_values[i];
@@ -734,7 +751,7 @@ Interface::ListTarget Interface::DisplacementTarget(const ContactListStep& step,
   return {depth, ux};
 }
 
-Status Interface::CheckListTarget(std::size_t i, const ListTarget& target) const {
+Status Interface::CheckListTarget(std::size_t i, const ContactTarget& target) const {
   // The common case without building field names (a string per contact and step).
   if (std::isfinite(target.depth) && std::isfinite(target.ux) && target.depth <= max_depth_[i]) {
     return OkStatus();
@@ -747,11 +764,12 @@ Status Interface::CheckListTarget(std::size_t i, const ListTarget& target) const
 Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
                                   bool* stepped) {
   // Every target is checked first, and the largest slide scale decides (as in Move).
-  std::vector<double> scale(contacts_.size());
+  std::vector<double>& scale = slide_scales_;
+  scale.resize(contacts_.size());
   Status checked = ForEach(
       [&](std::size_t i) {
         const Contact& c = contacts_[i];
-        const ListTarget target = DisplacementTarget(step, i, c);
+        const ContactTarget target = DisplacementTarget(step, i, c);
         if (Status s = CheckListTarget(i, target); !s.ok()) return s;
         scale[i] = std::abs(target.ux - c.tangential_displacement()) +
                    2 * c.mu_kappa() * std::max({c.depth(), target.depth, 0.0});
@@ -765,23 +783,11 @@ Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& 
     return OkStatus();
   }
   if (Status s = interrupt.Check(); !s.ok()) return s;
-  std::atomic<bool> headroom_lost{false};
-  Status status = ForEach(
-      [&](std::size_t i) {
-        Contact& contact = contacts_[i];
-        const ListTarget target = DisplacementTarget(step, i, contact);
-        Status s = contact.MoveTo(target.depth, target.ux);
-        if (s.ok()) s = CheckSteppedContact(contact);
-        if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
-        return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
-      },
-      Interrupt{});
-  if (!status.ok()) {
-    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
-                                        status.message() + "); the contact list is inconsistent");
+  if (Status s = StepInPlace(
+          [&](std::size_t i) { return DisplacementTarget(step, i, contacts_[i]); }, slide_scale);
+      !s.ok()) {
+    return s;
   }
-  vertex_headroom_ = !headroom_lost.load();
-  energy_bound_ += kForceCap * slide_scale;
   *stepped = true;
   return OkStatus();
 }
@@ -854,7 +860,8 @@ std::size_t Interface::MemoryBytes() const {
   constexpr std::size_t kVertexBytes = 2 * sizeof(double) + 1;
   constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
   std::size_t bytes =
-      sizeof(Interface) + (heights_.capacity() + max_depth_.capacity()) * sizeof(double);
+      sizeof(Interface) +
+      (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) * sizeof(double);
   std::unordered_set<const Profile*> profiles;
   for (const std::vector<Contact>* buffer : {&contacts_, &trial_}) {
     bytes += buffer->capacity() * sizeof(Contact);

@@ -11,10 +11,10 @@
 #include <span>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/population.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 
@@ -166,17 +166,22 @@ class Interface {
   // |dux| + 2 max(mu kappa) (max(delta0, delta1) - min h): how far any spring can slide.
   double SlideScale(double delta1, double ux1) const;
   bool CanStepInPlace(double slide_scale) const;
-  // A contact list's displacement step of contact i: its depth and ux after the step.
-  struct ListTarget {
+  // Where a displacement step takes contact i: its depth and ux after the step.
+  struct ContactTarget {
     double depth, ux;
   };
-  static ListTarget DisplacementTarget(const ContactListStep& step, std::size_t i,
-                                       const Contact& contact);
+  static ContactTarget DisplacementTarget(const ContactListStep& step, std::size_t i,
+                                          const Contact& contact);
   // Finite, and within contact i's depth limit (fields normal_values[i], tangential_values[i]).
-  Status CheckListTarget(std::size_t i, const ListTarget& target) const;
+  Status CheckListTarget(std::size_t i, const ContactTarget& target) const;
   // A contact list's displacement step in place when every target passes and no contact can
   // fail (*stepped = true); otherwise nothing changes (*stepped stays false, or an error).
   Status StepListInPlace(const ContactListStep& step, const Interrupt& interrupt, bool* stepped);
+  // Steps every contact i in place to target(i) (a ContactTarget), uninterrupted: the caller has
+  // checked that no contact can fail (a failure is Internal). Updates the vertex headroom and the
+  // energy bound by slide_scale.
+  template <typename Target>
+  Status StepInPlace(const Target& target, double slide_scale);
   // Runs fn(i) for every contact index, split by parallel_, checking interrupt.
   Status ForEach(const std::function<Status(std::size_t)>& fn, const Interrupt& interrupt) const;
 
@@ -210,6 +215,7 @@ class Interface {
   bool trial_headroom_ = true;   // the same for the step buffer
   double energy_bound_ = 0;      // >= every contact's dissipated energy
   std::shared_ptr<ParallelFor> parallel_;
+  std::vector<double> slide_scales_;  // StepListInPlace's per-contact scratch, kept between steps
 };
 
 }  // namespace mdr
