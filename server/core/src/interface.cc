@@ -133,7 +133,7 @@ SlipSummary ClassifySlip(const Contact& contact) {
 class ThreadParallelFor final : public ParallelFor {
  public:
   explicit ThreadParallelFor(int workers) : workers_(workers) {
-    for (int w = 1; w < workers; ++w) threads_.emplace_back([this, w] { Loop(w); });
+    for (int w = 1; w < workers; ++w) threads_.emplace_back([this] { Loop(); });
   }
   ~ThreadParallelFor() override {
     {
@@ -151,22 +151,30 @@ class ThreadParallelFor final : public ParallelFor {
       std::lock_guard lock(mutex_);
       body_ = &body;
       n_ = n;
+      // Several chunks per worker, so that the chunks even out uneven contacts and late wakers.
+      chunk_ = std::max<std::size_t>(kMinChunk, n / (8 * static_cast<std::size_t>(workers_)));
+      next_.store(0, std::memory_order_relaxed);
       pending_ = workers_ - 1;
       ++generation_;
     }
     wake_.notify_all();
-    RunShare(0);
+    TakeChunks();
     std::unique_lock lock(mutex_);
     done_.wait(lock, [&] { return pending_ == 0; });
     body_ = nullptr;
   }
 
  private:
-  void RunShare(int worker) {
-    const std::size_t begin = n_ * worker / workers_, end = n_ * (worker + 1) / workers_;
-    if (begin < end) (*body_)(begin, end);
+  static constexpr std::size_t kMinChunk = 256;
+
+  void TakeChunks() {
+    for (;;) {
+      const std::size_t begin = next_.fetch_add(chunk_, std::memory_order_relaxed);
+      if (begin >= n_) return;
+      (*body_)(begin, std::min(begin + chunk_, n_));
+    }
   }
-  void Loop(int worker) {
+  void Loop() {
     std::uint64_t seen = 0;
     for (;;) {
       {
@@ -175,7 +183,7 @@ class ThreadParallelFor final : public ParallelFor {
         if (stop_) return;
         seen = generation_;
       }
-      RunShare(worker);
+      TakeChunks();
       std::lock_guard lock(mutex_);
       if (--pending_ == 0) done_.notify_one();
     }
@@ -186,8 +194,10 @@ class ThreadParallelFor final : public ParallelFor {
   std::mutex run_mutex_;  // one Run at a time
   std::mutex mutex_;
   std::condition_variable wake_, done_;
+  // Set under mutex_ before a run's generation is published; read by the workers after.
   const Body* body_ = nullptr;
-  std::size_t n_ = 0;
+  std::size_t n_ = 0, chunk_ = kMinChunk;
+  std::atomic<std::size_t> next_{0};  // the first index no worker has taken yet
   int pending_ = 0;
   std::uint64_t generation_ = 0;
   bool stop_ = false;
@@ -856,8 +866,7 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
 }
 
 std::size_t Interface::MemoryBytes() const {
-  // The private step scratch of each memory holds about two polylines' worth (estimate).
-  constexpr std::size_t kVertexBytes = 2 * sizeof(double) + 1;
+  // (A memory's step scratch is per thread, not per contact: PiecewiseLinearMemory::Scratch.)
   constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
   std::size_t bytes =
       sizeof(Interface) +
@@ -868,7 +877,7 @@ std::size_t Interface::MemoryBytes() const {
     for (const Contact& c : *buffer) {
       const PiecewiseLinearMemory& m = c.memory();
       bytes += m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
-               m.tags().capacity() + 2 * m.vertex_count() * kVertexBytes;
+               m.tags().capacity();
       if (const GridMemory* grid = c.grid_memory()) {
         bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
       }

@@ -124,30 +124,36 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
 
 double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
                                             const Profile* profile) {
-  InsertCrossings(mu_kappa);
+  Scratch& next = ThreadScratch();
+  InsertCrossings(mu_kappa, next);
   const double dissipated = profile != nullptr && mu_kappa > 0
-                                ? SlidingDissipation(depth0, dux, mu_kappa, *profile)
+                                ? SlidingDissipation(depth0, dux, mu_kappa, *profile, next)
                                 : 0.0;
-  ClampRefinedVertices(mu_kappa);
+  ClampRefinedVertices(mu_kappa, next);
   return dissipated;
 }
 
-void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
+PiecewiseLinearMemory::Scratch& PiecewiseLinearMemory::ThreadScratch() {
+  thread_local Scratch scratch;
+  return scratch;
+}
+
+void PiecewiseLinearMemory::InsertCrossings(double mu_kappa, Scratch& next) const {
   // The points where v crosses +bound or -bound (both linear in z) are tagged with their bound;
   // the original vertices are classified by ClampRefinedVertices.
   const double depth1 = depth_;
   auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
-  auto& rz = next_.z;
-  auto& rv = next_.u;
-  auto& tags = next_.tag;
-  auto& was = next_.was;
+  auto& rz = next.z;
+  auto& rv = next.u;
+  auto& tags = next.tag;
+  auto& was = next.was;
   const std::size_t n = z_.size();
   rz.clear();
   rv.clear();
   tags.clear();
   was.clear();
-  // At most two crossings per segment: one allocation per buffer at most (a copied memory starts
-  // with empty ones), none once they have grown.
+  // At most two crossings per segment: the thread's buffers allocate only until they have grown
+  // to the largest memory the thread has stepped.
   rz.reserve(3 * n);
   rv.reserve(3 * n);
   tags.reserve(3 * n);
@@ -181,13 +187,14 @@ void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
 }
 
 double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, double mu_kappa,
-                                                 const Profile& profile) const {
+                                                 const Profile& profile,
+                                                 const Scratch& next) const {
   // Springs that slid along the bound (exact per spring, dissipation.h): e, the amount the clamp
   // removes, and the bound b1 are linear in z, so in t = (z - za)/(zb - za), on each refined
   // segment.
-  const auto& rz = next_.z;
-  const auto& rv = next_.u;
-  const auto& tags = next_.tag;
+  const auto& rz = next.z;
+  const auto& rv = next.u;
+  const auto& tags = next.tag;
   const LinearStep step{depth0, depth_, dux, mu_kappa};
   // Radius of the vertex last asked for: neighbouring sliding segments share a vertex.
   std::size_t known = rz.size();
@@ -227,16 +234,16 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   return dissipated;
 }
 
-void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa) {
+void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa, Scratch& next) {
   // A vertex that was on a bound and is still on it to rounding stays there: a crossing sits up
   // to a few ulps inside its bound (PlaceCrossing), and a step that does not move it off
   // (dux = 0, a depth held) must not turn its slip zone into a stick zone (tangential stiffness,
   // slip intervals).
   const double depth1 = depth_;
-  auto& rz = next_.z;
-  auto& rv = next_.u;
-  auto& tags = next_.tag;
-  const auto& was = next_.was;
+  auto& rz = next.z;
+  auto& rv = next.u;
+  auto& tags = next.tag;
+  const auto& was = next.was;
   const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
   for (std::size_t i = 0; i < rz.size(); ++i) {
     if (tags[i] != kInside) continue;  // a crossing, already on its bound
@@ -252,9 +259,10 @@ void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa) {
       tags[i] = kOnLower;
     }
   }
-  std::swap(z_, next_.z);
-  std::swap(u_, next_.u);
-  std::swap(tag_, next_.tag);
+  // Copied, not swapped: the scratch stays with the thread (and in its cache).
+  z_.assign(rz.begin(), rz.end());
+  u_.assign(rv.begin(), rv.end());
+  tag_.assign(tags.begin(), tags.end());
 }
 
 void PiecewiseLinearMemory::MergeRedundantVertices() {

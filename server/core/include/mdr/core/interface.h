@@ -18,9 +18,10 @@
 
 namespace mdr {
 
-// Splits [0, n) into one contiguous range per worker and runs body on each, returning when all
-// are done. The interface's results do not depend on the split: every contact is stepped on its
-// own and every sum is taken afterwards in index order. The service may supply its own executor.
+// Runs body over contiguous ranges that together cover [0, n) once, on any of its workers, and
+// returns when all are done. The interface's results do not depend on the split: every contact
+// is stepped on its own and every sum is taken afterwards in index order. The service may supply
+// its own executor.
 class ParallelFor {
  public:
   using Body = std::function<void(std::size_t begin, std::size_t end)>;
@@ -29,8 +30,9 @@ class ParallelFor {
   virtual void Run(std::size_t n, const Body& body) = 0;
 };
 
-// A parallel-for on `workers` persistent std::threads (the calling thread is one of them);
-// workers in [1, 64] (field "workers").
+// A parallel-for on `workers` persistent std::threads (the calling thread is one of them), which
+// take chunks of the range as they come free, so a worker that wakes late (or a core taken by
+// another process) costs no more than its share; workers in [1, 64] (field "workers").
 Result<std::shared_ptr<ParallelFor>> MakeThreadParallelFor(int workers);
 
 enum class InterfaceKind {
