@@ -157,6 +157,33 @@ TEST(PopulationTest, BadSpecsNameTheField) {
   EXPECT_TRUE(ExplicitPopulation({0, -1e-6}, {1e-4, 2e-4}).ok());
 }
 
+// Without radii (a shared profile), the heights are those of any radius distribution, the radius
+// is not looked at, and a shared-profile config refuses radii.
+TEST(PopulationTest, NoRadiiForASharedProfile) {
+  PopulationSpec spec;
+  spec.count = 50;
+  spec.height_scale = 1e-6;
+  spec.radius = 1e-4;
+  spec.seed = 5;
+  const Population spheres = *GeneratePopulation(spec);
+  spec.radii = RadiusDistribution::kNone;
+  spec.radius = 0;
+  const Population shared = *GeneratePopulation(spec);
+  EXPECT_EQ(shared.heights, spheres.heights);
+  EXPECT_TRUE(shared.radii.empty());
+  EXPECT_TRUE(ExplicitPopulation({0, -1e-6}, {}).ok());
+
+  ContactConfig cone;
+  cone.profile = *MakeCone(0.05);
+  cone.material = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  cone.friction = 0.3;
+  const InterfaceConfig config = *SharedProfileInterfaceConfig(shared, cone);
+  ASSERT_EQ(config.contacts.size(), 50u);
+  EXPECT_EQ(config.contacts[7].profile, cone.profile);  // one profile object, shared
+  EXPECT_EQ(config.heights[7], -shared.heights[7]);
+  EXPECT_EQ(SharedProfileInterfaceConfig(spheres, cone).status().field(), "radii");
+}
+
 // ---------------------------------------------------------------- shared motion
 
 // The reference: a single Contact driven at depth delta - h and displacement ux.

@@ -324,15 +324,61 @@ TEST_F(InterfaceSessionTest, BadScenesNameTheField) {
   scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
   scene.mutable_interface()->mutable_explicit_list()->set_radii(1, -1);
   ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.explicit_list.radii[1]");
+  // A profile other than a sphere is shared by every contact: radii cannot be given.
   scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
   scene.mutable_cone()->set_slope_angle(0.1);
-  ExpectInvalidArgument(Create(scene, &session), "session.scene.sphere");
+  ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.explicit_list.radii");
+  scene = GeneratedScene(v1::Interface::KIND_SHARED_MOTION, 10);
+  scene.mutable_cone()->set_slope_angle(0.1);
+  ExpectInvalidArgument(Create(scene, &session),
+                        "session.scene.interface.generated.radius_distribution");
   scene = ExplicitScene(v1::Interface::KIND_CONTACT_LIST);
   scene.mutable_interface()->clear_explicit_list();
   ExpectInvalidArgument(Create(scene, &session), "session.scene.interface.population");
   v1::ListSessionsResponse list;
   ASSERT_TRUE(stub_->ListSessions(Context().get(), {}, &list).ok());
   EXPECT_EQ(list.sessions_size(), 0);
+}
+
+// Without radii every contact has the scene's profile, whatever it is: a cone interface under a
+// shared motion is, contact by contact, the single cone session at its own depth.
+TEST_F(InterfaceSessionTest, ASharedProfileInterfaceIsTheSumOfSingleSessions) {
+  v1::Scene scene = ExplicitScene(v1::Interface::KIND_SHARED_MOTION);
+  scene.mutable_cone()->set_slope_angle(0.05);
+  scene.mutable_interface()->mutable_explicit_list()->clear_radii();
+  const std::string interface = CreateScene(scene);
+  const double approach = 0.8 * kDepth;
+  const std::vector<v1::Step> steps = {DepthStep(approach),
+                                       DisplacementStep(0.1 * kDisplacementAt15N),
+                                       DisplacementStep(-0.05 * kDisplacementAt15N)};
+  ApplyOrDie(interface, steps);
+  double normal_force = 0, tangential_force = 0, energy = 0;
+  for (std::size_t i = 0; i < kHeights.size(); ++i) {
+    v1::Scene single_scene = scene;
+    single_scene.clear_interface();
+    const std::string single = CreateScene(single_scene);
+    std::vector<v1::Step> single_steps = steps;
+    single_steps[0] = DepthStep(approach + kHeights[i]);
+    ApplyOrDie(single, single_steps);
+    const v1::ContactState state = StateOf(single);
+    normal_force += state.normal_force();
+    tangential_force += state.tangential_force();
+    energy += state.dissipated_energy();
+    v1::QueryResponse by_index, alone;
+    ASSERT_TRUE(QueryInterface(interface, {"state", "jager_weights"}, &by_index, i).ok());
+    ASSERT_TRUE(QueryInterface(single, {"state", "jager_weights"}, &alone).ok());
+    by_index.clear_compute_seconds();
+    alone.clear_compute_seconds();
+    EXPECT_EQ(by_index.SerializeAsString(), alone.SerializeAsString()) << "contact " << i;
+  }
+  EXPECT_GT(normal_force, 0);
+  const v1::InterfaceTotals totals = TotalsOf(interface);
+  EXPECT_EQ(totals.normal_force(), normal_force);
+  EXPECT_EQ(totals.tangential_force(), tangential_force);
+  EXPECT_EQ(totals.dissipated_energy(), energy);
+  // The state round-trips like any other interface.
+  const std::string imported = Import(ExportOrDie(interface));
+  EXPECT_EQ(StateBytesOf(imported), StateBytesOf(interface));
 }
 
 TEST_F(InterfaceSessionTest, BadStepsAndQueriesNameTheFieldAndChangeNothing) {

@@ -242,6 +242,19 @@ Result<InterfaceConfig> HertzInterfaceConfig(const Population& population,
   return config;
 }
 
+Result<InterfaceConfig> SharedProfileInterfaceConfig(const Population& population,
+                                                     const ContactConfig& contact) {
+  if (!population.radii.empty()) {
+    return InvalidArgument("radii", "must be empty: every contact has the shared profile, got " +
+                                        std::to_string(population.radii.size()) + " radii");
+  }
+  InterfaceConfig config;
+  config.contacts.assign(population.heights.size(), contact);
+  config.heights.reserve(population.heights.size());
+  for (double s : population.heights) config.heights.push_back(-s);
+  return config;
+}
+
 Result<Interface> Interface::Create(InterfaceConfig config) {
   const std::size_t n = config.contacts.size();
   if (n < 1 || n > kMaxInterfaceContacts) {

@@ -52,6 +52,7 @@ std::vector<double> Heights(const PopulationSpec& spec) {
 }
 
 std::vector<double> Radii(const PopulationSpec& spec) {
+  if (spec.radii == RadiusDistribution::kNone) return {};
   if (spec.radii == RadiusDistribution::kFixed) return std::vector<double>(spec.count, spec.radius);
   std::mt19937_64 rng(spec.seed ^ kRadiusStreamSalt);
   std::vector<double> r = StandardNormals(rng, spec.count);
@@ -76,7 +77,9 @@ Result<Population> GeneratePopulation(const PopulationSpec& spec) {
   if (Status s = RequireInRange("height_scale", spec.height_scale, 0, kMaxSceneScale); !s.ok()) {
     return s;
   }
-  if (Status s = RequireSceneScale("radius", spec.radius); !s.ok()) return s;
+  if (spec.radii != RadiusDistribution::kNone) {
+    if (Status s = RequireSceneScale("radius", spec.radius); !s.ok()) return s;
+  }
   if (spec.radii == RadiusDistribution::kLognormal) {
     if (Status s = RequireInRange("log_sigma", spec.log_sigma, 0, kMaxLogSigma); !s.ok()) return s;
   }
@@ -85,8 +88,8 @@ Result<Population> GeneratePopulation(const PopulationSpec& spec) {
 
 Result<Population> ExplicitPopulation(std::vector<double> heights, std::vector<double> radii) {
   if (Status s = CheckCount("heights", heights.size()); !s.ok()) return s;
-  if (radii.size() != heights.size()) {
-    return InvalidArgument("radii", "must have one radius per height (" +
+  if (!radii.empty() && radii.size() != heights.size()) {
+    return InvalidArgument("radii", "must be empty or have one radius per height (" +
                                         std::to_string(heights.size()) + "), got " +
                                         std::to_string(radii.size()));
   }
@@ -96,6 +99,8 @@ Result<Population> ExplicitPopulation(std::vector<double> heights, std::vector<d
         !s.ok()) {
       return s;
     }
+  }
+  for (std::size_t i = 0; i < radii.size(); ++i) {
     if (Status s = RequireSceneScale(Indexed("radii", i), radii[i]); !s.ok()) return s;
   }
   return Population{std::move(heights), std::move(radii)};

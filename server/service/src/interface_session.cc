@@ -35,12 +35,19 @@ Result<PopulationSpec> ToPopulationSpec(const v1::GeneratedPopulation& generated
                              "must be HEIGHT_DISTRIBUTION_GAUSSIAN or _EXPONENTIAL, got " +
                                  std::to_string(generated.height_distribution()));
   }
+  const bool spheres = scene.profile_case() == v1::Scene::kSphere;
   switch (generated.radius_distribution()) {
     case v1::GeneratedPopulation::RADIUS_DISTRIBUTION_UNSPECIFIED:
     case v1::GeneratedPopulation::RADIUS_DISTRIBUTION_FIXED:
-      spec.radii = RadiusDistribution::kFixed;
+      // Every contact has the scene's profile: a sphere of the scene's radius, or any other.
+      spec.radii = spheres ? RadiusDistribution::kFixed : RadiusDistribution::kNone;
       break;
     case v1::GeneratedPopulation::RADIUS_DISTRIBUTION_LOGNORMAL:
+      if (!spheres) {
+        return InvalidArgument("radius_distribution",
+                               "must be RADIUS_DISTRIBUTION_FIXED (or unset) when the scene's "
+                               "profile is not a sphere: every contact has that profile");
+      }
       spec.radii = RadiusDistribution::kLognormal;
       break;
     default:
@@ -74,6 +81,12 @@ Result<Population> ToPopulation(const v1::Scene& scene) {
     }
     case v1::Interface::kExplicitList: {
       const v1::ExplicitPopulation& list = interface.explicit_list();
+      if (scene.profile_case() != v1::Scene::kSphere && list.radii_size() > 0) {
+        return InvalidArgument("scene.interface.explicit_list.radii",
+                               "must be empty when the scene's profile is not a sphere (every "
+                               "contact has that profile), got " +
+                                   std::to_string(list.radii_size()) + " radii");
+      }
       Result<Population> population =
           ExplicitPopulation(std::vector<double>(list.heights().begin(), list.heights().end()),
                              std::vector<double>(list.radii().begin(), list.radii().end()));
@@ -102,22 +115,20 @@ Result<InterfaceKind> ToInterfaceKind(v1::Interface::Kind kind) {
   }
 }
 
-// Hertz spheres of the population with every option of base (validated by ToContactConfig).
+// The population's contacts with every option of base (validated by ToContactConfig): Hertz
+// spheres of the population's radii, or, without radii, all with the scene's profile.
 Result<InterfaceConfig> ToInterfaceConfig(const v1::Scene& scene, const ContactConfig& base) {
   Result<InterfaceKind> kind = ToInterfaceKind(scene.interface().kind());
   if (!kind.ok()) return kind.status();
-  if (scene.profile_case() != v1::Scene::kSphere) {
-    return InvalidArgument("scene.sphere",
-                           "required for an interface: every contact is a Hertz sphere (its "
-                           "radius is the population's fixed or median radius)");
-  }
   if (base.method != Method::kExact) {
     return InvalidArgument("scene.method", "must be METHOD_EXACT for an interface");
   }
   Result<Population> population = ToPopulation(scene);
   if (!population.ok()) return population.status();
   Result<InterfaceConfig> config =
-      HertzInterfaceConfig(*population, base.material, base.friction, base.track_energy);
+      population->radii.empty()
+          ? SharedProfileInterfaceConfig(*population, base)
+          : HertzInterfaceConfig(*population, base.material, base.friction, base.track_energy);
   if (!config.ok()) return config.status().WithFieldPrefix("scene.interface");
   config->kind = *kind;
   if (*kind == InterfaceKind::kContactList) config->heights.clear();

@@ -60,6 +60,12 @@ Result<InterfaceConfig> HertzInterfaceConfig(const Population& population,
                                              const EffectiveMaterial& material, double friction,
                                              bool track_energy = true);
 
+// Contacts that all have `contact`'s config (one shared profile of any kind: cone, power law,
+// tabulated, ...) at offsets h_i = -population.heights[i]; the population's radii must be empty
+// (field "radii"), since the profile fixes the shape.
+Result<InterfaceConfig> SharedProfileInterfaceConfig(const Population& population,
+                                                     const ContactConfig& contact);
+
 // One step of a contact list: contact i gets Step{normal, normal_values[i], tangential,
 // tangential_values[i]} (contact.h semantics, force targets per contact). Both spans have one
 // value per contact.

@@ -24,6 +24,7 @@ enum class HeightDistribution {
 enum class RadiusDistribution {
   kFixed,      // every summit has radius `radius`
   kLognormal,  // R = radius * exp(log_sigma * Z): `radius` is the median
+  kNone,       // no radii (Population.radii empty): the contacts share one profile
 };
 
 struct PopulationSpec {
@@ -31,12 +32,13 @@ struct PopulationSpec {
   HeightDistribution heights = HeightDistribution::kGaussian;
   double height_scale = 0;  // m, finite, in [0, 1e100]: standard deviation or exponential scale
   RadiusDistribution radii = RadiusDistribution::kFixed;
-  double radius = 0;     // m, in [1e-100, 1e100]
+  double radius = 0;     // m, in [1e-100, 1e100]; not used by kNone
   double log_sigma = 0;  // lognormal only, in [0, 3]
   std::uint64_t seed = 0;
 };
 
-// Summit heights s_i above the reference plane (higher summits touch first) and radii R_i.
+// Summit heights s_i above the reference plane (higher summits touch first) and radii R_i, or no
+// radii when every contact has the same profile (SharedProfileInterfaceConfig).
 struct Population {
   std::vector<double> heights;
   std::vector<double> radii;
@@ -49,9 +51,9 @@ struct Population {
 // log_sigma.
 Result<Population> GeneratePopulation(const PopulationSpec& spec);
 
-// A measured population, validated: heights and radii of equal length in [1,
-// kMaxInterfaceContacts], every height finite with |s| <= 1e100, every radius in [1e-100,
-// 1e100]. Fields: heights[i], radii[i], radii (length).
+// A measured population, validated: 1 to kMaxInterfaceContacts heights, each finite with
+// |s| <= 1e100, and either no radii or one per height, each in [1e-100, 1e100]. Fields:
+// heights[i], radii[i], radii (length).
 Result<Population> ExplicitPopulation(std::vector<double> heights, std::vector<double> radii);
 
 // The transforms of GeneratePopulation, exposed so that tests can check them: a uniform in
