@@ -124,6 +124,8 @@ int RunCommand(const Common& common, const RunArgs& args) {
   ProgressBar progress(mdr::client::StepCount(document->file()));
   mdr::client::RunOptions options;
   options.keep_session = args.keep_session;
+  options.contact_index = args.contact_index;
+  options.slip_histogram_bins = args.histogram_bins;
   options.progress = [&](std::uint64_t done, std::uint64_t total) { progress.Update(done, total); };
   auto report = mdr::client::RunScene((*connection)->client(), *document, options);
   if (!report.ok()) return Fail(report.status());

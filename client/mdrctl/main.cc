@@ -50,6 +50,12 @@ int main(int argc, char** argv) {
       ->required();
   run->add_option("--plot", run_args.plot_dir, "Write PNG plots (gnuplot) into this directory");
   run->add_flag("--keep", run_args.keep_session, "Keep the session (with --server)");
+  run->add_option_function<std::uint64_t>(
+      "--contact-index", [&run_args](std::uint64_t index) { run_args.contact_index = index; },
+      "Interface scenes: print this contact's state after every step (and record its profiles "
+      "at holds)");
+  run->add_option("--histogram-bins", run_args.histogram_bins,
+                  "Interface scenes: print the slip histogram after every step in this many bins");
   run->callback([&] { exit_code = mdrctl::RunCommand(common, run_args); });
 
   CLI::App* session = app.add_subcommand("session", "Create, get, list or delete sessions");
