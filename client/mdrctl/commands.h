@@ -55,6 +55,9 @@ struct QueryArgs {
   std::string session;
   std::vector<std::string> read_mask;
   std::vector<double> radii;
+  // Interface sessions: the contact of the ordinary paths; the bins of interface.slip_histogram.
+  std::optional<std::uint64_t> contact_index;
+  std::int32_t histogram_bins = 0;
 };
 int QueryCommand(const Common& common, const QueryArgs& args);
 

@@ -91,10 +91,16 @@ int main(int argc, char** argv) {
   query->add_option("session", query_args.session, "sessions/ID or ID")->required();
   query
       ->add_option("--mask", query_args.read_mask,
-                   "Outputs, e.g. state,energy,springs,tractions (default: state)")
+                   "Outputs, e.g. state,energy,springs,tractions,interface.totals (default: "
+                   "state)")
       ->delimiter(',');
   query->add_option("--radii", query_args.radii, "Radii in m for springs and tractions")
       ->delimiter(',');
+  query->add_option_function<std::uint64_t>(
+      "--contact-index", [&query_args](std::uint64_t index) { query_args.contact_index = index; },
+      "Interface sessions: the contact whose state, springs, tractions ... are read");
+  query->add_option("--histogram-bins", query_args.histogram_bins,
+                    "Interface sessions: bins of interface.slip_histogram");
   query->callback([&] { exit_code = mdrctl::QueryCommand(common, query_args); });
 
   CLI::App* exporter = app.add_subcommand("export", "Print a session's snapshot (JSON)");
