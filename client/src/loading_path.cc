@@ -1,5 +1,6 @@
 #include "mdr/client/loading_path.h"
 
+#include <algorithm>
 #include <string>
 #include <utility>
 
@@ -108,6 +109,12 @@ Status CheckSegmentFitsScene(const v1::Segment& segment, SceneKind kind) {
   return OkStatus();
 }
 
+// The columns that are counts of InterfaceTotals.
+bool IsInterfaceCount(v1::SceneFile::Output output) {
+  return output == v1::SceneFile::IN_CONTACT || output == v1::SceneFile::STICKING ||
+         output == v1::SceneFile::PARTIAL_SLIP || output == v1::SceneFile::GROSS_SLIP;
+}
+
 // The columns that need an interface.
 Status ValidateOutputs(const v1::SceneFile& file, SceneKind kind) {
   for (int i = 0; i < file.outputs_size(); ++i) {
@@ -116,7 +123,7 @@ Status ValidateOutputs(const v1::SceneFile& file, SceneKind kind) {
     if (output == v1::SceneFile::OUTPUT_UNSPECIFIED) {
       return InvalidArgument(field, "must be a quantity such as NORMAL_FORCE");
     }
-    if (output >= v1::SceneFile::IN_CONTACT && kind == SceneKind::kSingleContact) {
+    if (IsInterfaceCount(output) && kind == SceneKind::kSingleContact) {
       return InvalidArgument(
           field, v1::SceneFile::Output_Name(output) + " needs an interface (scene.interface)");
     }
@@ -369,10 +376,7 @@ std::vector<v1::SceneFile::Output> TableOutputs(const v1::SceneFile& file) {
 }
 
 bool NeedsInterfaceTotals(const std::vector<v1::SceneFile::Output>& outputs) {
-  for (const auto output : outputs) {
-    if (output >= v1::SceneFile::IN_CONTACT) return true;
-  }
-  return false;
+  return std::any_of(outputs.begin(), outputs.end(), IsInterfaceCount);
 }
 
 std::uint32_t CycleCount(const v1::Segment& segment) {

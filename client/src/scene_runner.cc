@@ -115,7 +115,8 @@ class Runner {
   // Steps per Apply: one when every step is followed by a query; a contact list's steps are
   // bounded by their per-contact values.
   std::uint64_t BatchSize(const std::vector<v1::Step>& steps) const {
-    if (QueriesEveryStep() || steps.empty()) return QueriesEveryStep() ? 1 : batch_;
+    if (QueriesEveryStep()) return 1;
+    if (steps.empty()) return batch_;
     const std::uint64_t values =
         steps[0].contact_normal_values_size() + steps[0].contact_tangential_values_size();
     if (values == 0) return batch_;
