@@ -116,9 +116,11 @@ class Runner {
   // bounded by their per-contact values.
   std::uint64_t BatchSize(const std::vector<v1::Step>& steps) const {
     if (QueriesEveryStep()) return 1;
-    if (steps.empty()) return batch_;
-    const std::uint64_t values =
-        steps[0].contact_normal_values_size() + steps[0].contact_tangential_values_size();
+    std::uint64_t values = 0;  // the most of any step (a file's own steps may differ)
+    for (const v1::Step& step : steps) {
+      values = std::max<std::uint64_t>(
+          values, step.contact_normal_values_size() + step.contact_tangential_values_size());
+    }
     if (values == 0) return batch_;
     return std::clamp<std::uint64_t>(kMaxBatchValues / values, 1, batch_);
   }
