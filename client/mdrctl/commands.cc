@@ -124,6 +124,8 @@ int RunCommand(const Common& common, const RunArgs& args) {
   ProgressBar progress(mdr::client::StepCount(document->file()));
   mdr::client::RunOptions options;
   options.keep_session = args.keep_session;
+  options.contact_index = args.contact_index;
+  options.slip_histogram_bins = args.histogram_bins;
   options.progress = [&](std::uint64_t done, std::uint64_t total) { progress.Update(done, total); };
   auto report = mdr::client::RunScene((*connection)->client(), *document, options);
   if (!report.ok()) return Fail(report.status());
@@ -219,6 +221,8 @@ int QueryCommand(const Common& common, const QueryArgs& args) {
   request.set_session(SessionName(args.session));
   for (const std::string& path : args.read_mask) request.mutable_read_mask()->add_paths(path);
   request.mutable_radii()->Add(args.radii.begin(), args.radii.end());
+  if (args.contact_index) request.set_contact_index(*args.contact_index);
+  request.set_slip_histogram_bins(args.histogram_bins);
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
   auto queried = (*connection)->client().Query(request);

@@ -3,6 +3,8 @@
 // errors on stderr as "mdrctl: field: message".
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,10 @@ struct RunArgs {
   std::string scene;
   std::string plot_dir;
   bool keep_session = false;
+  // Interface scenes: one contact's state per step (and its profiles at holds); the slip
+  // histogram per step in this many bins (0: none).
+  std::optional<std::uint64_t> contact_index;
+  std::uint32_t histogram_bins = 0;
 };
 int RunCommand(const Common& common, const RunArgs& args);
 
@@ -49,6 +55,9 @@ struct QueryArgs {
   std::string session;
   std::vector<std::string> read_mask;
   std::vector<double> radii;
+  // Interface sessions: the contact of the ordinary paths; the bins of interface.slip_histogram.
+  std::optional<std::uint64_t> contact_index;
+  std::int32_t histogram_bins = 0;
 };
 int QueryCommand(const Common& common, const QueryArgs& args);
 

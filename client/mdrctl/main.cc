@@ -50,6 +50,12 @@ int main(int argc, char** argv) {
       ->required();
   run->add_option("--plot", run_args.plot_dir, "Write PNG plots (gnuplot) into this directory");
   run->add_flag("--keep", run_args.keep_session, "Keep the session (with --server)");
+  run->add_option_function<std::uint64_t>(
+      "--contact-index", [&run_args](std::uint64_t index) { run_args.contact_index = index; },
+      "Interface scenes: print this contact's state after every step (and record its profiles "
+      "at holds)");
+  run->add_option("--histogram-bins", run_args.histogram_bins,
+                  "Interface scenes: print the slip histogram after every step in this many bins");
   run->callback([&] { exit_code = mdrctl::RunCommand(common, run_args); });
 
   CLI::App* session = app.add_subcommand("session", "Create, get, list or delete sessions");
@@ -85,10 +91,16 @@ int main(int argc, char** argv) {
   query->add_option("session", query_args.session, "sessions/ID or ID")->required();
   query
       ->add_option("--mask", query_args.read_mask,
-                   "Outputs, e.g. state,energy,springs,tractions (default: state)")
+                   "Outputs, e.g. state,energy,springs,tractions,interface.totals (default: "
+                   "state)")
       ->delimiter(',');
   query->add_option("--radii", query_args.radii, "Radii in m for springs and tractions")
       ->delimiter(',');
+  query->add_option_function<std::uint64_t>(
+      "--contact-index", [&query_args](std::uint64_t index) { query_args.contact_index = index; },
+      "Interface sessions: the contact whose state, springs, tractions ... are read");
+  query->add_option("--histogram-bins", query_args.histogram_bins,
+                    "Interface sessions: bins of interface.slip_histogram");
   query->callback([&] { exit_code = mdrctl::QueryCommand(common, query_args); });
 
   CLI::App* exporter = app.add_subcommand("export", "Print a session's snapshot (JSON)");

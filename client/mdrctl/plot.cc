@@ -35,12 +35,26 @@ std::string Title(const RunReport& report, const std::string& what) {
 void WriteSteps(const RunReport& report, const fs::path& file) {
   std::ofstream out(file);
   out.precision(12);
-  out << "# step ux[m] F_x[N] F_N[N] delta[m] a[m] W[J]\n";
+  out << "# step ux[m] F_x[N] F_N[N] delta[m] a[m] W[J] in_contact partial_slip gross_slip\n";
   for (const auto& row : report.rows()) {
     const auto& s = row.state();
+    const auto& totals = row.interface_totals();
     out << row.step() << ' ' << s.tangential_displacement() << ' ' << s.tangential_force() << ' '
         << s.normal_force() << ' ' << s.depth() << ' ' << s.contact_radius() << ' '
-        << s.dissipated_energy() << '\n';
+        << s.dissipated_energy() << ' ' << totals.in_contact() << ' ' << totals.partial_slip()
+        << ' ' << totals.gross_slip() << '\n';
+  }
+}
+
+// One line per cycle: its number over the run, the dissipated energy and the work of F_x.
+void WriteCycles(const RunReport& report, const fs::path& file) {
+  std::ofstream out(file);
+  out.precision(12);
+  out << "# cycle W[J] work_of_F_x[J] segment\n";
+  for (int i = 0; i < report.cycle_energies_size(); ++i) {
+    const auto& cycle = report.cycle_energies(i);
+    out << i + 1 << ' ' << cycle.dissipated_energy() << ' ' << cycle.tangential_work() << ' '
+        << cycle.origin() << '\n';
   }
 }
 
@@ -107,6 +121,26 @@ void AddStepPlots(const RunReport& report, const fs::path& dir, Script* script) 
                 "force [N]");
   script->text << "plot " << steps << " using 1:3 with lines lw 2 title 'F_x', " << steps
                << " using 1:4 with lines lw 2 title 'F_N'\n";
+  const auto has_totals = [](const RunReport::Row& row) { return row.has_interface_totals(); };
+  if (std::any_of(report.rows().begin(), report.rows().end(), has_totals)) {
+    script->Begin(dir / "counts.png", Title(report, "contacts over the loading path"), "step",
+                  "contacts");
+    script->text << "plot " << steps << " using 1:8 with lines lw 2 title 'in contact', " << steps
+                 << " using 1:9 with lines lw 2 title 'partial slip', " << steps
+                 << " using 1:10 with lines lw 2 title 'gross slip'\n";
+  }
+}
+
+// Bars of the energy dissipated per cycle, points of the work of F_x around the loop.
+void AddCyclePlot(const RunReport& report, const fs::path& dir, Script* script) {
+  if (report.cycle_energies().empty()) return;
+  const std::string cycles = Quoted((dir / "cycles.dat").string());
+  script->Begin(dir / "energy_per_cycle.png", Title(report, "energy per cycle"), "cycle",
+                "energy [µJ]");
+  script->text << "set yrange [0:*]\nset xtics 1\nset style fill solid 0.5\nset boxwidth 0.6\n"
+               << "plot " << cycles << " using 1:($2*1e6) with boxes title 'dissipated', " << cycles
+               << " using 1:($3*1e6) with points pt 7 ps 1.5 title 'work of F_x'\n"
+               << "set autoscale y\nset xtics autofreq\n";
 }
 
 void AddRecordPlots(const RunReport& report, const fs::path& dir, Script* script) {
@@ -154,10 +188,12 @@ mdr::Result<std::vector<std::string>> WritePlots(const RunReport& report, const 
   WriteSteps(report, root / "steps.dat");
   WriteRecords(report, root / "records.dat");
   WriteWeights(report, root / "weights.dat");
+  WriteCycles(report, root / "cycles.dat");
   Script script;
   script.text << "set terminal pngcairo size 900,600 enhanced font ',11'\nset grid\n"
               << "set key top left\n";
   AddStepPlots(report, root, &script);
+  AddCyclePlot(report, root, &script);
   AddRecordPlots(report, root, &script);
   const fs::path script_file = root / "plots.gp";
   std::ofstream(script_file) << script.text.str();

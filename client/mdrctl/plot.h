@@ -1,5 +1,6 @@
 // --plot DIR: PNG plots of a run with gnuplot (hysteresis loop F_x over ux, F_x and F_N over the
-// step, the profiles recorded at hold points, tractions and Jäger weights where recorded).
+// step, the energy and the work of F_x per cycle, an interface's contact counts over the step,
+// the profiles recorded at hold points, tractions and Jäger weights where recorded).
 #pragma once
 
 #include <string>

@@ -9,12 +9,13 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "mdr/client/loading_path.h"
+
 namespace mdrctl {
 namespace {
 
 using google::protobuf::FieldDescriptor;
 using google::protobuf::Message;
-using mdr::v1::ContactState;
 using mdr::v1::RunReport;
 using mdr::v1::SceneFile;
 
@@ -71,42 +72,48 @@ struct Table {
 struct Column {
   const char* header;    // table
   const char* csv_name;  // CSV
-  double (*value)(const ContactState&);
+  double (*value)(const RunReport::Row&);
 };
 
 Column ColumnFor(SceneFile::Output output) {
+  using Row = RunReport::Row;
   switch (output) {
     case SceneFile::DEPTH:
-      return {"delta [m]", "depth", [](const ContactState& s) { return s.depth(); }};
+      return {"delta [m]", "depth", [](const Row& r) { return r.state().depth(); }};
     case SceneFile::TANGENTIAL_DISPLACEMENT:
       return {"ux [m]", "tangential_displacement",
-              [](const ContactState& s) { return s.tangential_displacement(); }};
+              [](const Row& r) { return r.state().tangential_displacement(); }};
     case SceneFile::NORMAL_FORCE:
-      return {"F_N [N]", "normal_force", [](const ContactState& s) { return s.normal_force(); }};
+      return {"F_N [N]", "normal_force", [](const Row& r) { return r.state().normal_force(); }};
     case SceneFile::TANGENTIAL_FORCE:
       return {"F_x [N]", "tangential_force",
-              [](const ContactState& s) { return s.tangential_force(); }};
+              [](const Row& r) { return r.state().tangential_force(); }};
     case SceneFile::CONTACT_RADIUS:
-      return {"a [m]", "contact_radius", [](const ContactState& s) { return s.contact_radius(); }};
+      return {"a [m]", "contact_radius", [](const Row& r) { return r.state().contact_radius(); }};
     case SceneFile::DISSIPATED_ENERGY:
       return {"W [J]", "dissipated_energy",
-              [](const ContactState& s) { return s.dissipated_energy(); }};
+              [](const Row& r) { return r.state().dissipated_energy(); }};
+    case SceneFile::IN_CONTACT:
+      return {"in contact", "in_contact",
+              [](const Row& r) { return double(r.interface_totals().in_contact()); }};
+    case SceneFile::STICKING:
+      return {"sticking", "sticking",
+              [](const Row& r) { return double(r.interface_totals().sticking()); }};
+    case SceneFile::PARTIAL_SLIP:
+      return {"partial slip", "partial_slip",
+              [](const Row& r) { return double(r.interface_totals().partial_slip()); }};
+    case SceneFile::GROSS_SLIP:
+      return {"gross slip", "gross_slip",
+              [](const Row& r) { return double(r.interface_totals().gross_slip()); }};
     default:  // FRICTION_LIMIT; ValidateSceneFile rejects OUTPUT_UNSPECIFIED
       return {"mu*F_N [N]", "friction_limit",
-              [](const ContactState& s) { return s.friction_limit(); }};
+              [](const Row& r) { return r.state().friction_limit(); }};
   }
 }
 
-std::vector<Column> ColumnsFor(const SceneFile& file) {
+std::vector<Column> ColumnsFor(const std::vector<SceneFile::Output>& outputs) {
   std::vector<Column> columns;
-  for (int output : file.outputs()) columns.push_back(ColumnFor(SceneFile::Output(output)));
-  if (columns.empty()) {
-    for (auto output :
-         {SceneFile::DEPTH, SceneFile::TANGENTIAL_DISPLACEMENT, SceneFile::NORMAL_FORCE,
-          SceneFile::TANGENTIAL_FORCE, SceneFile::CONTACT_RADIUS}) {
-      columns.push_back(ColumnFor(output));
-    }
-  }
+  for (const SceneFile::Output output : outputs) columns.push_back(ColumnFor(output));
   return columns;
 }
 
@@ -119,11 +126,10 @@ Table StateTable(const std::vector<Column>& columns, Format format) {
   return table;
 }
 
-std::vector<std::string> StateRow(std::uint64_t step, const std::vector<Column>& columns,
-                                  const ContactState& state) {
-  std::vector<std::string> row{std::to_string(step)};
-  for (const Column& column : columns) row.push_back(Number(column.value(state)));
-  return row;
+std::vector<std::string> StateRow(const RunReport::Row& row, const std::vector<Column>& columns) {
+  std::vector<std::string> cells{std::to_string(row.step())};
+  for (const Column& column : columns) cells.push_back(Number(column.value(row)));
+  return cells;
 }
 
 // Sections after the first: a blank line and a title ("# title" in CSV).
@@ -135,12 +141,50 @@ void PrintCycleEnergies(const RunReport& report, Format format, std::FILE* out) 
   if (report.cycle_energies().empty()) return;
   PrintSectionTitle("Energy dissipated per cycle", format, out);
   Table table;
-  table.header = format == Format::kCsv
-                     ? std::vector<std::string>{"cycle", "segment", "dissipated_energy"}
-                     : std::vector<std::string>{"cycle", "segment", "W [J]"};
+  table.header =
+      format == Format::kCsv
+          ? std::vector<std::string>{"cycle", "segment", "dissipated_energy", "tangential_work"}
+          : std::vector<std::string>{"cycle", "segment", "W [J]", "work of F_x [J]"};
   for (const auto& energy : report.cycle_energies()) {
-    table.rows.push_back(
-        {std::to_string(energy.cycle()), energy.origin(), Number(energy.dissipated_energy())});
+    table.rows.push_back({std::to_string(energy.cycle()), energy.origin(),
+                          Number(energy.dissipated_energy()), Number(energy.tangential_work())});
+  }
+  table.Print(format, out);
+}
+
+// Per step: contacts in contact by slip fraction, one column per bin.
+void PrintSlipHistograms(const RunReport& report, Format format, std::FILE* out) {
+  const std::uint32_t bins = report.slip_histogram_bins();
+  if (bins == 0) return;
+  PrintSectionTitle("Slip histogram: contacts in contact by slip fraction (slipping radius / a)",
+                    format, out);
+  Table table;
+  table.header.push_back("step");
+  for (std::uint32_t b = 0; b < bins; ++b) {
+    table.header.push_back(Number(static_cast<double>(b) / bins) + "-" +
+                           Number(static_cast<double>(b + 1) / bins));
+  }
+  for (const auto& row : report.rows()) {
+    std::vector<std::string> cells{std::to_string(row.step())};
+    for (const std::uint64_t count : row.slip_histogram()) cells.push_back(std::to_string(count));
+    table.rows.push_back(std::move(cells));
+  }
+  table.Print(format, out);
+}
+
+// Per step: the state of the contact of --contact-index, in a single contact's columns.
+void PrintContactRows(const RunReport& report, Format format, std::FILE* out) {
+  if (!report.has_contact_index()) return;
+  PrintSectionTitle("Contact " + std::to_string(report.contact_index()), format, out);
+  const std::vector<Column> columns = ColumnsFor(
+      {SceneFile::DEPTH, SceneFile::TANGENTIAL_DISPLACEMENT, SceneFile::NORMAL_FORCE,
+       SceneFile::TANGENTIAL_FORCE, SceneFile::CONTACT_RADIUS, SceneFile::DISSIPATED_ENERGY});
+  Table table = StateTable(columns, format);
+  for (const auto& row : report.rows()) {
+    RunReport::Row contact;
+    contact.set_step(row.step());
+    *contact.mutable_state() = row.contact();
+    table.rows.push_back(StateRow(contact, columns));
   }
   table.Print(format, out);
 }
@@ -255,12 +299,13 @@ void PrintReport(const RunReport& report, const SceneFile& file, Format format, 
     std::fputs(ToJson(report).c_str(), out);
     return;
   }
-  const std::vector<Column> columns = ColumnsFor(file);
+  const std::vector<Column> columns = ColumnsFor(mdr::client::TableOutputs(file));
   Table table = StateTable(columns, format);
-  for (const auto& row : report.rows())
-    table.rows.push_back(StateRow(row.step(), columns, row.state()));
+  for (const auto& row : report.rows()) table.rows.push_back(StateRow(row, columns));
   table.Print(format, out);
   PrintCycleEnergies(report, format, out);
+  PrintSlipHistograms(report, format, out);
+  PrintContactRows(report, format, out);
   for (const auto& record : report.records()) PrintRecord(record, format, out);
 }
 
@@ -269,10 +314,13 @@ void PrintApplyResponse(const mdr::v1::ApplyResponse& response, Format format, s
     std::fputs(ToJson(response).c_str(), out);
     return;
   }
-  const std::vector<Column> columns = ColumnsFor(SceneFile());
+  const std::vector<Column> columns = ColumnsFor(mdr::client::TableOutputs(SceneFile()));
   Table table = StateTable(columns, format);
   for (int i = 0; i < response.step_results_size(); ++i) {
-    table.rows.push_back(StateRow(i + 1, columns, response.step_results(i).state()));
+    RunReport::Row row;
+    row.set_step(i + 1);
+    *row.mutable_state() = response.step_results(i).state();
+    table.rows.push_back(StateRow(row, columns));
   }
   table.Print(format, out);
 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# mdrctl against a real mdrd started here on a free port: run, every session subcommand, apply as
-# a batch and as a stream, query, export and import (the imported session continues identically).
+# mdrctl against a real mdrd started here on a free port: run (a single contact and a contact
+# list), every session subcommand, apply as a batch and as a stream, query, export and import (the
+# imported session continues identically).
 set -euo pipefail
 mdrd=$1
 mdrctl=$2
@@ -24,7 +25,23 @@ expect() {  # expect REGEX TEXT
 }
 
 out=$(ctl run "$examples/fretting_mindlin_deresiewicz.yaml")
-expect '^ +2 +path\[1\] +1\.07238163[56]e-06$' "$out"
+expect '^ +2 +path\[1\] +1\.07238163[56]e-06 +1\.07[123][0-9]*e-06$' "$out"
+
+# An interface scene: per-step totals and counts, one contact's state and the slip histogram.
+out=$(ctl run "$examples/contact_list.yaml" --contact-index 0 --histogram-bins 2 --format csv)
+expect '^29,300,(30|29\.99999999[0-9]*|30\.00000000[0-9]*),[0-9.e-]+,3,2,0$' "$out"
+expect '^29,3\.482909884e-06,4\.694965814e-07,100,15,0\.0001866255578,' "$out"
+expect '^step,0-0\.5,0\.5-1$' "$out"
+
+out=$(ctl session create "$examples/contact_list.yaml" --id list)
+out=$(ctl apply list '{depth_increment: 0, contact_normal_values: [3.4829098839e-6, 0, 1e-6]}')
+expect '^ +1 +0 +0 +[0-9.e-]+ +0 +0' "$out"
+out=$(ctl query list --mask interface.totals,interface.slip_histogram --histogram-bins 3)
+expect '^interface\.totals\.in_contact +2$' "$out"
+expect '^interface\.slip_histogram\[0\] +2$' "$out"
+out=$(ctl query list --mask state.normal_force --contact-index 0)
+expect '^state\.normal_force +100$' "$out"
+ctl session delete list >/dev/null
 
 out=$(ctl session create "$examples/hertz_cattaneo_mindlin.json" --id h1)
 expect '^name +sessions/h1$' "$out"

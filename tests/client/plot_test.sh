@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# mdrctl run SCENE --plot DIR writes non-empty PNG files (hysteresis, forces, profiles, tractions,
-# weights). Exit 77 (CTest: skipped) only when gnuplot is not installed.
+# mdrctl run SCENE --plot DIR writes non-empty PNG files (hysteresis, forces, energy per cycle,
+# profiles, tractions, weights). Exit 77 (CTest: skipped) only when gnuplot is not installed.
 set -euo pipefail
 mdrctl=$1
 scene=$2
@@ -11,7 +11,7 @@ fi
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 "$mdrctl" run "$scene" --plot "$dir/plots" >/dev/null
-for name in hysteresis forces profiles tractions weights; do
+for name in hysteresis forces energy_per_cycle profiles tractions weights; do
   png="$dir/plots/$name.png"
   [[ -s $png ]] || { echo "missing or empty: $name.png"; ls -l "$dir/plots"; exit 1; }
   magic=$(head -c 8 "$png" | od -An -tx1 | tr -d ' \n')

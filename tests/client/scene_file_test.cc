@@ -6,6 +6,9 @@
 #include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "mdr/client/loading_path.h"
 
 namespace {
@@ -141,9 +144,146 @@ TEST(LoadingPathTest, RulesNameTheField) {
   file.mutable_path(2)->mutable_hold()->set_samples(0);
   file.add_path();
   EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
-            "path[3]: must set one of step, ramp, cycles, hold");
+            "path[3]: must set one of step, ramp, cycles, hold, contact_ramp, contact_cycles");
   file.mutable_path()->RemoveLast();
   EXPECT_TRUE(mdr::client::ValidateSceneFile(file).ok());
+}
+
+constexpr char kContactList[] = R"(scene:
+  sphere: {radius: 1e-4}
+  rigid_on_half_space: {shear_modulus: 80e9, poisson_ratio: 0.3}
+  friction: 0.3
+  interface:
+    kind: KIND_CONTACT_LIST
+    explicit_list: {heights: [0, 0, 0], radii: [1e-4, 1e-4, 2e-4]}
+path:
+  - contact_ramp:
+      depth_increments: {values: [1e-6, 2e-6, 3e-6]}
+      steps: 4
+  - contact_cycles:
+      quantity: TANGENTIAL_DISPLACEMENT
+      amplitudes: {linear: {first: 1e-8, last: -1e-8}}
+      count: 2
+      steps_per_quarter: 3
+)";
+
+TEST(SceneFileTest, InterfacesAndTheirSegmentsParse) {
+  auto document = SceneDocument::Parse(kContactList, "list.yaml");
+  ASSERT_TRUE(document.ok()) << document.status().ToString();
+  const mdr::v1::SceneFile& file = document->file();
+  EXPECT_EQ(mdr::client::KindOf(file.scene()), mdr::client::SceneKind::kContactList);
+  EXPECT_EQ(mdr::client::ContactCount(file.scene()), 3u);
+  EXPECT_EQ(document->Where("scene.interface.explicit_list.radii"), "list.yaml:7");
+  EXPECT_EQ(document->Where("path[1].contact_cycles.amplitudes.linear.last"), "list.yaml:14");
+  EXPECT_TRUE(mdr::client::ValidateSceneFile(file).ok());
+  EXPECT_EQ(mdr::client::StepCount(file), 4u + 24u);
+
+  auto generated = SceneDocument::Parse(
+      "scene: {sphere: {radius: 1e-4}, interface: {kind: KIND_SHARED_MOTION, generated: "
+      "{count: 3000, height_scale: 1e-6, seed: 7}}}\npath: [{ramp: {target: {normal_force: 5}}}]",
+      "g.yaml");
+  ASSERT_TRUE(generated.ok()) << generated.status().ToString();
+  EXPECT_EQ(mdr::client::KindOf(generated->file().scene()), mdr::client::SceneKind::kSharedMotion);
+  EXPECT_EQ(mdr::client::ContactCount(generated->file().scene()), 3000u);
+}
+
+TEST(LoadingPathTest, ContactRampSplitsEachContactsIncrement) {
+  auto document = SceneDocument::Parse(kContactList, "list.yaml");
+  ASSERT_TRUE(document.ok());
+  const auto steps = mdr::client::ExpandSegment(document->file().path(0), {}, 3);
+  ASSERT_EQ(steps.size(), 4u);
+  for (const Step& step : steps) {
+    EXPECT_EQ(step.normal_case(), Step::kDepthIncrement);
+    EXPECT_EQ(step.depth_increment(), 0);
+    EXPECT_THAT(step.contact_normal_values(), ::testing::ElementsAre(1e-6 / 4, 2e-6 / 4, 3e-6 / 4));
+    EXPECT_EQ(step.tangential_case(), Step::TANGENTIAL_NOT_SET);
+    EXPECT_TRUE(step.contact_tangential_values().empty());
+  }
+}
+
+TEST(LoadingPathTest, ContactCyclesGoUpDownUpAroundTheStart) {
+  auto document = SceneDocument::Parse(kContactList, "list.yaml");
+  ASSERT_TRUE(document.ok());
+  const auto steps = mdr::client::ExpandSegment(document->file().path(1), {}, 3);
+  ASSERT_EQ(steps.size(), 24u);
+  double u[3] = {0, 0, 0};  // each contact's displacement, summed as the service does
+  double peak = 0;
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    ASSERT_EQ(steps[k].contact_tangential_values_size(), 3);
+    EXPECT_EQ(steps[k].normal_case(), Step::NORMAL_NOT_SET);
+    for (int i = 0; i < 3; ++i) u[i] += steps[k].contact_tangential_values(i);
+    if (k == 2) peak = u[0];
+    if (k == 8) EXPECT_NEAR(u[0], -1e-8, 1e-22);  // end of the third quarter
+  }
+  EXPECT_NEAR(peak, 1e-8, 1e-22);  // linear: first = 1e-8, middle 0, last -1e-8
+  EXPECT_NEAR(u[0], 0, 1e-22);
+  EXPECT_EQ(steps[0].contact_tangential_values(1), 0);
+  EXPECT_DOUBLE_EQ(steps[0].contact_tangential_values(2), -1e-8 / 3);
+}
+
+TEST(LoadingPathTest, InterfaceRulesNameTheFieldAndRange) {
+  auto parsed = SceneDocument::Parse(kContactList, "list.yaml");
+  ASSERT_TRUE(parsed.ok());
+  mdr::v1::SceneFile file = parsed->file();
+  auto* ramp = file.mutable_path(0)->mutable_contact_ramp();
+  ramp->mutable_depth_increments()->add_values(4e-6);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "path[0].contact_ramp.depth_increments.values: must hold one value per contact (3), "
+            "got 4");
+  ramp->mutable_depth_increments()->mutable_linear();
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "path[0].contact_ramp.depth_increments: must set either values (one per contact) or "
+            "linear");
+  ramp->mutable_depth_increments()->clear_values();
+  ramp->mutable_depth_increments()->mutable_linear()->set_last(
+      std::numeric_limits<double>::infinity());
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).field(),
+            "path[0].contact_ramp.depth_increments.linear.last");
+  ramp->clear_depth_increments();
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).field(), "path[0].contact_ramp");
+  ramp->mutable_displacement_increments()->add_values(1);
+  ramp->mutable_displacement_increments()->add_values(std::nan(""));
+  ramp->mutable_displacement_increments()->add_values(1);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).field(),
+            "path[0].contact_ramp.displacement_increments.values[1]");
+  ramp->mutable_displacement_increments()->set_values(1, 0);
+  file.mutable_path(1)->mutable_contact_cycles()->set_quantity(mdr::v1::Cycles::NORMAL_FORCE);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "path[1].contact_cycles.quantity: must be DEPTH or TANGENTIAL_DISPLACEMENT");
+  file.mutable_path(1)->mutable_contact_cycles()->set_quantity(mdr::v1::Cycles::DEPTH);
+  file.mutable_path(1)->mutable_contact_cycles()->set_count(0);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).field(), "path[1].contact_cycles.count");
+  file.mutable_path(1)->mutable_contact_cycles()->set_count(1);
+  EXPECT_TRUE(mdr::client::ValidateSceneFile(file).ok());
+
+  // Segments and columns against the scene's kind.
+  file.add_path()->mutable_cycles();
+  EXPECT_THAT(mdr::client::ValidateSceneFile(file).ToString(),
+              HasSubstr("path[2].cycles: not for a contact list"));
+  file.mutable_path()->RemoveLast();
+  file.mutable_scene()->mutable_interface()->set_kind(mdr::v1::Interface::KIND_SHARED_MOTION);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "path[0].contact_ramp: needs a contact list (scene.interface.kind KIND_CONTACT_LIST)");
+  file.clear_path();
+  file.add_path()->mutable_step()->set_normal_force(10);
+  file.add_outputs(mdr::v1::SceneFile::GROSS_SLIP);
+  EXPECT_TRUE(mdr::client::ValidateSceneFile(file).ok());
+  file.mutable_scene()->clear_interface();
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "outputs[0]: GROSS_SLIP needs an interface (scene.interface)");
+}
+
+TEST(LoadingPathTest, DefaultColumnsFollowTheSceneKind) {
+  using mdr::v1::SceneFile;
+  SceneFile file;
+  EXPECT_FALSE(mdr::client::NeedsInterfaceTotals(mdr::client::TableOutputs(file)));
+  file.mutable_scene()->mutable_interface()->set_kind(mdr::v1::Interface::KIND_SHARED_MOTION);
+  EXPECT_EQ(mdr::client::TableOutputs(file).front(), SceneFile::DEPTH);  // the approach
+  EXPECT_TRUE(mdr::client::NeedsInterfaceTotals(mdr::client::TableOutputs(file)));
+  file.mutable_scene()->mutable_interface()->set_kind(mdr::v1::Interface::KIND_CONTACT_LIST);
+  EXPECT_EQ(mdr::client::TableOutputs(file).front(), SceneFile::NORMAL_FORCE);
+  file.add_outputs(SceneFile::NORMAL_FORCE);  // the file's own columns need no query
+  EXPECT_FALSE(mdr::client::NeedsInterfaceTotals(mdr::client::TableOutputs(file)));
 }
 
 }  // namespace
