@@ -296,11 +296,23 @@ class Session:
             raise failure
 
     def query(self, outputs: Sequence[str] = ("state",), radii: Sequence[float] = (),
-              route: str = "both") -> QueryResult:
+              route: str = "both", contact_index: Optional[int] = None,
+              slip_histogram_bins: int = 0) -> QueryResult:
         """The selected outputs (read_mask paths, e.g. "state", "tractions", "pressure",
-        "springs", "jager_weights", "slip_intervals", "energy"); radii for the radial ones."""
+        "springs", "jager_weights", "slip_intervals", "energy"); radii for the radial ones.
+        An interface session also takes "interface.totals", "interface.slip_histogram" (with
+        slip_histogram_bins, 1 to 1000) and "interface.memory_bytes" (QueryResult.interface);
+        its "state" is the interface's, or with contact_index (in [0, N)) that contact's, which
+        the other paths need. The server checks both and names them in its MdrError."""
+        if contact_index is not None and contact_index < 0:
+            raise ValueError(f"contact_index must be >= 0 (a contact in [0, N)), got "
+                             f"{contact_index}")
+        if not -2**31 <= slip_histogram_bins < 2**31:
+            raise ValueError(f"slip_histogram_bins must fit the request's int32 (the service "
+                             f"takes 1 to 1000), got {slip_histogram_bins}")
         request = api.QueryRequest(session=self.name, radii=list(radii),
-                                   traction_route=_route(route))
+                                   traction_route=_route(route), contact_index=contact_index,
+                                   slip_histogram_bins=slip_histogram_bins)
         request.read_mask.CopyFrom(_mask(outputs))
         return QueryResult.of(self.client._call("Query", request, idempotent=True,
                                                 session=self.name))
