@@ -64,7 +64,7 @@ class InterfaceTest(unittest.TestCase):
             totals = q.interface.totals
             self.assertIsInstance(totals, mdr.InterfaceTotals)
             self.assertEqual(q.interface.contact_count, 3)
-            states, normal_stiffness = [], 0.0
+            states, stiffnesses = [], []
             for i in range(3):
                 with self.client.session(single_scene(i)) as single:
                     # Contact i has the depth approach - h_i with h_i = -heights[i].
@@ -76,6 +76,7 @@ class InterfaceTest(unittest.TestCase):
                                      without_timing(alone.response), f"contact {i}")
                     self.assertIsNone(by_index.interface)
                     states.append(alone.state)
+                    stiffnesses.append(alone.response.tangential_stiffness)
             # Summed in contact order, as the interface sums them.
             self.assertEqual(totals.normal_force, sum(s.normal_force for s in states))
             self.assertEqual(totals.tangential_force, sum(s.tangential_force for s in states))
@@ -83,8 +84,14 @@ class InterfaceTest(unittest.TestCase):
             self.assertEqual(totals.friction_limit, sum(s.friction_limit for s in states))
             self.assertEqual(totals.in_contact, sum(s.depth > 0 for s in states))
             self.assertEqual(totals.in_contact, 3)
-            self.assertGreater(totals.normal_stiffness, 0)
-            self.assertGreater(totals.tangential_stiffness_positive, 0)
+            self.assertEqual(totals.tangential_stiffness_positive,
+                             sum(k.positive for k in stiffnesses))
+            self.assertEqual(totals.tangential_stiffness_negative,
+                             sum(k.negative for k in stiffnesses))
+            e_star = 210e9 / (2 * (1 - 0.3**2))  # dF_N/d(approach) = sum of 2 E* a_i
+            self.assertAlmostEqual(totals.normal_stiffness /
+                                   sum(2 * e_star * s.contact_radius for s in states), 1,
+                                   delta=1e-12)
             self.assertEqual(q.state.depth, approach)
             self.assertEqual(q.state.tangential_displacement, displacements[-1])
             self.assertEqual(q.state.normal_force, totals.normal_force)

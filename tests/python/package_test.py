@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Tests of the Python package mdr against a real mdrd started by the package itself
-(Client.embedded), and of the two Python examples. The package and its generated modules are
+(Client.embedded), and of the Python examples. The package and its generated modules are
 imported from the build tree (PYTHONPATH=<build>/python), as the README says.
 
 Usage: package_test.py --mdrd PATH --source-dir REPO --out-dir DIR
@@ -9,6 +9,7 @@ import argparse
 import csv
 import math
 import os
+import re
 import subprocess
 import sys
 import unittest
@@ -228,8 +229,8 @@ class PackageTest(unittest.TestCase):
 class ExamplesTest(unittest.TestCase):
     def run_example(self, *args):
         env = dict(os.environ, MDR_MDRD=ARGS.mdrd)
-        subprocess.run([sys.executable, *args], check=True, cwd=ARGS.source_dir, env=env,
-                       timeout=120)
+        return subprocess.run([sys.executable, *args], check=True, cwd=ARGS.source_dir, env=env,
+                              timeout=120, stdout=subprocess.PIPE, text=True).stdout
 
     def test_fretting_loop_writes_its_png(self):
         out = os.path.join(ARGS.out_dir, "fretting_loop.png")
@@ -257,6 +258,23 @@ class ExamplesTest(unittest.TestCase):
         energies = [float(row["dissipated_energy_J"]) for row in rows]
         self.assertTrue(all(b >= a for a, b in zip(energies, energies[1:])))
         self.assertGreater(energies[-1], 0)
+
+    def test_rough_interface_dissipates_its_loop_area_in_every_steady_cycle(self):
+        out = self.run_example("examples/python/rough_interface.py", "3")
+        rows = [tuple(float(value) for value in match) for match in re.findall(
+            r"^cycle \d+: dissipated (\S+) J, loop area (\S+) J, partial slip (\d+), "
+            r"gross slip (\d+), F_N (\S+) N$", out, re.MULTILINE)]
+        self.assertEqual(len(rows), 3, out)
+        for dissipated, loop_area, partial, gross, normal_force in rows:
+            self.assertGreater(dissipated, 0)
+            self.assertGreater(partial, 0)
+            self.assertAlmostEqual(normal_force / 700, 1, delta=1e-11)  # the load is held
+        # From the second cycle on: steady, and the loop's area is the dissipated energy up to
+        # the trapezoidal rule's error (1.6e-4 at 40 steps per quarter).
+        self.assertAlmostEqual(rows[2][0] / rows[1][0], 1, delta=1e-9)
+        for dissipated, loop_area, *_ in rows[1:]:
+            self.assertAlmostEqual(loop_area / dissipated, 1, delta=1e-3)
+        self.assertNotAlmostEqual(rows[0][0] / rows[1][0], 1, delta=1e-3)  # the virgin cycle
 
 
 if __name__ == "__main__":
