@@ -214,7 +214,8 @@ bool FuzzInterfaceConfig(ByteReader& in, std::uint8_t header, double depth_scale
 
 // One shared-motion step, scaled like FuzzContact's: depths and increments around depth_scale,
 // total force targets around the force at depth_scale, tangential targets around the friction
-// limit; force targets with the other channel moving are refused.
+// limit. A force target holds the other channel still, except one time in four (then it is
+// refused: interfaces do not follow curved paths).
 mdr::Step SharedMotionStep(ByteReader& in, const mdr::Interface& interface, double depth_scale,
                            double force_scale, double slip, double friction_limit) {
   mdr::Step step;
@@ -228,6 +229,17 @@ mdr::Step SharedMotionStep(ByteReader& in, const mdr::Interface& interface, doub
   step.tangential_value = step.tangential == mdr::TangentialControl::kForce
                               ? in.Signed(friction_limit + 1e-300)
                               : in.Signed(slip);
+  const bool force_target = step.normal == mdr::NormalControl::kForce ||
+                            step.tangential == mdr::TangentialControl::kForce;
+  if (!force_target || kind >= 192) return step;
+  if (step.normal != mdr::NormalControl::kForce) {
+    step.normal_value = step.normal == mdr::NormalControl::kDepth ? interface.approach() : 0;
+  }
+  if (step.tangential != mdr::TangentialControl::kForce) {
+    step.tangential_value = step.tangential == mdr::TangentialControl::kDisplacement
+                                ? interface.tangential_displacement()
+                                : 0;
+  }
   return step;
 }
 
