@@ -333,6 +333,16 @@ void CheckInterfaceState(const mdr::Interface& interface, int bins, const mdr::S
       step->tangential != mdr::TangentialControl::kForce) {
     Check(report.force_residual == std::abs(totals->normal_force - step->normal_value),
           "shared motion: the normal force residual is the totals'");
+    // The stated tolerance, or the approach's resolution: the force between adjacent doubles.
+    const double delta = interface.approach();
+    double up = 0, down = 0;
+    for (std::size_t i = 0; i < interface.size(); ++i) {
+      const mdr::Contact& c = interface.contact(i);
+      up += c.NormalForceAtDepth(std::nextafter(delta, INFINITY) - interface.height(i));
+      down += c.NormalForceAtDepth(std::nextafter(delta, -INFINITY) - interface.height(i));
+    }
+    Check(report.force_residual <= mdr::kInterfaceForceTolerance * step->normal_value + (up - down),
+          "shared motion: a total normal force target is reached to its tolerance");
   }
   if (step->tangential == mdr::TangentialControl::kForce) {
     Check(report.force_residual == std::abs(totals->tangential_force - step->tangential_value),
