@@ -203,3 +203,36 @@ TEST(ExtremeTest, ForceStepAfterLongSlidingStaysCheapAndExact) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+TEST(ExtremeTest, SubnormalDepthsGiveFiniteForces) {
+  // Found by the request fuzzer (a contact list stepped to a depth of 4 subnormals): a sphere's
+  // contact radius underflows to 0 there, and the memory's integral used to be 0 * inf = NaN.
+  const double tiny = std::numeric_limits<double>::denorm_min();
+  for (ProfilePtr profile : {*MakeSphere(0.02), *MakeSphere(1e-4), *MakeCone(1.2),
+                             *MakePowerLaw(10, 3), *MakePowerLaw(10, 0.5), *MakeFlatPunch(1e-3)}) {
+    for (const double depth : {tiny, 4 * tiny, 1e-320, 1e-310}) {
+      for (const bool loaded : {false, true}) {
+        Contact c = testing::MakeContact(profile, *ElasticPair(210e9, 0.3, 210e9, 0.3), 0.3);
+        if (loaded) ASSERT_TRUE(c.MoveTo(4e-6, 5e-8).ok());  // partly slipping memory
+        for (const double ux : {0.0, 1e-309, 1e-7}) {
+          ASSERT_TRUE(c.MoveTo(depth, ux).ok());
+          SCOPED_TRACE(profile->Describe() + " depth " + std::to_string(depth / tiny) +
+                       " subnormals, ux " + std::to_string(ux));
+          EXPECT_TRUE(std::isfinite(c.normal_force()));
+          EXPECT_TRUE(std::isfinite(c.tangential_force()));
+          EXPECT_LE(std::abs(c.tangential_force()), c.friction_limit() * (1 + 1e-9) + 1e-300);
+          EXPECT_TRUE(std::isfinite(c.dissipated_energy()));
+          EXPECT_TRUE(std::isfinite(c.tangential_stiffness().positive) &&
+                      std::isfinite(c.tangential_stiffness().negative));
+          EXPECT_TRUE(Contact::Restore(c.config(), c.Snapshot()).ok());
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mdr

@@ -17,23 +17,10 @@ namespace {
 
 using testing::RandomHistory;
 using testing::SameBits;
+using testing::SameInterfaceState;
 using testing::SameSnapshot;
 
 EffectiveMaterial Steel() { return *ElasticPair(210e9, 0.3, 210e9, 0.3); }
-
-::testing::AssertionResult SameInterfaceState(const InterfaceSnapshot& a,
-                                              const InterfaceSnapshot& b) {
-  if (!SameBits(a.approach, b.approach)) return ::testing::AssertionFailure() << "approach";
-  if (!SameBits(a.tangential_displacement, b.tangential_displacement)) {
-    return ::testing::AssertionFailure() << "tangential_displacement";
-  }
-  if (a.contacts.size() != b.contacts.size()) return ::testing::AssertionFailure() << "size";
-  for (std::size_t i = 0; i < a.contacts.size(); ++i) {
-    ::testing::AssertionResult same = SameSnapshot(a.contacts[i], b.contacts[i]);
-    if (!same) return same << " (contact " << i << ")";
-  }
-  return ::testing::AssertionSuccess();
-}
 
 // n Hertz asperities, R = 0.1 mm, Gaussian summit heights of 1 um standard deviation.
 InterfaceConfig RoughInterface(std::size_t n, std::uint64_t seed, double friction = 0.3) {

@@ -1,5 +1,6 @@
-// Shared helpers for core tests: closed forms, random histories and scenes, snapshot comparison,
-// and the reference scenes of docs/reference-values.md (tests/fixtures/reference_scenes.h).
+// Shared helpers for core tests: closed forms, random histories and scenes, snapshot comparison
+// (contacts and interfaces), and the reference scenes of docs/reference-values.md
+// (tests/fixtures/reference_scenes.h).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -13,6 +14,7 @@
 
 #include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
+#include "mdr/core/interface.h"
 
 namespace mdr::testing {
 
@@ -120,6 +122,21 @@ inline ::testing::AssertionResult SameSnapshot(const ContactSnapshot& a, const C
                                                                         : nullptr;
   if (differs == nullptr) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure() << "snapshots differ in " << differs;
+}
+
+// Two interface states equal bit for bit: approach, displacement and every contact's snapshot.
+inline ::testing::AssertionResult SameInterfaceState(const InterfaceSnapshot& a,
+                                                     const InterfaceSnapshot& b) {
+  if (!SameBits(a.approach, b.approach)) return ::testing::AssertionFailure() << "approach";
+  if (!SameBits(a.tangential_displacement, b.tangential_displacement)) {
+    return ::testing::AssertionFailure() << "tangential_displacement";
+  }
+  if (a.contacts.size() != b.contacts.size()) return ::testing::AssertionFailure() << "size";
+  for (std::size_t i = 0; i < a.contacts.size(); ++i) {
+    ::testing::AssertionResult same = SameSnapshot(a.contacts[i], b.contacts[i]);
+    if (!same) return same << " (contact " << i << ")";
+  }
+  return ::testing::AssertionSuccess();
 }
 
 inline Contact MakeContact(ProfilePtr profile, EffectiveMaterial material, double mu,

@@ -1,13 +1,19 @@
 // libFuzzer target for the service's request validation: bytes -> a CreateSessionRequest,
-// ApplyRequest or QueryRequest (ParseFromArray), run by ContactOperations (no network) on fresh
-// copies of an exact and a grid session. Checks: nothing crashes (ASan + UBSan); every error has
-// a message, and INVALID_ARGUMENT names its field in the message and in a BadRequest detail; a
-// failed request changes no session and creates none; a successful Apply leaves finite forces.
-// (The physical invariants over realistic scales are engine_fuzz's: here values up to 1e308 m
-// reach the core, where force control loses its precision.) Build and run: tests/fuzz/run.sh.
+// ApplyRequest, QueryRequest or ImportSessionRequest (ParseFromArray), run by ContactOperations
+// (no network, a journal in a temporary directory) on fresh copies of four sessions: an exact and
+// a grid contact, a shared-motion interface and a contact list. Checks: nothing crashes (ASan +
+// UBSan); every error has a message, and INVALID_ARGUMENT names its field in the message and in a
+// BadRequest detail; a failed request changes no session and creates none; a successful Apply
+// leaves finite forces; and every state a request creates (Create, Import, Apply) round-trips:
+// ExportSession -> ImportSession gives the same snapshot, the process "crashes" (no compaction)
+// and the journal restores it bit for bit, and after an Apply the imported copy and the restored
+// session take the same batch again to the same state. (The physical invariants over realistic
+// scales are engine_fuzz's: here values up to 1e308 m reach the core, where force control loses
+// its precision.) Build and run: tests/fuzz/run.sh.
 //
-// Input: byte 0 chooses the request (mod 3), byte 1 the session an Apply or Query goes to (even:
-// exact, odd: grid; its `session` field is replaced), the rest is the serialized message.
+// Input: byte 0 chooses the request (mod 4: create, apply, query, import), byte 1 the session an
+// Apply or Query goes to (mod 4: exact, grid, shared motion, contact list; its `session` field
+// is replaced), the rest is the serialized message.
 #include <google/protobuf/stubs/logging.h>
 #include <grpcpp/support/error_details.h>
 #include <spdlog/spdlog.h>
@@ -16,21 +22,26 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
-#include "mdr/service/operations.h"
 #include "mdr/service/grpc_status.h"
+#include "mdr/service/operations.h"
 
 namespace {
 
 using mdr::service::ContactOperations;
 using mdr::service::ToGrpcStatus;
 
-constexpr char kExact[] = "exact";
-constexpr char kGrid[] = "grid";
+// The sessions every input starts from, in the order byte 1 picks them.
+const std::vector<std::string> kSessionIds = {"exact", "grid", "shared", "list"};
+// Where a new session's round trip imports its copy.
+constexpr char kCopyId[] = "round-trip";
 
 void Check(bool ok, const char* what, const grpc::Status& status = grpc::Status::OK) {
   if (ok) return;
@@ -61,26 +72,23 @@ mdr::v1::Scene SteelSphere() {
   return scene;
 }
 
-// The two sessions every input starts from: loaded to F_N = 100 N and partly slipping.
-struct Baseline {
-  mdr::v1::SessionSnapshot exact;
-  mdr::v1::SessionSnapshot grid;
-};
+mdr::v1::Scene InterfaceScene(mdr::v1::Interface::Kind kind) {
+  mdr::v1::Scene scene = SteelSphere();
+  scene.mutable_interface()->set_kind(kind);
+  return scene;
+}
 
+// A session of `scene` after the steps of `load`, exported and deleted.
 mdr::v1::SessionSnapshot Loaded(ContactOperations& operations, const mdr::v1::Scene& scene,
-                                const std::string& id) {
+                                const std::string& id, mdr::v1::ApplyRequest load) {
   mdr::v1::CreateSessionRequest create;
   *create.mutable_session()->mutable_scene() = scene;
   create.set_session_id(id);
   mdr::v1::Session session;
   Check(operations.CreateSession(std::nullopt, create, &session).ok(), "baseline created");
-  mdr::v1::ApplyRequest apply;
-  apply.set_session(session.name());
-  apply.add_steps()->set_normal_force(100);
-  apply.add_steps()->set_tangential_force(15);
-  apply.add_steps()->set_tangential_force(-5);
+  load.set_session(session.name());
   mdr::v1::ApplyResponse response;
-  Check(operations.Apply(std::nullopt, apply, nullptr, &response).ok(), "baseline loaded");
+  Check(operations.Apply(std::nullopt, load, nullptr, &response).ok(), "baseline loaded");
   mdr::v1::ExportSessionRequest request;
   request.set_name(session.name());
   mdr::v1::SessionSnapshot snapshot;
@@ -91,12 +99,49 @@ mdr::v1::SessionSnapshot Loaded(ContactOperations& operations, const mdr::v1::Sc
   return snapshot;
 }
 
-Baseline MakeBaseline(ContactOperations& operations) {
+// The sessions every input starts from, loaded and partly slipping: single contacts at
+// F_N = 100 N, a shared-motion interface of 4 generated summits at a total of 100 N, and a
+// contact list of 3 spheres pressed and sheared each its own way.
+std::vector<mdr::v1::SessionSnapshot> MakeBaselines(ContactOperations& operations) {
+  mdr::v1::ApplyRequest single;
+  single.add_steps()->set_normal_force(100);
+  single.add_steps()->set_tangential_force(15);
+  single.add_steps()->set_tangential_force(-5);
+
   mdr::v1::Scene grid = SteelSphere();
   grid.set_method(mdr::v1::METHOD_GRID);
   grid.mutable_grid()->set_size(64);
   grid.mutable_grid()->set_max_radius(1e-3);
-  return {Loaded(operations, SteelSphere(), kExact), Loaded(operations, grid, kGrid)};
+
+  mdr::v1::Scene shared = InterfaceScene(mdr::v1::Interface::KIND_SHARED_MOTION);
+  mdr::v1::GeneratedPopulation* population = shared.mutable_interface()->mutable_generated();
+  population->set_count(4);
+  population->set_height_scale(1e-6);
+  population->set_radius_distribution(mdr::v1::GeneratedPopulation::RADIUS_DISTRIBUTION_LOGNORMAL);
+  population->set_log_sigma(0.3);
+  population->set_seed(3);
+
+  mdr::v1::Scene list = InterfaceScene(mdr::v1::Interface::KIND_CONTACT_LIST);
+  mdr::v1::ExplicitPopulation* summits = list.mutable_interface()->mutable_explicit_list();
+  for (double radius : {0.01, 0.005, 0.02}) {
+    summits->add_heights(0);
+    summits->add_radii(radius);
+  }
+  mdr::v1::ApplyRequest each;
+  mdr::v1::Step* press = each.add_steps();
+  press->set_depth_increment(0);
+  for (double depth : {3.5e-6, 1.7e-6, 4.2e-6}) press->add_contact_normal_values(depth);
+  mdr::v1::Step* pull = each.add_steps();
+  pull->set_tangential_force(0);
+  for (double force : {5.0, -2.0, 3.0}) pull->add_contact_tangential_values(force);
+  mdr::v1::Step* shift = each.add_steps();
+  shift->set_displacement_increment(0);
+  for (double increment : {1e-7, -1e-7, 0.0}) shift->add_contact_tangential_values(increment);
+
+  return {Loaded(operations, SteelSphere(), kSessionIds[0], single),
+          Loaded(operations, grid, kSessionIds[1], single),
+          Loaded(operations, shared, kSessionIds[2], single),
+          Loaded(operations, list, kSessionIds[3], each)};
 }
 
 // Replaces the session `id` by a fresh copy of `snapshot`.
@@ -112,12 +157,100 @@ void Reset(ContactOperations& operations, const mdr::v1::SessionSnapshot& snapsh
   Check(operations.ImportSession(std::nullopt, import, &session).ok(), "baseline imported");
 }
 
-std::string Exported(ContactOperations& operations, const std::string& name) {
+mdr::v1::SessionSnapshot Export(ContactOperations& operations, const std::string& name) {
   mdr::v1::ExportSessionRequest request;
   request.set_name(name);
   mdr::v1::SessionSnapshot snapshot;
   Check(operations.ExportSession(std::nullopt, request, &snapshot).ok(), "session exported");
+  return snapshot;
+}
+
+std::string Exported(ContactOperations& operations, const std::string& name) {
+  return Export(operations, name).SerializeAsString();
+}
+
+// What must match between a session and its imported copy: the snapshot without its name.
+std::string StateBytes(mdr::v1::SessionSnapshot snapshot) {
+  snapshot.clear_source_name();
   return snapshot.SerializeAsString();
+}
+
+// The service with a journal in a temporary directory (removed at exit), as mdrd holds it.
+class JournaledService {
+ public:
+  JournaledService() {
+    std::string pattern =
+        (std::filesystem::temp_directory_path() / "mdr-request-fuzz-XXXXXX").string();
+    Check(mkdtemp(pattern.data()) != nullptr, "temporary directory created");
+    directory_ = pattern;
+    options_.path = (directory_ / "journal.sqlite").string();
+    options_.sync = mdr::service::JournalSync::kOff;
+    Open();
+  }
+  ~JournaledService() {
+    operations_.reset();
+    std::filesystem::remove_all(directory_);
+  }
+  ContactOperations& operations() { return *operations_; }
+  // Ends the process's service without compacting the journal (as a SIGKILL leaves it: every
+  // answered change is committed) and restores every session from it.
+  void Restart() {
+    operations_.reset();
+    Open();
+  }
+
+ private:
+  void Open() {
+    operations_ = std::make_unique<ContactOperations>(FuzzLimits(), mdr::service::TestHooks());
+    Check(operations_->OpenJournal(options_).ok(), "the journal opens");
+  }
+
+  std::filesystem::path directory_;
+  mdr::service::JournalOptions options_;
+  std::unique_ptr<ContactOperations> operations_;
+};
+
+// The round trips of an accepted state of session `name`: imported as a copy it exports the same
+// state; restored from the journal it is the same bit for bit; and with `next` (the batch that
+// made it, its request id dropped) the restored session and the copy continue alike.
+void CheckRoundTrips(JournaledService& service, const std::string& name,
+                     const mdr::v1::ApplyRequest* next) {
+  const mdr::v1::SessionSnapshot exported = Export(service.operations(), name);
+  const std::string copy_id = name == std::string("sessions/") + kCopyId ? "round-trip-2" : kCopyId;
+  mdr::v1::ImportSessionRequest import;
+  *import.mutable_snapshot() = exported;
+  import.set_session_id(copy_id);
+  mdr::v1::Session copy;
+  const grpc::Status imported =
+      ToGrpcStatus(service.operations().ImportSession(std::nullopt, import, &copy));
+  Check(imported.ok(), "an exported state imports", imported);
+  Check(StateBytes(Export(service.operations(), copy.name())) == StateBytes(exported),
+        "the imported copy has the exported state bit for bit");
+
+  service.Restart();
+  Check(Exported(service.operations(), name) == exported.SerializeAsString(),
+        "the journal restores the state bit for bit");
+  Check(StateBytes(Export(service.operations(), copy.name())) == StateBytes(exported),
+        "the journal restores the imported copy bit for bit");
+
+  if (next != nullptr) {
+    mdr::v1::ApplyRequest again = *next;
+    again.clear_request_id();
+    mdr::v1::ApplyResponse unused;
+    const mdr::Status restored_status =
+        service.operations().Apply(std::nullopt, again, nullptr, &unused);
+    again.set_session(copy.name());
+    const mdr::Status copy_status =
+        service.operations().Apply(std::nullopt, again, nullptr, &unused);
+    Check(restored_status.code() == copy_status.code(),
+          "the restored session and the copy accept the same batch alike");
+    Check(StateBytes(Export(service.operations(), name)) ==
+              StateBytes(Export(service.operations(), copy.name())),
+          "the restored session and the copy continue bit for bit");
+  }
+  mdr::v1::DeleteSessionRequest erase;
+  erase.set_name(copy.name());
+  Check(service.operations().DeleteSession(std::nullopt, erase).ok(), "the copy is deleted");
 }
 
 // Every error explains itself, as the server sends it (ToGrpcStatus); INVALID_ARGUMENT names the
@@ -153,33 +286,47 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static ContactOperations operations(FuzzLimits(), mdr::service::TestHooks());
-  static const Baseline baseline = MakeBaseline(operations);
+  static JournaledService service;
+  static const std::vector<mdr::v1::SessionSnapshot> baselines =
+      MakeBaselines(service.operations());
+  // Sessions an accepted Apply changed (a failed request changes none: checked below).
+  static std::vector<bool> changed(baselines.size(), true);
   if (size < 2) return 0;
-  const int kind = data[0] % 3;
-  const bool grid = data[1] % 2 == 1;
-  const std::string session = std::string("sessions/") + (grid ? kGrid : kExact);
-  Reset(operations, baseline.exact, kExact);
-  Reset(operations, baseline.grid, kGrid);
+  const int kind = data[0] % 4;
+  const std::size_t target = data[1] % kSessionIds.size();
+  const std::string session = "sessions/" + kSessionIds[target];
+  for (std::size_t i = 0; i < baselines.size(); ++i) {
+    if (changed[i]) Reset(service.operations(), baselines[i], kSessionIds[i]);
+    changed[i] = false;
+  }
   const void* message = data + 2;
   const int message_size = static_cast<int>(size - 2);
+  ContactOperations& operations = service.operations();  // until a round trip restarts it
 
-  if (kind == 0) {
-    mdr::v1::CreateSessionRequest request;
-    if (!request.ParseFromArray(message, message_size)) return 0;
+  if (kind == 0 || kind == 3) {  // a new session, created or imported
+    mdr::v1::CreateSessionRequest create;
+    mdr::v1::ImportSessionRequest import;
+    if (!(kind == 0 ? create.ParseFromArray(message, message_size)
+                    : import.ParseFromArray(message, message_size))) {
+      return 0;
+    }
     const std::size_t before = operations.session_count();
     mdr::v1::Session created;
     const grpc::Status status =
-        ToGrpcStatus(operations.CreateSession(std::nullopt, request, &created));
+        ToGrpcStatus(kind == 0 ? operations.CreateSession(std::nullopt, create, &created)
+                               : operations.ImportSession(std::nullopt, import, &created));
     if (!status.ok()) {
       CheckError(status);
-      Check(operations.session_count() == before, "a failed create adds no session", status);
+      Check(operations.session_count() == before, "a failed create or import adds no session",
+            status);
       return 0;
     }
-    Check(operations.session_count() == before + 1, "a create adds one session");
+    Check(operations.session_count() == before + 1, "a create or import adds one session");
+    CheckRoundTrips(service, created.name(), nullptr);
     mdr::v1::DeleteSessionRequest erase;
     erase.set_name(created.name());
-    Check(operations.DeleteSession(std::nullopt, erase).ok(), "the new session can be deleted");
+    Check(service.operations().DeleteSession(std::nullopt, erase).ok(),
+          "the new session can be deleted");
     return 0;
   }
 
@@ -192,7 +339,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const grpc::Status status =
         ToGrpcStatus(operations.Apply(std::nullopt, request, nullptr, &response));
     if (status.ok()) {
+      changed[target] = true;
       CheckState(response.state());
+      CheckRoundTrips(service, session, &request);
       return 0;
     }
     CheckError(status);

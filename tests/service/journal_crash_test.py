@@ -20,7 +20,10 @@ default, the sync mode changing from step to step: every restart must succeed (a
 taken for damage) and restore the session bit for bit, compared with a reference mdrd without a
 journal fed the same steps. Amplitudes: 0.6 of the displacement at the friction limit (four
 steps a quarter cycle) and the dense small-amplitude variants 0.02 and 0.001 (eight steps a
-quarter cycle), whose states today's Contact::Restore accepts too.
+quarter cycle), whose states today's Contact::Restore accepts too. The same for two interface
+sessions of three Hertz summits (INTERFACE_STEPS steps each): a shared motion pressed to a total
+normal force and fretted by total tangential forces and displacements, and a contact list whose
+steps carry one value per contact (depths, increments, tangential force targets).
 
 Finally damaged journals against the binary: a truncated write-ahead log, flipped bytes in it
 and a dropped table each make mdrd exit 1 with a message naming the file and the damage; with
@@ -120,9 +123,11 @@ def fretting_steps(scene_pb2, amplitude, per_quarter):
     return steps
 
 
-def kill_after_every_step(args, grpc, pb, rpc, scene, steps, snapshot_every, directory):
+def kill_after_every_step(args, grpc, pb, rpc, scene, steps, snapshot_every, directory,
+                          label=None):
     """SIGKILL after every step; each restart restores the session bit for bit."""
-    run = f"fretting-{len(steps)}-{steps[-1].displacement:.3g}-{snapshot_every}"
+    label = label or f"fretting-{len(steps)}-{steps[-1].displacement:.3g}"
+    run = f"{label}-{snapshot_every}"
     journal = os.path.join(directory, f"{run}.sqlite")
     log_path = os.path.join(directory, f"{run}.log")
     open(log_path, "w").close()
@@ -161,8 +166,52 @@ def kill_after_every_step(args, grpc, pb, rpc, scene, steps, snapshot_every, dir
     if server.process.wait(timeout=30) != 0 or reference_server.process.wait(timeout=30) != 0:
         fail("mdrd did not exit 0 on SIGTERM")
     reference_channel.close()
-    print(f"fretting, snapshot every {snapshot_every}: {len(steps)} SIGKILLs, every restart "
+    print(f"{label}, snapshot every {snapshot_every}: {len(steps)} SIGKILLs, every restart "
           f"restored the session bit for bit")
+
+
+INTERFACE_STEPS = 12
+SUMMIT_HEIGHTS = (0.0, 0.4 * DEPTH, -0.3 * DEPTH)  # explicit population around the H1 depth
+SUMMIT_RADII = (RADIUS, 0.5 * RADIUS, 2 * RADIUS)
+
+
+def interface_scene(scene, kind):
+    """The H1 material and friction as an interface of three Hertz summits."""
+    interface = type(scene)()
+    interface.CopyFrom(scene)
+    interface.interface.kind = kind
+    interface.interface.explicit_list.heights.extend(SUMMIT_HEIGHTS)
+    interface.interface.explicit_list.radii.extend(SUMMIT_RADII)
+    return interface
+
+
+def shared_motion_steps(scene_pb2):
+    """Pressed to a total force, then fretted by total tangential forces and displacements."""
+    peak = 0.6 * FRICTION * KAPPA * DEPTH
+    steps = [scene_pb2.Step(depth=DEPTH), scene_pb2.Step(normal_force=150.0)]
+    for k in range(INTERFACE_STEPS - 2):
+        steps.append(scene_pb2.Step(tangential_force=(-1) ** k * 20.0) if k % 3 == 2 else
+                     scene_pb2.Step(displacement=peak * (-0.8) ** k))
+    return steps
+
+
+def contact_list_steps(scene_pb2):
+    """Each contact pressed and sheared its own way, per-contact force targets included."""
+    generator = random.Random(17)
+    steps = [scene_pb2.Step(depth=0, contact_normal_values=[DEPTH, 0.5 * DEPTH, 1.2 * DEPTH])]
+    for k in range(INTERFACE_STEPS - 1):
+        if k % 4 == 3:
+            steps.append(scene_pb2.Step(
+                tangential_force=0,
+                contact_tangential_values=[generator.uniform(-5, 5) for _ in SUMMIT_RADII]))
+            continue
+        slip = FRICTION * KAPPA * DEPTH
+        steps.append(scene_pb2.Step(
+            depth_increment=0,
+            contact_normal_values=[generator.uniform(-0.05, 0.05) * DEPTH for _ in SUMMIT_RADII],
+            displacement_increment=0,
+            contact_tangential_values=[generator.uniform(-0.3, 0.3) * slip for _ in SUMMIT_RADII]))
+    return steps
 
 
 def run_to_exit(mdrd, journal, extra=()):
@@ -357,6 +406,14 @@ def main():
             for snapshot_every in ("1", "1000"):
                 kill_after_every_step(args, grpc, pb, rpc, scene, steps, snapshot_every,
                                       directory)
+        for label, kind, steps in (
+                ("shared-motion", scene_pb2.Interface.KIND_SHARED_MOTION,
+                 shared_motion_steps(scene_pb2)),
+                ("contact-list", scene_pb2.Interface.KIND_CONTACT_LIST,
+                 contact_list_steps(scene_pb2))):
+            for snapshot_every in ("1", "1000"):
+                kill_after_every_step(args, grpc, pb, rpc, interface_scene(scene, kind), steps,
+                                      snapshot_every, directory, label)
         damaged_journals(args, grpc, pb, rpc, scene_pb2, scene, directory)
     print("journal crash test: ok")
 

@@ -18,8 +18,8 @@
 #include <optional>
 #include <random>
 
-#include "mdr/service/operations.h"
 #include "mdr/service/grpc_status.h"
+#include "mdr/service/operations.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -589,6 +589,142 @@ TEST_F(JournalTest, ACrashImageIsRestoredAsItIs) {
   auto restored = Open(image);
   ExpectSameSnapshot(Export(*restored, "sessions/x"), expected[0]);
   ExpectSameSnapshot(Export(*restored, "sessions/y"), expected[1]);
+}
+
+// An interface of three Hertz summits around the H1 depth (heights s_i, radii R_i).
+v1::Scene InterfaceScene(v1::Interface::Kind kind) {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_interface()->set_kind(kind);
+  v1::ExplicitPopulation* summits = scene.mutable_interface()->mutable_explicit_list();
+  for (const auto& [height, radius] :
+       {std::pair{0.0, kRadius}, std::pair{0.4 * kDepth, 0.5 * kRadius},
+        std::pair{-0.3 * kDepth, 2 * kRadius}}) {
+    summits->add_heights(height);
+    summits->add_radii(radius);
+  }
+  return scene;
+}
+
+// A reproducible interface batch of 1-3 steps, every step reachable from any state the batches
+// reach. Shared motion: approaches of 0.6-1.4 of the H1 depth with displacements, total normal
+// force targets with the displacement held, total tangential force targets within the friction
+// limit the smallest approach leaves. Contact list: per-contact depths with displacements, per-
+// contact normal force targets, per-contact tangential force targets within each contact's limit.
+std::vector<v1::Step> RandomInterfaceBatch(std::mt19937_64& random, v1::Interface::Kind kind) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  const double slip = kFriction * Kappa() * kDepth;
+  // The smallest friction limit of the smallest summit (0.5 R) at 0.6 of the H1 depth.
+  const double least_limit = kFriction * HertzNormalForce(0.6 * kDepth) * std::sqrt(0.5);
+  const int count = 1 + static_cast<int>(random() % 3);
+  std::vector<v1::Step> steps;
+  for (int i = 0; i < count; ++i) {
+    const int choice = static_cast<int>(random() % 3);
+    v1::Step step;
+    if (kind == v1::Interface::KIND_SHARED_MOTION) {
+      if (choice == 0) {
+        step.set_depth(kDepth * (0.6 + 0.8 * unit(random)));
+        step.set_displacement((2 * unit(random) - 1) * 0.8 * slip);
+      } else if (choice == 1) {
+        step.set_normal_force(HertzNormalForce(kDepth) * (1 + 2 * unit(random)));
+      } else {
+        step.set_tangential_force((2 * unit(random) - 1) * 0.5 * least_limit);
+      }
+      steps.push_back(step);
+      continue;
+    }
+    for (int contact = 0; contact < 3; ++contact) {
+      if (choice == 0) {
+        step.set_depth(0);
+        step.add_contact_normal_values(kDepth * (0.6 + 0.8 * unit(random)));
+        step.set_displacement_increment(0);
+        step.add_contact_tangential_values((2 * unit(random) - 1) * 0.5 * slip);
+      } else if (choice == 1) {
+        step.set_normal_force(0);
+        step.add_contact_normal_values(HertzNormalForce(kDepth) * (0.6 + 0.8 * unit(random)));
+      } else {
+        step.set_tangential_force(0);
+        step.add_contact_tangential_values((2 * unit(random) - 1) * 0.5 * least_limit);
+      }
+    }
+    steps.push_back(step);
+  }
+  return steps;
+}
+
+// Every state of an interface session (both kinds) comes back from a crash image of the journal
+// bit for bit, whether its batches are replayed (snapshot every 1000) or partly compacted
+// (every 3), and continues like the state imported elsewhere; a refused batch is not journaled.
+TEST_F(JournalTest, EveryInterfaceStateIsRestoredFromACrashImageBitForBit) {
+  for (const std::uint32_t snapshot_every : {1000u, 3u}) {
+    for (const v1::Interface::Kind kind :
+         {v1::Interface::KIND_SHARED_MOTION, v1::Interface::KIND_CONTACT_LIST}) {
+      SCOPED_TRACE(v1::Interface::Kind_Name(kind) + ", snapshot every " +
+                   std::to_string(snapshot_every));
+      JournalOptions live = Options(snapshot_every);
+      live.path = directory_.File(v1::Interface::Kind_Name(kind) + std::to_string(snapshot_every) +
+                                  ".sqlite");
+      JournalOptions image = live;
+      image.path = live.path + ".image";
+      auto operations = Open(live);
+      v1::CreateSessionRequest create;
+      *create.mutable_session()->mutable_scene() = InterfaceScene(kind);
+      create.set_session_id("i");
+      v1::Session session;
+      ASSERT_TRUE(operations->CreateSession(std::nullopt, create, &session).ok());
+      std::mt19937_64 random(23);
+      v1::ApplyResponse response;
+      // The first batch presses every contact (a contact list starts unloaded).
+      v1::Step press = DepthStep(kDepth);
+      // Refused (|F_x| beyond the friction limit): changes nothing and is not journaled.
+      v1::Step beyond = TangentialForceStep(1e6);
+      if (kind == v1::Interface::KIND_CONTACT_LIST) {
+        press = v1::Step();
+        press.set_depth(0);
+        beyond.set_tangential_force(0);
+        for (int contact = 0; contact < 3; ++contact) {
+          press.add_contact_normal_values(kDepth);
+          beyond.add_contact_tangential_values(1e6);
+        }
+      }
+      for (int b = 0; b < 12; ++b) {
+        const std::vector<v1::Step> batch =
+            b == 0 ? std::vector<v1::Step>{press} : RandomInterfaceBatch(random, kind);
+        const grpc::Status status =
+            Apply(*operations, ApplyRequestFor(session.name(), batch, {}, "b-" + std::to_string(b)),
+                  &response);
+        ASSERT_TRUE(status.ok()) << "batch " << b << ": " << status.error_message();
+        if (b % 4 == 3) {
+          EXPECT_EQ(
+              Apply(*operations, ApplyRequestFor(session.name(), {beyond}), &response).error_code(),
+              grpc::StatusCode::FAILED_PRECONDITION);
+        }
+        const v1::SessionSnapshot expected = Export(*operations, session.name());
+        CopyCrashImage(live.path, image.path);
+        auto restored = Open(image);
+        const v1::SessionSnapshot actual = Export(*restored, session.name());
+        EXPECT_EQ(actual.SerializeAsString(), expected.SerializeAsString()) << "batch " << b;
+        // The restored session and an imported copy of the state take the next batch alike.
+        ContactOperations reference{service::ServiceLimits(), service::TestHooks()};
+        v1::ImportSessionRequest import;
+        *import.mutable_snapshot() = expected;
+        import.set_session_id("i");
+        v1::Session imported_session;
+        ASSERT_TRUE(reference.ImportSession(std::nullopt, import, &imported_session).ok());
+        std::mt19937_64 same(b), again(b);
+        ASSERT_TRUE(Apply(*restored,
+                          ApplyRequestFor(session.name(), RandomInterfaceBatch(same, kind)),
+                          &response)
+                        .ok());
+        ASSERT_TRUE(Apply(reference,
+                          ApplyRequestFor(session.name(), RandomInterfaceBatch(again, kind)),
+                          &response)
+                        .ok());
+        v1::SessionSnapshot continued = Export(*restored, session.name());
+        v1::SessionSnapshot imported = Export(reference, session.name());
+        EXPECT_EQ(continued.SerializeAsString(), imported.SerializeAsString()) << "batch " << b;
+      }
+    }
+  }
 }
 
 // SQLite ends the log at a cut frame and silently drops the commits from there; the side file's

@@ -96,7 +96,9 @@ class ParabolicProfile final : public Profile {
   }
   PieceIntegrals IntegratePiece(double za, double zb, double xa, double xb,
                                 bool with_square) const override {
-    if (!(zb > za)) return {};
+    // xb = 0 < zb: zb * (1/k) underflowed (a depth of a few subnormals), a piece of no width in x
+    // (1 / (xa + xb) would be inf and the integrals NaN).
+    if (!(zb > za) || !(xb > 0)) return {};
     // With s = 1 / (xa + xb), d = xb - xa = (zb - za) s / k (no cancellation) and y = x - xa:
     // t = k (2 xa y + y^2) / (zb - za) = s (2 xa y + y^2) / d, so every term below is positive.
     const double s = 1 / (xa + xb), d = (zb - za) * s * inverse_k_;
