@@ -79,7 +79,9 @@ struct ContactListStep {
 struct InterfaceStepReport {
   // Evaluations of the interface's total force by a force-target solve (0 otherwise).
   int solver_iterations = 0;
-  // |total force - target| after the step for a force target, 0 otherwise (N).
+  // |total force - target| after the step for a force target, 0 otherwise (N). A step with both
+  // targets (the normal one at the current force, so the approach holds) solves only the
+  // tangential one: this is the tangential residual.
   double force_residual = 0;
 };
 
