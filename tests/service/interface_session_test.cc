@@ -65,6 +65,13 @@ v1::Step Increments(double depth, double displacement) {
   return step;
 }
 
+// The journal and its side files (write-ahead log, commit counter), so that a test can run again.
+void RemoveJournal(const std::filesystem::path& journal) {
+  for (const char* suffix : {"", "-wal", "-shm", "-journal", ".commit"}) {
+    std::filesystem::remove(journal.string() + suffix);
+  }
+}
+
 class InterfaceSessionTest : public ServiceTest {
  protected:
   std::string CreateScene(const v1::Scene& scene) {
@@ -253,7 +260,7 @@ TEST_F(InterfaceSessionTest, ExportImportAndJournalContinueBitIdentically) {
   const std::filesystem::path journal =
       std::filesystem::temp_directory_path() /
       ("mdr-interface-journal-" + std::to_string(::getpid()) + ".sqlite");
-  std::filesystem::remove(journal);
+  RemoveJournal(journal);
   service::ServerOptions options = LocalServerOptions();
   options.journal.path = journal.string();
   options.journal.snapshot_every = 3;
@@ -284,7 +291,7 @@ TEST_F(InterfaceSessionTest, ExportImportAndJournalContinueBitIdentically) {
     EXPECT_EQ(TotalsOf(copy).SerializeAsString(), TotalsOf(original).SerializeAsString());
   }
   server_.reset();
-  std::filesystem::remove(journal);
+  RemoveJournal(journal);
 }
 
 TEST_F(InterfaceSessionTest, StreamApplyStepsAContactListAtomically) {
@@ -596,7 +603,7 @@ TEST_F(InterfaceFailureTest, AJournalThatCannotWriteChangesNothing) {
   const std::filesystem::path journal =
       std::filesystem::temp_directory_path() /
       ("mdr-interface-failing-journal-" + std::to_string(::getpid()) + ".sqlite");
-  std::filesystem::remove(journal);
+  RemoveJournal(journal);
   service::ServerOptions options = LocalServerOptions();
   options.journal.path = journal.string();
   Restart(options);
@@ -629,7 +636,7 @@ TEST_F(InterfaceFailureTest, AJournalThatCannotWriteChangesNothing) {
     EXPECT_EQ(StateBytesOf(session), after);
   }
   server_.reset();
-  std::filesystem::remove(journal);
+  RemoveJournal(journal);
 }
 
 // Interfaces large enough for their passes to be split (2048 contacts and more) give the same
