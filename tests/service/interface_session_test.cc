@@ -1,9 +1,17 @@
 // Interface sessions (scene.interface): many exact contacts through the real server. Each
 // contact must behave bit for bit like a single session driven the same way, and the sessions
 // must be atomic, exportable and journaled like single ones.
-#include <filesystem>
-#include <random>
+#include <signal.h>
+#include <sys/resource.h>
 
+#include <atomic>
+#include <filesystem>
+#include <future>
+#include <random>
+#include <thread>
+
+#include "mdr/service/executor.h"
+#include "mdr/service/pool_parallel_for.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -55,6 +63,13 @@ v1::Step Increments(double depth, double displacement) {
   step.set_depth_increment(depth);
   step.set_displacement_increment(displacement);
   return step;
+}
+
+// The journal and its side files (write-ahead log, commit counter), so that a test can run again.
+void RemoveJournal(const std::filesystem::path& journal) {
+  for (const char* suffix : {"", "-wal", "-shm", "-journal", ".commit"}) {
+    std::filesystem::remove(journal.string() + suffix);
+  }
 }
 
 class InterfaceSessionTest : public ServiceTest {
@@ -245,7 +260,7 @@ TEST_F(InterfaceSessionTest, ExportImportAndJournalContinueBitIdentically) {
   const std::filesystem::path journal =
       std::filesystem::temp_directory_path() /
       ("mdr-interface-journal-" + std::to_string(::getpid()) + ".sqlite");
-  std::filesystem::remove(journal);
+  RemoveJournal(journal);
   service::ServerOptions options = LocalServerOptions();
   options.journal.path = journal.string();
   options.journal.snapshot_every = 3;
@@ -276,7 +291,7 @@ TEST_F(InterfaceSessionTest, ExportImportAndJournalContinueBitIdentically) {
     EXPECT_EQ(TotalsOf(copy).SerializeAsString(), TotalsOf(original).SerializeAsString());
   }
   server_.reset();
-  std::filesystem::remove(journal);
+  RemoveJournal(journal);
 }
 
 TEST_F(InterfaceSessionTest, StreamApplyStepsAContactListAtomically) {
@@ -472,6 +487,267 @@ TEST_F(InterfaceSessionTest, StateBudgetAndExportLimitApply) {
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.error_message(),
               testing::StartsWith("session.scene.interface.generated.count: "));
+}
+
+// A contact list of `count` generated contacts, each pressed by `depth` (one step).
+v1::Step LoadEach(std::size_t count, double depth) {
+  return ListStep(std::vector<double>(count, depth), std::vector<double>(count, 0));
+}
+
+// A one-step batch runs in place and a longer one on a copy (session.cc): every way either can
+// fail must leave the session exactly as it was, with nothing applied.
+class InterfaceFailureTest : public InterfaceSessionTest {
+ protected:
+  void Remember(const std::string& session) {
+    session_ = session;
+    before_ = StateBytesOf(session);
+    applied_ = StateOf(session).applied_steps();
+  }
+  void ExpectUnchanged() {
+    EXPECT_EQ(StateBytesOf(session_), before_);
+    EXPECT_EQ(StateOf(session_).applied_steps(), applied_);
+  }
+
+  std::string session_, before_;
+  std::uint64_t applied_ = 0;
+};
+
+TEST_F(InterfaceFailureTest, ABadValueAtOneContactChangesNothing) {
+  constexpr std::size_t kCount = 40;
+  const std::string list = CreateScene(GeneratedScene(v1::Interface::KIND_CONTACT_LIST, kCount));
+  ApplyOrDie(list, {LoadEach(kCount, kDepth)});
+  Remember(list);
+  std::vector<double> tangential(kCount, 1e-8);
+  tangential[17] = std::nan("");
+  const v1::Step bad = ListStep(std::vector<double>(kCount, 0), tangential);
+  const v1::Step good = ListStep(std::vector<double>(kCount, 0), std::vector<double>(kCount, 1e-8));
+  v1::ApplyResponse response;
+  ExpectInvalidArgument(Apply(list, {bad}, &response), "steps[0].contact_tangential_values[17]");
+  ExpectUnchanged();
+  ExpectInvalidArgument(Apply(list, {good, bad}, &response),
+                        "steps[1].contact_tangential_values[17]");
+  ExpectUnchanged();
+  // Beyond contact 5's depth limit: found by the in-place check before anything moved.
+  std::vector<double> normal(kCount, 0);
+  normal[5] = 1e300;
+  ExpectInvalidArgument(Apply(list, {ListStep(normal, std::vector<double>(kCount, 0))}, &response),
+                        "steps[0].contact_normal_values[5]");
+  ExpectUnchanged();
+
+  const std::string shared = CreateScene(GeneratedScene(v1::Interface::KIND_SHARED_MOTION, kCount));
+  ApplyOrDie(shared, {Increments(kDepth, 0)});
+  Remember(shared);
+  ExpectInvalidArgument(Apply(shared, {DepthStep(1e300)}, &response), "steps[0].approach");
+  ExpectUnchanged();
+  ExpectInvalidArgument(Apply(shared, {Increments(0, 1e-8), DepthStep(1e300)}, &response),
+                        "steps[1].approach");
+  ExpectUnchanged();
+}
+
+TEST_F(InterfaceFailureTest, TheStateBudgetRefusesAGrowingStepAndChangesNothing) {
+  constexpr std::size_t kCount = 50;
+  const v1::Scene scene = GeneratedScene(v1::Interface::KIND_CONTACT_LIST, kCount);
+  const v1::SessionSnapshot fresh = ExportOrDie(CreateScene(scene));
+  v1::QueryResponse query;
+  ASSERT_TRUE(QueryInterface(Import(fresh), {"interface.memory_bytes"}, &query).ok());
+  const std::uint64_t bytes = query.interface().memory_bytes();
+  // Room for the session as it is (and the 8 bytes per contact of scratch that a contact list's
+  // in-place check keeps once it ran), not for the memory vertices that loading adds.
+  service::ServerOptions options = LocalServerOptions();
+  options.limits.max_state_bytes = bytes + 8 * kCount + 100;
+  Restart(options);
+  Remember(Import(fresh));
+  v1::ApplyResponse response;
+  for (const std::vector<v1::Step>& batch :
+       {std::vector<v1::Step>{LoadEach(kCount, kDepth)},
+        std::vector<v1::Step>{LoadEach(kCount, 0), LoadEach(kCount, kDepth)}}) {
+    grpc::Status refused = Apply(session_, batch, &response);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-state-bytes"));
+    ExpectUnchanged();
+  }
+  // A step that adds nothing fits: the bound of what it could add does not, so the exact state
+  // after it decides (on a copy).
+  ASSERT_TRUE(Apply(session_, {LoadEach(kCount, 0)}, &response).ok());
+  EXPECT_EQ(response.state().applied_steps(), 1u);
+}
+
+TEST_F(InterfaceFailureTest, TheExportLimitRefusesAGrowingStepAndChangesNothing) {
+  // 900 unloaded contacts export in ~45 KB; loaded, each has at least two memory vertices (24
+  // bytes each): ~88 KB.
+  constexpr std::size_t kCount = 900;
+  service::ServerOptions options = LocalServerOptions();
+  options.limits.max_message_bytes = 64 << 10;
+  Restart(options);
+  Remember(CreateScene(GeneratedScene(v1::Interface::KIND_CONTACT_LIST, kCount)));
+  v1::ApplyResponse response;
+  for (const std::vector<v1::Step>& batch :
+       {std::vector<v1::Step>{LoadEach(kCount, kDepth)},
+        std::vector<v1::Step>{LoadEach(kCount, 0), LoadEach(kCount, kDepth)}}) {
+    grpc::Status refused = Apply(session_, batch, &response);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-message-bytes"));
+    ExpectUnchanged();
+  }
+  ASSERT_TRUE(Apply(session_, {LoadEach(kCount, 0)}, &response).ok());
+}
+
+TEST_F(InterfaceFailureTest, ADeadlineOrCancellationBeforeTheStepChangesNothing) {
+  std::atomic<bool> slow{false};
+  service::ServerOptions options = LocalServerOptions();
+  options.test_hooks.before_step = [&slow](int) {
+    if (slow.load()) std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  };
+  Restart(options);
+  constexpr std::size_t kCount = 40;
+  const std::string list = CreateScene(GeneratedScene(v1::Interface::KIND_CONTACT_LIST, kCount));
+  ApplyOrDie(list, {LoadEach(kCount, kDepth)});
+  Remember(list);
+  slow = true;
+  const v1::Step slide =
+      ListStep(std::vector<double>(kCount, 0), std::vector<double>(kCount, 1e-8));
+  for (const std::vector<v1::Step>& batch :
+       {std::vector<v1::Step>{slide}, std::vector<v1::Step>{slide, slide}}) {
+    v1::ApplyResponse response;
+    grpc::Status status = stub_->Apply(Context(std::chrono::milliseconds(100)).get(),
+                                       ApplyRequestFor(list, batch), &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+    auto context = Context();
+    std::thread canceller([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      context->TryCancel();
+    });
+    status = stub_->Apply(context.get(), ApplyRequestFor(list, batch), &response);
+    canceller.join();
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::CANCELLED);
+    ExpectUnchanged();  // Query waits for the abandoned batch
+  }
+  slow = false;
+}
+
+// Every write of this process to a regular file fails (EFBIG) while it lives.
+class NoFileWrites {
+ public:
+  NoFileWrites() {
+    previous_handler_ = signal(SIGXFSZ, SIG_IGN);
+    getrlimit(RLIMIT_FSIZE, &previous_);
+    rlimit none = previous_;
+    none.rlim_cur = 0;
+    setrlimit(RLIMIT_FSIZE, &none);
+  }
+  ~NoFileWrites() {
+    setrlimit(RLIMIT_FSIZE, &previous_);
+    signal(SIGXFSZ, previous_handler_);
+  }
+
+ private:
+  rlimit previous_{};
+  sighandler_t previous_handler_;
+};
+
+TEST_F(InterfaceFailureTest, AJournalThatCannotWriteChangesNothing) {
+  const std::filesystem::path journal =
+      std::filesystem::temp_directory_path() /
+      ("mdr-interface-failing-journal-" + std::to_string(::getpid()) + ".sqlite");
+  RemoveJournal(journal);
+  service::ServerOptions options = LocalServerOptions();
+  options.journal.path = journal.string();
+  Restart(options);
+  constexpr std::size_t kCount = 40;
+  for (const v1::Interface::Kind kind :
+       {v1::Interface::KIND_CONTACT_LIST, v1::Interface::KIND_SHARED_MOTION}) {
+    SCOPED_TRACE(v1::Interface::Kind_Name(kind));
+    const bool list = kind == v1::Interface::KIND_CONTACT_LIST;
+    const std::string session = CreateScene(GeneratedScene(kind, kCount));
+    ApplyOrDie(session, {list ? LoadEach(kCount, kDepth) : Increments(kDepth, 0)});
+    Remember(session);
+    const v1::Step slide =
+        list ? ListStep(std::vector<double>(kCount, 0), std::vector<double>(kCount, 1e-8))
+             : Increments(0, 1e-8);
+    for (const std::vector<v1::Step>& batch :
+         {std::vector<v1::Step>{slide}, std::vector<v1::Step>{slide, slide}}) {
+      v1::ApplyResponse response;
+      grpc::Status refused;
+      {
+        const NoFileWrites no_writes;
+        refused = Apply(session, batch, &response);
+      }
+      EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE) << refused.error_message();
+      ExpectUnchanged();
+    }
+    // The journal works again, and a restart replays what it accepted.
+    ApplyOrDie(session, {slide});
+    const std::string after = StateBytesOf(session);
+    Restart(options);
+    EXPECT_EQ(StateBytesOf(session), after);
+  }
+  server_.reset();
+  RemoveJournal(journal);
+}
+
+// Interfaces large enough for their passes to be split (2048 contacts and more) give the same
+// sessions on one worker and on two (the pool's shares go to whichever worker claims them).
+TEST_F(InterfaceSessionTest, OneAndTwoPoolWorkersGiveIdenticalSessions) {
+  constexpr std::size_t kCount = 3000;
+  std::vector<std::string> exported;
+  for (const std::size_t workers : {1u, 2u}) {
+    service::ServerOptions options = LocalServerOptions();
+    options.execution.workers = workers;
+    Restart(options);
+    std::string states;
+    for (const v1::Interface::Kind kind :
+         {v1::Interface::KIND_CONTACT_LIST, v1::Interface::KIND_SHARED_MOTION}) {
+      const std::string session = CreateScene(GeneratedScene(kind, kCount));
+      std::mt19937_64 random(11);
+      ApplyOrDie(session,
+                 {kind == v1::Interface::KIND_SHARED_MOTION ? Increments(0.9 * kDepth, 0)
+                                                            : LoadEach(kCount, 0.9 * kDepth)});
+      for (int batch = 0; batch < 4; ++batch)
+        ApplyOrDie(session, RandomBatch(random, kind, kCount));
+      if (kind == v1::Interface::KIND_SHARED_MOTION) {
+        v1::Step target;
+        target.set_tangential_force(0.2 * TotalsOf(session).friction_limit());
+        ApplyOrDie(session, {target});
+      }
+      states += StateBytesOf(session) + TotalsOf(session).SerializeAsString();
+    }
+    exported.push_back(states);
+  }
+  EXPECT_TRUE(exported[0] == exported[1]);
+}
+
+TEST(PoolParallelForTest, ASaturatedPoolStillCompletesEveryIndexOnce) {
+  service::Executor executor({.workers = 2, .max_queued = 1});
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  std::atomic<int> blocked{0};
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_TRUE(executor.Submit("", [&blocked, released] {
+      ++blocked;
+      released.wait();
+    }));
+    while (blocked.load() < i + 1) std::this_thread::yield();  // out of the queue, running
+  }
+  service::PoolParallelFor parallel(executor);
+  EXPECT_EQ(parallel.workers(), 2);
+  // Both workers are busy: the helper is queued but never starts; the caller runs every share.
+  std::vector<int> visits(10000, 0);
+  parallel.Run(visits.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) ++visits[i];
+  });
+  EXPECT_EQ(std::count(visits.begin(), visits.end(), 1), 10000);
+  // The queue is full now (the helper waits in it): Submit is not even tried.
+  parallel.Run(visits.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) ++visits[i];
+  });
+  EXPECT_EQ(std::count(visits.begin(), visits.end(), 2), 10000);
+  release.set_value();  // the queued helper starts, finds nothing left and returns
+  executor.Stop();
+  // A stopped pool refuses every helper: still complete.
+  parallel.Run(visits.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) ++visits[i];
+  });
+  EXPECT_EQ(std::count(visits.begin(), visits.end(), 3), 10000);
 }
 
 }  // namespace

@@ -13,6 +13,17 @@ v1::Scene GridScene(std::uint32_t springs) {
   return scene;
 }
 
+// A contact-list step: every contact's depth and displacement increments.
+v1::Step PerContactStep(const std::vector<double>& depths,
+                        const std::vector<double>& displacements) {
+  v1::Step step;
+  step.set_depth_increment(0);
+  step.mutable_contact_normal_values()->Add(depths.begin(), depths.end());
+  step.set_displacement_increment(0);
+  step.mutable_contact_tangential_values()->Add(displacements.begin(), displacements.end());
+  return step;
+}
+
 class StateBudgetTest : public ServiceTest {
  protected:
   void Start(std::size_t max_state_bytes, int max_message_bytes) {
@@ -92,6 +103,49 @@ TEST_F(StateBudgetTest, LargestAcceptedGridExportsAndImports) {
   v1::Session imported;
   const grpc::Status status = stub_->ImportSession(Context().get(), request, &imported);
   EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
+// An interface session holds its interface and nothing else between calls (one-step batches run
+// on it, a longer batch's copy lives only while it runs): the budget is charged exactly
+// MemoryBytes, after steps in place as after batches on a copy. Measured by filling the rest of
+// the budget with a grid of known size (16 bytes per spring).
+TEST_F(StateBudgetTest, AnInterfaceIsChargedTheBytesItHolds) {
+  constexpr std::size_t kContacts = 50;
+  constexpr std::uint32_t kSprings = 4096;  // room for any one step's growth bound
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_interface()->set_kind(v1::Interface::KIND_CONTACT_LIST);
+  scene.mutable_interface()->mutable_generated()->set_count(kContacts);
+  auto run = [&]() -> std::uint64_t {
+    v1::CreateSessionRequest create;
+    *create.mutable_session()->mutable_scene() = scene;
+    v1::Session session;
+    EXPECT_TRUE(stub_->CreateSession(Context().get(), create, &session).ok());
+    auto each = [](double value) { return std::vector<double>(kContacts, value); };
+    for (const std::vector<v1::Step>& batch :
+         {std::vector<v1::Step>{PerContactStep(each(kDepth), each(0))},
+          std::vector<v1::Step>{PerContactStep(each(0), each(1e-7))},
+          std::vector<v1::Step>{PerContactStep(each(0), each(-1e-7)),
+                                PerContactStep(each(0), each(2e-8))},
+          std::vector<v1::Step>{PerContactStep(each(0.1 * kDepth), each(0))}}) {
+      v1::ApplyResponse response;
+      EXPECT_TRUE(Apply(session.name(), batch, &response).ok());
+    }
+    v1::QueryRequest query;
+    query.set_session(session.name());
+    *query.mutable_read_mask() = Mask({"interface.memory_bytes"});
+    v1::QueryResponse answer;
+    EXPECT_TRUE(stub_->Query(Context().get(), query, &answer).ok());
+    return answer.interface().memory_bytes();
+  };
+  Start(/*max_state_bytes=*/0, 4 << 20);
+  const std::uint64_t held = run();
+  // The same history under a budget of exactly what it holds plus one grid.
+  Start(held + 16 * kSprings, 4 << 20);
+  ASSERT_EQ(run(), held);
+  v1::Session grid;
+  EXPECT_TRUE(CreateGrid(kSprings, &grid).ok()) << "the interface is charged more than it holds";
+  EXPECT_EQ(CreateGrid(2, &grid).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << "the interface is charged less than it holds";
 }
 
 }  // namespace

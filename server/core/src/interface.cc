@@ -34,6 +34,8 @@ constexpr int kMaxSolveIterations = 200;
 constexpr double kMaxInPlaceSlide = 1e40;
 constexpr double kMaxInPlaceEnergy = 1e300;
 
+Status PassGate(const Interface::CommitGate& gate) { return gate ? gate() : OkStatus(); }
+
 std::string Indexed(const char* field, std::size_t i) {
   return std::string(field) + "[" + std::to_string(i) + "]";
 }
@@ -306,6 +308,9 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
       if (!s.ok()) return s.WithFieldPrefix(Indexed("contacts", i));
     }
   }
+  std::unordered_set<const Profile*> profiles;
+  for (const Contact& contact : built.contacts_) profiles.insert(contact.config().profile.get());
+  built.distinct_profiles_ = profiles.size();
   built.trial_ = built.contacts_;
   return built;
 }
@@ -454,16 +459,19 @@ Status Interface::StepInPlace(const Target& target, double slide_scale) {
   return OkStatus();
 }
 
-Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt) {
+Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt,
+                       const CommitGate& gate) {
   const double slide_scale = SlideScale(delta1, ux1);
   if (!CanStepInPlace(slide_scale)) {
     if (Status s = TrialMove(delta1, ux1, interrupt); !s.ok()) return s;
+    if (Status s = PassGate(gate); !s.ok()) return s;
     Commit(delta1, ux1, slide_scale);
     return OkStatus();
   }
   // Nothing can fail below (CanStepInPlace), so the contacts are stepped in place, without the
   // copy into the step buffer; the pass is bounded by kMaxInPlaceContacts and not interrupted.
   if (Status s = interrupt.Check(); !s.ok()) return s;
+  if (Status s = PassGate(gate); !s.ok()) return s;
   if (Status s = StepInPlace(
           [&](std::size_t i) {
             return ContactTarget{delta1 - height(i), ux1};
@@ -477,7 +485,8 @@ Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt) {
   return OkStatus();
 }
 
-Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Interrupt& interrupt) {
+Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Interrupt& interrupt,
+                        const CommitGate& gate) {
   if (kind_ != InterfaceKind::kSharedMotion) {
     return FailedPrecondition("kind", "a contact list is stepped per contact (ApplyEach)");
   }
@@ -528,8 +537,9 @@ Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Int
     Result<double> solved = SolveTangential(step.tangential_value, &local, interrupt);
     if (!solved.ok()) return solved.status();
     // The step buffer holds the solution.
+    if (Status s = PassGate(gate); !s.ok()) return s;
     Commit(delta1, *solved, SlideScale(delta1, *solved));
-  } else if (Status s = Move(delta1, ux1, interrupt); !s.ok()) {
+  } else if (Status s = Move(delta1, ux1, interrupt, gate); !s.ok()) {
     return s;
   }
   if (report) *report = local;
@@ -711,7 +721,8 @@ Result<double> Interface::SolveTangential(double target, InterfaceStepReport* re
   return ux_ + x;
 }
 
-Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interrupt) {
+Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interrupt,
+                            const CommitGate& gate) {
   if (kind_ != InterfaceKind::kContactList) {
     return FailedPrecondition("kind", "an interface under a shared motion is stepped by Apply");
   }
@@ -730,7 +741,7 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
       step.normal != NormalControl::kForce && step.tangential != TangentialControl::kForce;
   if (displacements && all_exact_ && vertex_headroom_ && n <= kMaxInPlaceContacts) {
     bool stepped = false;
-    if (Status s = StepListInPlace(step, interrupt, &stepped); !s.ok() || stepped) return s;
+    if (Status s = StepListInPlace(step, interrupt, gate, &stepped); !s.ok() || stepped) return s;
   }
   std::atomic<bool> headroom_lost{false};
   std::vector<double> energy(n);
@@ -757,6 +768,7 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
       },
       interrupt);
   if (!s.ok()) return s;
+  if (Status passed = PassGate(gate); !passed.ok()) return passed;
   contacts_.swap(trial_);
   vertex_headroom_ = !headroom_lost.load();
   energy_bound_ = std::max(energy_bound_, *std::max_element(energy.begin(), energy.end()));
@@ -785,7 +797,7 @@ Status Interface::CheckListTarget(std::size_t i, const ContactTarget& target) co
 }
 
 Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
-                                  bool* stepped) {
+                                  const CommitGate& gate, bool* stepped) {
   // Every target is checked first, and the largest slide scale decides (as in Move).
   std::vector<double>& scale = slide_scales_;
   scale.resize(contacts_.size());
@@ -806,6 +818,7 @@ Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& 
     return OkStatus();
   }
   if (Status s = interrupt.Check(); !s.ok()) return s;
+  if (Status s = PassGate(gate); !s.ok()) return s;
   if (Status s = StepInPlace(
           [&](std::size_t i) { return DisplacementTarget(step, i, contacts_[i]); }, slide_scale);
       !s.ok()) {
@@ -884,7 +897,6 @@ std::size_t Interface::MemoryBytes() const {
   std::size_t bytes =
       sizeof(Interface) +
       (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) * sizeof(double);
-  std::unordered_set<const Profile*> profiles;
   for (const std::vector<Contact>* buffer : {&contacts_, &trial_}) {
     bytes += buffer->capacity() * sizeof(Contact);
     for (const Contact& c : *buffer) {
@@ -894,10 +906,9 @@ std::size_t Interface::MemoryBytes() const {
       if (const GridMemory* grid = c.grid_memory()) {
         bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
       }
-      profiles.insert(c.config().profile.get());
     }
   }
-  return bytes + profiles.size() * kProfileBytes;
+  return bytes + distinct_profiles_ * kProfileBytes;
 }
 
 }  // namespace mdr

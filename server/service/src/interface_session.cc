@@ -180,7 +180,8 @@ Result<std::span<const double>> ListChannel(bool channel_set, double own_value,
   return std::span<const double>(values.data(), n);
 }
 
-Status ApplyListStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt) {
+Status ApplyListStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt,
+                     const Interface::CommitGate& gate) {
   const Step core = ToCoreStep(step);
   const std::size_t n = interface.size();
   std::vector<double> normal_zeros, tangential_zeros;
@@ -198,7 +199,7 @@ Status ApplyListStep(Interface& interface, const v1::Step& step, const Interrupt
                              .normal_values = *normal,
                              .tangential = core.tangential,
                              .tangential_values = *tangential};
-  Status status = interface.ApplyEach(list, interrupt);
+  Status status = interface.ApplyEach(list, interrupt, gate);
   status = RenameField(status, "normal_values", "contact_normal_values");
   return RenameField(status, "tangential_values", "contact_tangential_values");
 }
@@ -297,10 +298,13 @@ Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
                                         " bytes (mdrd --max-message-bytes)");
   }
   if (state_bytes_left == 0) return OkStatus();
-  Result<Interface> probe =
+  // What one more contact adds (the interface's own fixed bytes are not per contact).
+  Result<Interface> one =
       Interface::Create({.kind = InterfaceKind::kContactList, .contacts = {base}, .heights = {}});
-  if (!probe.ok()) return OkStatus();  // the real construction reports the error
-  const std::size_t per_contact = StateBytes(*probe);
+  Result<Interface> two = Interface::Create(
+      {.kind = InterfaceKind::kContactList, .contacts = {base, base}, .heights = {}});
+  if (!one.ok() || !two.ok()) return OkStatus();  // the real construction reports the error
+  const std::size_t per_contact = StateBytes(*two) - StateBytes(*one);
   if (count > state_bytes_left / per_contact) {
     return ResourceExhausted(
         field, std::to_string(count) + " contacts need at least " + std::to_string(per_contact) +
@@ -338,9 +342,10 @@ void ToProtoInterfaceSnapshot(const Interface& interface, v1::InterfaceSnapshot*
   }
 }
 
-Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt) {
+Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt,
+                          const Interface::CommitGate& gate) {
   if (interface.kind() == InterfaceKind::kContactList) {
-    return ApplyListStep(interface, step, interrupt);
+    return ApplyListStep(interface, step, interrupt, gate);
   }
   if (!step.contact_normal_values().empty() || !step.contact_tangential_values().empty()) {
     return InvalidArgument(
@@ -348,7 +353,13 @@ Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Inte
                                              : "contact_normal_values",
         "must be empty for a KIND_SHARED_MOTION interface (the step's own values drive it)");
   }
-  return interface.Apply(ToCoreStep(step), nullptr, interrupt);
+  return interface.Apply(ToCoreStep(step), nullptr, interrupt, gate);
+}
+
+bool MovesEveryContactOnce(const Interface& interface, const v1::Step& step) {
+  return interface.kind() == InterfaceKind::kSharedMotion ||
+         (step.normal_case() != v1::Step::kNormalForce &&
+          step.tangential_case() != v1::Step::kTangentialForce);
 }
 
 Status CheckSingleContactStep(const v1::Step& step) {

@@ -225,6 +225,7 @@ Status ContactOperations::CreateSession(const Principal& caller,
     }
     Result<Interface> interface = CreateInterface(resource.scene(), state.contact.config());
     if (!interface.ok()) return interface.status().WithFieldPrefix("session");
+    interface->set_parallel(parallel_);
     state.interface.emplace(std::move(interface).value());
   }
   return AddSession(caller, "session_id", request.session_id(), std::move(state), response,
@@ -323,6 +324,7 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
     Result<Interface> restored =
         RestoreInterface(snapshot.scene(), contact->config(), snapshot.interface());
     if (!restored.ok()) return restored.status().WithFieldPrefix("snapshot");
+    restored->set_parallel(parallel_);
     interface.emplace(std::move(restored).value());
   }
   state->emplace(SessionOrigin{.scene = snapshot.scene(),

@@ -17,6 +17,7 @@
 #include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
+#include "mdr/service/pool_parallel_for.h"
 #include "mdr/service/request_parse_errors.h"
 
 namespace mdr::service {
@@ -127,7 +128,9 @@ ContactServer::ContactServer(const ServerOptions& options,
     : operations_(options.limits, options.test_hooks),
       authenticator_(std::move(authenticator)),
       executor_(options.execution),
-      service_(operations_, authenticator_ ? &*authenticator_ : nullptr, executor_, stopping_) {}
+      service_(operations_, authenticator_ ? &*authenticator_ : nullptr, executor_, stopping_) {
+  operations_.set_parallel(std::make_shared<PoolParallelFor>(executor_));
+}
 
 Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions& options) {
   if (Status s = ValidateServiceLimits(options.limits); !s.ok()) return s;

@@ -208,26 +208,66 @@ Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
                                   const OutputSelection& step_outputs, const StepGuard& guard,
                                   std::size_t max_response_bytes, v1::ApplyResponse* response,
                                   const Interrupt& interrupt) {
-  if (interface_batch_) {
-    *interface_batch_ = *interface_;
-  } else {
-    interface_batch_.emplace(*interface_);
+  if (request.steps_size() == 1 && MovesEveryContactOnce(*interface_, request.steps(0))) {
+    bool fall_back = false;
+    Status status =
+        RunInterfaceStepInPlace(request, step_outputs, guard, response, interrupt, &fall_back);
+    if (!fall_back) return status;
+    response->Clear();
   }
-  Interface& target = *interface_batch_;
+  return RunInterfaceBatchOnCopy(request, step_outputs, guard, max_response_bytes, response,
+                                 interrupt);
+}
+
+Status Session::RunInterfaceStepInPlace(const v1::ApplyRequest& request,
+                                        const OutputSelection& step_outputs, const StepGuard& guard,
+                                        v1::ApplyResponse* response, const Interrupt& interrupt,
+                                        bool* fall_back) {
+  // A one-step response (one small StepResult) is far below any allowed message limit, so the
+  // response size needs no check here.
+  if (Status status = CheckNextStep(guard, 0, applied_steps_); !status.ok()) return status;
+  const std::size_t charged = charge_.bytes();
+  Status refused;  // by the gate: the batch's, not the step's, so not under steps[0]
+  const Interface::CommitGate gate = [&] {
+    const StepBounds bounds = BoundsAfterOneMove(*interface_, scene_bytes_);
+    refused = AdmitBatchLocked(request, charged + bounds.growth_bytes, bounds.export_bytes);
+    // Only the bounds failed: the exact state after the step may still fit.
+    *fall_back = refused.code() == StatusCode::kResourceExhausted;
+    return refused;
+  };
+  if (Status status = ApplyInterfaceStep(*interface_, request.steps(0), interrupt, gate);
+      !status.ok()) {
+    return refused.ok() ? status.WithFieldPrefix("steps[0]") : refused;
+  }
+  // What the step allocated was charged above as a bound; now the bytes really held.
+  charge_.ForceResize(StateBytes(*interface_));
+  const std::uint64_t applied = applied_steps_ + 1;
+  if (!step_outputs.empty()) {
+    WriteInterfaceStepResult(*interface_, applied, step_outputs, response->add_step_results());
+  }
+  FinishBatchLocked(applied, 0.0, response);
+  return OkStatus();
+}
+
+Status Session::RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
+                                        const OutputSelection& step_outputs, const StepGuard& guard,
+                                        std::size_t max_response_bytes, v1::ApplyResponse* response,
+                                        const Interrupt& interrupt) {
+  Interface copy = *interface_;
   std::uint64_t applied = applied_steps_;
   for (int i = 0; i < request.steps_size(); ++i) {
     if (Status status = CheckNextStep(guard, i, applied); !status.ok()) return status;
-    if (Status status = ApplyInterfaceStep(target, request.steps(i), interrupt); !status.ok()) {
+    if (Status status = ApplyInterfaceStep(copy, request.steps(i), interrupt); !status.ok()) {
       return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }
     ++applied;
     if (!step_outputs.empty()) {
-      WriteInterfaceStepResult(target, applied, step_outputs, response->add_step_results());
+      WriteInterfaceStepResult(copy, applied, step_outputs, response->add_step_results());
     }
   }
   return CommitBatchLocked(
-      request, applied, 0.0, max_response_bytes, StateBytes(target),
-      ExportBytesBound(target, scene_bytes_), [&] { std::swap(*interface_, target); }, response);
+      request, applied, 0.0, max_response_bytes, StateBytes(copy),
+      ExportBytesBound(copy, scene_bytes_), [&] { std::swap(*interface_, copy); }, response);
 }
 
 Status Session::CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied) {
@@ -255,6 +295,16 @@ Status Session::CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t
                                  std::to_string(max_response_bytes) +
                                  "; select fewer fields or split the batch (nothing was applied)");
   }
+  if (Status status = AdmitBatchLocked(request, state_bytes, export_bytes); !status.ok()) {
+    return status;
+  }
+  commit();
+  FinishBatchLocked(applied, path_error, response);
+  return OkStatus();
+}
+
+Status Session::AdmitBatchLocked(const v1::ApplyRequest& request, std::size_t state_bytes,
+                                 std::size_t export_bytes) {
   const std::size_t charged = charge_.bytes();
   if (Status status = ChargeStateLocked(state_bytes, export_bytes); !status.ok()) return status;
   if (journal_ != nullptr) {
@@ -263,8 +313,12 @@ Status Session::CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t
       return status;
     }
   }
+  return OkStatus();
+}
+
+void Session::FinishBatchLocked(std::uint64_t applied, double path_error,
+                                v1::ApplyResponse* response) {
   ++journal_sequence_;
-  commit();
   ProcessMetrics().steps_applied.Increment(applied - applied_steps_);
   applied_steps_ = applied;
   WriteStateLocked(OutputSelection::FullState(), response->mutable_state());
@@ -274,7 +328,6 @@ Status Session::CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t
   }
   response->mutable_error_estimate()->set_path_error(path_error);
   WriteApproximationErrors(*contact_, response->mutable_error_estimate());
-  return OkStatus();
 }
 
 Status Session::ChargeStateLocked(std::size_t state_bytes, std::size_t export_bytes) {

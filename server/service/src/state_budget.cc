@@ -1,5 +1,6 @@
 #include "mdr/service/state_budget.h"
 
+#include <algorithm>
 #include <string>
 #include <utility>
 
@@ -17,6 +18,20 @@ constexpr std::size_t kExportBytesPerVertex = 24;
 constexpr std::size_t kExportAllowance = 1024;
 // An interface's ContactSnapshot: four doubles with their tags, its own tag and length.
 constexpr std::size_t kExportBytesPerContact = 48;
+
+// What one MoveTo of an exact contact with n vertices can allocate, per (n + 2): the memory step
+// (memory.cc) extends the polyline by at most two vertices (z, u, tag: 17 bytes, growing by
+// doubling: 34), builds the refined polyline in its thread's scratch (PiecewiseLinearMemory::
+// Scratch, no session's) and copies it back into the contact's z, u and tag, which may grow to
+// 3 (n + 2) vertices (51); on the interface's step buffer the copy of the contact first
+// allocates its n vertices (17).
+constexpr std::size_t kMoveAllocationBytesPerVertex = 34 + 51 + 17;
+
+std::size_t InterfaceExportBytes(std::size_t contacts, std::size_t vertices,
+                                 std::size_t scene_bytes) {
+  return scene_bytes + kExportAllowance + contacts * kExportBytesPerContact +
+         vertices * kExportBytesPerVertex;
+}
 
 std::size_t Springs(const Contact& contact) {
   const GridMemory* grid = contact.grid_memory();
@@ -38,16 +53,26 @@ std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
          contact.memory().vertex_count() * kExportBytesPerVertex;
 }
 
-// Twice: the session keeps a batch copy of the interface beside it (Session::RunInterfaceBatch).
-std::size_t StateBytes(const Interface& interface) { return 2 * interface.MemoryBytes(); }
+std::size_t StateBytes(const Interface& interface) { return interface.MemoryBytes(); }
 
 std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes) {
   std::size_t vertices = 0;
   for (std::size_t i = 0; i < interface.size(); ++i) {
     vertices += interface.contact(i).memory().vertex_count();
   }
-  return scene_bytes + kExportAllowance + interface.size() * kExportBytesPerContact +
-         vertices * kExportBytesPerVertex;
+  return InterfaceExportBytes(interface.size(), vertices, scene_bytes);
+}
+
+StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes) {
+  std::size_t vertices_after = 0, growth = 0;
+  for (std::size_t i = 0; i < interface.size(); ++i) {
+    const Contact& contact = interface.contact(i);
+    const std::size_t vertices = contact.memory().vertex_count();
+    // A step turns n vertices into at most 3n + 1 (interface.h), never above the contact's limit.
+    vertices_after += std::min(3 * vertices + 1, contact.config().max_memory_vertices);
+    growth += kMoveAllocationBytesPerVertex * (vertices + 2);
+  }
+  return {growth, InterfaceExportBytes(interface.size(), vertices_after, scene_bytes)};
 }
 
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field) {
@@ -102,6 +127,17 @@ StateCharge& StateCharge::operator=(StateCharge&& other) noexcept {
 
 StateCharge::~StateCharge() {
   if (budget_ != nullptr) budget_->Release(bytes_);
+}
+
+void StateCharge::ForceResize(std::size_t bytes) {
+  if (budget_ != nullptr) {
+    if (bytes > bytes_) {
+      budget_->ForceCharge(bytes - bytes_);
+    } else {
+      budget_->Release(bytes_ - bytes);
+    }
+  }
+  bytes_ = bytes;
 }
 
 Status StateCharge::Resize(std::size_t bytes) {

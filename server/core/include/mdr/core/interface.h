@@ -113,6 +113,12 @@ struct InterfaceSnapshot {
 
 class Interface {
  public:
+  // Called by Apply and ApplyEach once every check of the step has passed, just before the step
+  // changes the interface (in place, or by swapping the step buffer in): an error from it abandons
+  // the step, which then changes nothing; after it returned OK the step cannot fail. A caller
+  // that must record or pay for a step before it happens (a journal, a budget) does it here.
+  using CommitGate = std::function<Status()>;
+
   // Validates the config (fields contacts[i].*, heights[i], heights). A shared-motion interface
   // starts touching its highest contact: delta = min h_i, ux = 0, every depth <= 0.
   static Result<Interface> Create(InterfaceConfig config);
@@ -128,9 +134,10 @@ class Interface {
   // interrupt is checked every kInterruptPeriod contacts (in-place steps: once, before they
   // start; see kMaxInPlaceContacts).
   Status Apply(const Step& step, InterfaceStepReport* report = nullptr,
-               const Interrupt& interrupt = {});
+               const Interrupt& interrupt = {}, const CommitGate& gate = {});
   // Contact list: one step per contact, atomic over all of them.
-  Status ApplyEach(const ContactListStep& step, const Interrupt& interrupt = {});
+  Status ApplyEach(const ContactListStep& step, const Interrupt& interrupt = {},
+                   const CommitGate& gate = {});
 
   // Runs the per-contact work on `parallel` (null: on the calling thread). Results do not depend
   // on it.
@@ -172,7 +179,7 @@ class Interface {
   void Commit(double delta1, double ux1, double slide_scale);
   // Steps every contact to (delta1, ux1): in place when no contact can fail, else through the
   // step buffer.
-  Status Move(double delta1, double ux1, const Interrupt& interrupt);
+  Status Move(double delta1, double ux1, const Interrupt& interrupt, const CommitGate& gate);
   // |dux| + 2 max(mu kappa) (max(delta0, delta1) - min h): how far any spring can slide.
   double SlideScale(double delta1, double ux1) const;
   bool CanStepInPlace(double slide_scale) const;
@@ -186,7 +193,8 @@ class Interface {
   Status CheckListTarget(std::size_t i, const ContactTarget& target) const;
   // A contact list's displacement step in place when every target passes and no contact can
   // fail (*stepped = true); otherwise nothing changes (*stepped stays false, or an error).
-  Status StepListInPlace(const ContactListStep& step, const Interrupt& interrupt, bool* stepped);
+  Status StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
+                         const CommitGate& gate, bool* stepped);
   // Steps every contact i in place to target(i) (a ContactTarget), uninterrupted: the caller has
   // checked that no contact can fail (a failure is Internal). Updates the vertex headroom and the
   // energy bound by slide_scale.
@@ -226,6 +234,7 @@ class Interface {
   double energy_bound_ = 0;      // >= every contact's dissipated energy
   std::shared_ptr<ParallelFor> parallel_;
   std::vector<double> slide_scales_;  // StepListInPlace's per-contact scratch, kept between steps
+  std::size_t distinct_profiles_ = 0;  // for MemoryBytes (profiles never change after Create)
 };
 
 }  // namespace mdr

@@ -24,7 +24,8 @@ Result<Interface> CreateInterface(const v1::Scene& scene, const ContactConfig& b
 // server allocate beyond its limits first: RESOURCE_EXHAUSTED (field ".generated.count" or
 // ".explicit_list.heights" under scene.interface) when count fresh contacts would already hold
 // more than state_bytes_left (0: no limit) or could not be exported within max_message_bytes (an
-// empty contact snapshot costs 2 bytes). A fresh contact's bytes come from a one-contact probe.
+// empty contact snapshot costs 2 bytes). A fresh contact's bytes come from probes of one and two
+// contacts (their difference).
 Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
                           std::size_t state_bytes_left, int max_message_bytes);
 // An interface restored from a snapshot's state; errors name "interface.contacts[i]..." (relative
@@ -34,8 +35,13 @@ Result<Interface> RestoreInterface(const v1::Scene& scene, const ContactConfig& 
 void ToProtoInterfaceSnapshot(const Interface& interface, v1::InterfaceSnapshot* proto);
 
 // One step of an interface session (Interface::Apply for shared motion, ApplyEach with the
-// step's per-contact values for a contact list). Errors name fields of the Step.
-Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt);
+// step's per-contact values for a contact list). Errors name fields of the Step; gate: the
+// core's commit gate (Interface::CommitGate), whose error is returned as it is.
+Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt,
+                          const Interface::CommitGate& gate = {});
+// Whether the step moves every contact exactly once (BoundsAfterOneMove applies): any step of a
+// shared motion, a contact list's step without force targets.
+bool MovesEveryContactOnce(const Interface& interface, const v1::Step& step);
 // A single-contact session's step must not carry per-contact values.
 Status CheckSingleContactStep(const v1::Step& step);
 

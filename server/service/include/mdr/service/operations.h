@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/core/interface.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/base/status.h"
 #include "mdr/service/journal.h"
@@ -46,6 +47,10 @@ class ContactOperations {
   // reason; its journal entry is kept); every other one is restored. Errors (the journal cannot
   // be opened, or is damaged and options.recover is off) name the journal and what is wrong.
   Status OpenJournal(const JournalOptions& options);
+  // Interface sessions created, imported or restored from now on run their per-contact passes
+  // on `parallel` (the server's worker pool: PoolParallelFor); null: on the calling worker. Set
+  // before OpenJournal.
+  void set_parallel(std::shared_ptr<ParallelFor> parallel) { parallel_ = std::move(parallel); }
   // Writes a snapshot of every session with batches since its last one (a clean shutdown).
   void CompactJournal();
 
@@ -104,6 +109,7 @@ class ContactOperations {
 
   const ServiceLimits limits_;
   const TestHooks hooks_;
+  std::shared_ptr<ParallelFor> parallel_;  // for interface sessions
   // Thread-safe; mutable for Restore, which charges the restored sessions.
   mutable StateBudget budget_;        // before sessions_, whose charges it holds
   std::unique_ptr<Journal> journal_;  // before sessions_: they write to it until destroyed

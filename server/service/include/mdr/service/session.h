@@ -140,18 +140,37 @@ class Session {
   Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                   const StepGuard& guard, std::size_t max_response_bytes,
                   v1::ApplyResponse* response, const Interrupt& interrupt);
-  // Always on a copy of the interface: any step may grow its state past the budget.
+  // A one-step batch in place when it can (RunInterfaceStepInPlace), else on a copy.
   Status RunInterfaceBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                            const StepGuard& guard, std::size_t max_response_bytes,
                            v1::ApplyResponse* response, const Interrupt& interrupt);
+  // One step on interface_ itself: the core's step is atomic, and what could still refuse it
+  // (the budget and the export limit, from bounds of the step's growth, and the journal) is done
+  // in its commit gate, before it changes anything. Sets *fall_back (nothing changed) when the
+  // bounds do not fit: the exact check of a batch copy decides then.
+  Status RunInterfaceStepInPlace(const v1::ApplyRequest& request,
+                                 const OutputSelection& step_outputs, const StepGuard& guard,
+                                 v1::ApplyResponse* response, const Interrupt& interrupt,
+                                 bool* fall_back);
+  // Every step on a copy of the interface, swapped in at the commit.
+  Status RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
+                                 const OutputSelection& step_outputs, const StepGuard& guard,
+                                 std::size_t max_response_bytes, v1::ApplyResponse* response,
+                                 const Interrupt& interrupt);
   // The guard and the step counter's limit before step i.
   static Status CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied);
   // The end of a batch whose steps all succeeded: the response size and state checks, the
-  // journal, then commit() moves the new state in.
+  // journal (AdmitBatchLocked), then commit() moves the new state in (FinishBatchLocked).
   Status CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t applied,
                            double path_error, std::size_t max_response_bytes,
                            std::size_t state_bytes, std::size_t export_bytes,
                            const std::function<void()>& commit, v1::ApplyResponse* response);
+  // Charges state_bytes (unless it exceeds the budget, or export_bytes the export limit), then
+  // writes the batch to the journal; on an error nothing is charged or written.
+  Status AdmitBatchLocked(const v1::ApplyRequest& request, std::size_t state_bytes,
+                          std::size_t export_bytes);
+  // After the state changed: counters, the committed state and the response's state.
+  void FinishBatchLocked(std::uint64_t applied, double path_error, v1::ApplyResponse* response);
   void WriteStateLocked(const OutputSelection& selection, v1::ContactState* state) const;
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
   // Resizes charge_ to state_bytes, unless it exceeds the budget or export_bytes the export
@@ -176,9 +195,6 @@ class Session {
   mutable std::mutex mutex_;
   std::optional<Contact> contact_;           // guarded by mutex_; unset: unavailable
   std::optional<Interface> interface_;       // guarded by mutex_; set: an interface session
-  // The batch copy of interface_, kept so that each batch copy-assigns into vectors that are
-  // already allocated (a fresh copy of 10^4 contacts costs more than a step); guarded by mutex_.
-  std::optional<Interface> interface_batch_;
   std::uint64_t applied_steps_;              // guarded by mutex_
   CompletedRequests completed_;              // guarded by mutex_
   Journal* journal_ = nullptr;               // guarded by mutex_

@@ -28,12 +28,24 @@ std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact);
 // ExportedSceneBytes (every other field of the snapshot fits in a fixed allowance).
 std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes);
 
-// An interface session's state: twice Interface::MemoryBytes (contacts, step buffer, heights,
-// profiles), for the interface and the batch copy its session keeps.
+// An interface session's state: Interface::MemoryBytes (contacts, the core's step buffer,
+// heights, profiles). A batch copy exists only while a batch runs on one (Session::Apply), like a
+// single contact's.
 std::size_t StateBytes(const Interface& interface);
 // An upper bound of the ExportSession message of an interface session: every contact's snapshot
 // as for a single contact, beside the scene.
 std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes);
+
+// Bounds of what one step that moves every contact once (Interface::Apply of any kind, a contact
+// list's displacement step) can make of an interface, from its state before the step, so that a
+// step run in place can be checked before it happens: the bytes it may allocate (StateBytes may
+// grow by at most that much) and ExportBytesBound after it. Not for a contact list's force
+// targets, whose curved paths take many substeps.
+struct StepBounds {
+  std::size_t growth_bytes = 0;
+  std::size_t export_bytes = 0;
+};
+StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes);
 
 // RESOURCE_EXHAUSTED (field: `field`) when a snapshot of export_bytes would not fit
 // max_message_bytes.
@@ -73,6 +85,9 @@ class StateCharge {
 
   // Changes the charge to `bytes`; on failure (RESOURCE_EXHAUSTED) it stays as it was.
   Status Resize(std::size_t bytes);
+  // Changes the charge to `bytes` whatever the limit: for bytes already held (a step whose
+  // growth was checked before it ran, measured after it).
+  void ForceResize(std::size_t bytes);
   std::size_t bytes() const { return bytes_; }
 
  private:
