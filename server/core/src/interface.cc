@@ -892,7 +892,8 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
 }
 
 std::size_t Interface::MemoryBytes() const {
-  // (A memory's step scratch is per thread, not per contact: PiecewiseLinearMemory::Scratch.)
+  // The private step scratch of each memory holds about two polylines' worth (estimate).
+  constexpr std::size_t kVertexBytes = 2 * sizeof(double) + 1;
   constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
   std::size_t bytes =
       sizeof(Interface) +
@@ -902,7 +903,7 @@ std::size_t Interface::MemoryBytes() const {
     for (const Contact& c : *buffer) {
       const PiecewiseLinearMemory& m = c.memory();
       bytes += m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
-               m.tags().capacity();
+               m.tags().capacity() + 2 * m.vertex_count() * kVertexBytes;
       if (const GridMemory* grid = c.grid_memory()) {
         bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
       }

@@ -124,36 +124,30 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
 
 double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
                                             const Profile* profile) {
-  Scratch& next = ThreadScratch();
-  InsertCrossings(mu_kappa, next);
+  InsertCrossings(mu_kappa);
   const double dissipated = profile != nullptr && mu_kappa > 0
-                                ? SlidingDissipation(depth0, dux, mu_kappa, *profile, next)
+                                ? SlidingDissipation(depth0, dux, mu_kappa, *profile)
                                 : 0.0;
-  ClampRefinedVertices(mu_kappa, next);
+  ClampRefinedVertices(mu_kappa);
   return dissipated;
 }
 
-PiecewiseLinearMemory::Scratch& PiecewiseLinearMemory::ThreadScratch() {
-  thread_local Scratch scratch;
-  return scratch;
-}
-
-void PiecewiseLinearMemory::InsertCrossings(double mu_kappa, Scratch& next) const {
+void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
   // The points where v crosses +bound or -bound (both linear in z) are tagged with their bound;
   // the original vertices are classified by ClampRefinedVertices.
   const double depth1 = depth_;
   auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
-  auto& rz = next.z;
-  auto& rv = next.u;
-  auto& tags = next.tag;
-  auto& was = next.was;
+  auto& rz = next_.z;
+  auto& rv = next_.u;
+  auto& tags = next_.tag;
+  auto& was = next_.was;
   const std::size_t n = z_.size();
   rz.clear();
   rv.clear();
   tags.clear();
   was.clear();
-  // At most two crossings per segment: the thread's buffers allocate only until they have grown
-  // to the largest memory the thread has stepped.
+  // At most two crossings per segment: one allocation per buffer at most (a copied memory starts
+  // with empty ones), none once they have grown.
   rz.reserve(3 * n);
   rv.reserve(3 * n);
   tags.reserve(3 * n);
@@ -187,14 +181,13 @@ void PiecewiseLinearMemory::InsertCrossings(double mu_kappa, Scratch& next) cons
 }
 
 double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, double mu_kappa,
-                                                 const Profile& profile,
-                                                 const Scratch& next) const {
+                                                 const Profile& profile) const {
   // Springs that slid along the bound (exact per spring, dissipation.h): e, the amount the clamp
   // removes, and the bound b1 are linear in z, so in t = (z - za)/(zb - za), on each refined
   // segment.
-  const auto& rz = next.z;
-  const auto& rv = next.u;
-  const auto& tags = next.tag;
+  const auto& rz = next_.z;
+  const auto& rv = next_.u;
+  const auto& tags = next_.tag;
   const LinearStep step{depth0, depth_, dux, mu_kappa};
   // Radius of the vertex last asked for: neighbouring sliding segments share a vertex.
   std::size_t known = rz.size();
@@ -234,16 +227,16 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   return dissipated;
 }
 
-void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa, Scratch& next) {
+void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa) {
   // A vertex that was on a bound and is still on it to rounding stays there: a crossing sits up
   // to a few ulps inside its bound (PlaceCrossing), and a step that does not move it off
   // (dux = 0, a depth held) must not turn its slip zone into a stick zone (tangential stiffness,
   // slip intervals).
   const double depth1 = depth_;
-  auto& rz = next.z;
-  auto& rv = next.u;
-  auto& tags = next.tag;
-  const auto& was = next.was;
+  auto& rz = next_.z;
+  auto& rv = next_.u;
+  auto& tags = next_.tag;
+  const auto& was = next_.was;
   const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
   for (std::size_t i = 0; i < rz.size(); ++i) {
     if (tags[i] != kInside) continue;  // a crossing, already on its bound
@@ -259,10 +252,9 @@ void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa, Scratch& next)
       tags[i] = kOnLower;
     }
   }
-  // Copied, not swapped: the scratch stays with the thread (and in its cache).
-  z_.assign(rz.begin(), rz.end());
-  u_.assign(rv.begin(), rv.end());
-  tag_.assign(tags.begin(), tags.end());
+  std::swap(z_, next_.z);
+  std::swap(u_, next_.u);
+  std::swap(tag_, next_.tag);
 }
 
 void PiecewiseLinearMemory::MergeRedundantVertices() {

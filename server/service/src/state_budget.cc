@@ -21,11 +21,10 @@ constexpr std::size_t kExportBytesPerContact = 48;
 
 // What one MoveTo of an exact contact with n vertices can allocate, per (n + 2): the memory step
 // (memory.cc) extends the polyline by at most two vertices (z, u, tag: 17 bytes, growing by
-// doubling: 34), builds the refined polyline in its thread's scratch (PiecewiseLinearMemory::
-// Scratch, no session's) and copies it back into the contact's z, u and tag, which may grow to
-// 3 (n + 2) vertices (51); on the interface's step buffer the copy of the contact first
-// allocates its n vertices (17).
-constexpr std::size_t kMoveAllocationBytesPerVertex = 34 + 51 + 17;
+// doubling: 34) and builds the refined polyline in four scratch vectors reserved for 3 (n + 2)
+// (z, u, tag, previous tag: 18 bytes each, 54); on the interface's step buffer the copy of the
+// contact first allocates its n vertices (17). Buffers that are only swapped allocate nothing.
+constexpr std::size_t kMoveAllocationBytesPerVertex = 34 + 54 + 17;
 
 std::size_t InterfaceExportBytes(std::size_t contacts, std::size_t vertices,
                                  std::size_t scene_bytes) {

@@ -96,27 +96,17 @@ class PiecewiseLinearMemory {
  private:
   // Builds the unclamped polyline v = u + dux on [0, depth1] (cut or extended).
   void ShiftAndResize(double depth0, double depth1, double dux);
-  // The refined polyline a step builds before it becomes the state. One per thread, not per
-  // memory: an interface steps thousands of contacts in turn, and a buffer that stays in cache
-  // costs less than one per contact (which also doubled each contact's heap blocks).
-  struct Scratch {
-    std::vector<double> z, u;
-    std::vector<std::uint8_t> tag;
-    std::vector<std::uint8_t> was;  // each refined vertex's tag before the step (crossings: 0)
-  };
-  static Scratch& ThreadScratch();
-
   // Clamps v into the bounds +-mu_kappa*(depth1 - z), inserting the crossing vertices; returns
   // the energy dissipated by springs that stay in or enter contact (per G*) if profile != null.
-  // Three phases on the refined polyline in `next`:
+  // Three phases on the refined polyline in next_:
   double ClampToBounds(double depth0, double dux, double mu_kappa, const Profile* profile);
   // 1. v with a vertex inserted wherever it crosses a bound line (tagged with that bound);
-  void InsertCrossings(double mu_kappa, Scratch& next) const;
+  void InsertCrossings(double mu_kappa);
   // 2. the energy (per G*) that the clamp of phase 3 dissipates, spring by spring, exactly;
-  double SlidingDissipation(double depth0, double dux, double mu_kappa, const Profile& profile,
-                            const Scratch& next) const;
+  double SlidingDissipation(double depth0, double dux, double mu_kappa,
+                            const Profile& profile) const;
   // 3. every vertex clamped to the bounds and tagged; the refined polyline becomes the state.
-  void ClampRefinedVertices(double mu_kappa, Scratch& next);
+  void ClampRefinedVertices(double mu_kappa);
   void MergeRedundantVertices();
   // Energy dissipated (per G*) by springs in (max(depth1, 0), depth0] that leave contact.
   double LeavingDissipation(double depth1, double dux, double mu_kappa,
@@ -125,6 +115,17 @@ class PiecewiseLinearMemory {
   double depth_ = 0;  // may be negative (indenter lifted): then there are no vertices
   std::vector<double> z_, u_;
   std::vector<std::uint8_t> tag_;
+  // Buffers reused across steps so the hot path does not allocate; not part of the state, so
+  // copies start with empty ones.
+  struct Scratch {
+    Scratch() = default;
+    Scratch(const Scratch&) {}
+    Scratch& operator=(const Scratch&) { return *this; }
+    std::vector<double> z, u;
+    std::vector<std::uint8_t> tag;
+    std::vector<std::uint8_t> was;  // each refined vertex's tag before the step (crossings: 0)
+  };
+  Scratch next_;
 };
 
 }  // namespace mdr
