@@ -87,10 +87,14 @@ bool HasVertexHeadroom(const Contact& contact) {
 // contacts[i]. A contact left without vertex headroom for the next step is recorded, not an error.
 Status MoveContact(Contact& contact, std::size_t i, double depth, double ux,
                    std::atomic<bool>& headroom_lost) {
-  Status s = contact.MoveTo(depth, ux);
-  if (s.ok()) s = CheckSteppedContact(contact);
+  if (Status s = contact.MoveTo(depth, ux); !s.ok()) {
+    return s.WithFieldPrefix(Indexed("contacts", i));
+  }
   if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
-  return s.ok() ? s : s.WithFieldPrefix(Indexed("contacts", i));
+  if (Status s = CheckSteppedContact(contact); !s.ok()) {
+    return s.WithFieldPrefix(Indexed("contacts", i));
+  }
+  return OkStatus();
 }
 
 // The depth at which this contact's mu F_N reaches kForceCap (+inf if never).
@@ -384,14 +388,18 @@ Status Interface::ForEach(const std::function<Status(std::size_t)>& fn,
   std::size_t failed_at = contacts_.size();
   Status failure;
   auto run = [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      Status s = interrupt.CheckEvery(kInterruptPeriod, i - begin);
-      if (s.ok()) s = fn(i);
-      if (s.ok()) continue;
-      // Keep the lowest failing index, so that the error does not depend on the split.
+    // Keep the lowest failing index, so that the error does not depend on the split.
+    auto fail = [&](std::size_t i, Status s) {
       std::lock_guard lock(mutex);
       if (i < failed_at) failed_at = i, failure = std::move(s);
-      return;
+    };
+    for (std::size_t i = begin; i < end; ++i) {
+      // Each Status is constructed in place, never assigned: an assignment per contact (two
+      // strings) costs about as much as a contact's bookkeeping.
+      if (Status s = interrupt.CheckEvery(kInterruptPeriod, i - begin); !s.ok()) {
+        return fail(i, std::move(s));
+      }
+      if (Status s = fn(i); !s.ok()) return fail(i, std::move(s));
     }
   };
   if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
@@ -867,6 +875,30 @@ Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
   return totals;
 }
 
+Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool energy) const {
+  std::vector<ForceSums> per(contacts_.size());
+  (void)ForEach(
+      [&](std::size_t i) {
+        const Contact& c = contacts_[i];
+        if (normal) {
+          per[i].normal_force = c.normal_force();
+          per[i].friction_limit = c.config().friction * per[i].normal_force;
+        }
+        if (tangential) per[i].tangential_force = c.tangential_force();
+        if (energy) per[i].dissipated_energy = c.dissipated_energy();
+        return OkStatus();
+      },
+      Interrupt{});
+  ForceSums sums;
+  for (const ForceSums& p : per) {
+    sums.normal_force += p.normal_force;
+    sums.tangential_force += p.tangential_force;
+    sums.dissipated_energy += p.dissipated_energy;
+    sums.friction_limit += p.friction_limit;
+  }
+  return sums;
+}
+
 Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
                                                           const Interrupt& interrupt) const {
   if (bins < 1 || bins > 1000) {
@@ -895,21 +927,38 @@ std::size_t Interface::MemoryBytes() const {
   // The private step scratch of each memory holds about two polylines' worth (estimate).
   constexpr std::size_t kVertexBytes = 2 * sizeof(double) + 1;
   constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
-  std::size_t bytes =
-      sizeof(Interface) +
-      (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) * sizeof(double);
-  for (const std::vector<Contact>* buffer : {&contacts_, &trial_}) {
-    bytes += buffer->capacity() * sizeof(Contact);
-    for (const Contact& c : *buffer) {
-      const PiecewiseLinearMemory& m = c.memory();
-      bytes += m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
-               m.tags().capacity() + 2 * m.vertex_count() * kVertexBytes;
-      if (const GridMemory* grid = c.grid_memory()) {
-        bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
-      }
+  auto memory_bytes = [](const Contact& c) {
+    const PiecewiseLinearMemory& m = c.memory();
+    std::size_t bytes = m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
+                        m.tags().capacity() + 2 * m.vertex_count() * kVertexBytes;
+    if (const GridMemory* grid = c.grid_memory()) {
+      bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
     }
+    return bytes;
+  };
+  // Summed per worker (integer sums do not depend on the split): this runs after every step of
+  // the service, which charges the state budget exactly.
+  std::atomic<std::size_t> contact_bytes{0};
+  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
+    parallel_->Run(contacts_.size(), [&](std::size_t begin, std::size_t end) {
+      std::size_t bytes = 0;
+      for (std::size_t i = begin; i < end; ++i) {
+        bytes += memory_bytes(contacts_[i]) + memory_bytes(trial_[i]);  // equal sizes
+      }
+      contact_bytes.fetch_add(bytes, std::memory_order_relaxed);
+    });
+  } else {
+    std::size_t bytes = 0;
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      bytes += memory_bytes(contacts_[i]) + memory_bytes(trial_[i]);
+    }
+    contact_bytes = bytes;
   }
-  return bytes + distinct_profiles_ * kProfileBytes;
+  return sizeof(Interface) +
+         (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) *
+             sizeof(double) +
+         (contacts_.capacity() + trial_.capacity()) * sizeof(Contact) + contact_bytes.load() +
+         distinct_profiles_ * kProfileBytes;
 }
 
 }  // namespace mdr

@@ -216,25 +216,11 @@ bool AnyContactOutput(const OutputSelection& selection) {
 // The totals a ContactState shows, each summed in index order like Interface::Totals (so the
 // values are the same bits), without the stiffnesses and slip states that Totals also computes
 // (several times the cost: this runs after every batch). Only the selected sums are taken.
-struct StateSums {
-  double normal_force = 0, tangential_force = 0, dissipated_energy = 0, friction_limit = 0;
-};
-StateSums SumStateFields(const Interface& interface, const OutputSelection& selection) {
-  const bool normal = selection.has(Output::kNormalForce) || selection.has(Output::kFrictionLimit);
-  const bool tangential = selection.has(Output::kTangentialForce);
-  const bool energy = selection.has(Output::kDissipatedEnergy);
-  StateSums sums;
-  for (std::size_t i = 0; i < interface.size(); ++i) {
-    const Contact& contact = interface.contact(i);
-    if (normal) {
-      const double normal_force = contact.normal_force();
-      sums.normal_force += normal_force;
-      sums.friction_limit += contact.config().friction * normal_force;  // = friction_limit()
-    }
-    if (tangential) sums.tangential_force += contact.tangential_force();
-    if (energy) sums.dissipated_energy += contact.dissipated_energy();
-  }
-  return sums;
+Interface::ForceSums SumStateFields(const Interface& interface,
+                                   const OutputSelection& selection) {
+  return interface.SumForces(
+      selection.has(Output::kNormalForce) || selection.has(Output::kFrictionLimit),
+      selection.has(Output::kTangentialForce), selection.has(Output::kDissipatedEnergy));
 }
 
 void WriteTotals(const InterfaceTotals& totals, v1::InterfaceTotals* proto) {
@@ -381,7 +367,7 @@ void WriteInterfaceState(const Interface& interface, std::uint64_t applied_steps
   if (selection.has(Output::kContactRadius)) state->set_contact_radius(0);
   if (selection.has(Output::kNormalForce) || selection.has(Output::kTangentialForce) ||
       selection.has(Output::kDissipatedEnergy) || selection.has(Output::kFrictionLimit)) {
-    const StateSums sums = SumStateFields(interface, selection);
+    const Interface::ForceSums sums = SumStateFields(interface, selection);
     if (selection.has(Output::kNormalForce)) state->set_normal_force(sums.normal_force);
     if (selection.has(Output::kTangentialForce)) state->set_tangential_force(sums.tangential_force);
     if (selection.has(Output::kDissipatedEnergy)) {

@@ -152,6 +152,13 @@ class Interface {
 
   // Outputs, computed on request.
   Result<InterfaceTotals> Totals(const Interrupt& interrupt = {}) const;
+  // Only the force sums (no stiffnesses or slip states), each only if asked, with Totals' values
+  // and order: F_N, F_x, dissipated energy and mu F_N (friction * F_N per contact); the
+  // per-contact values are computed on the workers, the sums taken in index order.
+  struct ForceSums {
+    double normal_force = 0, tangential_force = 0, dissipated_energy = 0, friction_limit = 0;
+  };
+  ForceSums SumForces(bool normal, bool tangential, bool energy) const;
   // Contacts in contact by slip fraction (slipping radius / contact radius) in `bins` equal bins
   // of [0, 1] (the last one closed); bins in [1, 1000].
   Result<std::vector<std::size_t>> SlipHistogram(int bins, const Interrupt& interrupt = {}) const;
