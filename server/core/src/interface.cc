@@ -899,6 +899,27 @@ Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool ene
   return sums;
 }
 
+Interface::VertexTotals Interface::CountVertices() const {
+  std::atomic<std::size_t> now{0}, after{0};
+  auto count = [&](std::size_t begin, std::size_t end) {
+    std::size_t n = 0, bound = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      const Contact& c = contacts_[i];
+      const std::size_t vertices = c.memory().vertex_count();
+      n += vertices;
+      bound += std::min(3 * vertices + 1, c.config().max_memory_vertices);
+    }
+    now.fetch_add(n, std::memory_order_relaxed);  // integer sums: the split does not matter
+    after.fetch_add(bound, std::memory_order_relaxed);
+  };
+  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
+    parallel_->Run(contacts_.size(), count);
+  } else {
+    count(0, contacts_.size());
+  }
+  return {now.load(), after.load()};
+}
+
 Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
                                                           const Interrupt& interrupt) const {
   if (bins < 1 || bins > 1000) {

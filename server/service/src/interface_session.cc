@@ -377,11 +377,7 @@ void WriteInterfaceState(const Interface& interface, std::uint64_t applied_steps
   }
   if (selection.has(Output::kAppliedSteps)) state->set_applied_steps(applied_steps);
   if (selection.has(Output::kMemoryVertices)) {
-    std::uint64_t vertices = 0;
-    for (std::size_t i = 0; i < interface.size(); ++i) {
-      vertices += interface.contact(i).memory().vertex_count();
-    }
-    state->set_memory_vertices(vertices);
+    state->set_memory_vertices(interface.CountVertices().now);
   }
 }
 

@@ -55,23 +55,14 @@ std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
 std::size_t StateBytes(const Interface& interface) { return interface.MemoryBytes(); }
 
 std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes) {
-  std::size_t vertices = 0;
-  for (std::size_t i = 0; i < interface.size(); ++i) {
-    vertices += interface.contact(i).memory().vertex_count();
-  }
-  return InterfaceExportBytes(interface.size(), vertices, scene_bytes);
+  return InterfaceExportBytes(interface.size(), interface.CountVertices().now, scene_bytes);
 }
 
 StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes) {
-  std::size_t vertices_after = 0, growth = 0;
-  for (std::size_t i = 0; i < interface.size(); ++i) {
-    const Contact& contact = interface.contact(i);
-    const std::size_t vertices = contact.memory().vertex_count();
-    // A step turns n vertices into at most 3n + 1 (interface.h), never above the contact's limit.
-    vertices_after += std::min(3 * vertices + 1, contact.config().max_memory_vertices);
-    growth += kMoveAllocationBytesPerVertex * (vertices + 2);
-  }
-  return {growth, InterfaceExportBytes(interface.size(), vertices_after, scene_bytes)};
+  const Interface::VertexTotals vertices = interface.CountVertices();
+  // Sum over contacts of kMoveAllocationBytesPerVertex * (n_i + 2).
+  const std::size_t growth = kMoveAllocationBytesPerVertex * (vertices.now + 2 * interface.size());
+  return {growth, InterfaceExportBytes(interface.size(), vertices.after_one_move, scene_bytes)};
 }
 
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field) {

@@ -159,6 +159,13 @@ class Interface {
     double normal_force = 0, tangential_force = 0, dissipated_energy = 0, friction_limit = 0;
   };
   ForceSums SumForces(bool normal, bool tangential, bool energy) const;
+  // Memory vertices over all contacts, now and at most after one more move of every contact
+  // (each of n vertices becomes at most 3n + 1, never above its max_memory_vertices); counted on
+  // the workers.
+  struct VertexTotals {
+    std::size_t now = 0, after_one_move = 0;
+  };
+  VertexTotals CountVertices() const;
   // Contacts in contact by slip fraction (slipping radius / contact radius) in `bins` equal bins
   // of [0, 1] (the last one closed); bins in [1, 1000].
   Result<std::vector<std::size_t>> SlipHistogram(int bins, const Interrupt& interrupt = {}) const;
