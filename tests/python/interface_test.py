@@ -206,7 +206,7 @@ class InterfaceTest(unittest.TestCase):
             self.assertIn("one value per contact (3), got 2", raised.exception.message)
             with self.assertRaises(mdr.MdrError) as raised:
                 contacts.apply(mdr.contact_step(normal_force=[10, -3, 10]))
-            self.assertEqual(raised.exception.field, "steps[0].contacts[1].normal_force")
+            self.assertEqual(raised.exception.field, "steps[0].contact_normal_values[1]")
             with self.assertRaises(mdr.MdrError) as raised:
                 contacts.apply(mdr.contact_step(depth=[DEPTH, np.nan, DEPTH]))
             self.assertEqual(raised.exception.field, "steps[0].contact_normal_values[1]")

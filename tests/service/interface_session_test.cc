@@ -411,6 +411,11 @@ TEST_F(InterfaceSessionTest, BadStepsAndQueriesNameTheFieldAndChangeNothing) {
       "steps[1].contact_normal_values");
   ExpectInvalidArgument(Apply(list, {ListStep({0, std::nan(""), 0}, {0, 0, 0})}, &response),
                         "steps[0].contact_normal_values[1]");
+  // A value the contact itself refuses is named by the request field that carried it.
+  v1::Step negative_force = ListStep({10, -3, 10}, {0, 0, 0});
+  negative_force.set_normal_force(0);
+  ExpectInvalidArgument(Apply(list, {negative_force}, &response),
+                        "steps[0].contact_normal_values[1]");
   v1::Step own_value = ListStep({0, 0, 0}, {0, 0, 0});
   own_value.set_depth_increment(1e-6);
   ExpectInvalidArgument(Apply(list, {own_value}, &response), "steps[0].depth_increment");

@@ -18,6 +18,23 @@ Status RenameField(const Status& status, const std::string& from, const std::str
   return Status(status.code(), to + status.field().substr(from.size()), status.message());
 }
 
+// A contact's own refusal of its step value ("contacts[i].normal_force: must be >= 0") named as
+// the request's field that carried it ("contact_normal_values[i]"); other fields unchanged.
+Status NameContactValue(const Status& status, const Step& step) {
+  const std::string& field = status.field();
+  const std::size_t close = field.find("].");
+  if (!field.starts_with("contacts[") || close == std::string::npos) return status;
+  const std::string index = field.substr(9, close - 9);
+  const std::string value = field.substr(close + 2);
+  if (value == FieldName(step.normal)) {
+    return Status(status.code(), "contact_normal_values[" + index + "]", status.message());
+  }
+  if (value == FieldName(step.tangential)) {
+    return Status(status.code(), "contact_tangential_values[" + index + "]", status.message());
+  }
+  return status;
+}
+
 Result<PopulationSpec> ToPopulationSpec(const v1::GeneratedPopulation& generated,
                                         const v1::Scene& scene) {
   PopulationSpec spec;
@@ -199,7 +216,7 @@ Status ApplyListStep(Interface& interface, const v1::Step& step, const Interrupt
                              .normal_values = *normal,
                              .tangential = core.tangential,
                              .tangential_values = *tangential};
-  Status status = interface.ApplyEach(list, interrupt, gate);
+  Status status = NameContactValue(interface.ApplyEach(list, interrupt, gate), core);
   status = RenameField(status, "normal_values", "contact_normal_values");
   return RenameField(status, "tangential_values", "contact_tangential_values");
 }
