@@ -514,6 +514,30 @@ TEST(InterfaceTest, MemoryPerContactIsReported) {
   EXPECT_LE(per_contact, 2.0 * sizeof(Contact) + 1024);
 }
 
+// MemoryBytes keeps the step buffer's part until the buffer changes; after every kind of step
+// (in place, through the buffer, force targets solved in it) it must equal a full count, which a
+// moved interface makes (a move forgets the kept part, and keeps every vector's capacity).
+TEST(InterfaceTest, MemoryBytesKeptForTheStepBufferEqualsAFullCount) {
+  Interface interface = *Interface::Create(RoughInterface(300, 21));
+  const double slip = interface.contact(0).mu_kappa() * 1e-6;
+  const std::vector<Step> steps = {
+      {NormalControl::kForce, 20.0},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.3 * slip},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 1.0},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, -0.7 * slip},
+      {NormalControl::kDepthIncrement, 2e-7, TangentialControl::kDisplacementIncrement, 0.1 * slip},
+      {NormalControl::kForce, 5.0},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.2 * slip}};
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    (void)interface.MemoryBytes();  // the step buffer's part is kept from here
+    ASSERT_TRUE(interface.Apply(steps[k]).ok()) << k;
+    const std::size_t kept = interface.MemoryBytes();
+    Interface moved = std::move(interface);
+    EXPECT_EQ(moved.MemoryBytes(), kept) << k;
+    interface = std::move(moved);
+  }
+}
+
 // ---------------------------------------------------------------- contact list
 
 // with_grid: contact 2 uses the grid method, which sends every step through the step buffer.

@@ -411,9 +411,10 @@ Status Interface::ForEach(const std::function<Status(std::size_t)>& fn,
 }
 
 Status Interface::StepAll(const TrialStep& per_contact, const Interrupt& interrupt) {
+  trial_bytes_.Reset();
   return ForEach(
       [&](std::size_t i) {
-        trial_[i] = contacts_[i];  // reuses the buffer's vectors: no allocation
+        trial_[i] = contacts_[i];  // reuses the buffer's vectors (once they have grown)
         return per_contact(i, trial_[i]);
       },
       interrupt);
@@ -432,6 +433,7 @@ Status Interface::TrialMove(double delta1, double ux1, const Interrupt& interrup
 
 void Interface::Commit(double delta1, double ux1, double slide_scale) {
   contacts_.swap(trial_);
+  trial_bytes_.Reset();
   vertex_headroom_ = trial_headroom_;
   approach_ = delta1;
   ux_ = ux1;
@@ -778,6 +780,7 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
   if (!s.ok()) return s;
   if (Status passed = PassGate(gate); !passed.ok()) return passed;
   contacts_.swap(trial_);
+  trial_bytes_.Reset();
   vertex_headroom_ = !headroom_lost.load();
   energy_bound_ = std::max(energy_bound_, *std::max_element(energy.begin(), energy.end()));
   return OkStatus();
@@ -958,28 +961,37 @@ std::size_t Interface::MemoryBytes() const {
     return bytes;
   };
   // Summed per worker (integer sums do not depend on the split): this runs after every step of
-  // the service, which charges the state budget exactly.
-  std::atomic<std::size_t> contact_bytes{0};
+  // the service, which charges the state budget exactly. The step buffer's part is walked only
+  // when it has changed since the last call.
+  const bool trial_known = trial_bytes_.get() != CachedBytes::kUnknown;
+  auto sum = [&](std::size_t begin, std::size_t end, std::size_t* contact_part,
+                 std::size_t* trial_part) {
+    for (std::size_t i = begin; i < end; ++i) {
+      *contact_part += memory_bytes(contacts_[i]);
+      if (!trial_known) *trial_part += memory_bytes(trial_[i]);  // equal sizes
+    }
+  };
+  std::atomic<std::size_t> contact_bytes{0}, trial_bytes{0};
   if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
     parallel_->Run(contacts_.size(), [&](std::size_t begin, std::size_t end) {
-      std::size_t bytes = 0;
-      for (std::size_t i = begin; i < end; ++i) {
-        bytes += memory_bytes(contacts_[i]) + memory_bytes(trial_[i]);  // equal sizes
-      }
-      contact_bytes.fetch_add(bytes, std::memory_order_relaxed);
+      std::size_t contact_part = 0, trial_part = 0;
+      sum(begin, end, &contact_part, &trial_part);
+      contact_bytes.fetch_add(contact_part, std::memory_order_relaxed);
+      trial_bytes.fetch_add(trial_part, std::memory_order_relaxed);
     });
   } else {
-    std::size_t bytes = 0;
-    for (std::size_t i = 0; i < contacts_.size(); ++i) {
-      bytes += memory_bytes(contacts_[i]) + memory_bytes(trial_[i]);
-    }
-    contact_bytes = bytes;
+    std::size_t contact_part = 0, trial_part = 0;
+    sum(0, contacts_.size(), &contact_part, &trial_part);
+    contact_bytes = contact_part;
+    trial_bytes = trial_part;
   }
+  const std::size_t trial_part = trial_known ? trial_bytes_.get() : trial_bytes.load();
+  trial_bytes_.set(trial_part);
   return sizeof(Interface) +
          (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) *
              sizeof(double) +
          (contacts_.capacity() + trial_.capacity()) * sizeof(Contact) + contact_bytes.load() +
-         distinct_profiles_ * kProfileBytes;
+         trial_part + distinct_profiles_ * kProfileBytes;
 }
 
 }  // namespace mdr

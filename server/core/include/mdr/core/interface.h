@@ -5,6 +5,7 @@
 // totals are sums over independent contacts. No gRPC in here.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <functional>
 #include <memory>
@@ -234,6 +235,26 @@ class Interface {
   InterfaceKind kind_ = InterfaceKind::kSharedMotion;
   std::vector<Contact> contacts_;
   std::vector<Contact> trial_;     // the step buffer: steps are made here and swapped in
+  // The step buffer's memory bytes, kept by MemoryBytes until the buffer changes (a step in place
+  // leaves it alone, so the service's charge after such a step walks only the contacts). Copies
+  // and moves start unknown: a copied vector's capacity is not its source's.
+  class CachedBytes {
+   public:
+    static constexpr std::size_t kUnknown = static_cast<std::size_t>(-1);
+    CachedBytes() = default;
+    CachedBytes(const CachedBytes&) {}
+    CachedBytes& operator=(const CachedBytes&) {
+      Reset();
+      return *this;
+    }
+    std::size_t get() const { return value_.load(std::memory_order_relaxed); }
+    void set(std::size_t bytes) const { value_.store(bytes, std::memory_order_relaxed); }
+    void Reset() const { set(kUnknown); }
+
+   private:
+    mutable std::atomic<std::size_t> value_{kUnknown};
+  };
+  CachedBytes trial_bytes_;
   std::vector<double> heights_;    // shared motion; empty: all 0
   std::vector<double> max_depth_;  // per contact: the depth at which mu F_N reaches kForceCap
   double max_approach_ = 0;        // min_i (h_i + max_depth_i)
