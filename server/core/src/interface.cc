@@ -402,12 +402,16 @@ Status Interface::ForEach(const std::function<Status(std::size_t)>& fn,
       if (Status s = fn(i); !s.ok()) return fail(i, std::move(s));
     }
   };
-  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
-    parallel_->Run(contacts_.size(), run);
-  } else {
-    run(0, contacts_.size());
-  }
+  RunOverContacts(run);
   return failure;
+}
+
+void Interface::RunOverContacts(const ParallelFor::Body& body) const {
+  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
+    parallel_->Run(contacts_.size(), body);
+  } else {
+    body(0, contacts_.size());
+  }
 }
 
 Status Interface::StepAll(const TrialStep& per_contact, const Interrupt& interrupt) {
@@ -904,7 +908,7 @@ Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool ene
 
 Interface::VertexTotals Interface::CountVertices() const {
   std::atomic<std::size_t> now{0}, after{0};
-  auto count = [&](std::size_t begin, std::size_t end) {
+  RunOverContacts([&](std::size_t begin, std::size_t end) {
     std::size_t n = 0, bound = 0;
     for (std::size_t i = begin; i < end; ++i) {
       const Contact& c = contacts_[i];
@@ -914,12 +918,7 @@ Interface::VertexTotals Interface::CountVertices() const {
     }
     now.fetch_add(n, std::memory_order_relaxed);  // integer sums: the split does not matter
     after.fetch_add(bound, std::memory_order_relaxed);
-  };
-  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
-    parallel_->Run(contacts_.size(), count);
-  } else {
-    count(0, contacts_.size());
-  }
+  });
   return {now.load(), after.load()};
 }
 
@@ -964,27 +963,16 @@ std::size_t Interface::MemoryBytes() const {
   // the service, which charges the state budget exactly. The step buffer's part is walked only
   // when it has changed since the last call.
   const bool trial_known = trial_bytes_.get() != CachedBytes::kUnknown;
-  auto sum = [&](std::size_t begin, std::size_t end, std::size_t* contact_part,
-                 std::size_t* trial_part) {
-    for (std::size_t i = begin; i < end; ++i) {
-      *contact_part += memory_bytes(contacts_[i]);
-      if (!trial_known) *trial_part += memory_bytes(trial_[i]);  // equal sizes
-    }
-  };
   std::atomic<std::size_t> contact_bytes{0}, trial_bytes{0};
-  if (parallel_ && parallel_->workers() > 1 && contacts_.size() >= kMinParallelContacts) {
-    parallel_->Run(contacts_.size(), [&](std::size_t begin, std::size_t end) {
-      std::size_t contact_part = 0, trial_part = 0;
-      sum(begin, end, &contact_part, &trial_part);
-      contact_bytes.fetch_add(contact_part, std::memory_order_relaxed);
-      trial_bytes.fetch_add(trial_part, std::memory_order_relaxed);
-    });
-  } else {
+  RunOverContacts([&](std::size_t begin, std::size_t end) {
     std::size_t contact_part = 0, trial_part = 0;
-    sum(0, contacts_.size(), &contact_part, &trial_part);
-    contact_bytes = contact_part;
-    trial_bytes = trial_part;
-  }
+    for (std::size_t i = begin; i < end; ++i) {
+      contact_part += memory_bytes(contacts_[i]);
+      if (!trial_known) trial_part += memory_bytes(trial_[i]);  // equal sizes
+    }
+    contact_bytes.fetch_add(contact_part, std::memory_order_relaxed);
+    trial_bytes.fetch_add(trial_part, std::memory_order_relaxed);
+  });
   const std::size_t trial_part = trial_known ? trial_bytes_.get() : trial_bytes.load();
   trial_bytes_.set(trial_part);
   return sizeof(Interface) +

@@ -217,6 +217,9 @@ class Interface {
   Status StepInPlace(const Target& target, double slide_scale);
   // Runs fn(i) for every contact index, split by parallel_, checking interrupt.
   Status ForEach(const std::function<Status(std::size_t)>& fn, const Interrupt& interrupt) const;
+  // Runs body over [0, size()) in ranges: on parallel_ when it has several workers and there are
+  // at least kMinParallelContacts contacts (fewer cost more to hand out), else in one call here.
+  void RunOverContacts(const ParallelFor::Body& body) const;
 
   Result<double> SolveApproach(double normal_force, InterfaceStepReport* report,
                                const Interrupt& interrupt) const;
