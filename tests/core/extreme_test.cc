@@ -216,7 +216,9 @@ TEST(ExtremeTest, SubnormalDepthsGiveFiniteForces) {
     for (const double depth : {tiny, 4 * tiny, 1e-320, 1e-310}) {
       for (const bool loaded : {false, true}) {
         Contact c = testing::MakeContact(profile, *ElasticPair(210e9, 0.3, 210e9, 0.3), 0.3);
-        if (loaded) ASSERT_TRUE(c.MoveTo(4e-6, 5e-8).ok());  // partly slipping memory
+        if (loaded) {
+          ASSERT_TRUE(c.MoveTo(4e-6, 5e-8).ok());  // partly slipping memory
+        }
         for (const double ux : {0.0, 1e-309, 1e-7}) {
           ASSERT_TRUE(c.MoveTo(depth, ux).ok());
           SCOPED_TRACE(profile->Describe() + " depth " + std::to_string(depth / tiny) +
