@@ -9,7 +9,7 @@ cd "$(dirname "$0")/../.."
 quick=${1:-}
 out=docs/report
 bash deploy/build.sh release --target mdr_accuracy_study mdr_core_bench mdr_load \
-  mdr_interface_bench mdr_interface_load
+  mdr_interface_bench mdr_interface_load mdr_operations_bench
 mkdir -p "$out"
 echo "accuracy study -> $out/accuracy.csv"
 build/release/tests/accuracy/mdr_accuracy_study $quick > "$out/accuracy.csv"
@@ -17,6 +17,10 @@ echo "core benchmarks -> $out/core_bench.json"
 build/release/tests/bench/mdr_core_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \
   --benchmark_out="$out/core_bench.json" > /dev/null
+echo "service one-step cost -> $out/operations_bench.json"
+build/release/tests/bench/mdr_operations_bench --benchmark_repetitions=3 \
+  --benchmark_report_aggregates_only=true --benchmark_out_format=json \
+  --benchmark_out="$out/operations_bench.json" > /dev/null
 echo "interface benchmarks -> $out/interface_bench.json"
 build/release/tests/bench/mdr_interface_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \

@@ -1,6 +1,7 @@
 #include "echo_service.h"
 
 #include <mutex>
+#include <utility>
 
 namespace mdr::bench {
 namespace {
@@ -12,12 +13,15 @@ using v1::StreamApplyResponse;
 class EchoStreamReactor final
     : public grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse> {
  public:
-  explicit EchoStreamReactor(const StreamApplyResponse& canned) : canned_(canned) {
+  // step (optional) runs on every message before its answer is queued.
+  EchoStreamReactor(const StreamApplyResponse& canned, const EchoService::StepFunction* step)
+      : canned_(canned), step_(step) {
     StartRead(&request_);
   }
 
   void OnReadDone(bool ok) override {
     bool write = false, read = false, finish = false;
+    if (ok && step_ != nullptr) (*step_)(request_.apply());  // request_ is not read into now
     {
       std::lock_guard lock(mutex_);
       if (!ok) {
@@ -59,6 +63,7 @@ class EchoStreamReactor final
 
   static constexpr int kMaxPending = 8;
   const StreamApplyResponse& canned_;
+  const EchoService::StepFunction* const step_;
   StreamApplyRequest request_;
   std::mutex mutex_;
   int pending_ = 0;
@@ -67,7 +72,8 @@ class EchoStreamReactor final
 
 }  // namespace
 
-EchoService::EchoService(const ApplyResponse& canned) : canned_apply_(canned) {
+EchoService::EchoService(const ApplyResponse& canned, StepFunction engine_step)
+    : canned_apply_(canned), engine_step_(std::move(engine_step)) {
   canned_stream_.mutable_status();
   *canned_stream_.mutable_result() = canned;
 }
@@ -82,7 +88,13 @@ grpc::ServerUnaryReactor* EchoService::EchoApply(grpc::CallbackServerContext* co
 
 grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse>* EchoService::EchoStream(
     grpc::CallbackServerContext*) {
-  return new EchoStreamReactor(canned_stream_);
+  return new EchoStreamReactor(canned_stream_, nullptr);
+}
+
+grpc::ServerBidiReactor<StreamApplyRequest, StreamApplyResponse>* EchoService::EngineStream(
+    grpc::CallbackServerContext* context) {
+  if (!engine_step_) return Echo::CallbackService::EngineStream(context);
+  return new EchoStreamReactor(canned_stream_, &engine_step_);
 }
 
 }  // namespace mdr::bench

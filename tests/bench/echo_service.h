@@ -4,6 +4,8 @@
 // the real service in the same run (service-notes: compare as a ratio).
 #pragma once
 
+#include <functional>
+
 #include "echo.grpc.pb.h"
 #include "mdr/v1/contact_service.pb.h"
 
@@ -11,15 +13,23 @@ namespace mdr::bench {
 
 class EchoService final : public Echo::CallbackService {
  public:
-  explicit EchoService(const v1::ApplyResponse& canned);
+  // Applies a message's steps in EngineStream (called on the transport's thread; streams never
+  // share a session, so it is called concurrently only for different sessions).
+  using StepFunction = std::function<void(const v1::ApplyRequest&)>;
+
+  explicit EchoService(const v1::ApplyResponse& canned, StepFunction engine_step = {});
 
   grpc::ServerUnaryReactor* EchoApply(grpc::CallbackServerContext* context, const v1::ApplyRequest*,
                                       v1::ApplyResponse* response) override;
   grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse>* EchoStream(
       grpc::CallbackServerContext*) override;
+  // UNIMPLEMENTED without a step function.
+  grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse>* EngineStream(
+      grpc::CallbackServerContext* context) override;
 
  private:
   const v1::ApplyResponse canned_apply_;
+  const StepFunction engine_step_;
   v1::StreamApplyResponse canned_stream_;
 };
 

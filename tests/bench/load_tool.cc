@@ -18,17 +18,22 @@
 //   N = 1 is the one-step-per-call case), beside a unary echo of the same request and response.
 // - "stream window W": StreamApply with one step per message and at most W messages in flight
 //   per stream, beside the echo stream (through the generated stub: a window bounded in time
-//   needs the stream's reader and writer).
+//   needs the stream's reader and writer). A third side, "engine inline", is the echo stream
+//   that first applies each step to an engine contact of its session on the transport's thread:
+//   the ceiling of any server computing the same steps (no hand-off to a worker, no service
+//   around the engine). mdrd never computes on the transport's threads; this side only says how
+//   close to the echo the physics alone would allow.
 // Client threads: min(sessions, 8). Thread t drives sessions t, t + T, t + 2T, ... in turn
 // (round-robin), one call at a time (unary) or over one stream (a writer and a reader thread), on
 // its own channel and TCP connection, like independent test rigs. So at most 8 unary calls are in
 // flight: 100 sessions mean 100 session states on the server, not 100 concurrent calls.
-// Bounded: each side (apply, echo) of a scenario runs for --seconds of wall time (default 1.5, at
-// most 2), split into --rounds (default 3) that alternate apply and echo so that a drift of the
-// machine hits both alike; 15 scenarios, about 50 s in all. Throughputs are the median over the
-// rounds; latencies percentiles over every call: per call (unary), per message from write to
-// answer (stream, including the wait behind the messages ahead of it in the window). The server's
-// own compute time per step (ApplyResponse.compute_seconds) is reported beside them.
+// Bounded: each side (apply, echo, engine inline) of a scenario runs for --seconds of wall time
+// (default 1.5, at most 2), split into --rounds (default 3) that alternate the sides so that a
+// drift of the machine hits them alike; 15 scenarios, about 55 s in all. Throughputs are the
+// median over the rounds; latencies percentiles over every call: per call (unary), per message
+// from write to answer (stream, including the wait behind the messages ahead of it in the
+// window). The server's own compute time per step (ApplyResponse.compute_seconds) is reported
+// beside them.
 #include <grpc/grpc.h>
 #include <grpcpp/create_channel.h>
 #include <grpcpp/generic/generic_stub.h>
@@ -56,6 +61,7 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <semaphore>
 #include <span>
 #include <string>
@@ -65,6 +71,7 @@
 #include "echo_service.h"
 #include "fixtures/reference_scenes.h"
 #include "mdr/client/contact_client.h"
+#include "mdr/core/contact.h"
 #include "mdr/core/material.h"
 #include "mdr/service/server.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
@@ -184,6 +191,37 @@ Workload CreateWorkload(mdr::client::ContactClient& client, int session_count, b
   workload.amplitude = kCycleAmplitude * kFriction * workload.kappa * workload.depth;
   return workload;
 }
+
+// The engine side of "engine inline": one H1 contact per session, loaded to F_N, stepped to each
+// message's displacements on the echo server's transport thread.
+class EngineContacts {
+ public:
+  EngineContacts(const std::vector<SessionCursor>& sessions, bool track_energy) {
+    auto created = mdr::Contact::Create(mdr::reference::H1Config(track_energy));
+    if (!created.ok()) Fail("engine contact: " + created.status().ToString());
+    mdr::Step load;
+    load.normal = mdr::NormalControl::kForce;
+    load.normal_value = kNormalForce;
+    if (auto status = created->Apply(load); !status.ok()) Fail("engine load: " + status.ToString());
+    for (const SessionCursor& session : sessions) contacts_.emplace(session.name, *created);
+  }
+
+  // Every session's contact exists from the start, so concurrent streams (never two on one
+  // session) only read the map.
+  void Apply(const ApplyRequest& request) {
+    const auto found = contacts_.find(request.session());
+    if (found == contacts_.end()) Fail("engine inline: unknown session " + request.session());
+    mdr::Contact& contact = found->second;
+    for (const mdr::v1::Step& step : request.steps()) {
+      if (auto status = contact.MoveTo(contact.depth(), step.displacement()); !status.ok()) {
+        Fail("engine inline step: " + status.ToString());
+      }
+    }
+  }
+
+ private:
+  std::map<std::string, mdr::Contact> contacts_;
+};
 
 // A real response of one cycling step, for the echo to answer with.
 ApplyResponse OneCyclingStep(mdr::client::ContactClient& client, SessionCursor& session,
@@ -511,7 +549,11 @@ struct ScenarioResult {
   int sessions = 0;
   RunFigures apply;
   RunFigures echo;
+  std::optional<RunFigures> engine_inline;  // streams only
   double ratio() const { return apply.steps_per_second / echo.steps_per_second; }
+  double engine_inline_ratio() const {
+    return engine_inline ? engine_inline->steps_per_second / echo.steps_per_second : 0;
+  }
 };
 
 struct LoadSettings {
@@ -544,6 +586,9 @@ class LoadRun {
         }),
         open_echo_stream_([this](int t, grpc::ClientContext* context) {
           return targets_.echo_stubs[t]->EchoStream(context);
+        }),
+        open_engine_stream_([this](int t, grpc::ClientContext* context) {
+          return targets_.echo_stubs[t]->EngineStream(context);
         }) {}
 
   ScenarioResult UnaryBatch(int sessions, int batch) {
@@ -556,7 +601,8 @@ class LoadRun {
   ScenarioResult Stream(int sessions) {
     return Compare(StreamScenario(), sessions,
                    StreamBody(open_apply_stream_, steps_, settings_.window, kAppliesSteps),
-                   StreamBody(open_echo_stream_, steps_, settings_.window, kAppliesNothing));
+                   StreamBody(open_echo_stream_, steps_, settings_.window, kAppliesNothing),
+                   StreamBody(open_engine_stream_, steps_, settings_.window, kAppliesNothing));
   }
 
   // Untimed: the first calls on every connection and session.
@@ -568,17 +614,27 @@ class LoadRun {
   }
 
  private:
-  // Apply and echo in alternating rounds, so that a drift of the machine hits both alike.
+  // Apply, echo (and engine inline) in alternating rounds, so that a drift of the machine hits
+  // every side alike. The engine side is not given sessions' phases: like the echo, it does not
+  // advance them.
   ScenarioResult Compare(const std::string& scenario, int sessions, const ThreadBody& apply,
-                         const ThreadBody& echo) {
+                         const ThreadBody& echo, const ThreadBody* engine_inline = nullptr) {
     const std::span<SessionCursor> used = std::span(workload_.sessions).first(sessions);
     const double seconds = settings_.seconds / settings_.rounds;
-    std::vector<Round> apply_rounds, echo_rounds;
+    std::vector<Round> apply_rounds, echo_rounds, engine_rounds;
     for (int round = 0; round < settings_.rounds; ++round) {
       apply_rounds.push_back(RunConcurrently(used, seconds, apply));
       echo_rounds.push_back(RunConcurrently(used, seconds, echo));
+      if (engine_inline) engine_rounds.push_back(RunConcurrently(used, seconds, *engine_inline));
     }
-    return {scenario, sessions, Summarise(apply_rounds), Summarise(echo_rounds)};
+    ScenarioResult result{scenario, sessions, Summarise(apply_rounds), Summarise(echo_rounds),
+                          std::nullopt};
+    if (engine_inline) result.engine_inline = Summarise(engine_rounds);
+    return result;
+  }
+  ScenarioResult Compare(const std::string& scenario, int sessions, const ThreadBody& apply,
+                         const ThreadBody& echo, const ThreadBody& engine_inline) {
+    return Compare(scenario, sessions, apply, echo, &engine_inline);
   }
 
   LoadTargets& targets_;
@@ -586,23 +642,26 @@ class LoadRun {
   const LoadSettings& settings_;
   const CyclingSteps& steps_;
   const UnaryCall apply_, echo_apply_;
-  const StreamOpener open_apply_stream_, open_echo_stream_;
+  const StreamOpener open_apply_stream_, open_echo_stream_, open_engine_stream_;
 };
 
 // ---------------------------------------------------------------------------------------------
 // Output: a table on stdout and the figures as JSON.
 
 void PrintTableHeader() {
-  std::printf("%-17s %8s %7s %9s %9s %12s %9s %9s %12s %7s %9s\n", "scenario", "sessions",
+  std::printf("%-17s %8s %7s %9s %9s %12s %9s %9s %12s %7s %9s %8s\n", "scenario", "sessions",
               "threads", "p50 [us]", "p99 [us]", "steps/s", "echo p50", "echo p99", "echo steps/s",
-              "ratio", "ns/step*");
+              "ratio", "ns/step*", "inline**");
 }
 
 void PrintRow(const ScenarioResult& r) {
-  std::printf("%-17s %8d %7d %9.1f %9.1f %12.0f %9.1f %9.1f %12.0f %7.2f %9.0f\n",
+  char engine_inline[16] = "-";
+  if (r.engine_inline)
+    std::snprintf(engine_inline, sizeof engine_inline, "%.2f", r.engine_inline_ratio());
+  std::printf("%-17s %8d %7d %9.1f %9.1f %12.0f %9.1f %9.1f %12.0f %7.2f %9.0f %8s\n",
               r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
               r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us, r.echo.steps_per_second,
-              r.ratio(), r.apply.compute_ns_per_step());
+              r.ratio(), r.apply.compute_ns_per_step(), engine_inline);
   std::fflush(stdout);
 }
 
@@ -631,6 +690,7 @@ void AddServiceFigures(nlohmann::json& figures, const ScenarioResult& r) {
   AddFigure(figures, r, "client_threads", r.apply.threads, "threads");
   AddFigure(figures, r, "server_compute_per_step", r.apply.compute_ns_per_step(), "ns/step");
   AddFigure(figures, r, "ratio", r.ratio(), "1");
+  if (r.engine_inline) AddFigure(figures, r, "engine_inline_ratio", r.engine_inline_ratio(), "1");
 }
 
 nlohmann::json FiguresJson(const std::vector<ScenarioResult>& results) {
@@ -639,6 +699,7 @@ nlohmann::json FiguresJson(const std::vector<ScenarioResult>& results) {
     AddServiceFigures(figures, r);
     AddRunFigures(figures, r, "", r.apply);
     AddRunFigures(figures, r, "echo_", r.echo);
+    if (r.engine_inline) AddRunFigures(figures, r, "engine_inline_", *r.engine_inline);
   }
   return figures;
 }
@@ -978,7 +1039,7 @@ std::vector<ScenarioResult> RunScenarios(LoadRun& run, const std::string& only) 
   }
   std::printf(
       "ratio: apply steps/s / echo steps/s; * server compute per step "
-      "(ApplyResponse.compute_seconds)\n");
+      "(ApplyResponse.compute_seconds); ** engine inline steps/s / echo steps/s (the ceiling)\n");
   return results;
 }
 
@@ -1004,7 +1065,9 @@ int main(int argc, char** argv) {
   const CyclingSteps steps(workload.amplitude);
   const ApplyResponse canned = OneCyclingStep(setup_client, workload.sessions[0], steps);
 
-  mdr::bench::EchoService echo_service(canned);
+  EngineContacts engine(workload.sessions, settings.track_energy);
+  mdr::bench::EchoService echo_service(
+      canned, [&engine](const ApplyRequest& request) { engine.Apply(request); });
   int echo_port = 0;
   std::unique_ptr<grpc::Server> echo_server = StartEchoServer(echo_service, &echo_port);
   LoadTargets targets = ConnectClients(contact_port, echo_port);
