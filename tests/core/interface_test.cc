@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -535,6 +536,87 @@ TEST(InterfaceTest, MemoryBytesKeptForTheStepBufferEqualsAFullCount) {
     Interface moved = std::move(interface);
     EXPECT_EQ(moved.MemoryBytes(), kept) << k;
     interface = std::move(moved);
+  }
+}
+
+// set_keep_step_forces: SumForces after any kind of step, refused steps included, must give the
+// bits of a twin that computes every force afresh (the kept values are used only while no other
+// change has happened since the in-place step that computed them).
+void ExpectSameSums(const Interface& kept, const Interface& fresh, const std::string& where) {
+  for (const bool normal : {false, true}) {
+    for (const bool tangential : {false, true}) {
+      const Interface::ForceSums a = kept.SumForces(normal, tangential, true);
+      const Interface::ForceSums b = fresh.SumForces(normal, tangential, true);
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.normal_force),
+                std::bit_cast<std::uint64_t>(b.normal_force))
+          << where;
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.tangential_force),
+                std::bit_cast<std::uint64_t>(b.tangential_force))
+          << where;
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.dissipated_energy),
+                std::bit_cast<std::uint64_t>(b.dissipated_energy))
+          << where;
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.friction_limit),
+                std::bit_cast<std::uint64_t>(b.friction_limit))
+          << where;
+    }
+  }
+  const InterfaceTotals totals = *fresh.Totals();
+  EXPECT_EQ(kept.SumForces(true, true, true).tangential_force, totals.tangential_force) << where;
+}
+
+TEST(InterfaceTest, KeptStepForcesSumToTheBitsOfFreshOnesAfterEveryKindOfStep) {
+  Interface kept = *Interface::Create(RoughInterface(300, 23));
+  kept.set_keep_step_forces(true);
+  Interface fresh = *Interface::Create(RoughInterface(300, 23));
+  EXPECT_EQ(kept.MemoryBytes(), fresh.MemoryBytes() + 2 * 300 * sizeof(double));
+  const double slip = kept.contact(0).mu_kappa() * 1e-6;
+  const std::vector<Step> steps = {
+      {NormalControl::kForce, 20.0},  // solved through the step buffer
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.3 * slip},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 1.0},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, -0.7 * slip},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement, 1.0},  // refused
+      {NormalControl::kDepthIncrement, 2e-7, TangentialControl::kDisplacementIncrement, 0.1 * slip},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 50 * slip},
+      {NormalControl::kForce, 5.0},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.2 * slip}};
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    const StatusCode code = kept.Apply(steps[k]).code();
+    EXPECT_EQ(fresh.Apply(steps[k]).code(), code) << k;
+    ExpectSameSums(kept, fresh, "shared motion, step " + std::to_string(k));
+  }
+  Interface copy = kept;  // a copy keeps the values with the state they belong to
+  ExpectSameSums(copy, fresh, "copy");
+  ASSERT_TRUE(copy.Apply(steps.back()).ok());
+  ASSERT_TRUE(fresh.Apply(steps.back()).ok());
+  ExpectSameSums(copy, fresh, "copy, stepped");
+
+  const std::size_t n = 40;
+  InterfaceConfig config = RoughInterface(n, 24);
+  config.kind = InterfaceKind::kContactList;
+  config.heights.clear();
+  Interface kept_list = *Interface::Create(config);
+  kept_list.set_keep_step_forces(true);
+  Interface fresh_list = *Interface::Create(config);
+  std::mt19937_64 rng(25);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> dn(n), dt(n);
+  for (int k = 0; k < 30; ++k) {
+    const bool force = k % 7 == 6;      // force targets: through the step buffer
+    const bool refused = k % 11 == 10;  // one contact's value is not finite
+    for (std::size_t i = 0; i < n; ++i) {
+      dn[i] = force ? 0 : (k == 0 ? 1e-6 : 2e-7 * u(rng));
+      dt[i] = force ? 0.5 * u(rng) * fresh_list.contact(i).friction_limit() : 0.5 * slip * u(rng);
+    }
+    if (refused) dt[n / 2] = std::numeric_limits<double>::infinity();
+    const ContactListStep step{
+        NormalControl::kDepthIncrement, dn,
+        force ? TangentialControl::kForce : TangentialControl::kDisplacementIncrement, dt};
+    const StatusCode code = kept_list.ApplyEach(step).code();
+    EXPECT_EQ(fresh_list.ApplyEach(step).code(), code) << k;
+    EXPECT_EQ(code == StatusCode::kOk, !refused) << k;
+    ExpectSameSums(kept_list, fresh_list, "contact list, step " + std::to_string(k));
   }
 }
 

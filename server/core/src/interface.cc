@@ -435,7 +435,17 @@ Status Interface::TrialMove(double delta1, double ux1, const Interrupt& interrup
   return status;
 }
 
+void Interface::set_keep_step_forces(bool keep) {
+  keep_step_forces_ = keep;
+  kept_forces_valid_ = false;
+  kept_normal_forces_.assign(keep ? contacts_.size() : 0, 0.0);
+  kept_tangential_forces_.assign(keep ? contacts_.size() : 0, 0.0);
+  kept_normal_forces_.shrink_to_fit();
+  kept_tangential_forces_.shrink_to_fit();
+}
+
 void Interface::Commit(double delta1, double ux1, double slide_scale) {
+  kept_forces_valid_ = false;
   contacts_.swap(trial_);
   trial_bytes_.Reset();
   vertex_headroom_ = trial_headroom_;
@@ -457,11 +467,18 @@ bool Interface::CanStepInPlace(double slide_scale) const {
 
 template <typename Target>
 Status Interface::StepInPlace(const Target& target, double slide_scale) {
+  kept_forces_valid_ = false;
   std::atomic<bool> headroom_lost{false};
   Status status = ForEach(
       [&](std::size_t i) {
         const ContactTarget to = target(i);
-        return MoveContact(contacts_[i], i, to.depth, to.ux, headroom_lost);
+        Contact& contact = contacts_[i];
+        Status moved = MoveContact(contact, i, to.depth, to.ux, headroom_lost);
+        if (keep_step_forces_ && moved.ok()) {  // while the contact is in cache
+          kept_normal_forces_[i] = contact.normal_force();
+          kept_tangential_forces_[i] = contact.tangential_force();
+        }
+        return moved;
       },
       Interrupt{});
   if (!status.ok()) {
@@ -470,6 +487,7 @@ Status Interface::StepInPlace(const Target& target, double slide_scale) {
   }
   vertex_headroom_ = !headroom_lost.load();
   energy_bound_ += kForceCap * slide_scale;
+  kept_forces_valid_ = keep_step_forces_;
   return OkStatus();
 }
 
@@ -783,6 +801,7 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
       interrupt);
   if (!s.ok()) return s;
   if (Status passed = PassGate(gate); !passed.ok()) return passed;
+  kept_forces_valid_ = false;
   contacts_.swap(trial_);
   trial_bytes_.Reset();
   vertex_headroom_ = !headroom_lost.load();
@@ -883,6 +902,19 @@ Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
 }
 
 Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool energy) const {
+  if (kept_forces_valid_) {  // the same per-contact values, summed in the same order
+    ForceSums sums;
+    for (std::size_t i = 0; i < contacts_.size(); ++i) {
+      const Contact& c = contacts_[i];
+      if (normal) {
+        sums.normal_force += kept_normal_forces_[i];
+        sums.friction_limit += c.config().friction * kept_normal_forces_[i];
+      }
+      if (tangential) sums.tangential_force += kept_tangential_forces_[i];
+      if (energy) sums.dissipated_energy += c.dissipated_energy();
+    }
+    return sums;
+  }
   std::vector<ForceSums> per(contacts_.size());
   (void)ForEach(
       [&](std::size_t i) {
@@ -978,7 +1010,9 @@ std::size_t Interface::MemoryBytes() const {
   return sizeof(Interface) +
          (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) *
              sizeof(double) +
-         (contacts_.capacity() + trial_.capacity()) * sizeof(Contact) + contact_bytes.load() +
+         (contacts_.capacity() + trial_.capacity()) * sizeof(Contact) +
+         (kept_normal_forces_.capacity() + kept_tangential_forces_.capacity()) * sizeof(double) +
+         contact_bytes.load() +
          trial_part + distinct_profiles_ * kProfileBytes;
 }
 

@@ -281,6 +281,10 @@ Status WriteInterfaceOutputs(const Interface& interface, const OutputSelection& 
   return OkStatus();
 }
 
+// How a session holds its interface (also the one the size check measures): every response
+// states the force sums, so each in-place step keeps its contacts' forces for them.
+void UseAsSession(Interface& interface) { interface.set_keep_step_forces(true); }
+
 }  // namespace
 
 Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
@@ -307,6 +311,8 @@ Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
   Result<Interface> two = Interface::Create(
       {.kind = InterfaceKind::kContactList, .contacts = {base, base}, .heights = {}});
   if (!one.ok() || !two.ok()) return OkStatus();  // the real construction reports the error
+  UseAsSession(*one);
+  UseAsSession(*two);
   const std::size_t per_contact = StateBytes(*two) - StateBytes(*one);
   if (count > state_bytes_left / per_contact) {
     return ResourceExhausted(
@@ -322,6 +328,7 @@ Result<Interface> CreateInterface(const v1::Scene& scene, const ContactConfig& b
   if (!config.ok()) return config.status();
   Result<Interface> interface = Interface::Create(std::move(config).value());
   if (!interface.ok()) return interface.status().WithFieldPrefix("scene.interface");
+  UseAsSession(*interface);
   return interface;
 }
 
@@ -332,6 +339,7 @@ Result<Interface> RestoreInterface(const v1::Scene& scene, const ContactConfig& 
   Result<Interface> interface =
       Interface::Restore(std::move(config).value(), ToCoreInterfaceSnapshot(snapshot));
   if (!interface.ok()) return interface.status().WithFieldPrefix("interface");
+  UseAsSession(*interface);
   return interface;
 }
 

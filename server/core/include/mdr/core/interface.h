@@ -143,6 +143,13 @@ class Interface {
   // Runs the per-contact work on `parallel` (null: on the calling thread). Results do not depend
   // on it.
   void set_parallel(std::shared_ptr<ParallelFor> parallel) { parallel_ = std::move(parallel); }
+  // Keeps every contact's F_N and F_x from each in-place step, computed in the step's own pass
+  // while the contact is in cache, so that SumForces after such a step only adds them up: for a
+  // caller that reads the forces after every step (the service), one pass over the contacts
+  // instead of two. Off by default: a stepping loop does not pay for forces it does not read.
+  // The buffers (16 bytes per contact, in MemoryBytes) are allocated here. Results do not depend
+  // on it.
+  void set_keep_step_forces(bool keep);
 
   InterfaceKind kind() const { return kind_; }
   std::size_t size() const { return contacts_.size(); }
@@ -272,6 +279,11 @@ class Interface {
   double energy_bound_ = 0;      // >= every contact's dissipated energy
   std::shared_ptr<ParallelFor> parallel_;
   std::vector<double> slide_scales_;  // StepListInPlace's per-contact scratch, kept between steps
+  // set_keep_step_forces: F_N and F_x per contact as the last in-place step left them, valid
+  // (kept_forces_valid_) until anything else changes the contacts.
+  bool keep_step_forces_ = false;
+  bool kept_forces_valid_ = false;
+  std::vector<double> kept_normal_forces_, kept_tangential_forces_;
   std::size_t distinct_profiles_ = 0;  // for MemoryBytes (profiles never change after Create)
 };
 
