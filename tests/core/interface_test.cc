@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -542,23 +543,20 @@ TEST(InterfaceTest, MemoryBytesKeptForTheStepBufferEqualsAFullCount) {
 // set_keep_step_forces: SumForces after any kind of step, refused steps included, must give the
 // bits of a twin that computes every force afresh (the kept values are used only while no other
 // change has happened since the in-place step that computed them).
+// The bits of the four sums, in one array so that one comparison names all of them.
+std::array<std::uint64_t, 4> SumBits(const Interface::ForceSums& sums) {
+  return {std::bit_cast<std::uint64_t>(sums.normal_force),
+          std::bit_cast<std::uint64_t>(sums.tangential_force),
+          std::bit_cast<std::uint64_t>(sums.dissipated_energy),
+          std::bit_cast<std::uint64_t>(sums.friction_limit)};
+}
+
 void ExpectSameSums(const Interface& kept, const Interface& fresh, const std::string& where) {
   for (const bool normal : {false, true}) {
     for (const bool tangential : {false, true}) {
-      const Interface::ForceSums a = kept.SumForces(normal, tangential, true);
-      const Interface::ForceSums b = fresh.SumForces(normal, tangential, true);
-      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.normal_force),
-                std::bit_cast<std::uint64_t>(b.normal_force))
-          << where;
-      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.tangential_force),
-                std::bit_cast<std::uint64_t>(b.tangential_force))
-          << where;
-      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.dissipated_energy),
-                std::bit_cast<std::uint64_t>(b.dissipated_energy))
-          << where;
-      EXPECT_EQ(std::bit_cast<std::uint64_t>(a.friction_limit),
-                std::bit_cast<std::uint64_t>(b.friction_limit))
-          << where;
+      EXPECT_EQ(SumBits(kept.SumForces(normal, tangential, true)),
+                SumBits(fresh.SumForces(normal, tangential, true)))
+          << where << ", normal " << normal << ", tangential " << tangential;
     }
   }
   const InterfaceTotals totals = *fresh.Totals();
