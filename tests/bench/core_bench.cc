@@ -11,14 +11,7 @@ namespace mdr {
 namespace {
 
 // H1 of docs/reference-values.md: steel sphere R = 10 mm on steel, mu = 0.3, F_N = 100 N.
-Contact HertzContact(bool track_energy) {
-  Contact contact = std::move(Contact::Create(reference::H1Config(track_energy))).value();
-  Step normal;
-  normal.normal = NormalControl::kForce;
-  normal.normal_value = reference::H1::kNormalForce;
-  (void)contact.Apply(normal);
-  return contact;
-}
+Contact HertzContact(bool track_energy) { return reference::LoadedH1Contact(track_energy); }
 
 // Mindlin-Deresiewicz cycling at constant F_N, amplitude half the slip limit, `steps` per cycle.
 void BM_MindlinDeresiewiczCycling(benchmark::State& state) {
@@ -29,9 +22,7 @@ void BM_MindlinDeresiewiczCycling(benchmark::State& state) {
   std::size_t max_vertices = 0;
   int k = 0;
   for (auto _ : state) {
-    const int phase = k++ % (2 * steps_per_half);
-    const double s = phase < steps_per_half ? phase : 2 * steps_per_half - phase;
-    const double ux = amplitude * (2.0 * s / steps_per_half - 1.0);
+    const double ux = reference::TriangleWave(amplitude, k++, steps_per_half);
     benchmark::DoNotOptimize(contact.MoveTo(contact.depth(), ux));
     max_vertices = std::max(max_vertices, contact.memory().vertex_count());
   }

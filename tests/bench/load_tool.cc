@@ -129,8 +129,7 @@ double HertzKappa() {
 
 // Displacement at a phase of the triangle wave: -amplitude at phase 0, +amplitude at half cycle.
 double CyclingDisplacement(double amplitude, int phase) {
-  const int rise = phase < kStepsPerHalfCycle ? phase : kCyclePeriod - phase;
-  return amplitude * (2.0 * rise / kStepsPerHalfCycle - 1.0);
+  return mdr::reference::TriangleWave(amplitude, phase, kStepsPerHalfCycle);
 }
 
 // The batches of every size for every starting phase, built once so that the measured loops
@@ -197,13 +196,8 @@ Workload CreateWorkload(mdr::client::ContactClient& client, int session_count, b
 class EngineContacts {
  public:
   EngineContacts(const std::vector<SessionCursor>& sessions, bool track_energy) {
-    auto created = mdr::Contact::Create(mdr::reference::H1Config(track_energy));
-    if (!created.ok()) Fail("engine contact: " + created.status().ToString());
-    mdr::Step load;
-    load.normal = mdr::NormalControl::kForce;
-    load.normal_value = kNormalForce;
-    if (auto status = created->Apply(load); !status.ok()) Fail("engine load: " + status.ToString());
-    for (const SessionCursor& session : sessions) contacts_.emplace(session.name, *created);
+    const mdr::Contact loaded = mdr::reference::LoadedH1Contact(track_energy);
+    for (const SessionCursor& session : sessions) contacts_.emplace(session.name, loaded);
   }
 
   // Every session's contact exists from the start, so concurrent streams (never two on one
@@ -599,10 +593,12 @@ class LoadRun {
   std::string StreamScenario() const { return "stream window " + std::to_string(settings_.window); }
 
   ScenarioResult Stream(int sessions) {
+    const ThreadBody engine_inline =
+        StreamBody(open_engine_stream_, steps_, settings_.window, kAppliesNothing);
     return Compare(StreamScenario(), sessions,
                    StreamBody(open_apply_stream_, steps_, settings_.window, kAppliesSteps),
                    StreamBody(open_echo_stream_, steps_, settings_.window, kAppliesNothing),
-                   StreamBody(open_engine_stream_, steps_, settings_.window, kAppliesNothing));
+                   &engine_inline);
   }
 
   // Untimed: the first calls on every connection and session.
@@ -631,10 +627,6 @@ class LoadRun {
                           std::nullopt};
     if (engine_inline) result.engine_inline = Summarise(engine_rounds);
     return result;
-  }
-  ScenarioResult Compare(const std::string& scenario, int sessions, const ThreadBody& apply,
-                         const ThreadBody& echo, const ThreadBody& engine_inline) {
-    return Compare(scenario, sessions, apply, echo, &engine_inline);
   }
 
   LoadTargets& targets_;

@@ -12,7 +12,6 @@
 
 #include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
-#include "mdr/core/material.h"
 #include "mdr/service/operations.h"
 
 namespace {
@@ -26,19 +25,18 @@ constexpr double kNormalForce = H1::kNormalForce;
   std::exit(EXIT_FAILURE);
 }
 
-// Displacements of one triangle-wave cycle between -amplitude and +amplitude.
-std::vector<double> CycleDisplacements(double amplitude) {
+// The displacements of one cycle at 0.6 of the slip limit of H1 at F_N (as mdr_load).
+std::vector<double> CycleDisplacements(const mdr::Contact& loaded) {
+  const double amplitude = 0.6 * loaded.mu_kappa() * loaded.depth();
   std::vector<double> displacements;
   for (int phase = 0; phase < 2 * kStepsPerHalfCycle; ++phase) {
-    const int rise = phase < kStepsPerHalfCycle ? phase : 2 * kStepsPerHalfCycle - phase;
-    displacements.push_back(amplitude * (2.0 * rise / kStepsPerHalfCycle - 1.0));
+    displacements.push_back(mdr::reference::TriangleWave(amplitude, phase, kStepsPerHalfCycle));
   }
   return displacements;
 }
 
 // A service with one H1 session loaded to F_N; returns the session's name.
-std::string LoadedSession(mdr::service::ContactOperations& operations, bool track_energy,
-                          double* amplitude) {
+std::string LoadedSession(mdr::service::ContactOperations& operations, bool track_energy) {
   mdr::v1::CreateSessionRequest create;
   *create.mutable_session()->mutable_scene() = mdr::reference::H1Scene<mdr::v1::Scene>();
   create.mutable_session()->mutable_scene()->mutable_options()->set_track_energy(track_energy);
@@ -54,19 +52,16 @@ std::string LoadedSession(mdr::service::ContactOperations& operations, bool trac
   if (auto status = operations.Apply(std::nullopt, load, no_interruption, &loaded); !status.ok()) {
     Fail(status);
   }
-  const auto material = mdr::ElasticPair(H1::kYoungsModulus, H1::kPoissonRatio, H1::kYoungsModulus,
-                                         H1::kPoissonRatio);
-  *amplitude = 0.6 * H1::kFriction * material->kappa() * loaded.state().depth();
   return session.name();
 }
 
 void BM_ServiceApplyOneStep(benchmark::State& state) {
   const bool track_energy = state.range(0) != 0;
   mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
-  double amplitude = 0;
-  const std::string name = LoadedSession(operations, track_energy, &amplitude);
+  const std::string name = LoadedSession(operations, track_energy);
   std::vector<mdr::v1::ApplyRequest> requests;
-  for (const double displacement : CycleDisplacements(amplitude)) {
+  for (const double displacement :
+       CycleDisplacements(mdr::reference::LoadedH1Contact(track_energy))) {
     mdr::v1::ApplyRequest& request = requests.emplace_back();
     request.set_session(name);
     request.add_steps()->set_displacement(displacement);
@@ -88,20 +83,14 @@ BENCHMARK(BM_ServiceApplyOneStep)->Arg(0)->Arg(1);
 // The reference: the same steps on the engine's contact, no service around it.
 void BM_EngineOneStep(benchmark::State& state) {
   const bool track_energy = state.range(0) != 0;
-  auto contact = mdr::Contact::Create(mdr::reference::H1Config(track_energy));
-  if (!contact.ok()) Fail(contact.status());
-  mdr::Step load;
-  load.normal = mdr::NormalControl::kForce;
-  load.normal_value = kNormalForce;
-  if (auto status = contact->Apply(load); !status.ok()) Fail(status);
-  const double amplitude = 0.6 * contact->mu_kappa() * contact->depth();
-  const std::vector<double> displacements = CycleDisplacements(amplitude);
+  mdr::Contact contact = mdr::reference::LoadedH1Contact(track_energy);
+  const std::vector<double> displacements = CycleDisplacements(contact);
   std::size_t i = 0;
   for (auto _ : state) {
     const mdr::Status status =
-        contact->MoveTo(contact->depth(), displacements[i++ % displacements.size()]);
+        contact.MoveTo(contact.depth(), displacements[i++ % displacements.size()]);
     if (!status.ok()) Fail(status);
-    benchmark::DoNotOptimize(*contact);
+    benchmark::DoNotOptimize(contact);
   }
   state.SetLabel(track_energy ? "energy on" : "energy off");
 }

@@ -902,32 +902,26 @@ Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
 }
 
 Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool energy) const {
-  if (kept_forces_valid_) {  // the same per-contact values, summed in the same order
-    ForceSums sums;
-    for (std::size_t i = 0; i < contacts_.size(); ++i) {
-      const Contact& c = contacts_[i];
-      if (normal) {
-        sums.normal_force += kept_normal_forces_[i];
-        sums.friction_limit += c.config().friction * kept_normal_forces_[i];
-      }
-      if (tangential) sums.tangential_force += kept_tangential_forces_[i];
-      if (energy) sums.dissipated_energy += c.dissipated_energy();
-    }
-    return sums;
-  }
   std::vector<ForceSums> per(contacts_.size());
-  (void)ForEach(
-      [&](std::size_t i) {
-        const Contact& c = contacts_[i];
-        if (normal) {
-          per[i].normal_force = c.normal_force();
-          per[i].friction_limit = c.config().friction * per[i].normal_force;
-        }
-        if (tangential) per[i].tangential_force = c.tangential_force();
-        if (energy) per[i].dissipated_energy = c.dissipated_energy();
-        return OkStatus();
-      },
-      Interrupt{});
+  // After an in-place step with kept forces, the same values as the contacts give.
+  const bool kept = kept_forces_valid_;
+  const auto take = [&](std::size_t i) {
+    const Contact& c = contacts_[i];
+    if (normal) {
+      per[i].normal_force = kept ? kept_normal_forces_[i] : c.normal_force();
+      per[i].friction_limit = c.config().friction * per[i].normal_force;
+    }
+    if (tangential) {
+      per[i].tangential_force = kept ? kept_tangential_forces_[i] : c.tangential_force();
+    }
+    if (energy) per[i].dissipated_energy = c.dissipated_energy();
+    return OkStatus();
+  };
+  if (kept) {
+    for (std::size_t i = 0; i < contacts_.size(); ++i) (void)take(i);  // reads only: no workers
+  } else {
+    (void)ForEach(take, Interrupt{});
+  }
   ForceSums sums;
   for (const ForceSums& p : per) {
     sums.normal_force += p.normal_force;
@@ -1008,12 +1002,10 @@ std::size_t Interface::MemoryBytes() const {
   const std::size_t trial_part = trial_known ? trial_bytes_.get() : trial_bytes.load();
   trial_bytes_.set(trial_part);
   return sizeof(Interface) +
-         (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) *
-             sizeof(double) +
+         (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) * sizeof(double) +
          (contacts_.capacity() + trial_.capacity()) * sizeof(Contact) +
          (kept_normal_forces_.capacity() + kept_tangential_forces_.capacity()) * sizeof(double) +
-         contact_bytes.load() +
-         trial_part + distinct_profiles_ * kProfileBytes;
+         contact_bytes.load() + trial_part + distinct_profiles_ * kProfileBytes;
 }
 
 }  // namespace mdr
