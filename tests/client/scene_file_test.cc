@@ -213,7 +213,9 @@ TEST(LoadingPathTest, ContactCyclesGoUpDownUpAroundTheStart) {
     EXPECT_EQ(steps[k].normal_case(), Step::NORMAL_NOT_SET);
     for (int i = 0; i < 3; ++i) u[i] += steps[k].contact_tangential_values(i);
     if (k == 2) peak = u[0];
-    if (k == 8) EXPECT_NEAR(u[0], -1e-8, 1e-22);  // end of the third quarter
+    if (k == 8) {
+      EXPECT_NEAR(u[0], -1e-8, 1e-22);  // end of the third quarter
+    }
   }
   EXPECT_NEAR(peak, 1e-8, 1e-22);  // linear: first = 1e-8, middle 0, last -1e-8
   EXPECT_NEAR(u[0], 0, 1e-22);

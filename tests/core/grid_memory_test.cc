@@ -234,7 +234,7 @@ TEST(GridMemoryTest, SnapshotRestoresBitIdentically) {
   // The bound is checked exactly (Step clamps to the same expression): 1e-9 above it is refused.
   bad = a.Snapshot();
   const double bound = a.mu_kappa() * (bad.depth - a.grid_memory()->z()[0]);
-  ASSERT_EQ(a.grid_memory()->Tag(0, a.mu_kappa()), kInside);
+  ASSERT_EQ(a.grid_memory()->Tag(0), kInside);
   bad.grid_u[0] = bound * (1 + 1e-9);
   EXPECT_EQ(Contact::Restore(a.config(), bad).status().field(), "grid_u[0]");
 }

@@ -1,6 +1,5 @@
 // The Jäger picture: weights, Cattaneo-Mindlin decompositions and their inverse, sampled u(x).
 #include "mdr/core/jager.h"
-#include "mdr/core/sampled_weight.h"
 
 #include <gtest/gtest.h>
 
@@ -10,6 +9,7 @@
 #include <vector>
 
 #include "mdr/core/contact.h"
+#include "mdr/core/sampled_weight.h"
 #include "test_util.h"
 
 namespace mdr {
@@ -251,8 +251,9 @@ TEST(JagerDecompositionTest, RoundTripIsExactAndTheRebuiltStateEvolvesAlike) {
       if (i % 10 == 0) {
         PiecewiseLinearMemory original = memory, copy = *rebuilt;
         const auto [depth1, ux1] = history.Next();
-        original.ApplyLinearStep(depth1, ux1 - ux, m, nullptr);
-        copy.ApplyLinearStep(depth1, ux1 - ux, m, nullptr);
+        // A memory rebuilt from terms stands at its own ux = 0 (jager.h): the same increment.
+        original.ApplyLinearStep({depth1, ux1 - ux, ux, ux1}, m, nullptr);
+        copy.ApplyLinearStep({depth1, ux1 - ux, 0, ux1 - ux}, m, nullptr);
         EXPECT_LE(MaxDifference(original, copy), 1e-15 * std::max(MaxAbsU(original), scale));
       }
     }

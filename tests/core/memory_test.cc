@@ -157,7 +157,9 @@ TEST(MemoryTest, IncrementForIntegralUGivesTheTargetAfterTheStep) {
           i % 3 == 0 ? memory.depth() : d0 * (i % 3 == 1 ? 0.3 + uniform(rng) : 0.05);
       auto integral_after = [&](double dux) {
         PiecewiseLinearMemory stepped = memory;
-        stepped.ApplyLinearStep(depth1, dux, m, nullptr);
+        stepped.ApplyLinearStep(
+            {depth1, dux, c.tangential_displacement(), c.tangential_displacement() + dux}, m,
+            nullptr);
         return stepped.IntegralU(*profile);
       };
       const double lo = integral_after(memory.GrossSlipIncrement(depth1, m, -1));
@@ -175,18 +177,23 @@ TEST(MemoryTest, IncrementForIntegralUGivesTheTargetAfterTheStep) {
 TEST(MemoryTest, StickRegionsMoveRigidlyAndSlipRegionsMerge) {
   PiecewiseLinearMemory m;
   const double k = 2.0;  // mu kappa
-  m.ApplyLinearStep(1.0, 0.0, k, nullptr);
+  double ux = 0;
+  auto move = [&](double depth1, double dux) {
+    m.ApplyLinearStep({depth1, dux, ux, ux + dux}, k, nullptr);
+    ux += dux;
+  };
+  move(1.0, 0.0);
   EXPECT_EQ(m.vertex_count(), 2u);
-  m.ApplyLinearStep(1.0, 0.5, k, nullptr);  // slip annulus from z = 0.75
+  move(1.0, 0.5);  // slip annulus from z = 0.75
   ASSERT_EQ(m.vertex_count(), 3u);
   EXPECT_DOUBLE_EQ(m.z()[1], 0.75);
   EXPECT_EQ(m.tags()[1], kOnUpper);
-  m.ApplyLinearStep(1.0, 0.25, k, nullptr);  // annulus grows to z = 0.625, old vertex merged away
+  move(1.0, 0.25);  // annulus grows to z = 0.625, old vertex merged away
   ASSERT_EQ(m.vertex_count(), 3u);
   EXPECT_DOUBLE_EQ(m.z()[1], 0.625);
-  m.ApplyLinearStep(1.0, -0.5, k, nullptr);  // reversal: a new annulus inside the old one
+  move(1.0, -0.5);  // reversal: a new annulus inside the old one
   EXPECT_EQ(m.vertex_count(), 4u);
-  m.ApplyLinearStep(1.0, 10.0, k, nullptr);  // gross slip wipes everything
+  move(1.0, 10.0);  // gross slip wipes everything
   EXPECT_EQ(m.vertex_count(), 2u);
   EXPECT_EQ(m.tags()[0], kOnUpper);
 }

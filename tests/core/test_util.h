@@ -108,6 +108,18 @@ inline bool SameBits(const std::vector<double>& a, const std::vector<double>& b)
   return true;
 }
 
+inline bool SameBits(const std::vector<SegmentAnchor>& a, const std::vector<SegmentAnchor>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].bound != b[i].bound ||
+        !SameBits(a[i].tangential_displacement, b[i].tangential_displacement) ||
+        !SameBits(a[i].depth, b[i].depth)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // Two snapshots equal field by field, bit for bit.
 inline ::testing::AssertionResult SameSnapshot(const ContactSnapshot& a, const ContactSnapshot& b) {
   const char* differs =
@@ -118,6 +130,7 @@ inline ::testing::AssertionResult SameSnapshot(const ContactSnapshot& a, const C
       : !SameBits(a.z, b.z)                                             ? "z"
       : !SameBits(a.u, b.u)                                             ? "u"
       : a.tags != b.tags                                                ? "tags"
+      : !SameBits(a.anchors, b.anchors)                                 ? "anchors"
       : !SameBits(a.grid_u, b.grid_u)                                   ? "grid_u"
                                                                         : nullptr;
   if (differs == nullptr) return ::testing::AssertionSuccess();

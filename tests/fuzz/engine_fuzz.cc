@@ -53,13 +53,26 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
 
+bool SameBits(const std::vector<mdr::SegmentAnchor>& a, const std::vector<mdr::SegmentAnchor>& b) {
+  auto same = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].bound != b[i].bound || !same(a[i].depth, b[i].depth) ||
+        !same(a[i].tangential_displacement, b[i].tangential_displacement)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // Two snapshots equal field by field, bit for bit.
 bool SameSnapshot(const mdr::ContactSnapshot& a, const mdr::ContactSnapshot& b) {
   auto same = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
   return same(a.depth, b.depth) && same(a.tangential_displacement, b.tangential_displacement) &&
          same(a.dissipated_energy, b.dissipated_energy) &&
          same(a.last_step_dissipation, b.last_step_dissipation) && SameBits(a.z, b.z) &&
-         SameBits(a.u, b.u) && a.tags == b.tags && SameBits(a.grid_u, b.grid_u);
+         SameBits(a.u, b.u) && a.tags == b.tags && SameBits(a.anchors, b.anchors) &&
+         SameBits(a.grid_u, b.grid_u);
 }
 
 void Check(bool ok, const char* what) {

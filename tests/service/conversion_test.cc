@@ -112,7 +112,7 @@ TEST(ConversionTest, SnapshotsRoundTripBitForBit) {
     const ContactSnapshot snapshot = contact.Snapshot();
     v1::ContactSnapshot proto;
     service::ToProtoSnapshot(snapshot, &proto);
-    const ContactSnapshot back = service::ToCoreSnapshot(proto);
+    const ContactSnapshot back = service::ToCoreSnapshot(proto).value();
     ASSERT_EQ(back.depth, snapshot.depth);
     ASSERT_EQ(back.tangential_displacement, snapshot.tangential_displacement);
     ASSERT_EQ(back.dissipated_energy, snapshot.dissipated_energy);
@@ -135,13 +135,13 @@ TEST(ConversionTest, AnUnknownBoundIsOneTheCoreRejects) {
     first->set_bound(service::ToProtoBound(tag));
     v1::MemoryVertex* edge = proto.add_memory();
     edge->set_z(1e-6);
-    EXPECT_EQ(service::ToCoreSnapshot(proto).tags.front(), tag);
+    EXPECT_EQ(service::ToCoreSnapshot(proto)->tags.front(), tag);
   }
   v1::ContactSnapshot proto;
   proto.set_depth(1e-6);
   proto.add_memory()->set_bound(static_cast<v1::MemoryBound>(77));
   proto.add_memory()->set_z(1e-6);
-  EXPECT_GT(service::ToCoreSnapshot(proto).tags.front(), kOnBoth);
+  EXPECT_GT(service::ToCoreSnapshot(proto)->tags.front(), kOnBoth);
 }
 
 TEST(ConversionTest, RadialSamplingNamesTheBadRadiusAndRoute) {

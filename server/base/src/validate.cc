@@ -5,6 +5,14 @@
 
 namespace mdr {
 
+std::string Indexed(const std::string& name, std::size_t i) {
+  std::string field = name;  // (not name + "[" + ...: GCC 12 warns falsely on that form)
+  field += '[';
+  field += std::to_string(i);
+  field += ']';
+  return field;
+}
+
 std::string FormatNumber(double value) {
   std::ostringstream out;
   out.precision(10);

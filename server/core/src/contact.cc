@@ -114,28 +114,45 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
   contact->dissipated_ = snapshot.dissipated_energy;
   contact->last_dissipated_ = snapshot.last_step_dissipation;
   if (auto* grid = std::get_if<GridMemory>(&contact->memory_)) {
-    if (Status s = grid->Restore(snapshot.depth, snapshot.grid_u, contact->mu_kappa()); !s.ok()) {
+    if (Status s = grid->Restore(snapshot.depth, snapshot.grid_u, contact->mu_kappa(),
+                                 snapshot.grid_anchors, snapshot.tangential_displacement);
+        !s.ok()) {
       return s;
     }
     return contact;
   }
   Result<PiecewiseLinearMemory> memory =
-      PiecewiseLinearMemory::Restore(snapshot.depth, snapshot.z, snapshot.u, snapshot.tags);
+      PiecewiseLinearMemory::Restore(snapshot.depth, snapshot.z, snapshot.u, snapshot.tags,
+                                     snapshot.anchors, snapshot.tangential_displacement);
   if (!memory.ok()) return memory.status();
-  // The same mu_kappa() that every step clamps with: the check is exact (memory.h).
+  // The same mu_kappa() that every step clamps with: the checks are exact (memory.h).
   if (Status s = memory->CheckCoulomb(contact->mu_kappa()); !s.ok()) return s;
+  if (Status s = memory->CheckAnchors(contact->mu_kappa(), snapshot.tangential_displacement);
+      !s.ok()) {
+    return s;
+  }
   contact->memory_ = std::move(memory).value();
   return contact;
 }
 
 ContactSnapshot Contact::Snapshot() const {
+  ContactSnapshot snapshot;
+  snapshot.depth = depth();
+  snapshot.tangential_displacement = ux_;
+  snapshot.dissipated_energy = dissipated_;
+  snapshot.last_step_dissipation = last_dissipated_;
   if (const GridMemory* grid = grid_memory()) {
     const Eigen::ArrayXd& u = grid->u();
-    return {depth(), ux_, dissipated_, last_dissipated_,
-            {},      {},  {},          std::vector<double>(u.data(), u.data() + u.size())};
+    snapshot.grid_u.assign(u.data(), u.data() + u.size());
+    snapshot.grid_anchors = grid->anchors();
+    return snapshot;
   }
   const PiecewiseLinearMemory& m = memory();
-  return {m.depth(), ux_, dissipated_, last_dissipated_, m.z(), m.u(), m.tags(), {}};
+  snapshot.z = m.z();
+  snapshot.u = m.u();
+  snapshot.tags = m.tags();
+  snapshot.anchors = m.anchors();
+  return snapshot;
 }
 
 double Contact::NormalForceAtDepth(double depth) const {
@@ -163,8 +180,7 @@ TangentialStiffness Contact::tangential_stiffness() const {
   const double k = 2 * config_.material.g_star;
   if (const GridMemory* grid = grid_memory()) {
     const double a = grid->MeasureInContact();
-    return {k * (a - grid->MeasureOnBound(mu_kappa(), kOnUpper)),
-            k * (a - grid->MeasureOnBound(mu_kappa(), kOnLower))};
+    return {k * (a - grid->MeasureOnBound(kOnUpper)), k * (a - grid->MeasureOnBound(kOnLower))};
   }
   const double a = contact_radius();
   return {k * (a - memory().MeasureOnBound(*config_.profile, kOnUpper)),
@@ -191,9 +207,9 @@ std::vector<SlipInterval> Contact::slip_intervals() const {
   std::vector<SlipInterval> intervals;
   if (const GridMemory* grid = grid_memory()) {
     // Each spring stands for its cell [j h, (j + 1) h], cut at the contact radius.
-    const double h = grid->spacing(), a = contact_radius(), m = mu_kappa();
+    const double h = grid->spacing(), a = contact_radius();
     for (std::size_t j = 0; j < grid->size(); ++j) {
-      const BoundTag tag = grid->Tag(j, m);
+      const BoundTag tag = grid->Tag(j);
       const double r_begin = static_cast<double>(j) * h;  // same product as the previous r_end
       const double r_end = std::min(static_cast<double>(j + 1) * h, a);
       if (tag != kInside) AddSlipInterval(intervals, r_begin, r_end, tag);
@@ -221,11 +237,13 @@ double Contact::normal_displacement_at(double x) const {
 
 double Contact::LinearStep(double depth1, double ux1, double dux) {
   double per_modulus = 0;
+  const LinearMove move{depth1, dux, ux_, ux1};
   if (auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_)) [[likely]] {
     const Profile* energy_profile = config_.track_energy ? config_.profile.get() : nullptr;
-    per_modulus = exact->ApplyLinearStep(depth1, dux, mu_kappa(), energy_profile);
+    per_modulus = exact->ApplyLinearStep(move, mu_kappa(), energy_profile);
   } else {
-    per_modulus = std::get<GridMemory>(memory_).ApplyLinearStep(depth1, dux, mu_kappa(), config_.track_energy);
+    per_modulus =
+        std::get<GridMemory>(memory_).ApplyLinearStep(move, mu_kappa(), config_.track_energy);
   }
   // Every spring's dissipation is >= 0; the sum's round-off must not make it negative, or the
   // state would not pass Restore (energies >= 0).

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dissipation.h"
+#include "mdr/base/validate.h"
 #include "monotone_solve.h"
 
 namespace mdr {
@@ -51,29 +52,72 @@ GridMemory::GridMemory(const Profile& profile, std::size_t size, double max_radi
     : spacing_(max_radius / static_cast<double>(size)),
       rule_(rule),
       z_(static_cast<Eigen::Index>(size)),
-      u_(Eigen::ArrayXd::Zero(static_cast<Eigen::Index>(size))) {
+      u_(Eigen::ArrayXd::Zero(static_cast<Eigen::Index>(size))),
+      tag_(size, kInside),
+      anchor_(size) {
   for (Eigen::Index j = 0; j < z_.size(); ++j) {
     z_[j] = profile.G((static_cast<double>(j) + 0.5) * spacing_);
   }
 }
 
-double GridMemory::ApplyLinearStep(double depth1, double dux, double mu_kappa, bool track_energy) {
-  const LinearStep step{depth_, depth1, dux, mu_kappa};
+namespace {
+
+// The bound a spring in contact at the end of the step is on after it (kInside: it sticks),
+// decided as the exact memory decides a segment (memory.h, "Slip state").
+BoundTag SpringBound(const LinearStep& step, GridStepRule rule, const SegmentAnchor& anchor,
+                     double z, double v, double b1, double ux1) {
+  if (z < step.depth0) {  // in contact throughout: its anchor, else its end value
+    if (anchor.bound != kInside && AnchorExcess(anchor, step.mu_kappa, step.depth1, ux1) >= 0) {
+      return anchor.bound;
+    }
+    if (anchor.bound != kOnUpper && v >= b1) return kOnUpper;
+    if (anchor.bound != kOnLower && v <= -b1) return kOnLower;
+    return kInside;
+  }
+  if (rule == GridStepRule::kExact) {  // entering: the excess is the step's rate times (1 - s_e)
+    if (step.SlidingRate(+1) >= 0) return kOnUpper;
+    if (step.SlidingRate(-1) >= 0) return kOnLower;
+    return kInside;
+  }
+  return v >= b1 ? kOnUpper : v <= -b1 ? kOnLower : kInside;
+}
+
+}  // namespace
+
+double GridMemory::ApplyLinearStep(const LinearMove& move, double mu_kappa, bool track_energy) {
+  const LinearStep step{depth_, move.depth1, move.dux, mu_kappa};
   const bool energy = track_energy && mu_kappa > 0;
   double dissipated = 0;
   for (Eigen::Index j = 0; j < z_.size(); ++j) {
+    const auto spring = static_cast<std::size_t>(j);
     const double z = z_[j];
-    if (!(z < depth1)) {  // out of contact at the end: forgets
+    if (!(z < step.depth1)) {  // out of contact at the end: forgets
       if (energy && z < step.depth0) dissipated += LeavingSpringDissipation(step, z, u_[j]);
       u_[j] = 0;
+      tag_[spring] = kInside;
+      anchor_[spring] = SegmentAnchor{};
       continue;
     }
     const double v = UnclampedEnd(step, rule_, z, u_[j]);
     const double b1 = step.BoundAtEnd(z);
-    u_[j] = std::clamp(v, -b1, b1);
     if (energy && std::abs(v) > b1) dissipated += ClampedSpringDissipation(step, v, b1);
+    if (!(b1 > 0)) {  // mu = 0
+      u_[j] = 0;
+      tag_[spring] = kOnBoth;
+      anchor_[spring] = SegmentAnchor{};
+      continue;
+    }
+    const BoundTag on = SpringBound(step, rule_, anchor_[spring], z, v, b1, move.ux1);
+    tag_[spring] = on;
+    if (on != kInside) {
+      u_[j] = on == kOnUpper ? b1 : -b1;
+      anchor_[spring] = {on, move.ux1, step.depth1};
+    } else {
+      u_[j] = std::clamp(v, -b1, b1);
+      if (!(z < step.depth0)) anchor_[spring] = SegmentAnchor{};
+    }
   }
-  depth_ = depth1;
+  depth_ = step.depth1;
   return dissipated * spacing_;
 }
 
@@ -106,18 +150,14 @@ double GridMemory::MeasureInContact() const {
   return spacing_ * static_cast<double>((z_ < depth_).count());
 }
 
-BoundTag GridMemory::Tag(std::size_t j, double mu_kappa) const {
-  const auto i = static_cast<Eigen::Index>(j);
-  if (!(z_[i] < depth_)) return kInside;
-  const double bound = CoulombBound(mu_kappa, depth_, z_[i]);  // what Step clamped against
-  const int upper = u_[i] >= bound ? kOnUpper : kInside;
-  const int lower = u_[i] <= -bound ? kOnLower : kInside;
-  return static_cast<BoundTag>(upper | lower);
+std::size_t GridMemory::AnchoredSprings() const {
+  return static_cast<std::size_t>(std::count_if(anchor_.begin(), anchor_.end(),
+                                                [](const auto& a) { return a.bound != kInside; }));
 }
 
-double GridMemory::MeasureOnBound(double mu_kappa, BoundTag bound) const {
+double GridMemory::MeasureOnBound(BoundTag bound) const {
   std::size_t count = 0;
-  for (std::size_t j = 0; j < size(); ++j) count += (Tag(j, mu_kappa) & bound) != 0;
+  for (std::uint8_t tag : tag_) count += (tag & bound) != 0;
   return spacing_ * static_cast<double>(count);
 }
 
@@ -152,27 +192,63 @@ double GridMemory::MaxDifference(const GridMemory& other) const {
   return (u_ - other.u_).abs().maxCoeff();
 }
 
-Status GridMemory::Restore(double depth, const std::vector<double>& u, double mu_kappa) {
+Status GridMemory::Restore(double depth, const std::vector<double>& u, double mu_kappa,
+                           const std::vector<SegmentAnchor>& anchors,
+                           double tangential_displacement) {
   if (!std::isfinite(depth)) return InvalidArgument("depth", "must be finite");
   if (u.size() != size()) {
     return InvalidArgument("grid_u", "needs one value per spring: " + std::to_string(u.size()) +
                                          " values for grid_size " + std::to_string(size()));
   }
+  if (!anchors.empty() && anchors.size() != size()) {
+    return InvalidArgument(
+        "grid_anchors", "needs one anchor per spring or none: " + std::to_string(anchors.size()) +
+                            " anchors for grid_size " + std::to_string(size()));
+  }
+  std::vector<std::uint8_t> tags(size(), kInside);
+  std::vector<SegmentAnchor> restored = anchors;
+  restored.resize(size());
   for (std::size_t j = 0; j < u.size(); ++j) {
     const double z = z_[static_cast<Eigen::Index>(j)];
     // Step clamps to exactly this expression and zeroes springs out of contact: no tolerance.
     const double bound = z < depth ? CoulombBound(mu_kappa, depth, z) : 0.0;
     if (!std::isfinite(u[j]) || !(std::abs(u[j]) <= bound)) {
-      std::string field = "grid_u[";  // (not "[" + ...: GCC 12 warns falsely on that form)
-      field += std::to_string(j);
-      field += ']';
-      return InvalidArgument(field,
+      return InvalidArgument(Indexed("grid_u", j),
                              "must be finite, 0 out of contact and within the Coulomb "
                              "bound mu kappa (depth - g(x_j))");
+    }
+    if (!(z < depth)) continue;
+    if (!(bound > 0)) {
+      tags[j] = kOnBoth;
+      continue;
+    }
+    SegmentAnchor& anchor = restored[j];
+    const BoundTag at_bound = u[j] == bound ? kOnUpper : u[j] == -bound ? kOnLower : kInside;
+    if (anchors.empty() && at_bound != kInside) anchor = {at_bound, tangential_displacement, depth};
+    // A spring is on a bound iff it is anchored there now (at its bound's value, as the clamp
+    // leaves it); CheckAnchor then accepts only what a step leaves.
+    const bool anchored_now = anchor.bound != kInside &&
+                              anchor == SegmentAnchor{anchor.bound, tangential_displacement, depth};
+    const BoundTag on = anchored_now ? anchor.bound : kInside;
+    const std::string field = Indexed("grid_anchors", j);
+    if (Status s = CheckAnchor(anchor, on, mu_kappa, depth, tangential_displacement, field);
+        !s.ok()) {
+      return s;
+    }
+    if (on != kInside && at_bound != on) {
+      return InvalidArgument(field, "anchors the spring on its bound now, but u is not at it");
+    }
+    tags[j] = on;
+  }
+  for (std::size_t j = 0; j < size(); ++j) {
+    if (!(z_[static_cast<Eigen::Index>(j)] < depth) && restored[j] != SegmentAnchor{}) {
+      return InvalidArgument(Indexed("grid_anchors", j), "must be empty out of contact");
     }
   }
   depth_ = depth;
   u_ = Eigen::Map<const Eigen::ArrayXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+  tag_ = std::move(tags);
+  anchor_ = std::move(restored);
   return OkStatus();
 }
 

@@ -36,10 +36,6 @@ constexpr double kMaxInPlaceEnergy = 1e300;
 
 Status PassGate(const Interface::CommitGate& gate) { return gate ? gate() : OkStatus(); }
 
-std::string Indexed(const char* field, std::size_t i) {
-  return std::string(field) + "[" + std::to_string(i) + "]";
-}
-
 // Field names of the interface's normal channel, which is the approach delta (the tangential
 // channel's are a contact's: FieldName).
 const char* NormalField(NormalControl c) {
@@ -974,14 +970,15 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
 
 std::size_t Interface::MemoryBytes() const {
   // The private step scratch of each memory holds about two polylines' worth (estimate).
-  constexpr std::size_t kVertexBytes = 2 * sizeof(double) + 1;
+  constexpr std::size_t kVertexBytes = PiecewiseLinearMemory::kBytesPerVertex;
   constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
   auto memory_bytes = [](const Contact& c) {
     const PiecewiseLinearMemory& m = c.memory();
     std::size_t bytes = m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
-                        m.tags().capacity() + 2 * m.vertex_count() * kVertexBytes;
+                        m.tags().capacity() + m.anchors().capacity() * sizeof(SegmentAnchor) +
+                        2 * m.vertex_count() * kVertexBytes;
     if (const GridMemory* grid = c.grid_memory()) {
-      bytes += static_cast<std::size_t>(grid->u().size()) * sizeof(double);
+      bytes += grid->size() * GridMemory::kBytesPerSpring;
     }
     return bytes;
   };

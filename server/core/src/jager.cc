@@ -14,7 +14,6 @@ namespace {
 
 using internal::BasisDisplacement;
 using internal::CheckMuKappa;
-using internal::Indexed;
 using internal::SegmentWeight;
 
 using internal::kEps;
@@ -51,7 +50,11 @@ std::vector<DepthRun> WeightRuns(const PiecewiseLinearMemory& memory, double mu_
   std::vector<DepthRun> runs;
   std::size_t first = 0;
   for (std::size_t k = 1; k < z.size(); ++k) {
-    if (k + 1 < z.size() && OnOneLine(z, u, first, k, k + 1)) continue;
+    // A run never spans a change of slip state: the weight of a piece on a bound is exactly +-1.
+    if (k + 1 < z.size() && (tags[k - 1] & tags[k]) == (tags[k] & tags[k + 1]) &&
+        OnOneLine(z, u, first, k, k + 1)) {
+      continue;
+    }
     const double mean = SegmentWeight(u[first], u[k], z[k] - z[first], mu_kappa);
     runs.push_back({z[first], z[k], mean, static_cast<BoundTag>(tags[first] & tags[k])});
     first = k;
@@ -180,15 +183,6 @@ Status CheckMuKappa(const std::string& field, double mu_kappa) {
                               "weights are undefined for mu = 0: every spring is at the bound");
   }
   return OkStatus();
-}
-
-// "name[i]", the field of one element of an input list.
-std::string Indexed(const char* name, std::size_t i) {
-  std::string field = name;
-  field += '[';
-  field += std::to_string(i);
-  field += ']';
-  return field;
 }
 
 }  // namespace internal

@@ -5,8 +5,8 @@
 #include <cstddef>
 #include <string>
 
-#include "mdr/core/jager.h"
 #include "mdr/base/status.h"
+#include "mdr/core/jager.h"
 
 namespace mdr::internal {
 
@@ -21,8 +21,5 @@ long double BasisDisplacement(const CattaneoMindlinTerm& term, double z, double 
 // InvalidArgument unless mu_kappa >= 0 and finite; FailedPrecondition for mu_kappa = 0, where
 // every spring is at the bound and F = 0/0.
 Status CheckMuKappa(const std::string& field, double mu_kappa);
-
-// "name[i]", the field of one element of an input list.
-std::string Indexed(const char* name, std::size_t i);
 
 }  // namespace mdr::internal

@@ -31,12 +31,11 @@ double IntegrateQuadratic(const Profile& profile, double za, double zb, double x
   return q.c0 * piece.j0 + q.c1 * piece.j1 + q.c2 * piece.j2;
 }
 
+// The anchor that marks, during a step, the segment entering contact (memory.h, SegmentAnchor).
+constexpr SegmentAnchor kEntering{kOnBoth, 0, 0};
+
 // Ulps a crossing vertex may move toward the inside before it is put on the bound line instead.
 constexpr int kMaxCrossingNudges = 4;
-// How far inside its bound (in eps * mu_kappa * depth) a vertex that was on it still counts as on
-// it: a crossing's own rounding (memory.h, BoundTagTolerance, for neighbour slopes up to mu_kappa).
-constexpr double kStayOnBoundUlps = 32;
-
 struct Vertex {
   double z, u;
 };
@@ -73,9 +72,9 @@ std::optional<Vertex> PlaceCrossing(double za, double ua, double zb, double ub, 
 
 }  // namespace
 
-double PiecewiseLinearMemory::ApplyLinearStep(double depth1, double dux, double mu_kappa,
-                                   const Profile* profile) {
-  const double depth0 = depth_;
+double PiecewiseLinearMemory::ApplyLinearStep(const LinearMove& move, double mu_kappa,
+                                              const Profile* profile) {
+  const double depth0 = depth_, depth1 = move.depth1, dux = move.dux;
   double dissipated = 0;
   if (profile != nullptr && depth1 < depth0 && depth0 > 0) {
     dissipated += LeavingDissipation(depth1, dux, mu_kappa, *profile);
@@ -85,10 +84,11 @@ double PiecewiseLinearMemory::ApplyLinearStep(double depth1, double dux, double 
     z_.clear();
     u_.clear();
     tag_.clear();
+    anchor_.clear();
     return dissipated;
   }
   ShiftAndResize(depth0, depth1, dux);
-  dissipated += ClampToBounds(depth0, dux, mu_kappa, profile);
+  dissipated += ClampToBounds(depth0, dux, mu_kappa, move.ux1, profile);
   MergeRedundantVertices();
   return dissipated;
 }
@@ -99,6 +99,8 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
     z_.assign({0.0, depth1});
     u_.assign({dux * (depth1 / (depth1 - depth0)), 0.0});
     tag_.assign(2, kInside);
+    anchor_.assign(2, SegmentAnchor{});
+    anchor_[0] = kEntering;
     return;
   }
   if (depth1 < depth0) {
@@ -112,6 +114,8 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
     z_.resize(j + 1);
     u_.resize(j + 1);
     tag_.resize(j + 1);
+    anchor_.resize(j + 1);
+    anchor_[j] = SegmentAnchor{};  // the new edge starts no segment
   }
   for (double& u : u_) u += dux;
   if (depth1 > depth0) {
@@ -119,44 +123,47 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
     z_.push_back(depth1);
     u_.push_back(0.0);
     tag_.push_back(kInside);
+    anchor_.back() = kEntering;
+    anchor_.push_back(SegmentAnchor{});
   }
 }
 
-double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa,
+double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa, double ux1,
                                             const Profile* profile) {
   InsertCrossings(mu_kappa);
   const double dissipated = profile != nullptr && mu_kappa > 0
                                 ? SlidingDissipation(depth0, dux, mu_kappa, *profile)
                                 : 0.0;
-  ClampRefinedVertices(mu_kappa);
+  ClassifySegments(depth0, dux, mu_kappa, ux1);
+  TagAndClampVertices(mu_kappa, ux1);
   return dissipated;
 }
 
 void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
-  // The points where v crosses +bound or -bound (both linear in z) are tagged with their bound;
-  // the original vertices are classified by ClampRefinedVertices.
+  // The points where v crosses +bound or -bound (both linear in z) are marked with their bound;
+  // every refined vertex records the old segment it lies in, whose anchor its segment inherits.
   const double depth1 = depth_;
   auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
   auto& rz = next_.z;
   auto& rv = next_.u;
-  auto& tags = next_.tag;
-  auto& was = next_.was;
+  auto& crossing = next_.crossing;
+  auto& segment = next_.segment;
   const std::size_t n = z_.size();
   rz.clear();
   rv.clear();
-  tags.clear();
-  was.clear();
+  crossing.clear();
+  segment.clear();
   // At most two crossings per segment: one allocation per buffer at most (a copied memory starts
   // with empty ones), none once they have grown.
   rz.reserve(3 * n);
   rv.reserve(3 * n);
-  tags.reserve(3 * n);
-  was.reserve(3 * n);
+  crossing.reserve(3 * n);
+  segment.reserve(3 * n);
   for (std::size_t i = 0; i < n; ++i) {
     rz.push_back(z_[i]);
     rv.push_back(u_[i]);
-    tags.push_back(kInside);
-    was.push_back(tag_[i]);
+    crossing.push_back(kInside);
+    segment.push_back(static_cast<std::uint32_t>(i));
     if (i + 1 == n) break;
     const double za = z_[i], zb = z_[i + 1];
     const double hi_a = u_[i] - bound(za), hi_b = u_[i + 1] - bound(zb);
@@ -169,13 +176,13 @@ void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
     if (count == 2 && t[1] < t[0]) std::swap(t[0], t[1]), std::swap(sign[0], sign[1]);
     for (int k = 0; k < count; ++k) {
       const bool a_inside = sign[k] > 0 ? hi_a < 0 : lo_a > 0;
-      const std::optional<Vertex> crossing = PlaceCrossing(za, u_[i], zb, u_[i + 1], t[k], sign[k],
-                                                           a_inside, rz.back(), mu_kappa, depth1);
-      if (!crossing) continue;
-      rz.push_back(crossing->z);
-      rv.push_back(crossing->u);
-      tags.push_back(sign[k] > 0 ? kOnUpper : kOnLower);
-      was.push_back(kInside);
+      const std::optional<Vertex> at = PlaceCrossing(za, u_[i], zb, u_[i + 1], t[k], sign[k],
+                                                     a_inside, rz.back(), mu_kappa, depth1);
+      if (!at) continue;
+      rz.push_back(at->z);
+      rv.push_back(at->u);
+      crossing.push_back(sign[k] > 0 ? kOnUpper : kOnLower);
+      segment.push_back(static_cast<std::uint32_t>(i));
     }
   }
 }
@@ -187,7 +194,7 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   // segment.
   const auto& rz = next_.z;
   const auto& rv = next_.u;
-  const auto& tags = next_.tag;
+  const auto& crossing = next_.crossing;
   const LinearStep step{depth0, depth_, dux, mu_kappa};
   // Radius of the vertex last asked for: neighbouring sliding segments share a vertex.
   std::size_t known = rz.size();
@@ -199,7 +206,7 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   double dissipated = 0;
   for (int sigma : {+1, -1}) {
     auto excess = [&](std::size_t i) {  // crossings: exactly 0
-      return tags[i] != kInside ? 0.0 : sigma * rv[i] - step.BoundAtEnd(rz[i]);
+      return crossing[i] != kInside ? 0.0 : sigma * rv[i] - step.BoundAtEnd(rz[i]);
     };
     double e_next = excess(0);
     if (e_next > 0 && radius(0) > 0) {  // the z = 0 atom of a flat punch
@@ -227,47 +234,129 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   return dissipated;
 }
 
-void PiecewiseLinearMemory::ClampRefinedVertices(double mu_kappa) {
-  // A vertex that was on a bound and is still on it to rounding stays there: a crossing sits up
-  // to a few ulps inside its bound (PlaceCrossing), and a step that does not move it off
-  // (dux = 0, a depth held) must not turn its slip zone into a stick zone (tangential stiffness,
-  // slip intervals).
+namespace {
+
+// The bound sigma = +1 (kOnUpper) or -1 (kOnLower).
+double Sign(BoundTag bound) { return bound == kOnUpper ? 1.0 : -1.0; }
+
+// A segment with refined ends a and b whose clamp excess over one bound (sigma v - bound, 0 at a
+// crossing of that bound) is ea and eb: the clamp puts it on the bound if the excess is positive
+// inside it (crossings split sign changes, so the sum decides where round-off put a crossing on
+// a vertex) or zero at both ends (a segment lying on the bound line stays there).
+bool ClampedOnto(double ea, double eb) { return (ea >= 0 && eb >= 0) || ea + eb > 0; }
+
+}  // namespace
+
+void PiecewiseLinearMemory::ClassifySegments(double depth0, double dux, double mu_kappa,
+                                             double ux1) {
+  // One decision per refined segment: from its anchor where it has one (a segment that sticks
+  // moves rigidly, so its excess over the anchor's bound is AnchorExcess, the same at every
+  // spring); for the segment entering contact from the step's sliding rate (its excess over
+  // either bound is that rate times (1 - s_e), one sign along it); from the clamp's excess at its
+  // ends otherwise.
+  const double depth1 = depth_;
+  const internal::LinearStep step{depth0, depth1, dux, mu_kappa};
+  const auto& rz = next_.z;
+  const auto& rv = next_.u;
+  const auto& crossing = next_.crossing;
+  auto& bound = next_.bound;
+  const std::size_t m = rz.size();
+  bound.assign(m, kInside);
+  auto excess = [&](std::size_t k, BoundTag side) {
+    return crossing[k] == side ? 0.0 : Sign(side) * rv[k] - CoulombBound(mu_kappa, depth1, rz[k]);
+  };
+  for (std::size_t k = 0; k + 1 < m; ++k) {
+    const SegmentAnchor& anchor = anchor_[next_.segment[k]];
+    if (anchor == kEntering) {
+      bound[k] = step.SlidingRate(+1) >= 0   ? kOnUpper
+                 : step.SlidingRate(-1) >= 0 ? kOnLower
+                                             : kInside;
+      continue;
+    }
+    if (anchor.bound != kInside && AnchorExcess(anchor, mu_kappa, depth1, ux1) >= 0) {
+      bound[k] = anchor.bound;
+      continue;
+    }
+    double best = -1;  // the larger excess sum decides if both bounds claim a segment
+    for (BoundTag side : {kOnUpper, kOnLower}) {
+      if (side == anchor.bound) continue;  // the anchor decided: inside that bound
+      const double ea = excess(k, side), eb = excess(k + 1, side);
+      if (ClampedOnto(ea, eb) && ea + eb > best) {
+        bound[k] = side;
+        best = ea + eb;
+      }
+    }
+  }
+}
+
+void PiecewiseLinearMemory::TagAndClampVertices(double mu_kappa, double ux1) {
+  // A vertex is on the bounds of the segments it ends; one that ends none sticks and is only
+  // clamped by round-off. A crossing keeps its interpolated u (a few ulps inside the bound, so
+  // that the sticking side stays exact); every other vertex on a bound takes the bound's value.
+  // Round-off can leave a sticking segment between two vertices on one bound line (it is that
+  // line, to round-off): it is then on the bound too, so tags and segments always agree.
   const double depth1 = depth_;
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& tags = next_.tag;
-  const auto& was = next_.was;
-  const double stay = kStayOnBoundUlps * std::numeric_limits<double>::epsilon() * mu_kappa * depth1;
-  for (std::size_t i = 0; i < rz.size(); ++i) {
-    if (tags[i] != kInside) continue;  // a crossing, already on its bound
-    const double b = CoulombBound(mu_kappa, depth1, rz[i]);
-    if (b <= 0) {
-      rv[i] = 0;
-      tags[i] = kOnBoth;
-    } else if (rv[i] >= b || ((was[i] & kOnUpper) && rv[i] >= b - stay)) {
-      rv[i] = b;
-      tags[i] = kOnUpper;
-    } else if (rv[i] <= -b || ((was[i] & kOnLower) && rv[i] <= -b + stay)) {
-      rv[i] = -b;
-      tags[i] = kOnLower;
+  auto& bound = next_.bound;
+  auto& anchor = next_.anchor;
+  const std::size_t m = rz.size();
+  tags.assign(m, kInside);
+  for (std::size_t k = 0; k < m; ++k) {
+    const double b = CoulombBound(mu_kappa, depth1, rz[k]);
+    if (!(b > 0)) {  // the contact edge, or mu = 0
+      rv[k] = 0;
+      tags[k] = kOnBoth;
+      continue;
+    }
+    const std::uint8_t left = k > 0 ? bound[k - 1] : std::uint8_t{kInside};
+    const std::uint8_t right = k + 1 < m ? bound[k] : std::uint8_t{kInside};
+    // Both bounds at one vertex inside the contact is round-off near the edge: the inner
+    // segment's bound wins, and the outer one is re-classified below.
+    const auto tag = static_cast<BoundTag>(left != kInside ? left : right);
+    tags[k] = tag;
+    if (tag == kInside) {
+      rv[k] = std::clamp(rv[k], -b, b);
+    } else if (next_.crossing[k] != tag) {
+      rv[k] = Sign(tag) * b;
+    }
+  }
+  anchor.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    if (k + 1 == m) {
+      anchor[k] = SegmentAnchor{};
+      break;
+    }
+    const auto on = static_cast<BoundTag>(tags[k] & tags[k + 1]);
+    if (on == kOnUpper || on == kOnLower) {
+      anchor[k] = {on, ux1, depth1};
+    } else if (bound[k] != kInside || on == kOnBoth || anchor_[next_.segment[k]] == kEntering) {
+      // re-classified as sticking by the tie rule above, mu = 0, or entered sticking
+      anchor[k] = SegmentAnchor{};
+    } else {
+      anchor[k] = anchor_[next_.segment[k]];
     }
   }
   std::swap(z_, next_.z);
   std::swap(u_, next_.u);
   std::swap(tag_, next_.tag);
+  std::swap(anchor_, next_.anchor);
 }
 
 void PiecewiseLinearMemory::MergeRedundantVertices() {
-  // A vertex goes if it lies on the same bound line as both neighbours, or (to round-off) on the
-  // straight line through them; so memory grows only with the nesting depth of reversals.
+  // A vertex goes if the segments on both sides are one piece: the same slip state and anchor,
+  // and the same bound line or (to round-off) one straight line; so memory grows only with the
+  // nesting depth of reversals, and a merge never changes a segment's slip state.
   constexpr double kCollinear = 16 * std::numeric_limits<double>::epsilon();
   const std::size_t n = z_.size();
   if (n < 3) return;
   std::size_t kept = 1;  // vertex 0 always stays
   for (std::size_t i = 1; i + 1 < n; ++i) {
     const std::size_t prev = kept - 1;
-    bool redundant = (tag_[prev] & tag_[i] & tag_[i + 1]) != 0;
-    if (!redundant) {
+    bool redundant =
+        anchor_[prev] == anchor_[i] && (tag_[prev] & tag_[i]) == (tag_[i] & tag_[i + 1]);
+    if (redundant && (tag_[prev] & tag_[i] & tag_[i + 1]) == 0) {
       const double line = Interpolate(z_[prev], u_[prev], z_[i + 1], u_[i + 1], z_[i]);
       const double scale = std::max({std::abs(u_[prev]), std::abs(u_[i]), std::abs(u_[i + 1])});
       redundant = std::abs(u_[i] - line) <= kCollinear * scale;
@@ -276,14 +365,17 @@ void PiecewiseLinearMemory::MergeRedundantVertices() {
     z_[kept] = z_[i];
     u_[kept] = u_[i];
     tag_[kept] = tag_[i];
+    anchor_[kept] = anchor_[i];
     ++kept;
   }
   z_[kept] = z_[n - 1];
   u_[kept] = u_[n - 1];
   tag_[kept] = tag_[n - 1];
+  anchor_[kept] = anchor_[n - 1];
   z_.resize(kept + 1);
   u_.resize(kept + 1);
   tag_.resize(kept + 1);
+  anchor_.resize(kept + 1);
 }
 
 double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, double mu_kappa,
@@ -412,18 +504,23 @@ std::vector<MemoryPiece> PiecewiseLinearMemory::Pieces(const Profile& profile) c
 
 Result<PiecewiseLinearMemory> PiecewiseLinearMemory::Restore(double depth, std::vector<double> z,
                                                              std::vector<double> u,
-                                                             std::vector<std::uint8_t> tags) {
+                                                             std::vector<std::uint8_t> tags,
+                                                             std::vector<SegmentAnchor> anchors,
+                                                             double tangential_displacement) {
   if (!std::isfinite(depth)) return InvalidArgument("depth", "must be finite");
   const std::size_t n = z.size();
   if (u.size() != n || tags.size() != n) {
     return InvalidArgument("memory", "z, u and tags must have the same length");
+  }
+  if (!anchors.empty() && anchors.size() != n) {
+    return InvalidArgument("memory", "needs an anchor on every vertex or on none");
   }
   if (depth <= 0 ? n != 0 : n < 2) {
     return InvalidArgument("memory", depth <= 0 ? "must be empty out of contact"
                                                 : "needs at least 2 vertices in contact");
   }
   for (std::size_t i = 0; i < n; ++i) {
-    const std::string at = "memory[" + std::to_string(i) + "]";
+    const std::string at = Indexed("memory", i);
     if (!std::isfinite(z[i]) || !std::isfinite(u[i]) || tags[i] > kOnBoth) {
       return InvalidArgument(at, "z and u must be finite and the tag in 0..3");
     }
@@ -432,11 +529,19 @@ Result<PiecewiseLinearMemory> PiecewiseLinearMemory::Restore(double depth, std::
   if (n > 0 && (z.front() != 0 || z.back() != depth || u.back() != 0)) {
     return InvalidArgument("memory", "must start at z = 0 and end at z = depth with u = 0");
   }
+  anchors.resize(n);
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    const auto on = static_cast<BoundTag>(tags[i] & tags[i + 1]);
+    if (anchors[i].bound == kInside && (on == kOnUpper || on == kOnLower)) {
+      anchors[i] = {on, tangential_displacement, depth};  // a snapshot without anchors
+    }
+  }
   PiecewiseLinearMemory memory;
   memory.depth_ = depth;
   memory.z_ = std::move(z);
   memory.u_ = std::move(u);
   memory.tag_ = std::move(tags);
+  memory.anchor_ = std::move(anchors);
   return memory;
 }
 
@@ -458,7 +563,7 @@ double PiecewiseLinearMemory::BoundTagTolerance(std::size_t i, double mu_kappa) 
 Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
   for (std::size_t i = 0; i < z_.size(); ++i) {
     const double bound = CoulombBound(mu_kappa, depth_, z_[i]);
-    const std::string at = "memory[" + std::to_string(i) + "]";
+    const std::string at = Indexed("memory", i);
     if (!(std::abs(u_[i]) <= bound)) {
       return InvalidArgument(
           at, "|u| = " + FormatNumber(std::abs(u_[i])) +
@@ -481,6 +586,52 @@ Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
                                      " bound but u = " + FormatNumber(u_[i]) +
                                      " is off it (bound " + FormatNumber(bound) + ", tolerance " +
                                      FormatNumber(BoundTagTolerance(i, mu_kappa)) + ")");
+    }
+  }
+  return OkStatus();
+}
+
+Status CheckAnchor(const SegmentAnchor& anchor, BoundTag on, double mu_kappa, double depth,
+                   double tangential_displacement, const std::string& field) {
+  if (anchor.bound > kOnLower || !std::isfinite(anchor.tangential_displacement) ||
+      !std::isfinite(anchor.depth)) {
+    return InvalidArgument(field,
+                           "needs bound INSIDE, UPPER or LOWER and a finite depth and "
+                           "tangential_displacement");
+  }
+  if (on == kOnUpper || on == kOnLower) {
+    if (anchor != SegmentAnchor{on, tangential_displacement, depth}) {
+      return InvalidArgument(field,
+                             "the springs lie on a bound, so they must be anchored on "
+                             "that bound at the contact's current depth and displacement");
+    }
+    return OkStatus();
+  }
+  if (anchor.bound == kInside) return OkStatus();
+  if (on == kOnBoth) return InvalidArgument(field, "must be empty where the bound is 0");
+  const double excess = AnchorExcess(anchor, mu_kappa, depth, tangential_displacement);
+  if (!(excess < 0)) {
+    return InvalidArgument(field,
+                           "the springs stick, so they must lie strictly inside the bound "
+                           "they are anchored on; their excess over it is " +
+                               FormatNumber(excess) + " m");
+  }
+  return OkStatus();
+}
+
+Status PiecewiseLinearMemory::CheckAnchors(double mu_kappa, double tangential_displacement) const {
+  for (std::size_t i = 0; i < anchor_.size(); ++i) {
+    const std::string at = Indexed("memory", i) + ".anchor";
+    if (i + 1 == anchor_.size()) {
+      if (anchor_[i] != SegmentAnchor{}) {
+        return InvalidArgument(at, "must be empty on the last vertex (it starts no segment)");
+      }
+      break;
+    }
+    const auto on = static_cast<BoundTag>(tag_[i] & tag_[i + 1]);
+    if (Status s = CheckAnchor(anchor_[i], on, mu_kappa, depth_, tangential_displacement, at);
+        !s.ok()) {
+      return s;
     }
   }
   return OkStatus();

@@ -14,10 +14,6 @@ namespace {
 
 constexpr double kMaxLogSigma = 3;
 
-std::string Indexed(const char* field, std::size_t i) {
-  return std::string(field) + "[" + std::to_string(i) + "]";
-}
-
 Status CheckCount(const char* field, std::size_t count) {
   if (count >= 1 && count <= kMaxInterfaceContacts) return OkStatus();
   return InvalidArgument(field, "must be in [1, " + std::to_string(kMaxInterfaceContacts) +

@@ -12,7 +12,6 @@ namespace {
 
 using internal::BasisDisplacement;
 using internal::CheckMuKappa;
-using internal::Indexed;
 using internal::SegmentWeight;
 
 // One cell [x_j, x_{j+1}] of a sampled u(x): its depths and the mean weight over them.

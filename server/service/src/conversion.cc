@@ -4,10 +4,10 @@
 #include <cmath>
 #include <string>
 
+#include "mdr/base/validate.h"
 #include "mdr/core/material.h"
 #include "mdr/core/profile.h"
 #include "mdr/core/tabulated_profile.h"
-#include "mdr/base/validate.h"
 
 namespace mdr::service {
 namespace {
@@ -173,8 +173,71 @@ Status ApplyMethod(const v1::Scene& scene, ContactConfig* config) {
   return OkStatus();
 }
 
+// A MemoryBound as the core's tag; values beyond BOTH become one the core refuses.
+std::uint8_t ToCoreTag(int bound) {
+  constexpr std::uint8_t kRejectedTag = 0xFF;  // the core accepts tags 0..3 only
+  return bound >= 0 && bound <= kOnBoth ? static_cast<std::uint8_t>(bound) : kRejectedTag;
+}
+
+SegmentAnchor ToCoreAnchor(const v1::MemoryAnchor& anchor) {
+  return {static_cast<BoundTag>(ToCoreTag(anchor.bound())), anchor.tangential_displacement(),
+          anchor.depth()};
+}
+
+void ToProtoAnchor(const SegmentAnchor& anchor, v1::MemoryAnchor* proto) {
+  proto->set_bound(ToProtoBound(anchor.bound));
+  proto->set_tangential_displacement(anchor.tangential_displacement);
+  proto->set_depth(anchor.depth);
+}
+
+// The grid's anchors, packed (ContactSnapshot.grid_anchor_*): a byte per spring, and the values
+// of the anchored ones in order.
+void ToProtoGridAnchors(const std::vector<SegmentAnchor>& anchors, v1::ContactSnapshot* proto) {
+  if (anchors.empty()) return;
+  std::string* bounds = proto->mutable_grid_anchor_bounds();
+  bounds->reserve(anchors.size());
+  for (const SegmentAnchor& anchor : anchors) {
+    bounds->push_back(static_cast<char>(anchor.bound));
+    if (anchor.bound == kInside) continue;
+    proto->add_grid_anchor_displacements(anchor.tangential_displacement);
+    proto->add_grid_anchor_depths(anchor.depth);
+  }
+}
+
+// The inverse: values for exactly the anchored springs.
+Result<std::vector<SegmentAnchor>> ToCoreGridAnchors(const v1::ContactSnapshot& snapshot) {
+  const std::string& bounds = snapshot.grid_anchor_bounds();
+  const auto anchored = static_cast<int>(
+      std::count_if(bounds.begin(), bounds.end(), [](char byte) { return byte != kInside; }));
+  for (const auto& [name, count] :
+       {std::pair{"grid_anchor_displacements", snapshot.grid_anchor_displacements_size()},
+        std::pair{"grid_anchor_depths", snapshot.grid_anchor_depths_size()}}) {
+    if (count != anchored) {
+      return InvalidArgument(
+          name, "needs one value per anchored spring (" + std::to_string(anchored) +
+                    " nonzero bytes in grid_anchor_bounds), got " + std::to_string(count));
+    }
+  }
+  std::vector<SegmentAnchor> anchors;
+  anchors.reserve(bounds.size());
+  int next = 0;
+  for (char byte : bounds) {
+    if (byte == kInside) {
+      anchors.push_back({});
+      continue;
+    }
+    anchors.push_back({static_cast<BoundTag>(ToCoreTag(static_cast<std::uint8_t>(byte))),
+                       snapshot.grid_anchor_displacements(next),
+                       snapshot.grid_anchor_depths(next)});
+    ++next;
+  }
+  return anchors;
+}
+
+// The vertices, with the anchors of their segments when given (snapshots).
 void ToProtoVertices(const std::vector<double>& z, const std::vector<double>& u,
                      const std::vector<std::uint8_t>& tags,
+                     const std::vector<SegmentAnchor>& anchors,
                      google::protobuf::RepeatedPtrField<v1::MemoryVertex>* vertices) {
   vertices->Reserve(static_cast<int>(z.size()));
   for (std::size_t i = 0; i < z.size(); ++i) {
@@ -182,6 +245,9 @@ void ToProtoVertices(const std::vector<double>& z, const std::vector<double>& u,
     vertex->set_z(z[i]);
     vertex->set_u(u[i]);
     vertex->set_bound(ToProtoBound(tags[i]));
+    if (i < anchors.size() && anchors[i].bound != kInside) {
+      ToProtoAnchor(anchors[i], vertex->mutable_anchor());
+    }
   }
 }
 
@@ -278,8 +344,7 @@ Step ToCoreStep(const v1::Step& step) {
   return core;
 }
 
-ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
-  constexpr std::uint8_t kRejectedTag = 0xFF;  // the core accepts tags 0..3 only
+Result<ContactSnapshot> ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
   ContactSnapshot core;
   core.depth = snapshot.depth();
   core.tangential_displacement = snapshot.tangential_displacement();
@@ -292,11 +357,21 @@ ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
   for (const v1::MemoryVertex& vertex : snapshot.memory()) {
     core.z.push_back(vertex.z());
     core.u.push_back(vertex.u());
-    const int bound = vertex.bound();
-    core.tags.push_back(bound >= 0 && bound <= kOnBoth ? static_cast<std::uint8_t>(bound)
-                                                       : kRejectedTag);
+    core.tags.push_back(ToCoreTag(vertex.bound()));
+  }
+  // Anchors only when some vertex has one: a snapshot without any is completed by the core.
+  const bool anchored = std::any_of(snapshot.memory().begin(), snapshot.memory().end(),
+                                    [](const v1::MemoryVertex& v) { return v.has_anchor(); });
+  if (anchored) {
+    core.anchors.reserve(n);
+    for (const v1::MemoryVertex& vertex : snapshot.memory()) {
+      core.anchors.push_back(ToCoreAnchor(vertex.anchor()));
+    }
   }
   core.grid_u.assign(snapshot.grid_u().begin(), snapshot.grid_u().end());
+  Result<std::vector<SegmentAnchor>> grid_anchors = ToCoreGridAnchors(snapshot);
+  if (!grid_anchors.ok()) return grid_anchors.status();
+  core.grid_anchors = std::move(grid_anchors).value();
   return core;
 }
 
@@ -319,13 +394,14 @@ void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto
   proto->set_tangential_displacement(snapshot.tangential_displacement);
   proto->set_dissipated_energy(snapshot.dissipated_energy);
   proto->set_last_step_dissipated_energy(snapshot.last_step_dissipation);
-  ToProtoVertices(snapshot.z, snapshot.u, snapshot.tags, proto->mutable_memory());
+  ToProtoVertices(snapshot.z, snapshot.u, snapshot.tags, snapshot.anchors, proto->mutable_memory());
   proto->mutable_grid_u()->Add(snapshot.grid_u.begin(), snapshot.grid_u.end());
+  ToProtoGridAnchors(snapshot.grid_anchors, proto);
 }
 
 void ToProtoMemory(const PiecewiseLinearMemory& memory,
                    google::protobuf::RepeatedPtrField<v1::MemoryVertex>* vertices) {
-  ToProtoVertices(memory.z(), memory.u(), memory.tags(), vertices);
+  ToProtoVertices(memory.z(), memory.u(), memory.tags(), {}, vertices);
 }
 
 v1::MemoryBound ToProtoBound(std::uint8_t tag) {

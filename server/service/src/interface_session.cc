@@ -5,6 +5,7 @@
 #include <utility>
 #include <vector>
 
+#include "mdr/base/validate.h"
 #include "mdr/core/population.h"
 #include "mdr/service/conversion.h"
 #include "mdr/service/state_budget.h"
@@ -156,13 +157,17 @@ Result<InterfaceConfig> ToInterfaceConfig(const v1::Scene& scene, const ContactC
   return config;
 }
 
-InterfaceSnapshot ToCoreInterfaceSnapshot(const v1::InterfaceSnapshot& proto) {
+Result<InterfaceSnapshot> ToCoreInterfaceSnapshot(const v1::InterfaceSnapshot& proto) {
   InterfaceSnapshot snapshot;
   snapshot.approach = proto.approach();
   snapshot.tangential_displacement = proto.tangential_displacement();
   snapshot.contacts.reserve(static_cast<std::size_t>(proto.contacts_size()));
-  for (const v1::ContactSnapshot& contact : proto.contacts()) {
-    snapshot.contacts.push_back(ToCoreSnapshot(contact));
+  for (int i = 0; i < proto.contacts_size(); ++i) {
+    Result<ContactSnapshot> contact = ToCoreSnapshot(proto.contacts(i));
+    if (!contact.ok()) {
+      return contact.status().WithFieldPrefix(Indexed("contacts", static_cast<std::size_t>(i)));
+    }
+    snapshot.contacts.push_back(std::move(contact).value());
   }
   return snapshot;
 }
@@ -202,10 +207,9 @@ Status ApplyListStep(Interface& interface, const v1::Step& step, const Interrupt
   const Step core = ToCoreStep(step);
   const std::size_t n = interface.size();
   std::vector<double> normal_zeros, tangential_zeros;
-  Result<std::span<const double>> normal =
-      ListChannel(step.normal_case() != v1::Step::NORMAL_NOT_SET, core.normal_value,
-                  FieldName(core.normal), step.contact_normal_values(),
-                  "contact_normal_values", n, &normal_zeros);
+  Result<std::span<const double>> normal = ListChannel(
+      step.normal_case() != v1::Step::NORMAL_NOT_SET, core.normal_value, FieldName(core.normal),
+      step.contact_normal_values(), "contact_normal_values", n, &normal_zeros);
   if (!normal.ok()) return normal.status();
   Result<std::span<const double>> tangential =
       ListChannel(step.tangential_case() != v1::Step::TANGENTIAL_NOT_SET, core.tangential_value,
@@ -233,8 +237,7 @@ bool AnyContactOutput(const OutputSelection& selection) {
 // The totals a ContactState shows, each summed in index order like Interface::Totals (so the
 // values are the same bits), without the stiffnesses and slip states that Totals also computes
 // (several times the cost: this runs after every batch). Only the selected sums are taken.
-Interface::ForceSums SumStateFields(const Interface& interface,
-                                   const OutputSelection& selection) {
+Interface::ForceSums SumStateFields(const Interface& interface, const OutputSelection& selection) {
   return interface.SumForces(
       selection.has(Output::kNormalForce) || selection.has(Output::kFrictionLimit),
       selection.has(Output::kTangentialForce), selection.has(Output::kDissipatedEnergy));
@@ -336,8 +339,9 @@ Result<Interface> RestoreInterface(const v1::Scene& scene, const ContactConfig& 
                                    const v1::InterfaceSnapshot& snapshot) {
   Result<InterfaceConfig> config = ToInterfaceConfig(scene, base);
   if (!config.ok()) return config.status();
-  Result<Interface> interface =
-      Interface::Restore(std::move(config).value(), ToCoreInterfaceSnapshot(snapshot));
+  Result<InterfaceSnapshot> state = ToCoreInterfaceSnapshot(snapshot);
+  if (!state.ok()) return state.status().WithFieldPrefix("interface");
+  Result<Interface> interface = Interface::Restore(std::move(config).value(), *state);
   if (!interface.ok()) return interface.status().WithFieldPrefix("interface");
   UseAsSession(*interface);
   return interface;

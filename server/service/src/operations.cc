@@ -311,8 +311,9 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
                                  std::to_string(config->max_memory_vertices) +
                                  " (scene.options.max_memory_vertices)");
   }
-  Result<Contact> contact =
-      Contact::Restore(std::move(config).value(), ToCoreSnapshot(snapshot.contact()));
+  Result<ContactSnapshot> contact_state = ToCoreSnapshot(snapshot.contact());
+  if (!contact_state.ok()) return contact_state.status().WithFieldPrefix("snapshot.contact");
+  Result<Contact> contact = Contact::Restore(std::move(config).value(), *contact_state);
   if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
   std::optional<Interface> interface;
   if (snapshot.scene().has_interface()) {
@@ -328,10 +329,10 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
     interface.emplace(std::move(restored).value());
   }
   state->emplace(SessionOrigin{.scene = snapshot.scene(),
-                              .limits = *limits,
-                              .contact = std::move(contact).value(),
-                              .applied_steps = snapshot.applied_steps(),
-                              .interface = std::move(interface)});
+                               .limits = *limits,
+                               .contact = std::move(contact).value(),
+                               .applied_steps = snapshot.applied_steps(),
+                               .interface = std::move(interface)});
   return OkStatus();
 }
 

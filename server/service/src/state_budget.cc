@@ -9,22 +9,28 @@
 namespace mdr::service {
 namespace {
 
-constexpr std::size_t kBytesPerSpring = 2 * sizeof(double);
-constexpr std::size_t kBytesPerVertex = 2 * sizeof(double) + 1;
-// Encoded: a packed double per spring; a MemoryVertex message (two doubles, an enum, its tag and
-// length) per vertex; the rest of the snapshot (name, limits, depth, forces, ...) below 1 KiB.
-constexpr std::size_t kExportBytesPerSpring = sizeof(double);
-constexpr std::size_t kExportBytesPerVertex = 24;
+constexpr std::size_t kBytesPerSpring = GridMemory::kBytesPerSpring;
+constexpr std::size_t kBytesPerVertex = PiecewiseLinearMemory::kBytesPerVertex;
+// Encoded: a packed double and an anchor byte per spring, two packed doubles per anchored
+// spring; a MemoryVertex message (two doubles, an enum, its tag and
+// length: 24) with its segment's MemoryAnchor (an enum, two doubles, tag and length: 22) per
+// vertex; the rest of the snapshot (name, limits, depth, forces, ...) below 1 KiB.
+constexpr std::size_t kExportBytesPerSpring = sizeof(double) + 1;
+constexpr std::size_t kExportBytesPerAnchoredSpring = 2 * sizeof(double);
+constexpr std::size_t kExportBytesPerVertex = 24 + 22;
 constexpr std::size_t kExportAllowance = 1024;
 // An interface's ContactSnapshot: four doubles with their tags, its own tag and length.
 constexpr std::size_t kExportBytesPerContact = 48;
 
 // What one MoveTo of an exact contact with n vertices can allocate, per (n + 2): the memory step
-// (memory.cc) extends the polyline by at most two vertices (z, u, tag: 17 bytes, growing by
-// doubling: 34) and builds the refined polyline in four scratch vectors reserved for 3 (n + 2)
-// (z, u, tag, previous tag: 18 bytes each, 54); on the interface's step buffer the copy of the
-// contact first allocates its n vertices (17). Buffers that are only swapped allocate nothing.
-constexpr std::size_t kMoveAllocationBytesPerVertex = 34 + 54 + 17;
+// (memory.cc) extends the polyline by at most two vertices (kBytesPerVertex each, growing by
+// doubling: twice that) and builds the refined polyline in scratch vectors reserved for 3 (n + 2)
+// (z, u, crossing, tag, segment index, bound, anchor); on the interface's step buffer the copy
+// of the contact first allocates its n vertices. Buffers that are only swapped allocate nothing.
+constexpr std::size_t kRefinedVertexBytes =
+    2 * sizeof(double) + 3 * sizeof(std::uint8_t) + sizeof(std::uint32_t) + sizeof(SegmentAnchor);
+constexpr std::size_t kMoveAllocationBytesPerVertex =
+    2 * kBytesPerVertex + 3 * kRefinedVertexBytes + kBytesPerVertex;
 
 std::size_t InterfaceExportBytes(std::size_t contacts, std::size_t vertices,
                                  std::size_t scene_bytes) {
@@ -35,6 +41,11 @@ std::size_t InterfaceExportBytes(std::size_t contacts, std::size_t vertices,
 std::size_t Springs(const Contact& contact) {
   const GridMemory* grid = contact.grid_memory();
   return grid == nullptr ? 0 : grid->size();
+}
+
+std::size_t AnchoredSprings(const Contact& contact) {
+  const GridMemory* grid = contact.grid_memory();
+  return grid == nullptr ? 0 : grid->AnchoredSprings();
 }
 
 }  // namespace
@@ -49,6 +60,7 @@ std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact) {
 
 std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
   return scene_bytes + kExportAllowance + Springs(contact) * kExportBytesPerSpring +
+         AnchoredSprings(contact) * kExportBytesPerAnchoredSpring +
          contact.memory().vertex_count() * kExportBytesPerVertex;
 }
 

@@ -1,6 +1,7 @@
 // The validation rules for scalar inputs, in one place for the core, the service and the CLI.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "mdr/base/status.h"
@@ -9,6 +10,9 @@ namespace mdr {
 
 // A number as error messages show it (10 significant digits).
 std::string FormatNumber(double value);
+
+// "name[i]", the field of one element of a list.
+std::string Indexed(const std::string& name, std::size_t i);
 
 // Finite and strictly positive (moduli, radii, tolerances).
 Status RequirePositive(const std::string& field, double value);

@@ -8,12 +8,12 @@
 #include <variant>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/grid_memory.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/material.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 
@@ -101,7 +101,12 @@ struct ContactSnapshot {
   double last_step_dissipation = 0;
   std::vector<double> z, u;        // memory polyline in z = g(x)
   std::vector<std::uint8_t> tags;  // BoundTag of each vertex
-  std::vector<double> grid_u;      // grid method: u_j of every spring (z, u, tags stay empty)
+  // The anchor of the segment each vertex starts (memory.h); empty in snapshots written before
+  // anchors existed, which Restore completes.
+  std::vector<SegmentAnchor> anchors;
+  std::vector<double> grid_u;  // grid method: u_j of every spring (z, u, tags stay empty)
+  // Grid method: the anchor of every spring, or none (older snapshots; Restore completes them).
+  std::vector<SegmentAnchor> grid_anchors;
 };
 
 class Contact {

@@ -1,6 +1,6 @@
 // The classical MDR tangential memory: one spring per cell of a uniform grid in x
-// (docs/physics.md, "MDR"), kept next to the exact PiecewiseLinearMemory for comparison and for users
-// who want the textbook method.
+// (docs/physics.md, "MDR"), kept next to the exact PiecewiseLinearMemory for comparison and for
+// users who want the textbook method.
 //
 // Springs sit at the cell midpoints x_j = (j + 1/2) h, h = max_radius / size, with z_j = g(x_j)
 // fixed at creation; the contact may not grow beyond max_radius (Contact reports an error
@@ -11,11 +11,12 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 
@@ -29,14 +30,23 @@ enum class GridStepRule {
   kNaive,
 };
 
+// Slip state as in the exact memory (memory.h, "Slip state"): each spring carries its tag and
+// the anchor of the bound it last lay on; a spring anchored on a bound stays on it while
+// AnchorExcess >= 0, an entering one (exact rule) is on a bound iff the step's
+// sigma dux - mu_kappa (depth1 - depth0) >= 0, and any other goes onto a bound when its end value
+// reaches it.
 class GridMemory {
  public:
+  // Bytes of state per spring: z, u, tag and anchor.
+  static constexpr std::size_t kBytesPerSpring =
+      2 * sizeof(double) + sizeof(std::uint8_t) + sizeof(SegmentAnchor);
+
   GridMemory(const Profile& profile, std::size_t size, double max_radius, GridStepRule rule);
 
-  // Same contract as PiecewiseLinearMemory::Step: applies a step linear in (delta, ux) to
-  // depth1 with increment dux and returns the dissipated energy per G* (J/Pa), summed spring by
-  // spring with the exact per-spring formulas, if track_energy (else 0).
-  double ApplyLinearStep(double depth1, double dux, double mu_kappa, bool track_energy);
+  // Same contract as PiecewiseLinearMemory::ApplyLinearStep: applies a step linear in
+  // (delta, ux) and returns the dissipated energy per G* (J/Pa), summed spring by spring with
+  // the exact per-spring formulas, if track_energy (else 0).
+  double ApplyLinearStep(const LinearMove& move, double mu_kappa, bool track_energy);
 
   double depth() const { return depth_; }
   bool in_contact() const { return depth_ > 0; }
@@ -46,6 +56,9 @@ class GridMemory {
   GridStepRule rule() const { return rule_; }
   const Eigen::ArrayXd& z() const { return z_; }
   const Eigen::ArrayXd& u() const { return u_; }
+  const std::vector<SegmentAnchor>& anchors() const { return anchor_; }
+  // Springs with an anchor (what a snapshot carries values for).
+  std::size_t AnchoredSprings() const;
 
   // h sum_j u_j, the midpoint rule for integral_0^a u dx (F_x = 2 G* times this).
   double IntegralU() const { return spacing_ * u_.sum(); }
@@ -57,9 +70,9 @@ class GridMemory {
   double IncrementForIntegralU(double depth1, double mu_kappa, double target) const;
   // Radius measure h * count of the springs in contact, and of those on the given bound.
   double MeasureInContact() const;
-  double MeasureOnBound(double mu_kappa, BoundTag bound) const;
+  double MeasureOnBound(BoundTag bound) const;
   // Which bound spring j is on (kInside also out of contact); kOnBoth where the bound is 0.
-  BoundTag Tag(std::size_t j, double mu_kappa) const;
+  BoundTag Tag(std::size_t j) const { return static_cast<BoundTag>(tag_[j]); }
   // As PiecewiseLinearMemory::GrossSlipIncrement, for this rule.
   double GrossSlipIncrement(double depth1, double mu_kappa, int direction) const;
   // u of the spring whose cell holds radius x (0 outside the contact).
@@ -68,12 +81,17 @@ class GridMemory {
   double MaxDifference(const GridMemory& other) const;
 
   // Rebuilds the state from spring values (session import): u has one value per spring, finite,
-  // 0 out of contact and within mu_kappa (depth - z_j).
-  Status Restore(double depth, const std::vector<double>& u, double mu_kappa);
+  // 0 out of contact and within mu_kappa (depth - z_j); anchors one per spring (CheckAnchor, field
+  // "grid_anchors[j]"), or none for snapshots written before anchors existed: then a spring at
+  // its bound (u_j = +-CoulombBound exactly, what the clamp leaves) is anchored at the current
+  // state.
+  Status Restore(double depth, const std::vector<double>& u, double mu_kappa,
+                 const std::vector<SegmentAnchor>& anchors, double tangential_displacement);
 
   bool operator==(const GridMemory& other) const {
     return depth_ == other.depth_ && spacing_ == other.spacing_ && rule_ == other.rule_ &&
-           z_.size() == other.z_.size() && (u_ == other.u_).all();
+           z_.size() == other.z_.size() && (u_ == other.u_).all() && tag_ == other.tag_ &&
+           anchor_ == other.anchor_;
   }
 
  private:
@@ -81,6 +99,8 @@ class GridMemory {
   GridStepRule rule_;
   double depth_ = 0;
   Eigen::ArrayXd z_, u_;
+  std::vector<std::uint8_t> tag_;
+  std::vector<SegmentAnchor> anchor_;
 };
 
 }  // namespace mdr

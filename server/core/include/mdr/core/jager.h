@@ -14,10 +14,10 @@
 
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 
@@ -96,6 +96,8 @@ Result<std::vector<CattaneoMindlinTerm>> DecomposeMemory(const Contact& contact)
 // the sum respects the Coulomb bound |u| <= mu_kappa (depth - z) and |du/dz| <= mu_kappa, to
 // 8 eps mu_kappa depth (the engine's own round-off at bound crossings). Vertices within that
 // distance of a bound are tagged as on it. depth <= 0 needs an empty list (out of contact).
+// The memory has no loading history: it stands at its own tangential displacement 0, where its
+// segments on a bound are anchored (memory.h, SegmentAnchor).
 Result<PiecewiseLinearMemory> MemoryFromTerms(const std::vector<CattaneoMindlinTerm>& terms,
                                               double depth, double mu_kappa);
 

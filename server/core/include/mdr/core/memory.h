@@ -10,10 +10,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
-#include "mdr/core/profile.h"
 #include "mdr/base/status.h"
+#include "mdr/core/profile.h"
 
 namespace mdr {
 
@@ -28,6 +29,44 @@ inline double CoulombBound(double mu_kappa, double depth, double z) {
   return mu_kappa * (depth - z);
 }
 
+// The Coulomb bound a memory segment last lay on, and the contact's depth and tangential
+// displacement at that moment (docs/engine.md, "Slip state, decided structurally"). A segment
+// that sticks moves rigidly with ux and its bound moves with the depth, so its excess over that
+// bound is AnchorExcess, computed from the anchor and the contact's state alone: exactly 0 when
+// the contact is back at the anchor, whatever the rounding of the spring values in between.
+// Segments on a bound are anchored at the current state.
+struct SegmentAnchor {
+  // kInside: not on a bound since the segment entered contact. (kOnBoth marks, during a step
+  // only, the segment entering contact: its outer end was on both bounds at the old edge.)
+  BoundTag bound = kInside;
+  double tangential_displacement = 0;  // m
+  double depth = 0;                    // m
+  bool operator==(const SegmentAnchor&) const = default;
+};
+
+// sigma (ux - ux_a) - mu_kappa (depth - depth_a) for the anchor's bound sigma = +-1: > 0 beyond
+// the bound, 0 on it, < 0 inside it. The one expression the step and the restore check use.
+inline double AnchorExcess(const SegmentAnchor& anchor, double mu_kappa, double depth, double ux) {
+  const double sigma = anchor.bound == kOnUpper ? 1.0 : -1.0;
+  return sigma * (ux - anchor.tangential_displacement) - mu_kappa * (depth - anchor.depth);
+}
+
+// What the step leaves in an anchor, checked when a snapshot is restored (error naming field):
+// finite; springs on a bound (on = kOnUpper or kOnLower) anchored on it at the current depth and
+// tangential displacement; springs that stick (on = kInside) unanchored or strictly inside the
+// bound of their anchor (AnchorExcess < 0); none where the bound is 0 (on = kOnBoth).
+Status CheckAnchor(const SegmentAnchor& anchor, BoundTag on, double mu_kappa, double depth,
+                   double tangential_displacement, const std::string& field);
+
+// One step linear in (delta, ux) as the memory takes it: the springs move by dux (given, not
+// derived from ux1 - ux0, so that an increment survives a large |ux| exactly); ux0 and ux1 are
+// the contact's tangential displacement before and after, which the anchors refer to.
+struct LinearMove {
+  double depth1;
+  double dux;
+  double ux0, ux1;
+};
+
 // One memory piece, u = intercept + slope * g(x) for x in [x_begin, x_end] (docs/physics.md:
 // u = A_k + B_k g(x)); bound is the tag shared by both ends (kInside: sticking piece).
 struct MemoryPiece {
@@ -37,12 +76,23 @@ struct MemoryPiece {
   BoundTag bound;
 };
 
+// Slip state (docs/engine.md, "Slip state, decided structurally"): every segment of the polyline
+// is on the upper bound, on the lower one or sticking, and the vertex tags say which (a segment is
+// on a bound iff both its ends are tagged with it). The step decides this per segment from what
+// the update rule does to it, never by comparing a rounded spring value with its bound: a
+// segment anchored on a bound stays on it while AnchorExcess >= 0; any other segment goes onto a
+// bound when the clamp moves it there (the excess positive inside it, or zero at both ends).
 class PiecewiseLinearMemory {
  public:
-  // Applies one step linear in (delta, ux) from the current depth to depth1 with tangential
-  // increment dux, exactly. mu_kappa = mu * kappa >= 0. If profile is non-null, returns the
-  // energy dissipated along the step divided by G* (J / Pa); otherwise returns 0.
-  double ApplyLinearStep(double depth1, double dux, double mu_kappa, const Profile* profile);
+  // Bytes of state per vertex (z, u, tag and the anchor of the segment it starts), for the
+  // memory accounting of sessions and interfaces.
+  static constexpr std::size_t kBytesPerVertex =
+      2 * sizeof(double) + sizeof(std::uint8_t) + sizeof(SegmentAnchor);
+
+  // Applies one step linear in (delta, ux) from the current depth to move.depth1, exactly.
+  // mu_kappa = mu * kappa >= 0. If profile is non-null, returns the energy dissipated along the
+  // step divided by G* (J / Pa); otherwise returns 0.
+  double ApplyLinearStep(const LinearMove& move, double mu_kappa, const Profile* profile);
 
   double depth() const { return depth_; }
   bool in_contact() const { return depth_ > 0; }
@@ -50,7 +100,8 @@ class PiecewiseLinearMemory {
   const std::vector<double>& z() const { return z_; }
   const std::vector<double>& u() const { return u_; }
   const std::vector<std::uint8_t>& tags() const { return tag_; }
-
+  // anchors()[i] belongs to the segment from vertex i to i + 1; the last one is always empty.
+  const std::vector<SegmentAnchor>& anchors() const { return anchor_; }
   // u at depth coordinate z (0 outside [0, depth]).
   double UAtDepth(double z) const;
   // integral_0^a u(x) dx; F_x = 2 G* times this.
@@ -75,22 +126,34 @@ class PiecewiseLinearMemory {
 
   // Rebuilds a memory from its exact state (session export/import), validating the polyline:
   // no vertices when depth <= 0; otherwise z_0 = 0 < z_1 < ... < z_N = depth, u_N = 0, tags <= 3,
-  // all finite. The Coulomb bound is checked by CheckCoulomb, which needs mu*kappa.
+  // all finite. anchors: one per vertex, or none (snapshots written before anchors existed); a
+  // segment on a bound whose anchor is missing is anchored at the current state (depth,
+  // tangential_displacement). The Coulomb bound and the anchors are checked by CheckCoulomb and
+  // CheckAnchors, which need mu*kappa.
   static Result<PiecewiseLinearMemory> Restore(double depth, std::vector<double> z,
                                                std::vector<double> u,
-                                               std::vector<std::uint8_t> tags);
+                                               std::vector<std::uint8_t> tags,
+                                               std::vector<SegmentAnchor> anchors = {},
+                                               double tangential_displacement = 0);
   // What every state Step produces satisfies, checked when a snapshot is restored (field
   // "memory[i]"): |u_i| <= CoulombBound(mu_kappa, depth, z_i) exactly; kOnBoth only where that
   // bound is 0; a vertex tagged on the upper (lower) bound within BoundTagTolerance of it.
   Status CheckCoulomb(double mu_kappa) const;
+  // The anchors as the step leaves them (field "memory[i].anchor"): finite; the last vertex's
+  // empty; a segment on a bound anchored on it at the current state (depth,
+  // tangential_displacement); a sticking segment either unanchored or strictly inside the bound
+  // of its anchor (AnchorExcess < 0), so that a restored memory takes the next step exactly as
+  // the original.
+  Status CheckAnchors(double mu_kappa, double tangential_displacement) const;
   // How far below the bound line a vertex tagged on it may lie: a crossing vertex takes u from
   // the segment it was placed on at a z rounded to a few ulps of depth, so it sits up to
   // ~(mu_kappa + |du/dz|) * c * eps * depth inside the bound (memory.cc, PlaceCrossing).
   double BoundTagTolerance(std::size_t i, double mu_kappa) const;
 
-  // Same state (depth and polyline), bit for bit.
+  // Same state (depth, polyline and anchors), bit for bit.
   bool operator==(const PiecewiseLinearMemory& other) const {
-    return depth_ == other.depth_ && z_ == other.z_ && u_ == other.u_ && tag_ == other.tag_;
+    return depth_ == other.depth_ && z_ == other.z_ && u_ == other.u_ && tag_ == other.tag_ &&
+           anchor_ == other.anchor_;
   }
 
  private:
@@ -99,14 +162,17 @@ class PiecewiseLinearMemory {
   // Clamps v into the bounds +-mu_kappa*(depth1 - z), inserting the crossing vertices; returns
   // the energy dissipated by springs that stay in or enter contact (per G*) if profile != null.
   // Three phases on the refined polyline in next_:
-  double ClampToBounds(double depth0, double dux, double mu_kappa, const Profile* profile);
-  // 1. v with a vertex inserted wherever it crosses a bound line (tagged with that bound);
+  double ClampToBounds(double depth0, double dux, double mu_kappa, double ux1,
+                       const Profile* profile);
+  // 1. v with a vertex inserted wherever it crosses a bound line (marked with that bound);
   void InsertCrossings(double mu_kappa);
   // 2. the energy (per G*) that the clamp of phase 3 dissipates, spring by spring, exactly;
   double SlidingDissipation(double depth0, double dux, double mu_kappa,
                             const Profile& profile) const;
-  // 3. every vertex clamped to the bounds and tagged; the refined polyline becomes the state.
-  void ClampRefinedVertices(double mu_kappa);
+  // 3. each refined segment classified (on a bound or sticking) and anchored, the vertices
+  // tagged and clamped accordingly; the refined polyline becomes the state.
+  void ClassifySegments(double depth0, double dux, double mu_kappa, double ux1);
+  void TagAndClampVertices(double mu_kappa, double ux1);
   void MergeRedundantVertices();
   // Energy dissipated (per G*) by springs in (max(depth1, 0), depth0] that leave contact.
   double LeavingDissipation(double depth1, double dux, double mu_kappa,
@@ -115,6 +181,7 @@ class PiecewiseLinearMemory {
   double depth_ = 0;  // may be negative (indenter lifted): then there are no vertices
   std::vector<double> z_, u_;
   std::vector<std::uint8_t> tag_;
+  std::vector<SegmentAnchor> anchor_;
   // Buffers reused across steps so the hot path does not allocate; not part of the state, so
   // copies start with empty ones.
   struct Scratch {
@@ -122,8 +189,11 @@ class PiecewiseLinearMemory {
     Scratch(const Scratch&) {}
     Scratch& operator=(const Scratch&) { return *this; }
     std::vector<double> z, u;
-    std::vector<std::uint8_t> tag;
-    std::vector<std::uint8_t> was;  // each refined vertex's tag before the step (crossings: 0)
+    std::vector<std::uint8_t> crossing;  // the bound a refined vertex crosses (0: not a crossing)
+    std::vector<std::uint8_t> tag;       // each refined vertex's tag after the clamp
+    std::vector<std::uint32_t> segment;  // the old segment each refined segment lies in
+    std::vector<std::uint8_t> bound;     // each refined segment's bound after the step
+    std::vector<SegmentAnchor> anchor;   // each refined segment's anchor after the step
   };
   Scratch next_;
 };

@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/jager.h"
-#include "mdr/core/sampled_weight.h"
 #include "mdr/core/memory.h"
-#include "mdr/base/status.h"
+#include "mdr/core/sampled_weight.h"
 #include "mdr/core/traction.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"
@@ -47,8 +47,10 @@ v1::Scene WithEffectiveOptions(const v1::Scene& scene, const ContactConfig& conf
 // A proto step; an unset channel holds (increment 0). Values are checked by Contact::Apply.
 Step ToCoreStep(const v1::Step& step);
 
-// The exact contact state, both ways. Out-of-range bounds map to a tag the core rejects.
-ContactSnapshot ToCoreSnapshot(const v1::ContactSnapshot& snapshot);
+// The exact contact state, both ways. Out-of-range bounds map to a tag the core rejects; packed
+// grid anchors whose values do not line up with their bytes are refused (InvalidArgument naming
+// grid_anchor_displacements or grid_anchor_depths, relative to the ContactSnapshot).
+Result<ContactSnapshot> ToCoreSnapshot(const v1::ContactSnapshot& snapshot);
 // What a SessionSnapshot carries beyond the contact, which Contact::Restore checks (its
 // dissipated_energy included): snapshot.contact.last_step_dissipated_energy finite and >= 0, and
 // snapshot.applied_steps <= max_applied_steps so that the step counter cannot wrap later.
