@@ -15,6 +15,7 @@
 #include <optional>
 #include <vector>
 
+#include "fixtures/slip_state_check.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
 
@@ -111,6 +112,7 @@ void FuzzContact(ByteReader& in) {
   const double depth_scale = in.InRange(1e-9, 1e-3);
   mdr::Contact twin = contact;  // restored from the last snapshot
   bool have_twin = false;
+  std::vector<double> visited = {0.0};  // displacements, for exact returns to turning points
 
   for (int i = 0; i < 64 && !in.empty(); ++i) {
     mdr::Step step;
@@ -124,7 +126,12 @@ void FuzzContact(ByteReader& in) {
     step.tangential_value = step.tangential == mdr::TangentialControl::kForce
                                 ? in.Signed(contact.friction_limit() + 1e-300)
                                 : in.Signed(slip);
+    if (kind >= 216) {  // back to a visited displacement or its mirror image, exactly
+      step.tangential = mdr::TangentialControl::kDisplacement;
+      step.tangential_value = (kind & 1 ? -1 : 1) * visited[in.Byte() % visited.size()];
+    }
     const mdr::ContactSnapshot before = contact.Snapshot();
+    const mdr::Contact previous = contact;
     mdr::StepReport report;
     const mdr::Status status = contact.Apply(step, &report);
     const mdr::ContactSnapshot after = contact.Snapshot();
@@ -160,6 +167,11 @@ void FuzzContact(ByteReader& in) {
     check(report.dissipated >= -1e-9 * (contact.friction_limit() * slip + 1e-300),
           "dissipation >= 0");
     check(std::isfinite(report.path_error) && report.path_error >= 0, "path error is finite");
+    visited.push_back(contact.tangential_displacement());
+    const std::string slip_state =
+        mdr::testing::SlipStateViolation(previous, contact, report.substeps == 1);
+    if (!slip_state.empty()) std::fprintf(stderr, "%s\n", slip_state.c_str());
+    check(slip_state.empty(), "slip state, weights and stiffness agree with the memory");
     // Every state the engine reaches restores (ImportSession, the journal) and continues bit
     // for bit: the restored copy takes the next step too and must land on the same snapshot.
     mdr::Result<mdr::Contact> restored = mdr::Contact::Restore(config, after);
@@ -401,6 +413,7 @@ void FuzzInterface(ByteReader& in) {
       return shared ? target.Apply(step, report) : target.ApplyEach(list_step);
     };
     const mdr::InterfaceSnapshot before = interface.Snapshot();
+    const mdr::Interface previous = interface;
     mdr::InterfaceStepReport report;
     const mdr::Status status = apply(interface, &report);
     const mdr::InterfaceSnapshot after = interface.Snapshot();
@@ -415,6 +428,16 @@ void FuzzInterface(ByteReader& in) {
       continue;
     }
     CheckInterfaceState(interface, 1 + in.Byte() % 16, shared ? &step : nullptr, report);
+    // A shared motion moves each contact by one linear step; a contact list may take a curved
+    // force path per contact when it sets a force target.
+    const bool straight = shared || (list_step.normal != mdr::NormalControl::kForce &&
+                                     list_step.tangential != mdr::TangentialControl::kForce);
+    for (std::size_t k = 0; k < interface.size(); ++k) {
+      const std::string slip_state =
+          mdr::testing::SlipStateViolation(previous.contact(k), interface.contact(k), straight);
+      if (!slip_state.empty()) std::fprintf(stderr, "contact %zu: %s\n", k, slip_state.c_str());
+      Check(slip_state.empty(), "interface: each contact's slip state agrees with its memory");
+    }
     // Every accepted state restores (ImportSession, the journal) and continues bit for bit.
     mdr::Result<mdr::Interface> restored = mdr::Interface::Restore(config, after);
     if (!restored.ok()) std::fprintf(stderr, "%s\n", restored.status().ToString().c_str());

@@ -28,8 +28,10 @@
 #include <string>
 #include <vector>
 
+#include "fixtures/slip_state_check.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
+#include "mdr/service/conversion.h"
 #include "mdr/service/grpc_status.h"
 #include "mdr/service/operations.h"
 
@@ -271,6 +273,38 @@ void CheckError(const grpc::Status& status) {
         status);
 }
 
+// The contact of a single-contact session as the core holds it, rebuilt from its export.
+std::optional<mdr::Contact> CoreContact(const mdr::v1::SessionSnapshot& snapshot) {
+  if (snapshot.scene().has_interface()) return std::nullopt;
+  mdr::Result<mdr::ContactConfig> config = mdr::service::ToContactConfig(
+      snapshot.scene(), snapshot.scene().options().max_memory_vertices(), {});
+  Check(config.ok(), "an exported scene converts");
+  mdr::Result<mdr::ContactSnapshot> state = mdr::service::ToCoreSnapshot(snapshot.contact());
+  Check(state.ok(), "an exported state converts");
+  mdr::Result<mdr::Contact> contact = mdr::Contact::Restore(std::move(config).value(), *state);
+  Check(contact.ok(), "an exported state restores");
+  return std::move(contact).value();
+}
+
+// One step straight in (delta, ux): no force target, no per-contact values.
+bool OneStraightStep(const mdr::v1::ApplyRequest& request) {
+  if (request.steps_size() != 1) return false;
+  const mdr::v1::Step& step = request.steps(0);
+  return step.normal_case() != mdr::v1::Step::kNormalForce &&
+         step.tangential_case() != mdr::v1::Step::kTangentialForce;
+}
+
+// The slip state, weights and stiffness of a single contact after an accepted Apply agree with
+// its memory and with what the batch did (tests/fixtures/slip_state_check.h).
+void CheckSlipState(const mdr::v1::SessionSnapshot& before, const mdr::v1::SessionSnapshot& after,
+                    const mdr::v1::ApplyRequest& request) {
+  const std::optional<mdr::Contact> was = CoreContact(before), is = CoreContact(after);
+  if (!was || !is) return;
+  const std::string problem = mdr::testing::SlipStateViolation(*was, *is, OneStraightStep(request));
+  if (!problem.empty()) std::fprintf(stderr, "%s\n", problem.c_str());
+  Check(problem.empty(), "slip state, weights and stiffness agree with the memory");
+}
+
 void CheckState(const mdr::v1::ContactState& state) {
   Check(std::isfinite(state.normal_force()) && std::isfinite(state.tangential_force()) &&
             std::isfinite(state.friction_limit()),
@@ -330,7 +364,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;
   }
 
-  const std::string before = Exported(operations, session);
+  const mdr::v1::SessionSnapshot before_state = Export(operations, session);
+  const std::string before = before_state.SerializeAsString();
   if (kind == 1) {
     mdr::v1::ApplyRequest request;
     if (!request.ParseFromArray(message, message_size)) return 0;
@@ -341,6 +376,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (status.ok()) {
       changed[target] = true;
       CheckState(response.state());
+      CheckSlipState(before_state, Export(operations, session), request);
       CheckRoundTrips(service, session, &request);
       return 0;
     }

@@ -74,13 +74,6 @@ void RemoveJournal(const std::filesystem::path& journal) {
 
 class InterfaceSessionTest : public ServiceTest {
  protected:
-  std::string CreateScene(const v1::Scene& scene) {
-    v1::Session session;
-    grpc::Status status = Create(scene, &session);
-    EXPECT_TRUE(status.ok()) << status.error_message();
-    return session.name();
-  }
-
   void ApplyOrDie(const std::string& session, const std::vector<v1::Step>& steps) {
     v1::ApplyResponse response;
     grpc::Status status = Apply(session, steps, &response);

@@ -168,6 +168,14 @@ class ServiceTest : public ::testing::Test {
     return stub_->CreateSession(Context().get(), request, session);
   }
 
+  // A session of `scene`; its name, or "" after a failed expectation.
+  std::string CreateScene(const v1::Scene& scene) {
+    v1::Session session;
+    grpc::Status status = Create(scene, &session);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return session.name();
+  }
+
   std::string CreateOrDie(const std::string& session_id = "") {
     v1::Session session;
     grpc::Status status = Create(SteelSphereOnSteelFlat(), &session, session_id);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "mdr/base/validate.h"
@@ -182,9 +183,8 @@ TangentialStiffness Contact::tangential_stiffness() const {
     const double a = grid->MeasureInContact();
     return {k * (a - grid->MeasureOnBound(kOnUpper)), k * (a - grid->MeasureOnBound(kOnLower))};
   }
-  const double a = contact_radius();
-  return {k * (a - memory().MeasureOnBound(*config_.profile, kOnUpper)),
-          k * (a - memory().MeasureOnBound(*config_.profile, kOnLower))};
+  return {k * memory().MeasureSticking(*config_.profile, kOnUpper),
+          k * memory().MeasureSticking(*config_.profile, kOnLower)};
 }
 
 namespace {
@@ -309,16 +309,17 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
       tangential_force ? !depth_changes
                        : (step.normal != NormalControl::kForce || !depth_changes || ux1 == ux_);
   if (straight) {
-    double dux = ux1 - ux_;
+    double dux = ux1 - ux_, ux_end = ux1;
     if (tangential_force) {
       Result<double> solved = SolveTangentialIncrement(depth1, step.tangential_value);
       if (!solved.ok()) return solved.status();
       dux = *solved;
+      ux_end = LandOnTurningPoint(depth1, ux_ + dux);
     }
     // One exact step in place, undone if its result fails the checks.
     undo_.memory = memory_;
     const double ux0 = ux_, dissipated0 = dissipated_;
-    local = {1, 0, LinearStep(depth1, tangential_force ? ux_ + dux : ux1, dux)};
+    local = {1, 0, LinearStep(depth1, ux_end, dux)};
     if (Status s = CheckStepResult(tangential_field); !s.ok()) {
       std::swap(memory_, undo_.memory);
       ux_ = ux0;
@@ -334,6 +335,16 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
   last_dissipated_ = local.dissipated;
   if (report) *report = local;
   return OkStatus();
+}
+
+double Contact::LandOnTurningPoint(double depth1, double ux1) const {
+  // The force solve finds the increment to about 1e-15 of mu kappa delta (monotone_solve.h), and
+  // ux = ux0 + dux rounds to eps |ux|: a turning point that close is the intended return.
+  constexpr double kResolution = 16 * std::numeric_limits<double>::epsilon();
+  const double tolerance = kResolution * (mu_kappa() * depth1 + std::abs(ux1));
+  const GridMemory* grid = grid_memory();
+  return NearestReturn(grid ? grid->anchors() : memory().anchors(), depth1, ux1, tolerance)
+      .value_or(ux1);
 }
 
 Status Contact::CheckStepResult(const char* tangential_field) const {

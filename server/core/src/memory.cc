@@ -450,17 +450,33 @@ double PiecewiseLinearMemory::IntegralU(const Profile& profile) const {
   return total;
 }
 
-double PiecewiseLinearMemory::MeasureOnBound(const Profile& profile, BoundTag bound) const {
+double PiecewiseLinearMemory::MeasureSticking(const Profile& profile, BoundTag bound) const {
   if (z_.empty()) return 0;
-  double measure = (tag_[0] & bound) ? profile.RadiusAtDepth(0) : 0;
-  for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
-    if (!(tag_[i] & tag_[i + 1] & bound)) continue;
-    // The difference xb - xa loses xb/(xb - xa) to cancellation on a thin annulus, where J_0 is
-    // used instead; elsewhere it is exact to an ulp, so a contact that slips everywhere has
-    // measure a exactly (zero stiffness).
-    const double xa = profile.RadiusAtDepth(z_[i]), xb = profile.RadiusAtDepth(z_[i + 1]);
-    measure +=
-        xa <= 0.5 * xb ? xb - xa : profile.IntegratePiece(z_[i], z_[i + 1], xa, xb, false).j0;
+  const std::size_t n = z_.size();
+  double measure = (tag_[0] & bound) ? 0 : profile.RadiusAtDepth(0);  // a flat punch's atom
+  // Runs of segments off the bound, each measured as one difference of radii (the stick disc
+  // [0, c] is then c exactly, with no cancellation however small c is), or piece by piece by J_0
+  // where a run is a thin annulus and the difference would cancel.
+  std::size_t i = 0;
+  while (i + 1 < n) {
+    if (tag_[i] & tag_[i + 1] & bound) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j + 1 < n && !(tag_[j] & tag_[j + 1] & bound)) ++j;
+    const double xa = profile.RadiusAtDepth(z_[i]), xb = profile.RadiusAtDepth(z_[j]);
+    if (xa <= 0.5 * xb) {
+      measure += xb - xa;
+    } else {
+      for (std::size_t k = i; k < j; ++k) {
+        measure += profile
+                       .IntegratePiece(z_[k], z_[k + 1], profile.RadiusAtDepth(z_[k]),
+                                       profile.RadiusAtDepth(z_[k + 1]), false)
+                       .j0;
+      }
+    }
+    i = j;
   }
   return measure;
 }
@@ -635,6 +651,19 @@ Status PiecewiseLinearMemory::CheckAnchors(double mu_kappa, double tangential_di
     }
   }
   return OkStatus();
+}
+
+std::optional<double> NearestReturn(const std::vector<SegmentAnchor>& anchors, double depth,
+                                    double ux, double tolerance) {
+  std::optional<double> nearest;
+  for (const SegmentAnchor& anchor : anchors) {
+    if (anchor.bound == kInside || anchor.depth != depth) continue;
+    const double distance = std::abs(anchor.tangential_displacement - ux);
+    if (distance <= tolerance && (!nearest || distance < std::abs(*nearest - ux))) {
+      nearest = anchor.tangential_displacement;
+    }
+  }
+  return nearest;
 }
 
 }  // namespace mdr

@@ -174,6 +174,9 @@ class Contact {
   Result<double> SolveTangentialIncrement(double depth1, double fx) const;
   Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
                          const Interrupt& interrupt);
+  // ux1, or the turning point within the force solve's resolution of it where a segment (or a
+  // grid spring) anchored at depth1 returns to its bound (memory.h, NearestReturn).
+  double LandOnTurningPoint(double depth1, double ux1) const;
   // What a step's result must satisfy to be kept: a finite dissipated energy and at most
   // max_memory_vertices vertices (errors name tangential_field or max_memory_vertices).
   Status CheckStepResult(const char* tangential_field) const;

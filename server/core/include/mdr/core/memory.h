@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,13 @@ inline double AnchorExcess(const SegmentAnchor& anchor, double mu_kappa, double 
 // bound of their anchor (AnchorExcess < 0); none where the bound is 0 (on = kOnBoth).
 Status CheckAnchor(const SegmentAnchor& anchor, BoundTag on, double mu_kappa, double depth,
                    double tangential_displacement, const std::string& field);
+
+// The tangential displacement, within `tolerance` of ux, at which a segment anchored at `depth`
+// is back on its bound (its anchor's ux), nearest to ux; nothing if there is none. A force-
+// controlled step whose solved displacement lies that close to a turning point lands on it, so
+// that the return puts the segment back on its bound exactly (Contact::Apply).
+std::optional<double> NearestReturn(const std::vector<SegmentAnchor>& anchors, double depth,
+                                    double ux, double tolerance);
 
 // One step linear in (delta, ux) as the memory takes it: the springs move by dux (given, not
 // derived from ux1 - ux0, so that an increment survives a large |ux| exactly); ux0 and ux1 are
@@ -106,9 +114,11 @@ class PiecewiseLinearMemory {
   double UAtDepth(double z) const;
   // integral_0^a u(x) dx; F_x = 2 G* times this.
   double IntegralU(const Profile& profile) const;
-  // Radius measure of the springs on the given bound (upper or lower), including the
-  // z = 0 atom of a flat punch; used for the incremental stiffness and slip zones.
-  double MeasureOnBound(const Profile& profile, BoundTag bound) const;
+  // Radius measure of the springs that stick in a further move toward the given bound (upper:
+  // +x), i.e. that are not on it, including the z = 0 atom of a flat punch; 2 G* times this is
+  // the incremental tangential stiffness. Measured where they are (the stick disc as its radius),
+  // not as the contact minus the slip annulus, which would cancel when the disc is small.
+  double MeasureSticking(const Profile& profile, BoundTag bound) const;
   // Largest increment dux for which some spring still sticks when moving to depth1 (the onset
   // of gross slip in +x, or in -x for direction < 0, as a positive number for +x and negative
   // for -x). Brackets force-controlled steps.
