@@ -118,7 +118,25 @@ double GridMemory::ApplyLinearStep(const LinearMove& move, double mu_kappa, bool
     }
   }
   depth_ = step.depth1;
+  KeepSlipZoneAnnular(mu_kappa, move.ux1);
   return dissipated * spacing_;
+}
+
+void GridMemory::KeepSlipZoneAnnular(double mu_kappa, double ux1) {
+  // As the exact memory (memory.cc): the innermost spring on a bound decides for every spring
+  // beyond it, which only a tie at the limiting ratio dux / ddelta = mu kappa can set apart.
+  std::size_t j = 0;
+  while (j < size() && z_[static_cast<Eigen::Index>(j)] < depth_ && tag_[j] == kInside) ++j;
+  if (j == size() || tag_[j] == kOnBoth) return;
+  const auto on = static_cast<BoundTag>(tag_[j]);
+  for (; j < size() && z_[static_cast<Eigen::Index>(j)] < depth_; ++j) {
+    if (tag_[j] == on) continue;
+    const auto i = static_cast<Eigen::Index>(j);
+    const double b = CoulombBound(mu_kappa, depth_, z_[i]);
+    u_[i] = on == kOnUpper ? b : -b;
+    tag_[j] = on;
+    anchor_[j] = {on, ux1, depth_};
+  }
 }
 
 double GridMemory::IncrementForIntegralU(double depth1, double mu_kappa, double target) const {

@@ -130,44 +130,91 @@ void PiecewiseLinearMemory::ShiftAndResize(double depth0, double depth1, double 
 
 double PiecewiseLinearMemory::ClampToBounds(double depth0, double dux, double mu_kappa, double ux1,
                                             const Profile* profile) {
-  InsertCrossings(mu_kappa);
+  InsertCrossings(depth0, dux, mu_kappa, ux1);
   const double dissipated = profile != nullptr && mu_kappa > 0
                                 ? SlidingDissipation(depth0, dux, mu_kappa, *profile)
                                 : 0.0;
-  ClassifySegments(depth0, dux, mu_kappa, ux1);
   TagAndClampVertices(mu_kappa, ux1);
   return dissipated;
 }
 
-void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
-  // The points where v crosses +bound or -bound (both linear in z) are marked with their bound;
-  // every refined vertex records the old segment it lies in, whose anchor its segment inherits.
+namespace {
+
+// The bound sigma = +1 (kOnUpper) or -1 (kOnLower).
+double Sign(BoundTag bound) { return bound == kOnUpper ? 1.0 : -1.0; }
+
+// How far a refined vertex's unclamped value v lies beyond the upper and the lower bound b
+// (sigma v - b); exactly 0 at a crossing of that bound.
+struct Excess {
+  double upper, lower;
+};
+Excess ExcessAt(double v, double b, std::uint8_t crossing) {
+  return {crossing == kOnUpper ? 0.0 : v - b, crossing == kOnLower ? 0.0 : -v - b};
+}
+
+// A segment whose ends have the clamp excesses ea and eb over one bound: the clamp puts it on the
+// bound if the excess is positive inside it (crossings split sign changes, so the sum decides
+// where round-off put a crossing on a vertex) or zero at both ends (a segment lying on the bound
+// line stays there).
+bool ClampedOnto(double ea, double eb) { return (ea >= 0 && eb >= 0) || ea + eb > 0; }
+
+// The bound a segment is clamped onto by its ends' excesses (the larger if both claim it); not
+// the one its anchor has already decided it is inside of.
+BoundTag ClampedBound(const Excess& a, const Excess& b, BoundTag anchored) {
+  const bool upper = anchored != kOnUpper && ClampedOnto(a.upper, b.upper);
+  const bool lower = anchored != kOnLower && ClampedOnto(a.lower, b.lower);
+  if (upper && lower) return a.upper + b.upper >= a.lower + b.lower ? kOnUpper : kOnLower;
+  return upper ? kOnUpper : lower ? kOnLower : kInside;
+}
+
+}  // namespace
+
+void PiecewiseLinearMemory::InsertCrossings(double depth0, double dux, double mu_kappa,
+                                            double ux1) {
+  // The points where v crosses +bound or -bound (both linear in z) are marked with their bound.
+  // Each refined segment is classified as it is built, by one decision (docs/engine.md, "Slip
+  // state, decided structurally"): from the anchor of the old segment it lies in where it has one
+  // (a segment that sticks moves rigidly, so its excess over the anchor's bound is AnchorExcess,
+  // the same at every spring); for the segment entering contact from the step's sliding rate (its
+  // excess over either bound is that rate times (1 - s_e), one sign along it); from the clamp's
+  // excess at its ends otherwise. |F| <= 1 makes every spring beyond one on a bound lie on that
+  // bound too (u(z) = mu kappa integral_z^delta F, the bound mu kappa (delta - z)): the slip zone
+  // is one outer annulus, so the first segment on a bound decides for all beyond it, which only a
+  // tie (a step at exactly the limiting ratio dux / ddelta = mu kappa) could set apart.
   const double depth1 = depth_;
-  auto bound = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
+  auto bound_at = [&](double z) { return CoulombBound(mu_kappa, depth1, z); };
+  const internal::LinearStep step{depth0, depth1, dux, mu_kappa};
+  const BoundTag entering = step.SlidingRate(+1) >= 0   ? kOnUpper
+                            : step.SlidingRate(-1) >= 0 ? kOnLower
+                                                        : kInside;
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& crossing = next_.crossing;
-  auto& segment = next_.segment;
+  auto& anchor = next_.anchor;
   const std::size_t n = z_.size();
   rz.clear();
   rv.clear();
   crossing.clear();
-  segment.clear();
+  anchor.clear();
   // At most two crossings per segment: one allocation per buffer at most (a copied memory starts
   // with empty ones), none once they have grown.
   rz.reserve(3 * n);
   rv.reserve(3 * n);
   crossing.reserve(3 * n);
-  segment.reserve(3 * n);
+  anchor.reserve(3 * n);
+  BoundTag& slip = next_.slip;  // the bound of the slip annulus, once it has started
+  slip = kInside;
+  double b_a = bound_at(z_[0]);
   for (std::size_t i = 0; i < n; ++i) {
     rz.push_back(z_[i]);
     rv.push_back(u_[i]);
     crossing.push_back(kInside);
-    segment.push_back(static_cast<std::uint32_t>(i));
     if (i + 1 == n) break;
-    const double za = z_[i], zb = z_[i + 1];
-    const double hi_a = u_[i] - bound(za), hi_b = u_[i + 1] - bound(zb);
-    const double lo_a = u_[i] + bound(za), lo_b = u_[i + 1] + bound(zb);
+    const std::size_t first = rz.size() - 1;
+    const double za = z_[i], zb = z_[i + 1], b_b = bound_at(zb);
+    const double hi_a = u_[i] - b_a, hi_b = u_[i + 1] - b_b;
+    const double lo_a = u_[i] + b_a, lo_b = u_[i + 1] + b_b;
+    b_a = b_b;
     double t[2];
     int sign[2];
     int count = 0;
@@ -182,9 +229,33 @@ void PiecewiseLinearMemory::InsertCrossings(double mu_kappa) {
       rz.push_back(at->z);
       rv.push_back(at->u);
       crossing.push_back(sign[k] > 0 ? kOnUpper : kOnLower);
-      segment.push_back(static_cast<std::uint32_t>(i));
+    }
+    // The refined segments from vertex i to vertex i + 1 (pushed next), in the old segment i.
+    const SegmentAnchor& old = anchor_[i];
+    const bool is_entering = old == kEntering;
+    const std::size_t end = rz.size();
+    for (std::size_t k = first; k < end; ++k) {
+      if (slip == kInside) {
+        next_.first_slipping = k;
+        if (is_entering) {
+          slip = entering;
+        } else if (old.bound != kInside && AnchorExcess(old, mu_kappa, depth1, ux1) >= 0) {
+          slip = old.bound;
+        } else {
+          const bool last = k + 1 == end;  // ends at old vertex i + 1
+          slip =
+              ClampedBound(ExcessAt(rv[k], bound_at(rz[k]), crossing[k]),
+                           ExcessAt(last ? u_[i + 1] : rv[k + 1], last ? b_b : bound_at(rz[k + 1]),
+                                    last ? std::uint8_t{kInside} : crossing[k + 1]),
+                           old.bound);
+        }
+      }
+      anchor.push_back(slip != kInside ? SegmentAnchor{slip, ux1, depth1}
+                       : is_entering   ? SegmentAnchor{}
+                                       : old);
     }
   }
+  anchor.push_back(SegmentAnchor{});  // the last vertex starts no segment
 }
 
 double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, double mu_kappa,
@@ -234,87 +305,31 @@ double PiecewiseLinearMemory::SlidingDissipation(double depth0, double dux, doub
   return dissipated;
 }
 
-namespace {
-
-// The bound sigma = +1 (kOnUpper) or -1 (kOnLower).
-double Sign(BoundTag bound) { return bound == kOnUpper ? 1.0 : -1.0; }
-
-// A segment with refined ends a and b whose clamp excess over one bound (sigma v - bound, 0 at a
-// crossing of that bound) is ea and eb: the clamp puts it on the bound if the excess is positive
-// inside it (crossings split sign changes, so the sum decides where round-off put a crossing on
-// a vertex) or zero at both ends (a segment lying on the bound line stays there).
-bool ClampedOnto(double ea, double eb) { return (ea >= 0 && eb >= 0) || ea + eb > 0; }
-
-}  // namespace
-
-void PiecewiseLinearMemory::ClassifySegments(double depth0, double dux, double mu_kappa,
-                                             double ux1) {
-  // One decision per refined segment: from its anchor where it has one (a segment that sticks
-  // moves rigidly, so its excess over the anchor's bound is AnchorExcess, the same at every
-  // spring); for the segment entering contact from the step's sliding rate (its excess over
-  // either bound is that rate times (1 - s_e), one sign along it); from the clamp's excess at its
-  // ends otherwise.
-  const double depth1 = depth_;
-  const internal::LinearStep step{depth0, depth1, dux, mu_kappa};
-  const auto& rz = next_.z;
-  const auto& rv = next_.u;
-  const auto& crossing = next_.crossing;
-  auto& bound = next_.bound;
-  const std::size_t m = rz.size();
-  bound.assign(m, kInside);
-  auto excess = [&](std::size_t k, BoundTag side) {
-    return crossing[k] == side ? 0.0 : Sign(side) * rv[k] - CoulombBound(mu_kappa, depth1, rz[k]);
-  };
-  for (std::size_t k = 0; k + 1 < m; ++k) {
-    const SegmentAnchor& anchor = anchor_[next_.segment[k]];
-    if (anchor == kEntering) {
-      bound[k] = step.SlidingRate(+1) >= 0   ? kOnUpper
-                 : step.SlidingRate(-1) >= 0 ? kOnLower
-                                             : kInside;
-      continue;
-    }
-    if (anchor.bound != kInside && AnchorExcess(anchor, mu_kappa, depth1, ux1) >= 0) {
-      bound[k] = anchor.bound;
-      continue;
-    }
-    double best = -1;  // the larger excess sum decides if both bounds claim a segment
-    for (BoundTag side : {kOnUpper, kOnLower}) {
-      if (side == anchor.bound) continue;  // the anchor decided: inside that bound
-      const double ea = excess(k, side), eb = excess(k + 1, side);
-      if (ClampedOnto(ea, eb) && ea + eb > best) {
-        bound[k] = side;
-        best = ea + eb;
-      }
-    }
-  }
-}
-
 void PiecewiseLinearMemory::TagAndClampVertices(double mu_kappa, double ux1) {
-  // A vertex is on the bounds of the segments it ends; one that ends none sticks and is only
-  // clamped by round-off. A crossing keeps its interpolated u (a few ulps inside the bound, so
-  // that the sticking side stays exact); every other vertex on a bound takes the bound's value.
-  // Round-off can leave a sticking segment between two vertices on one bound line (it is that
-  // line, to round-off): it is then on the bound too, so tags and segments always agree.
+  // A vertex is on the bound of the segments it ends (one bound at most: the slip zone is one
+  // annulus); one that ends none sticks and is clamped only against round-off. A crossing keeps
+  // its interpolated u (a few ulps inside the bound, so that the sticking side stays exact);
+  // every other vertex on a bound takes the bound's value. Where the bound is 0 (the edge, or
+  // everywhere for mu = 0) u = 0 on both bounds.
   const double depth1 = depth_;
   auto& rz = next_.z;
   auto& rv = next_.u;
   auto& tags = next_.tag;
-  auto& bound = next_.bound;
-  auto& anchor = next_.anchor;
+  // Segments first_slipping .. m - 2 are on the bound `slip` (none if kInside).
+  const BoundTag slip = next_.slip;
+  const std::size_t first_slipping = next_.first_slipping;
   const std::size_t m = rz.size();
-  tags.assign(m, kInside);
+  tags.resize(m);
+  bool zero_bound_inside = false;  // round-off or mu = 0: see below
   for (std::size_t k = 0; k < m; ++k) {
     const double b = CoulombBound(mu_kappa, depth1, rz[k]);
-    if (!(b > 0)) {  // the contact edge, or mu = 0
+    if (!(b > 0)) {
       rv[k] = 0;
       tags[k] = kOnBoth;
+      zero_bound_inside |= k + 1 < m;
       continue;
     }
-    const std::uint8_t left = k > 0 ? bound[k - 1] : std::uint8_t{kInside};
-    const std::uint8_t right = k + 1 < m ? bound[k] : std::uint8_t{kInside};
-    // Both bounds at one vertex inside the contact is round-off near the edge: the inner
-    // segment's bound wins, and the outer one is re-classified below.
-    const auto tag = static_cast<BoundTag>(left != kInside ? left : right);
+    const BoundTag tag = slip != kInside && k >= first_slipping ? slip : kInside;
     tags[k] = tag;
     if (tag == kInside) {
       rv[k] = std::clamp(rv[k], -b, b);
@@ -322,20 +337,16 @@ void PiecewiseLinearMemory::TagAndClampVertices(double mu_kappa, double ux1) {
       rv[k] = Sign(tag) * b;
     }
   }
-  anchor.resize(m);
-  for (std::size_t k = 0; k < m; ++k) {
-    if (k + 1 == m) {
-      anchor[k] = SegmentAnchor{};
-      break;
-    }
+  // A segment is on the bound both its ends are tagged with. That is its own bound, except
+  // where round-off makes the bound 0 inside the contact (mu = 0, a subnormal depth): a vertex
+  // there is on both bounds, and so are segments between two such vertices (anchored on
+  // neither) and one from there to a vertex on a bound (anchored on that one).
+  for (std::size_t k = 0; zero_bound_inside && k + 1 < m; ++k) {
     const auto on = static_cast<BoundTag>(tags[k] & tags[k + 1]);
-    if (on == kOnUpper || on == kOnLower) {
-      anchor[k] = {on, ux1, depth1};
-    } else if (bound[k] != kInside || on == kOnBoth || anchor_[next_.segment[k]] == kEntering) {
-      // re-classified as sticking by the tie rule above, mu = 0, or entered sticking
-      anchor[k] = SegmentAnchor{};
-    } else {
-      anchor[k] = anchor_[next_.segment[k]];
+    if (on == kOnBoth) {
+      next_.anchor[k] = SegmentAnchor{};
+    } else if (on != (slip != kInside && k >= first_slipping ? slip : kInside)) {
+      next_.anchor[k] = {on, ux1, depth1};
     }
   }
   std::swap(z_, next_.z);
@@ -355,7 +366,7 @@ void PiecewiseLinearMemory::MergeRedundantVertices() {
   for (std::size_t i = 1; i + 1 < n; ++i) {
     const std::size_t prev = kept - 1;
     bool redundant =
-        anchor_[prev] == anchor_[i] && (tag_[prev] & tag_[i]) == (tag_[i] & tag_[i + 1]);
+        (tag_[prev] & tag_[i]) == (tag_[i] & tag_[i + 1]) && anchor_[prev] == anchor_[i];
     if (redundant && (tag_[prev] & tag_[i] & tag_[i + 1]) == 0) {
       const double line = Interpolate(z_[prev], u_[prev], z_[i + 1], u_[i + 1], z_[i]);
       const double scale = std::max({std::abs(u_[prev]), std::abs(u_[i]), std::abs(u_[i + 1])});

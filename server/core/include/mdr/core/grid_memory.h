@@ -95,6 +95,9 @@ class GridMemory {
   }
 
  private:
+  // The springs beyond the innermost one on a bound are on it too (memory.cc, the same rule).
+  void KeepSlipZoneAnnular(double mu_kappa, double ux1);
+
   double spacing_;
   GridStepRule rule_;
   double depth_ = 0;

@@ -174,14 +174,14 @@ class PiecewiseLinearMemory {
   // Three phases on the refined polyline in next_:
   double ClampToBounds(double depth0, double dux, double mu_kappa, double ux1,
                        const Profile* profile);
-  // 1. v with a vertex inserted wherever it crosses a bound line (marked with that bound);
-  void InsertCrossings(double mu_kappa);
+  // 1. v with a vertex inserted wherever it crosses a bound line (marked with that bound), each
+  // refined segment classified (on a bound or sticking) and anchored as it is built;
+  void InsertCrossings(double depth0, double dux, double mu_kappa, double ux1);
   // 2. the energy (per G*) that the clamp of phase 3 dissipates, spring by spring, exactly;
   double SlidingDissipation(double depth0, double dux, double mu_kappa,
                             const Profile& profile) const;
-  // 3. each refined segment classified (on a bound or sticking) and anchored, the vertices
-  // tagged and clamped accordingly; the refined polyline becomes the state.
-  void ClassifySegments(double depth0, double dux, double mu_kappa, double ux1);
+  // 3. the vertices tagged and clamped as their segments say; the refined polyline becomes the
+  // state.
   void TagAndClampVertices(double mu_kappa, double ux1);
   void MergeRedundantVertices();
   // Energy dissipated (per G*) by springs in (max(depth1, 0), depth0] that leave contact.
@@ -201,8 +201,8 @@ class PiecewiseLinearMemory {
     std::vector<double> z, u;
     std::vector<std::uint8_t> crossing;  // the bound a refined vertex crosses (0: not a crossing)
     std::vector<std::uint8_t> tag;       // each refined vertex's tag after the clamp
-    std::vector<std::uint32_t> segment;  // the old segment each refined segment lies in
-    std::vector<std::uint8_t> bound;     // each refined segment's bound after the step
+    BoundTag slip = kInside;             // the slip annulus' bound after the step (kInside:
+    std::size_t first_slipping = 0;      // none), from this refined segment to the edge
     std::vector<SegmentAnchor> anchor;   // each refined segment's anchor after the step
   };
   Scratch next_;
