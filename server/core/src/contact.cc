@@ -62,6 +62,12 @@ Status ValidateContactConfig(const ContactConfig& config) {
   if (config.method == Method::kGrid) {
     if (Status s = RequirePositive("grid_max_radius", config.grid_max_radius); !s.ok()) return s;
   }
+  if (Status s = RequireNonNegative("rig.tangential_compliance", config.rig.tangential); !s.ok()) {
+    return s;
+  }
+  if (Status s = RequireNonNegative("rig.normal_compliance", config.rig.normal); !s.ok()) {
+    return s;
+  }
   return OkStatus();
 }
 
@@ -170,6 +176,14 @@ double Contact::contact_radius() const {
 
 double Contact::normal_force() const { return NormalForceAtDepth(depth()); }
 
+double Contact::actuator_displacement() const {
+  return config_.rig.tangential > 0 ? ux_ + config_.rig.tangential * tangential_force() : ux_;
+}
+
+double Contact::actuator_depth() const {
+  return config_.rig.normal > 0 ? depth() + config_.rig.normal * normal_force() : depth();
+}
+
 double Contact::tangential_force() const {
   const GridMemory* grid = grid_memory();
   const double integral = grid ? grid->IntegralU() : memory().IntegralU(*config_.profile);
@@ -271,20 +285,29 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
   if (Status s = RequireFinite(normal_field, step.normal_value); !s.ok()) return s;
   if (Status s = RequireFinite(tangential_field, step.tangential_value); !s.ok()) return s;
 
-  double depth1 = depth();
+  const RigCompliance& rig = config_.rig;
+  // The contact depth at the step's end; with a normal rig, that of the actuator's target depth
+  // (an unchanged actuator depth holds the contact's exactly).
+  double depth1 = depth(), actuator_depth1 = actuator_depth();
   switch (step.normal) {
     case NormalControl::kDepth:
-      depth1 = step.normal_value;
+    case NormalControl::kDepthIncrement: {
+      const double target = step.normal == NormalControl::kDepth
+                                ? step.normal_value
+                                : actuator_depth1 + step.normal_value;
+      if (target != actuator_depth1) {
+        actuator_depth1 = target;
+        depth1 = rig.normal > 0 ? DepthAtActuatorDepth(target) : target;
+      }
       break;
-    case NormalControl::kDepthIncrement:
-      depth1 = depth() + step.normal_value;
-      break;
+    }
     case NormalControl::kForce: {
       if (Status s = RequireNonNegative(normal_field, step.normal_value); !s.ok()) return s;
       // A normal force equal to the current one (to round-off) holds the depth exactly.
       const double now = normal_force();
       if (std::abs(step.normal_value - now) > 1e-14 * now) {
         depth1 = DepthAtNormalForce(step.normal_value);
+        actuator_depth1 = depth1 + rig.normal * step.normal_value;
       }
       break;
     }
@@ -300,20 +323,32 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
   StepReport local;
   const bool tangential_force = step.tangential == TangentialControl::kForce;
   const bool depth_changes = depth1 != depth();
-  const double ux1 = step.tangential == TangentialControl::kDisplacement ? step.tangential_value
-                     : step.tangential == TangentialControl::kDisplacementIncrement
-                         ? ux_ + step.tangential_value
-                         : ux_;
-  // Straight in (delta, ux): both channels displacements, or one channel not moving.
-  const bool straight =
-      tangential_force ? !depth_changes
-                       : (step.normal != NormalControl::kForce || !depth_changes || ux1 == ux_);
+  // Displacement targets: the actuator's (the contact's without a rig); with a tangential rig
+  // the contact's end follows from the solve below.
+  const double actuator_displacement0 = actuator_displacement();
+  const double actuator_displacement1 =
+      step.tangential == TangentialControl::kDisplacement ? step.tangential_value
+      : step.tangential == TangentialControl::kDisplacementIncrement
+          ? actuator_displacement0 + step.tangential_value
+          : actuator_displacement0;
+  const bool through_rig = rig.tangential > 0 && !tangential_force;
+  const double ux1 = through_rig ? ux_ : actuator_displacement1;  // unless solved
+  // Straight in (delta, ux): both channels displacements that move linearly, or one channel not
+  // moving. Through a tangential rig the contact's path is straight only at a fixed depth.
+  const bool depth_linear = step.normal != NormalControl::kForce && !(rig.normal > 0);
+  const bool straight = tangential_force || through_rig
+                            ? !depth_changes
+                            : (depth_linear || !depth_changes || ux1 == ux_);
   if (straight) {
     double dux = ux1 - ux_, ux_end = ux1;
-    if (tangential_force) {
-      Result<double> solved = SolveTangentialIncrement(depth1, step.tangential_value);
-      if (!solved.ok()) return solved.status();
-      dux = *solved;
+    if (tangential_force || (through_rig && actuator_displacement1 != actuator_displacement0)) {
+      if (tangential_force) {
+        Result<double> solved = SolveTangentialIncrement(depth1, step.tangential_value);
+        if (!solved.ok()) return solved.status();
+        dux = *solved;
+      } else {
+        dux = SolveActuatorIncrement(depth1, actuator_displacement1);
+      }
       ux_end = LandOnTurningPoint(depth1, ux_ + dux);
     }
     // One exact step in place, undone if its result fails the checks.
@@ -328,7 +363,8 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
     }
   } else {
     Contact trial = *this;
-    if (Status s = trial.ApplyCurvedPath(step, depth1, &local, interrupt); !s.ok()) return s;
+    const StepTargets targets{depth1, actuator_depth1, actuator_displacement1};
+    if (Status s = trial.ApplyCurvedPath(step, targets, &local, interrupt); !s.ok()) return s;
     if (Status s = trial.CheckStepResult(tangential_field); !s.ok()) return s;
     *this = std::move(trial);
   }

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
-#include "mdr/core/contact.h"
 #include "mdr/base/validate.h"
+#include "mdr/core/contact.h"
+#include "monotone_solve.h"
 
 namespace mdr {
 namespace {
@@ -53,36 +55,69 @@ Result<double> Contact::SolveTangentialIncrement(double depth1, double fx) const
               : memory().IncrementForIntegralU(depth1, m, *config_.profile, target);
 }
 
-Status Contact::ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
+double Contact::SolveActuatorIncrement(double depth1, double u_act) const {
+  // ux + dux + C_t 2 G* I(dux) = u_act, with I the integral of u after the step (F_x = 2 G* I):
+  // I + spring dux = target, spring = 1 / (2 G* C_t).
+  const double compliance = 2 * config_.material.g_star * config_.rig.tangential;
+  const double spring = 1 / compliance, target = (u_act - ux_) / compliance;
+  const GridMemory* grid = grid_memory();
+  return grid
+             ? grid->IncrementForIntegralU(depth1, mu_kappa(), target, spring)
+             : memory().IncrementForIntegralU(depth1, mu_kappa(), *config_.profile, target, spring);
+}
+
+double Contact::DepthAtActuatorDepth(double actuator) const {
+  // delta + C_n F_N(delta) increases with delta (dF_N/d delta = 2 E* a) and equals delta out of
+  // contact: the root lies in [0, actuator].
+  if (!(actuator > 0)) return actuator;
+  auto f = [&](double depth) {
+    return internal::ValueAndSlope{depth + config_.rig.normal * NormalForceAtDepth(depth),
+                                   1 + config_.rig.normal * 2 * config_.material.e_star *
+                                           config_.profile->RadiusAtDepth(depth)};
+  };
+  std::vector<double> none;
+  return internal::SolveNondecreasing(f, none, 0.0, actuator, actuator);
+}
+
+Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, StepReport* report,
                                 const Interrupt& interrupt) {
   const double depth0 = depth(), ux0 = ux_;
   const double fn0 = normal_force(), fx0 = tangential_force();
-  const double ux_target = step.tangential == TangentialControl::kDisplacement
-                               ? step.tangential_value
-                               : ux0 + step.tangential_value;
+  const double actuator_depth0 = actuator_depth(), actuator_displacement0 = actuator_displacement();
+  const RigCompliance& rig = config_.rig;
+  const bool tangential_force = step.tangential == TangentialControl::kForce;
+  const bool through_rig = rig.tangential > 0 && !tangential_force;
+  auto along = [](double from, double to, double s) { return from + s * (to - from); };
   auto depth_at = [&](double s) {
-    if (s == 1) return depth_target;
+    if (s == 1) return targets.depth;
     if (step.normal == NormalControl::kForce) {
-      return DepthAtNormalForce(fn0 + s * (step.normal_value - fn0));
+      return DepthAtNormalForce(along(fn0, step.normal_value, s));
     }
-    return depth0 + s * (depth_target - depth0);
+    if (rig.normal > 0) {
+      return DepthAtActuatorDepth(along(actuator_depth0, targets.actuator_depth, s));
+    }
+    return along(depth0, targets.depth, s);
   };
   // One exact linear sub-step of `contact` to the path point at s.
   auto advance = [&](Contact& contact, double s, double* dissipated) -> Status {
     const double d = depth_at(s);
-    double ux = ux0 + s * (ux_target - ux0);
+    double ux = along(ux0, targets.actuator_displacement, s);
     double dux = ux - contact.ux_;
-    if (step.tangential == TangentialControl::kForce) {
+    if (tangential_force) {
       Result<double> solved =
-          contact.SolveTangentialIncrement(d, fx0 + s * (step.tangential_value - fx0));
+          contact.SolveTangentialIncrement(d, along(fx0, step.tangential_value, s));
       if (!solved.ok()) return solved.status();
       dux = *solved;
+      ux = contact.ux_ + dux;
+    } else if (through_rig) {
+      dux = contact.SolveActuatorIncrement(
+          d, along(actuator_displacement0, targets.actuator_displacement, s));
       ux = contact.ux_ + dux;
     }
     *dissipated += contact.LinearStep(d, ux, dux);
     return OkStatus();
   };
-  const double scale = std::max(mu_kappa() * std::max(depth0, depth_target), 1e-300);
+  const double scale = std::max(mu_kappa() * std::max(depth0, targets.depth), 1e-300);
 
   // Adaptive bisection: accept [s0, s1] when one sub-step and two half sub-steps agree to the
   // tolerance. A chord's error sits in the springs that enter or slide during that interval and

@@ -139,7 +139,8 @@ void GridMemory::KeepSlipZoneAnnular(double mu_kappa, double ux1) {
   }
 }
 
-double GridMemory::IncrementForIntegralU(double depth1, double mu_kappa, double target) const {
+double GridMemory::IncrementForIntegralU(double depth1, double mu_kappa, double target,
+                                         double spring) const {
   const LinearStep step{depth_, depth1, 0, mu_kappa};
   // IntegralU after the step with increment dux, and its slope in dux.
   auto integral = [&](double dux) {
@@ -161,7 +162,7 @@ double GridMemory::IncrementForIntegralU(double depth1, double mu_kappa, double 
   // No breakpoints: one per spring would cost a sort of the grid, and Newton steps land exactly
   // on the root of each linear piece.
   std::vector<double> breakpoints;
-  return internal::SolveNondecreasing(integral, breakpoints, lo, hi, target);
+  return internal::SolveWithSpring(integral, breakpoints, lo, hi, target, spring);
 }
 
 double GridMemory::MeasureInContact() const {

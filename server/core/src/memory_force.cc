@@ -167,14 +167,15 @@ class IntegralAfterStep {
 }  // namespace
 
 double PiecewiseLinearMemory::IncrementForIntegralU(double depth1, double mu_kappa,
-                                                    const Profile& profile, double target) const {
+                                                    const Profile& profile, double target,
+                                                    double spring) const {
   const double lo = GrossSlipIncrement(depth1, mu_kappa, -1);
   const double hi = GrossSlipIncrement(depth1, mu_kappa, +1);
-  if (!(depth1 > 0)) return 0;
+  if (!(depth1 > 0)) return spring > 0 ? target / spring : 0;
   const IntegralAfterStep integral(*this, depth1, mu_kappa, profile);
   thread_local std::vector<double> breakpoints;  // as the vertices: no allocation once grown
   integral.Breakpoints(breakpoints);
-  return internal::SolveNondecreasing(integral, breakpoints, lo, hi, target);
+  return internal::SolveWithSpring(integral, breakpoints, lo, hi, target, spring);
 }
 
 }  // namespace mdr

@@ -69,4 +69,21 @@ double SolveNondecreasing(const Function& f, std::vector<double>& breakpoints, d
   return s;
 }
 
+// The s with f(s) + spring * s = target, spring >= 0, for f nondecreasing on [lo, hi] and constant
+// beyond (the tangential force saturates at gross slip): SolveNondecreasing inside, the linear
+// tails outside. spring = 0 is SolveNondecreasing itself (ends clamped to [lo, hi]).
+template <class Function>
+double SolveWithSpring(const Function& f, std::vector<double>& breakpoints, double lo, double hi,
+                       double target, double spring) {
+  if (!(spring > 0)) return SolveNondecreasing(f, breakpoints, lo, hi, target);
+  const double f_lo = f(lo).value + spring * lo, f_hi = f(hi).value + spring * hi;
+  if (target <= f_lo) return lo + (target - f_lo) / spring;
+  if (target >= f_hi) return hi + (target - f_hi) / spring;
+  auto with_spring = [&](double s) {
+    ValueAndSlope at = f(s);
+    return ValueAndSlope{at.value + spring * s, at.slope + spring};
+  };
+  return SolveNondecreasing(with_spring, breakpoints, lo, hi, target);
+}
+
 }  // namespace mdr::internal

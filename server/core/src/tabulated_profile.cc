@@ -411,8 +411,8 @@ class GridBuilder {
   Status stop_;  // why Refine stopped
 };
 
-// g must not decrease (the contact must stay a disc, docs/physics.md "MDR"). Slopes within round-off
-// of zero are set to zero so the interpolant stays monotone.
+// g must not decrease (the contact must stay a disc, docs/physics.md "MDR"). Slopes within
+// round-off of zero are set to zero so the interpolant stays monotone.
 Status RequireIncreasing(TabulatedProfile::Grid& grid) {
   double slope_scale = 0;
   for (double s : grid.slope) slope_scale = std::max(slope_scale, std::abs(s));

@@ -16,10 +16,10 @@
 namespace mdr {
 namespace {
 
+using internal::ForEachAbelInterval;
 using internal::kEps;
 using internal::kInf;
 using internal::kPi;
-using internal::ForEachAbelInterval;
 using internal::Quadrature;
 constexpr std::size_t kQuadratureLimit = 512;
 

@@ -23,6 +23,14 @@ enum class Method {
   kGrid,   // GridMemory: the classical MDR with grid_size springs on [0, grid_max_radius]
 };
 
+// A test rig in series with the contact (docs/physics.md, "The rig in series"): between the
+// contact and the actuator's sensors the rig deforms elastically by C_t F_x tangentially and C_n
+// F_N normally, so the actuator stands at u_x + C_t F_x and delta + C_n F_N.
+struct RigCompliance {
+  double tangential = 0;  // C_t in m/N, >= 0
+  double normal = 0;      // C_n in m/N, >= 0
+};
+
 struct ContactConfig {
   ProfilePtr profile;
   EffectiveMaterial material;
@@ -38,6 +46,9 @@ struct ContactConfig {
   // nesting depth of load reversals.
   std::size_t max_memory_vertices = 1 << 16;
 
+  // The rig in series; zero compliances (the default): steps drive the contact itself.
+  RigCompliance rig;
+
   Method method = Method::kExact;
   // Grid method only. Springs at the midpoints of grid_size cells on [0, grid_max_radius]
   // (spacing h = grid_max_radius / grid_size, Contact::grid_spacing()); with the exact step rule
@@ -50,7 +61,7 @@ struct ContactConfig {
 
 // Validates a config: profile present, material moduli > 0, friction >= 0 and finite,
 // tolerance in (0, 0.1], vertex limit >= 8, grid_size in [2, 2^22], grid_max_radius > 0 for the
-// grid method. Field names are relative to the proto Scene.
+// grid method, rig compliances finite and >= 0. Field names are relative to the proto Scene.
 Status ValidateContactConfig(const ContactConfig& config);
 
 // How each channel of a step is driven. "Increment" values are relative to the current state.
@@ -63,6 +74,10 @@ enum class TangentialControl { kDisplacement, kDisplacementIncrement, kForce };
 // the step is exact. Otherwise (a force channel changing together with the other channel) the
 // path is curved in (delta, ux); it is followed by adaptive sub-steps that are each exact, until
 // two successive refinements agree to force_path_tolerance (StepReport::path_error).
+// With a rig (ContactConfig::rig), depths and displacements are the actuator's, and an unset
+// channel holds the actuator: a tangential move at constant contact depth is exact (the contact
+// follows a monotone path to the one end point where actuator and contact agree); a step that
+// changes the depth while the tangential rig deforms is a curved path.
 // The name of each control's value in a Step (the proto Step's field), for error messages.
 const char* FieldName(NormalControl control);
 const char* FieldName(TangentialControl control);
@@ -130,6 +145,10 @@ class Contact {
     return exact ? exact->depth() : std::get<GridMemory>(memory_).depth();
   }
   double tangential_displacement() const { return ux_; }
+  // Where the actuator stands: the contact's displacement and depth plus the rig's deformation
+  // (equal to the contact's without a rig).
+  double actuator_displacement() const;
+  double actuator_depth() const;
   double mu_kappa() const { return config_.friction * config_.material.kappa(); }
   double contact_radius() const;
   double normal_force() const;
@@ -172,7 +191,18 @@ class Contact {
   // The increment dux that gives tangential force fx at depth1 after a linear step from the
   // current state (force_control.cc, like the curved paths).
   Result<double> SolveTangentialIncrement(double depth1, double fx) const;
-  Status ApplyCurvedPath(const Step& step, double depth_target, StepReport* report,
+  // The increment dux after which the actuator stands at u_act: ux + dux + C_t F_x = u_act
+  // (one root: the left side increases with dux).
+  double SolveActuatorIncrement(double depth1, double u_act) const;
+  // The contact depth at which the actuator's depth is `actuator`: delta + C_n F_N(delta).
+  double DepthAtActuatorDepth(double actuator) const;
+  // Where a step ends: the contact depth, and the actuator's depth and displacement that a rig's
+  // channels move to (the contact's own values without a rig).
+  struct StepTargets {
+    double depth;
+    double actuator_depth, actuator_displacement;
+  };
+  Status ApplyCurvedPath(const Step& step, const StepTargets& targets, StepReport* report,
                          const Interrupt& interrupt);
   // ux1, or the turning point within the force solve's resolution of it where a segment (or a
   // grid spring) anchored at depth1 returns to its bound (memory.h, NearestReturn).

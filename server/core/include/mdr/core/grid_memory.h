@@ -66,8 +66,9 @@ class GridMemory {
   // depth1 leaves IntegralU() = target, the state unchanged (force-controlled steps). IntegralU
   // is piecewise linear in dux with slope h times the springs that stick (entering ones weighted
   // by their share of dux): Newton's method on it, safeguarded by bisection. Targets beyond the
-  // range give its ends.
-  double IncrementForIntegralU(double depth1, double mu_kappa, double target) const;
+  // range give its ends. spring > 0: integral + spring * dux = target (PiecewiseLinearMemory).
+  double IncrementForIntegralU(double depth1, double mu_kappa, double target,
+                               double spring = 0) const;
   // Radius measure h * count of the springs in contact, and of those on the given bound.
   double MeasureInContact() const;
   double MeasureOnBound(BoundTag bound) const;

@@ -244,7 +244,7 @@ class Interface {
 
   InterfaceKind kind_ = InterfaceKind::kSharedMotion;
   std::vector<Contact> contacts_;
-  std::vector<Contact> trial_;     // the step buffer: steps are made here and swapped in
+  std::vector<Contact> trial_;  // the step buffer: steps are made here and swapped in
   // The step buffer's memory bytes, kept by MemoryBytes until the buffer changes (a step in place
   // leaves it alone, so the service's charge after such a step walks only the contacts). Copies
   // and moves start unknown: a copied vector's capacity is not its source's.

@@ -128,9 +128,11 @@ class PiecewiseLinearMemory {
   // That integral is continuous and nondecreasing in dux, smooth between the dux at which a
   // vertex reaches a bound, with slope the radius measure of the springs that stick: the
   // breakpoints are walked to the bracket of the root, which Newton's method then finds
-  // (memory_force.cc). Targets beyond the range give its ends.
+  // (memory_force.cc). Targets beyond the range give its ends. With spring > 0 the solve is
+  // of integral + spring * dux = target instead (a rig in series, Contact), which has one root
+  // for every target: beyond gross slip the integral is constant.
   double IncrementForIntegralU(double depth1, double mu_kappa, const Profile& profile,
-                               double target) const;
+                               double target, double spring = 0) const;
   // The pieces in x (one per polyline segment, plus the z = 0 atom of a flat punch when present).
   std::vector<MemoryPiece> Pieces(const Profile& profile) const;
 

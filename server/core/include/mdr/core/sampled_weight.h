@@ -5,9 +5,9 @@
 
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/profile.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 

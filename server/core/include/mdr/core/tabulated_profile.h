@@ -22,9 +22,9 @@
 #include <string>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/profile.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 

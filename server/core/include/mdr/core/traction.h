@@ -18,12 +18,12 @@
 #include <optional>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/core/material.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/profile.h"
-#include "mdr/base/status.h"
 
 namespace mdr {
 
