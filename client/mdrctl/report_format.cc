@@ -105,6 +105,12 @@ Column ColumnFor(SceneFile::Output output) {
     case SceneFile::GROSS_SLIP:
       return {"gross slip", "gross_slip",
               [](const Row& r) { return double(r.interface_totals().gross_slip()); }};
+    case SceneFile::ACTUATOR_DISPLACEMENT:
+      return {"u_act [m]", "actuator_displacement",
+              [](const Row& r) { return r.state().actuator_displacement(); }};
+    case SceneFile::ACTUATOR_DEPTH:
+      return {"delta_act [m]", "actuator_depth",
+              [](const Row& r) { return r.state().actuator_depth(); }};
     default:  // FRICTION_LIMIT; ValidateSceneFile rejects OUTPUT_UNSPECIFIED
       return {"mu*F_N [N]", "friction_limit",
               [](const Row& r) { return r.state().friction_limit(); }};

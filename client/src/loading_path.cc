@@ -131,13 +131,15 @@ Status ValidateOutputs(const v1::SceneFile& file, SceneKind kind) {
   return OkStatus();
 }
 
-// The value of a channel set in `target` at the segment's start.
+// The value of a channel set in `target` at the segment's start: depths and displacements are
+// the actuator's (the contact's without scene.rig), as the steps that drive them.
 double StartValue(const Step& target, bool normal, const v1::ContactState& start) {
   if (normal) {
-    return target.normal_case() == Step::kNormalForce ? start.normal_force() : start.depth();
+    return target.normal_case() == Step::kNormalForce ? start.normal_force()
+                                                      : start.actuator_depth();
   }
   return target.tangential_case() == Step::kTangentialForce ? start.tangential_force()
-                                                            : start.tangential_displacement();
+                                                            : start.actuator_displacement();
 }
 
 // Step i (1-based) of n of a ramp of one channel; increments are split, targets interpolated
@@ -207,11 +209,11 @@ void SetCycled(Cycles::Quantity quantity, double value, Step* step) {
 double CycledValue(Cycles::Quantity quantity, const v1::ContactState& state) {
   switch (quantity) {
     case Cycles::DEPTH:
-      return state.depth();
+      return state.actuator_depth();
     case Cycles::NORMAL_FORCE:
       return state.normal_force();
     case Cycles::TANGENTIAL_DISPLACEMENT:
-      return state.tangential_displacement();
+      return state.actuator_displacement();
     default:
       return state.tangential_force();
   }
@@ -357,6 +359,15 @@ std::vector<v1::SceneFile::Output> TableOutputs(const v1::SceneFile& file) {
   }
   switch (KindOf(file.scene())) {
     case SceneKind::kSingleContact:
+      if (file.scene().has_rig()) {  // the contact's and the actuator's position side by side
+        return {Output::DEPTH,
+                Output::ACTUATOR_DEPTH,
+                Output::TANGENTIAL_DISPLACEMENT,
+                Output::ACTUATOR_DISPLACEMENT,
+                Output::NORMAL_FORCE,
+                Output::TANGENTIAL_FORCE,
+                Output::CONTACT_RADIUS};
+      }
       return {Output::DEPTH, Output::TANGENTIAL_DISPLACEMENT, Output::NORMAL_FORCE,
               Output::TANGENTIAL_FORCE, Output::CONTACT_RADIUS};
     case SceneKind::kSharedMotion:

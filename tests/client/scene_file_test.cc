@@ -86,12 +86,15 @@ TEST(SceneFileTest, ErrorsNameFieldAndLine) {
   EXPECT_THAT(scalar.status().ToString(), HasSubstr("must be a mapping"));
 }
 
+// A state as the server reports it without a rig: the actuator where the contact is.
 mdr::v1::ContactState State(double depth, double normal_force, double ux, double fx) {
   mdr::v1::ContactState state;
   state.set_depth(depth);
   state.set_normal_force(normal_force);
   state.set_tangential_displacement(ux);
   state.set_tangential_force(fx);
+  state.set_actuator_depth(depth);
+  state.set_actuator_displacement(ux);
   return state;
 }
 

@@ -20,7 +20,7 @@ StepLike = Union[scene_pb2.Step, Mapping]
 # Per-step state fields, in the order of ContactState.
 STATE_FIELDS = ("depth", "tangential_displacement", "contact_radius", "normal_force",
                 "tangential_force", "dissipated_energy", "friction_limit", "applied_steps",
-                "memory_vertices")
+                "memory_vertices", "actuator_displacement", "actuator_depth")
 
 
 def _json_numbers(data):

@@ -269,6 +269,7 @@ Result<ContactConfig> ToContactConfig(const v1::Scene& scene, std::size_t max_me
   config.profile = std::move(profile).value();
   config.material = *material;
   config.friction = scene.friction();
+  config.rig = {scene.rig().tangential_compliance(), scene.rig().normal_compliance()};
   if (Status status = ApplyOptions(scene.options(), max_memory_vertices, &config); !status.ok()) {
     return status;
   }

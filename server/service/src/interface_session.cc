@@ -141,6 +141,10 @@ Result<InterfaceConfig> ToInterfaceConfig(const v1::Scene& scene, const ContactC
   if (base.method != Method::kExact) {
     return InvalidArgument("scene.method", "must be METHOD_EXACT for an interface");
   }
+  if (base.rig.tangential > 0 || base.rig.normal > 0) {
+    return InvalidArgument("scene.rig",
+                           "must be unset for an interface (a rig is in series with one contact)");
+  }
   Result<Population> population = ToPopulation(scene);
   if (!population.ok()) return population.status();
   Result<InterfaceConfig> config =
@@ -392,6 +396,13 @@ void WriteInterfaceState(const Interface& interface, std::uint64_t applied_steps
   if (selection.has(Output::kDepth)) state->set_depth(shared ? interface.approach() : 0.0);
   if (selection.has(Output::kTangentialDisplacement)) {
     state->set_tangential_displacement(shared ? interface.tangential_displacement() : 0.0);
+  }
+  // No rig in series with an interface: the actuator is where the shared motion is.
+  if (selection.has(Output::kActuatorDepth)) {
+    state->set_actuator_depth(shared ? interface.approach() : 0.0);
+  }
+  if (selection.has(Output::kActuatorDisplacement)) {
+    state->set_actuator_displacement(shared ? interface.tangential_displacement() : 0.0);
   }
   if (selection.has(Output::kContactRadius)) state->set_contact_radius(0);
   if (selection.has(Output::kNormalForce) || selection.has(Output::kTangentialForce) ||

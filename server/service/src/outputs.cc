@@ -63,6 +63,14 @@ const StateField kStateFields[] = {
      [](const Contact& c, std::uint64_t, v1::ContactState* s) {
        s->set_memory_vertices(c.memory().vertex_count());
      }},
+    {"actuator_displacement", Output::kActuatorDisplacement,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_actuator_displacement(c.actuator_displacement());
+     }},
+    {"actuator_depth", Output::kActuatorDepth,
+     [](const Contact& c, std::uint64_t, v1::ContactState* s) {
+       s->set_actuator_depth(c.actuator_depth());
+     }},
 };
 
 std::vector<Leaf> StateLeaves() {

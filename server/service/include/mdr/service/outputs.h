@@ -13,8 +13,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "mdr/core/contact.h"
 #include "mdr/base/status.h"
+#include "mdr/core/contact.h"
 #include "mdr/core/traction.h"
 #include "mdr/service/conversion.h"
 #include "mdr/v1/contact_service.pb.h"
@@ -33,6 +33,8 @@ enum class Output : std::uint8_t {
   kFrictionLimit,
   kAppliedSteps,
   kMemoryVertices,
+  kActuatorDisplacement,
+  kActuatorDepth,
   // StepResult.
   kSubsteps,
   kPathError,
