@@ -1,0 +1,90 @@
+// Exact fretting loops of a scene, computed by the engine (issue #24; docs/analysis.md, "Regimes,
+// thresholds and maps"): the loop figures of a steady Mindlin-Deresiewicz cycle at constant
+// normal force, through the scene's rig; the thresholds at the onset of gross slip that measured
+// cycles are classified against; the fretting map; and the backbone (secant stiffness and
+// equivalent damping against amplitude) that bolted-joint rigs compare with modal tests.
+//
+// Every figure comes from exact engine steps (constant normal force: straight steps, exact also
+// through a rig), not from sampled loops: Ed is the engine's dissipated energy over one steady
+// cycle, delta_0 the displacement a force-controlled return to F_x = 0 reaches.
+#pragma once
+
+#include <vector>
+
+#include "mdr/analysis/loops.h"
+#include "mdr/base/status.h"
+#include "mdr/core/contact.h"
+#include "mdr/core/interrupt.h"
+
+namespace mdr::analysis {
+
+// How a loop's amplitude is given: the tangential force amplitude Q* (N), or the actuator's
+// displacement amplitude (m; the contact's own without a rig).
+enum class AmplitudeKind { kForce, kActuatorDisplacement };
+
+// The figures of one exact steady cycle, as LoopAnalysis defines them (loops.h).
+struct LoopFigures {
+  double normal_force = 0;       // P, N
+  double force_amplitude = 0;    // Q*, N
+  double dissipated_energy = 0;  // Ed, J (per steady cycle)
+  double half_opening = 0;       // delta_0, m
+  double contact_amplitude = 0;  // delta*_c, m: the contact's displacement amplitude
+  // delta* = delta*_c + C_t Q*, m: the amplitude the actuator moves (what the rig measures).
+  double actuator_amplitude = 0;
+  double energy_ratio = 0;          // A = Ed / (4 delta* Q*), as measured through the rig
+  double sliding_ratio = 0;         // B = delta_0 / delta*, as measured
+  double contact_energy_ratio = 0;  // A and B of the contact alone (delta*_c)
+  double contact_sliding_ratio = 0;
+  double system_free_ratio = 0;  // C = Ed / (4 delta_0 Q*), rig-free (0 where delta_0 = 0)
+  double secant_stiffness = 0;   // Q* / delta*, N/m, as measured
+  // Equivalent viscous damping ratio Ed / (4 pi U), U = Q* delta* / 2 the peak strain energy.
+  double damping_ratio = 0;
+};
+
+// The steady loop of amplitude `amplitude` (AmplitudeKind) at normal force P > 0 for the scene:
+// press to P, cycle +a, -a, +a, -a; Ed is the dissipation of the last full cycle. A force
+// amplitude must be in (0, mu P]; mu P is the onset of gross slip. Errors name "normal_force",
+// "amplitude" or the scene's field.
+Result<LoopFigures> ExactLoop(const ContactConfig& scene, double normal_force, AmplitudeKind kind,
+                              double amplitude, const Interrupt& interrupt = {});
+
+// The loop at the onset of gross slip, Q* = mu P: the thresholds of the regimes for this scene
+// (profile, material, rig) at this normal force. For a power-law profile at constant P, A = 1 /
+// (2n + 1), B = 2^(1/(n+1)) - 1 of the contact (docs/analysis.md derives them); a flat punch has no
+// partial-slip loop (A = B = C = 0 at the onset). Needs friction > 0.
+Result<LoopFigures> GrossSlipOnset(const ContactConfig& scene, double normal_force,
+                                   const Interrupt& interrupt = {});
+
+enum class Regime { kSticking, kPartialSlip, kGrossSlip };
+const char* RegimeName(Regime regime);  // "sticking", "partial slip", "gross slip"
+
+// A measured cycle's regime against the scene's onset: gross slip if its rig-free ratio C
+// reaches the onset's C (for a profile without a partial-slip loop, if Q* reaches the onset's),
+// sticking if its half-opening is below `displacement_resolution` (m, the sensor's resolution:
+// a loop that narrow cannot be told from an elastic line), partial slip otherwise.
+Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset,
+                     double displacement_resolution);
+
+// The fretting map of a scene: at each normal force, the exact loops along actuator amplitudes
+// `relative_amplitudes` times the onset's actuator amplitude (each in (0, 100]), with the onset
+// itself. Through a soft rig the partial-slip loops narrow to the rig's elastic line and the
+// contact switches sharply from near-sticking to gross slip (docs/analysis.md).
+struct FrettingMapLoad {
+  LoopFigures onset;
+  std::vector<LoopFigures> loops;  // one per relative amplitude, in order
+  std::vector<Regime> regimes;     // each loop's regime (from its amplitude against the onset)
+};
+Result<std::vector<FrettingMapLoad>> FrettingMap(const ContactConfig& scene,
+                                                 const std::vector<double>& normal_forces,
+                                                 const std::vector<double>& relative_amplitudes,
+                                                 const Interrupt& interrupt = {});
+
+// The backbone at normal force P: the exact loops at the given amplitudes (AmplitudeKind), each
+// with its secant stiffness and damping ratio (LoopFigures). Force amplitudes beyond mu P are
+// refused (gross slip has no steady force loop); displacement amplitudes may reach into gross
+// slip.
+Result<std::vector<LoopFigures>> Backbone(const ContactConfig& scene, double normal_force,
+                                          AmplitudeKind kind, const std::vector<double>& amplitudes,
+                                          const Interrupt& interrupt = {});
+
+}  // namespace mdr::analysis
