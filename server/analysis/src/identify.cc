@@ -272,14 +272,15 @@ Result<std::vector<PreparedSet>> PrepareSets(const std::vector<LoopSet>& sets,
                                              const FitOptions& options,
                                              const Interrupt& interrupt) {
   if (sets.empty()) return InvalidArgument("sets", "needs at least one loop set");
+  LoopOptions loop_options;
+  loop_options.reversal_threshold = options.reversal_threshold;
+  if (Status s = ValidateLoopOptions(loop_options); !s.ok()) return s;  // the fit's own field
   std::vector<PreparedSet> prepared;
   for (std::size_t i = 0; i < sets.size(); ++i) {
     const std::string field = Indexed("sets", i);
     if (Status s = RequirePositive(field + ".normal_force", sets[i].normal_force); !s.ok()) {
       return s;
     }
-    LoopOptions loop_options;
-    loop_options.reversal_threshold = options.reversal_threshold;
     Result<LoopAnalysis> loops = AnalyzeLoops(sets[i].samples, loop_options, interrupt);
     if (!loops.ok()) return loops.status().WithFieldPrefix(field + ".samples");
     const auto burn_in = static_cast<std::size_t>(std::max(options.burn_in_reversals, 0));
@@ -329,14 +330,17 @@ void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen:
   // Covariance of theta: s^2 (J^T J)^-1, through the SVD (infinite along a null direction).
   const double dof = static_cast<double>(n) - static_cast<double>(p);
   const double s2 = dof > 0 ? rss / dof : std::numeric_limits<double>::infinity();
-  Eigen::MatrixXd covariance(p, p);
+  // The correlations come from (J^T J)^-1 alone, so that they stay defined when the data are
+  // matched exactly (s^2 = 0, noise-free loops).
+  Eigen::MatrixXd covariance(p, p), relative(p, p);
   const bool singular = !(result->condition_number < 1e15);
   if (singular) {
     covariance.setConstant(std::numeric_limits<double>::infinity());
+    relative.setConstant(std::numeric_limits<double>::infinity());
   } else {
     const Eigen::MatrixXd v = svd.matrixV();
     const Eigen::VectorXd inverse_square = sigma.array().square().inverse();
-    const Eigen::MatrixXd relative = v * inverse_square.asDiagonal() * v.transpose();
+    relative = v * inverse_square.asDiagonal() * v.transpose();
     covariance = s2 * (scale.asDiagonal() * relative * scale.asDiagonal());
   }
   const double t =
@@ -344,7 +348,7 @@ void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen:
   result->correlation.assign(p, std::vector<double>(p, 0));
   for (std::size_t a = 0; a < p; ++a) {
     for (std::size_t b = 0; b < p; ++b) {
-      const double c = covariance(a, b) / std::sqrt(covariance(a, a) * covariance(b, b));
+      const double c = relative(a, b) / std::sqrt(relative(a, a) * relative(b, b));
       result->correlation[a][b] = a == b ? 1 : (std::isfinite(c) ? c : 1);
     }
   }

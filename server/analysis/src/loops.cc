@@ -33,7 +33,9 @@ struct Columns {
 
 // ---- Validation -------------------------------------------------------------------------------
 
-Status ValidateOptions(const LoopOptions& o) {
+}  // namespace
+
+Status ValidateLoopOptions(const LoopOptions& o) {
   if (Status s = RequireNonNegative("reversal_threshold", o.reversal_threshold); !s.ok()) return s;
   if (o.rig_compliance) {
     if (Status s = RequireNonNegative("rig_compliance", *o.rig_compliance); !s.ok()) return s;
@@ -53,6 +55,8 @@ Status ValidateOptions(const LoopOptions& o) {
   }
   return OkStatus();
 }
+
+namespace {
 
 Status RequireLength(const char* name, std::size_t size, std::size_t n, bool optional) {
   if (size == n || (optional && size == 0)) return OkStatus();
@@ -372,7 +376,7 @@ Measures MeasuresOf(const char* figure) {
 
 Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions& options,
                                   const Interrupt& interrupt) {
-  if (Status s = ValidateOptions(options); !s.ok()) return s;
+  if (Status s = ValidateLoopOptions(options); !s.ok()) return s;
   if (Status s = ValidateSamples(samples, interrupt); !s.ok()) return s;
 
   LoopAnalysis out;

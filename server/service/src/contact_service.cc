@@ -2,9 +2,11 @@
 
 #include <chrono>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 
+#include "mdr/service/analysis_ops.h"
 #include "mdr/service/call_context.h"
 #include "mdr/service/grpc_status.h"
 
@@ -96,6 +98,94 @@ class QueuedCall final : public grpc::ServerUnaryReactor {
   const Clock::time_point start_ = Clock::now();
   std::atomic<bool> cancelled_{false};
   const Interrupt interrupt_;  // after cancelled_, which it points to
+};
+
+// Runs `run(response)` and records its time in response->compute_seconds (the analysis calls).
+template <typename Response, typename Run>
+Status Timed(Response* response, Run run) {
+  const Clock::time_point start = Clock::now();
+  Status status = run(response);
+  if (!status.ok()) {
+    response->Clear();
+    return status;
+  }
+  response->set_compute_seconds(SecondsSince(start));
+  return status;
+}
+
+// FitLoops: a server stream computed on a worker. gRPC allows one write in flight: a progress
+// message produced while one is being written replaces the one waiting (the latest matters); the
+// result is written last, with the status, after every progress message sent. Nothing touches
+// the call after Finish (gRPC then deletes it in OnDone), and gRPC calls happen outside the lock.
+class FitLoopsCall final : public grpc::ServerWriteReactor<v1::FitLoopsResponse> {
+ public:
+  FitLoopsCall(grpc::CallbackServerContext* context, const std::atomic<bool>& server_stopping)
+      : request_id_(RequestIdOf(context)),
+        interrupt_(InterruptOf(context, &cancelled_, &server_stopping)) {}
+
+  void OnCancel() override { cancelled_.store(true, std::memory_order_relaxed); }
+  void OnDone() override { delete this; }
+  void OnWriteDone(bool ok) override {
+    std::unique_lock lock(mutex_);
+    writing_ = false;
+    write_failed_ = write_failed_ || !ok;  // the client is gone: the interrupt stops the fit
+    Next(lock);
+  }
+
+  const Interrupt& interrupt() const { return interrupt_; }
+
+  // On the worker, during the fit.
+  void Progress(const v1::FitProgress& progress) {
+    std::unique_lock lock(mutex_);
+    *waiting_.mutable_progress() = progress;
+    has_waiting_ = true;
+    Next(lock);
+  }
+
+  // On the worker: the fit's outcome; the last call the worker makes on this object.
+  void Complete(const Status& status, v1::FitResult result) {
+    std::unique_lock lock(mutex_);
+    final_ = status;
+    *result_.mutable_result() = std::move(result);
+    done_ = true;
+    Next(lock);
+  }
+
+ private:
+  // With the lock held: start the next write or the finish if none is in flight.
+  void Next(std::unique_lock<std::mutex>& lock) {
+    if (writing_ || finishing_) return;
+    if (has_waiting_ && !write_failed_) {
+      writing_ = true;
+      has_waiting_ = false;
+      out_.Swap(&waiting_);
+      lock.unlock();
+      StartWrite(&out_);
+      return;
+    }
+    if (!done_) return;
+    finishing_ = true;
+    const grpc::Status sent = ToGrpcStatus(final_);
+    LogCall("FitLoops", "", request_id_, sent, SecondsSince(start_));
+    const bool with_result = final_.ok() && !write_failed_;
+    if (with_result) out_.Swap(&result_);
+    lock.unlock();
+    if (with_result) {
+      StartWriteAndFinish(&out_, grpc::WriteOptions(), sent);
+    } else {
+      Finish(sent);
+    }
+  }
+
+  const std::string request_id_;
+  const Clock::time_point start_ = Clock::now();
+  std::atomic<bool> cancelled_{false};
+  const Interrupt interrupt_;  // after cancelled_, which it points to
+  std::mutex mutex_;
+  v1::FitLoopsResponse out_, waiting_, result_;  // out_: the message being written
+  bool has_waiting_ = false, writing_ = false, write_failed_ = false;
+  bool done_ = false, finishing_ = false;
+  Status final_;
 };
 
 }  // namespace
@@ -251,6 +341,67 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Transform(grpc::CallbackServerCont
   return Queue(context, "Transform", "", "",
                [this, request, response](const Principal&, const Interrupt&) {
                  return operations_.Transform(*request, response);
+               });
+}
+
+grpc::ServerUnaryReactor* ContactServiceImpl::AnalyzeLoops(grpc::CallbackServerContext* context,
+                                                           const v1::AnalyzeLoopsRequest* request,
+                                                           v1::AnalyzeLoopsResponse* response) {
+  return Queue(context, "AnalyzeLoops", "", "",
+               [this, request, response](const Principal&, const Interrupt& interrupt) {
+                 return Timed(response, [&](v1::AnalyzeLoopsResponse* r) {
+                   return RunAnalyzeLoops(*request, operations_.limits(), interrupt, r);
+                 });
+               });
+}
+
+grpc::ServerWriteReactor<v1::FitLoopsResponse>* ContactServiceImpl::FitLoops(
+    grpc::CallbackServerContext* context, const v1::FitLoopsRequest* request) {
+  auto* call = new FitLoopsCall(context, server_stopping_);
+  Principal caller;
+  if (Status status = CallerOf(context, authenticator_, &caller); !status.ok()) {
+    call->Complete(status, {});
+    return call;
+  }
+  const bool queued = executor_.Submit("", [this, call, request] {
+    v1::FitResult result;
+    const Clock::time_point start = Clock::now();
+    Status status = call->interrupt().Check();
+    if (status.ok()) {
+      status = RunFitLoops(
+          *request, operations_.limits(), call->interrupt(),
+          [call](const v1::FitProgress& progress) { call->Progress(progress); }, &result);
+    }
+    if (status.ok()) {
+      result.set_compute_seconds(SecondsSince(start));
+    } else {
+      result.Clear();
+    }
+    call->Complete(status, std::move(result));
+  });
+  if (!queued) call->Complete(BusyStatus(executor_), {});
+  return call;
+}
+
+grpc::ServerUnaryReactor* ContactServiceImpl::FrettingMap(grpc::CallbackServerContext* context,
+                                                          const v1::FrettingMapRequest* request,
+                                                          v1::FrettingMapResponse* response) {
+  return Queue(context, "FrettingMap", "", "",
+               [this, request, response](const Principal&, const Interrupt& interrupt) {
+                 return Timed(response, [&](v1::FrettingMapResponse* r) {
+                   return RunFrettingMap(*request, operations_.limits(), interrupt, r);
+                 });
+               });
+}
+
+grpc::ServerUnaryReactor* ContactServiceImpl::Backbone(grpc::CallbackServerContext* context,
+                                                       const v1::BackboneRequest* request,
+                                                       v1::BackboneResponse* response) {
+  return Queue(context, "Backbone", "", "",
+               [this, request, response](const Principal&, const Interrupt& interrupt) {
+                 return Timed(response, [&](v1::BackboneResponse* r) {
+                   return RunBackbone(*request, operations_.limits(), interrupt, r);
+                 });
                });
 }
 

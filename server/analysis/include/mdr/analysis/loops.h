@@ -126,6 +126,11 @@ struct LoopAnalysis {
   bool friction_drifts = false;
 };
 
+// The options' own ranges (InvalidArgument naming "reversal_threshold", "rig_compliance",
+// "normal_force" or a tolerance); AnalyzeLoops checks them first, so a caller that runs this
+// before knows any later error is the samples'.
+Status ValidateLoopOptions(const LoopOptions& options);
+
 // Analyses the samples. Errors (nothing is returned then): InvalidArgument naming the column and
 // sample ("displacement[12]: must be finite", "tangential_force: needs one value per
 // displacement sample, got 9 for 10", "time[3]: must increase strictly", "normal_force[5]: must be

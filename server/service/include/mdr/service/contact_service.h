@@ -95,6 +95,18 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
   grpc::ServerUnaryReactor* Transform(grpc::CallbackServerContext* context,
                                       const v1::TransformRequest* request,
                                       v1::TransformResponse* response) override;
+  // The analysis of measured loops (analysis_ops.h), stateless, on the workers.
+  grpc::ServerUnaryReactor* AnalyzeLoops(grpc::CallbackServerContext* context,
+                                         const v1::AnalyzeLoopsRequest* request,
+                                         v1::AnalyzeLoopsResponse* response) override;
+  grpc::ServerWriteReactor<v1::FitLoopsResponse>* FitLoops(
+      grpc::CallbackServerContext* context, const v1::FitLoopsRequest* request) override;
+  grpc::ServerUnaryReactor* FrettingMap(grpc::CallbackServerContext* context,
+                                        const v1::FrettingMapRequest* request,
+                                        v1::FrettingMapResponse* response) override;
+  grpc::ServerUnaryReactor* Backbone(grpc::CallbackServerContext* context,
+                                     const v1::BackboneRequest* request,
+                                     v1::BackboneResponse* response) override;
 
   // Open streams answer what they are working on and end with UNAVAILABLE; new ones end at once.
   void DrainStreams() { streams_.DrainAll(); }
