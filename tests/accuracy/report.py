@@ -104,9 +104,13 @@ def benchmark_markdown(path, reference=PLAIN_STEP):
         report = json.load(f)
     times = median_cpu_times(report)
     plain = times.get(reference)
-    lines = [f"### `{os.path.basename(path)}`", "",
-             f"`x plain step`: the cost of one item (a step, a query, a contact-increment) over "
-             f"that of `{reference}` (the exact step without energy) in the same run.", "",
+    explanation = (f"`x plain step`: the cost of one item (a step, a query, a contact-increment) "
+                   f"over that of `{reference}` (the exact step without energy) in the same run."
+                   if reference else
+                   "Wall time per iteration; `x plain step` does not apply (no step reference).")
+    lines = [f"### `{os.path.basename(path)}`", "", explanation, "",
+             "| benchmark | wall time per iteration | x plain step | items/s | counters |"
+             if reference is None else
              "| benchmark | CPU time per iteration | x plain step | items/s | counters |",
              "|---|---|---|---|---|"]
     for b in report["benchmarks"]:
@@ -124,9 +128,11 @@ def benchmark_markdown(path, reference=PLAIN_STEP):
         reference_items = items_per_second(report, reference)
         if items and reference_items and b.get("run_name", b["name"]) != reference:
             ratio = reference_items / items
-        lines.append(f"| {b['name']} | {b['cpu_time']:.4g} {b['time_unit']} | {ratio:.2f} | "
+        time = b['real_time'] if reference is None else b['cpu_time']
+        shown = f"{ratio:.2f}" if plain else "-"
+        lines.append(f"| {b['name']} | {time:.4g} {b['time_unit']} | {shown} | "
                      f"{items / 1e6:.3g} M/s |" if items else
-                     f"| {b['name']} | {b['cpu_time']:.4g} {b['time_unit']} | {ratio:.2f} | - |")
+                     f"| {b['name']} | {time:.4g} {b['time_unit']} | {shown} | - |")
         lines[-1] += f" {counters} |"
     context = report.get("context", {})
     lines += ["", f"Host: {context.get('num_cpus')} CPUs at {context.get('mhz_per_cpu')} MHz, "
@@ -194,6 +200,15 @@ INTERFACE_TARGETS = [("interface of 10^4 Hertz asperities, M-D cycling with ener
                       "BM_InterfaceCycling/1/2/real_time", 10e6),
                      ("the same on 1 worker (reference)", "BM_InterfaceCycling/1/1/real_time",
                       None)]
+# Issue #24's targets: wall time of one iteration (median) against an absolute bound, on this
+# machine (2 cores): loop analysis of 10^6 samples (automatic threshold, the dearer case) and a
+# fit of 10 loops of 600 samples with 4 free parameters on 2 threads.
+ANALYSIS_TARGETS = [("loop analysis of 10^6 samples (automatic threshold)", "BM_AnalyzeLoops/0",
+                     1.0),
+                    ("fit of 10 loops x 600 samples, 4 free parameters, 2 threads",
+                     "BM_FitTenLoops/2/real_time", 5.0),
+                    ("the same fit on 1 thread (reference)", "BM_FitTenLoops/1/real_time", None)]
+
 # Issue #17's service target: a contact list through the service against the engine.
 CONTACT_LIST_TARGET = 0.5
 
@@ -211,7 +226,35 @@ def contact_list_ratios(path):
     return ratios
 
 
-def targets_markdown(core_path, load_path, interface_path=None, interface_load_path=None):
+def median_real_seconds(report):
+    """benchmark run name -> median wall time per iteration (s)."""
+    times = {}
+    for b in report["benchmarks"]:
+        if b.get("aggregate_name") in (None, "median"):
+            scale = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1}[b["time_unit"]]
+            times[b.get("run_name", b["name"])] = b["real_time"] * scale
+    return times
+
+
+def analysis_targets(path):
+    """Lines of the Targets table for the loop analysis and the fit (absolute wall times)."""
+    with open(path) as f:
+        times = median_real_seconds(json.load(f))
+    lines = []
+    for label, name, bound in ANALYSIS_TARGETS:
+        if name not in times:
+            continue
+        seconds = times[name]
+        if bound is None:
+            lines.append(f"| {label} | {seconds:.3f} s | - | - |")
+        else:
+            lines.append(f"| {label} | {seconds:.3f} s ({seconds / bound:.3f} of the target) | "
+                         f"< {bound:g} s | {'yes' if seconds < bound else 'no'} |")
+    return lines
+
+
+def targets_markdown(core_path, load_path, interface_path=None, interface_load_path=None,
+                     analysis_path=None):
     """The performance targets against the figures of this run, each a ratio within one run."""
     lines = ["### Targets", "", "| figure | measured | target | met |", "|---|---|---|---|"]
     if os.path.exists(core_path):
@@ -238,6 +281,8 @@ def targets_markdown(core_path, load_path, interface_path=None, interface_load_p
             lines.append(f"| contact list of 10^4 through the service / engine, {energy} | "
                          f"{ratio:.2f} | >= {CONTACT_LIST_TARGET:g} | "
                          f"{'yes' if ratio >= CONTACT_LIST_TARGET else 'no'} |")
+    if analysis_path and os.path.exists(analysis_path):
+        lines += analysis_targets(analysis_path)
     if os.path.exists(load_path):
         with open(load_path) as f:
             figures = json.load(f)["figures"]
@@ -265,10 +310,12 @@ def main():
             "Generated by `bash tests/accuracy/run.sh` with Google Benchmark and `mdr_load`.", ""]
     perf += targets_markdown(os.path.join(out, "core_bench.json"), os.path.join(out, "load.json"),
                              os.path.join(out, "interface_bench.json"),
-                             os.path.join(out, "interface_load.txt"))
+                             os.path.join(out, "interface_load.txt"),
+                             os.path.join(out, "analysis_bench.json"))
     for name, reference in (("core_bench.json", PLAIN_STEP),
                             ("operations_bench.json", "BM_EngineOneStep/0"),
-                            ("interface_bench.json", "BM_SingleContactCycling/0")):
+                            ("interface_bench.json", "BM_SingleContactCycling/0"),
+                            ("analysis_bench.json", None)):
         path = os.path.join(out, name)
         if os.path.exists(path):
             perf += benchmark_markdown(path, reference)

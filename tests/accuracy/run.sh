@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates docs/report/: accuracy against run time (CSV, Markdown, PNG plots), the core
 # benchmarks, and the service load test (mdr_load: unary, batched and streamed Apply beside an
-# echo of the same shape, 1/10/100 sessions; about a minute), the many-contact benchmarks. One command, a few minutes on 2 cores:
+# echo of the same shape, 1/10/100 sessions; about a minute), the many-contact benchmarks, the loop analysis and fit (issue #24). One command, a few minutes on 2 cores:
 #   bash tests/accuracy/run.sh            (full study)
 #   bash tests/accuracy/run.sh --quick    (fewer resolutions, for a smoke run)
 set -euo pipefail
@@ -9,7 +9,7 @@ cd "$(dirname "$0")/../.."
 quick=${1:-}
 out=docs/report
 bash deploy/build.sh release --target mdr_accuracy_study mdr_core_bench mdr_load \
-  mdr_interface_bench mdr_interface_load mdr_operations_bench
+  mdr_interface_bench mdr_interface_load mdr_operations_bench mdr_analysis_bench
 mkdir -p "$out"
 echo "accuracy study -> $out/accuracy.csv"
 build/release/tests/accuracy/mdr_accuracy_study $quick > "$out/accuracy.csv"
@@ -25,6 +25,10 @@ echo "interface benchmarks -> $out/interface_bench.json"
 build/release/tests/bench/mdr_interface_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \
   --benchmark_out="$out/interface_bench.json" > /dev/null
+echo "loop analysis and identification -> $out/analysis_bench.json"
+build/release/tests/bench/mdr_analysis_bench --benchmark_repetitions=3 \
+  --benchmark_report_aggregates_only=true --benchmark_out_format=json \
+  --benchmark_out="$out/analysis_bench.json" > /dev/null
 echo "contact list through the service -> $out/interface_load.txt"
 { build/release/tests/bench/mdr_interface_load --seconds 3
   build/release/tests/bench/mdr_interface_load --seconds 3 --no-energy; } > "$out/interface_load.txt"
