@@ -165,6 +165,11 @@ TEST(IdentifyTest, TheComplianceGuessIsTheInterceptAgainstLoad) {
   ASSERT_TRUE(guess.ok()) << guess.status().ToString();
   EXPECT_NEAR(guess->rig_compliance, kRig, 0.15 * kRig);
   EXPECT_GT(guess->slope, 0);
+  EXPECT_GT(guess->standard_error, 0);  // three loads leave one residual
+  // Two loads fix the line exactly: its error is unknown, not zero.
+  Result<ComplianceGuess> two = GuessRigCompliance({sets[0], sets[1]});
+  ASSERT_TRUE(two.ok());
+  EXPECT_TRUE(std::isnan(two->standard_error));
   EXPECT_EQ(GuessRigCompliance({sets[0]}).status().code(), StatusCode::kFailedPrecondition);
 }
 

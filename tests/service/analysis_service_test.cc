@@ -146,6 +146,9 @@ TEST_F(AnalysisServiceTest, AnalyzeLoopsAnswersTheLibrarysFiguresWithTheirLabels
   EXPECT_EQ(measures.at("energy_ratio"), v1::MEASURES_CONTACT_AND_RIG);
   EXPECT_EQ(measures.at("displacement_amplitude"), v1::MEASURES_CONTACT_AND_RIG);
   EXPECT_EQ(measures.at("contact.secant_stiffness"), v1::MEASURES_CONTACT);
+  EXPECT_EQ(measures.at("onset_system_free_ratio"), v1::MEASURES_CONTACT);
+  EXPECT_EQ(measures.at("friction_drift"), v1::MEASURES_CONTACT);
+  EXPECT_EQ(measures.count("start_time"), 0u);
 }
 
 TEST_F(AnalysisServiceTest, TheScenesOwnOnsetClassifiesEachCycle) {
@@ -269,6 +272,7 @@ TEST_F(AnalysisServiceTest, FitLoopsStreamsProgressThenTheLibrarysResult) {
   EXPECT_EQ(result.fitted_scene().friction(), result.estimates(0).value());
   EXPECT_EQ(result.fitted_scene().rig().tangential_compliance(), result.estimates(1).value());
   ASSERT_TRUE(result.has_guessed_rig_compliance());  // two loads of a sphere
+  EXPECT_FALSE(result.has_guessed_rig_compliance_error());  // no residual to estimate it
   EXPECT_GT(result.compute_seconds(), 0);
 }
 

@@ -11,12 +11,13 @@ import grpc
 
 from mdr.v1 import contact_service_pb2 as api
 from mdr.v1 import contact_service_pb2_grpc as api_grpc
-from mdr.v1 import scene_pb2
 
+from . import analysis
+from .analysis import (BackboneResult, FrettingMapResult, LoopAnalysisResult,
+                       LoopFitResult)
 from .embedded import EmbeddedServer
 from .errors import MdrError, from_rpc_error, from_status
-from .messages import (ApplyResult, QueryResult, SceneLike, StepLike, to_scene, to_step,
-                       to_steps)
+from .messages import ApplyResult, QueryResult, SceneLike, StepLike, to_scene, to_steps
 
 _ROUTES = {"both": api.TRACTION_ROUTE_BOTH, "abel": api.TRACTION_ROUTE_ABEL,
                    "jager": api.TRACTION_ROUTE_JAGER}
@@ -58,8 +59,9 @@ class Client:
     with any of root_certificates, certificate_chain, private_key (PEM file paths; the last two
     for mutual TLS). token: a bearer token (mdrd --tokens-file). timeout: seconds, the deadline
     of every call (of a whole stream). max_attempts / initial_backoff: retries of idempotent
-    calls (GetSession, ListSessions, ExportSession, Query, Transform, Apply with a request_id)
-    that fail with UNAVAILABLE, the wait doubling each time.
+    calls (GetSession, ListSessions, ExportSession, Query, Transform, Apply with a request_id,
+    the stateless analysis calls; FitLoops only before its first message) that fail with
+    UNAVAILABLE, the wait doubling each time.
     """
 
     def __init__(self, address: str, *, tls: Union[bool, dict] = False,
@@ -123,6 +125,31 @@ class Client:
                          and error.code() == grpc.StatusCode.UNAVAILABLE)
                 if not retry:
                     raise from_rpc_error(error) from None
+            time.sleep(backoff)
+            backoff *= 2
+        raise AssertionError("unreachable")
+
+    def _call_stream(self, method: str, request, on_message, timeout: Optional[float] = None):
+        """Reads a server stream, handing every message to on_message; retried on UNAVAILABLE
+        (the calls are stateless) only while no message has arrived. on_message's exceptions
+        cancel the call and propagate."""
+        rpc = getattr(self._stub, method)
+        backoff = self.initial_backoff
+        for attempt in range(1, self.max_attempts + 1):
+            call = rpc(request, timeout=timeout or self.timeout, metadata=self._metadata)
+            received = False
+            try:
+                for message in call:
+                    received = True
+                    on_message(message)
+                return
+            except grpc.RpcError as error:
+                retry = (not received and attempt < self.max_attempts
+                         and error.code() == grpc.StatusCode.UNAVAILABLE)
+                if not retry:
+                    raise from_rpc_error(error) from None
+            finally:
+                call.cancel()
             time.sleep(backoff)
             backoff *= 2
         raise AssertionError("unreachable")
@@ -193,6 +220,85 @@ class Client:
         else:
             target.CopyFrom(source)
         return self._call("Transform", request, idempotent=True)
+
+    # The analysis of measured loops (docs/analysis.md): stateless, SI units, numpy arrays.
+    def analyze_loops(self, displacement, tangential_force, normal_force=None, time=None, *,
+                      scene: Optional[SceneLike] = None, rig_compliance: Optional[float] = None,
+                      reversal_threshold: float = 0.0, displacement_resolution: float = 0.0,
+                      closure_tolerance: Optional[float] = None,
+                      asymmetry_tolerance: Optional[float] = None,
+                      hook_tolerance: Optional[float] = None,
+                      drift_tolerance: Optional[float] = None) -> LoopAnalysisResult:
+        """The figures of every complete cycle of a run (AnalyzeLoops).
+
+        displacement u (m) and tangential_force F_x (N): one value per sample (sequences or numpy
+        arrays); normal_force F_N (N): one value per sample, or one number for a constant load
+        that was not measured; time t (s): one per sample, strictly increasing. scene (a Scene,
+        dict or scene file): classifies each cycle against the scene's onset of gross slip at
+        the cycle's normal force (which must then be given). rig_compliance C_t (m/N): adds the
+        contact's own figures. reversal_threshold (m; 0: 5 % of the median peak-to-peak
+        displacement), displacement_resolution (m: narrower loops stick), the flag tolerances
+        (None: the server's defaults). The server checks lengths and values and names them
+        (MdrError, field "samples.displacement[12]")."""
+        request = analysis.analyze_request(
+            displacement, tangential_force, normal_force, time, scene=scene,
+            rig_compliance=rig_compliance, reversal_threshold=reversal_threshold,
+            displacement_resolution=displacement_resolution,
+            closure_tolerance=closure_tolerance, asymmetry_tolerance=asymmetry_tolerance,
+            hook_tolerance=hook_tolerance, drift_tolerance=drift_tolerance)
+        return LoopAnalysisResult.of(self._call("AnalyzeLoops", request, idempotent=True))
+
+    def fit_loops(self, scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int] = None,
+                  reversal_threshold: float = 0.0, max_iterations: int = 0, progress=None,
+                  timeout: Optional[float] = None) -> LoopFitResult:
+        """Fits free parameters of a single-contact scene to measured loops (FitLoops) by
+        replaying each set's actuator path through the exact engine with the scene's rig.
+
+        sets: 1 to 64 loop sets, each (displacement in m, tangential_force in N, normal_force in
+        N: the set's constant load) or a dict with those keys. free: {"friction": {"lower": 0.1,
+        "upper": 1, "initial": 0.4}, "rig_compliance": {...}, ...} (initial optional: the
+        scene's value), or a list of such dicts with a "parameter" key; names: friction,
+        effective_modulus (Pa), profile_scale (m), rig_compliance (m/N), displacement_offset (m).
+        burn_in_reversals: residuals count from this reversal of each set on (None: 2);
+        reversal_threshold in m (0: automatic); max_iterations (0: 200). progress: called as
+        progress(iteration, residual_rms in N, {name: value}) while the fit runs; the server
+        sends the latest iteration whenever it can, so iterations may be skipped. timeout:
+        seconds for the whole fit (default: the client's)."""
+        request = analysis.fit_request(scene, sets, free, burn_in_reversals=burn_in_reversals,
+                                       reversal_threshold=reversal_threshold,
+                                       max_iterations=max_iterations)
+        on_progress = analysis.progress_caller(progress, request)
+        results = []
+
+        def on_message(message):
+            if message.HasField("progress"):
+                on_progress(message.progress)
+            elif message.HasField("result"):
+                results.append(message.result)
+
+        self._call_stream("FitLoops", request, on_message, timeout)
+        if not results:
+            raise MdrError(grpc.StatusCode.UNKNOWN, "",
+                           "the FitLoops stream ended without a result")
+        return LoopFitResult.of(results[-1])
+
+    def fretting_map(self, scene: SceneLike, normal_forces, relative_amplitudes
+                     ) -> FrettingMapResult:
+        """The exact steady loops of a single-contact scene (with its rig) at 1 to 100 normal
+        forces (N) and 1 to 200 actuator amplitudes relative to the onset of gross slip at each
+        force (in (0, 100]), each a sequence, an array or one number: (loads, amplitudes)
+        arrays and each force's onset (FrettingMap)."""
+        request = analysis.fretting_map_request(scene, normal_forces, relative_amplitudes)
+        return FrettingMapResult.of(request, self._call("FrettingMap", request,
+                                                        idempotent=True))
+
+    def backbone(self, scene: SceneLike, normal_force: float, amplitudes,
+                 kind: str = "force") -> BackboneResult:
+        """Secant stiffness and damping ratio of the exact steady loops against amplitude at one
+        normal force in N (Backbone). kind: "force" (amplitudes Q* in N, in (0, mu F_N]) or
+        "actuator_displacement" (amplitudes in m, > 0); 1 to 1000 amplitudes."""
+        request = analysis.backbone_request(scene, normal_force, amplitudes, kind)
+        return BackboneResult.of(request, self._call("Backbone", request, idempotent=True))
 
 
 def _route(route: str) -> int:

@@ -364,10 +364,12 @@ Measures MeasuresOf(const char* figure) {
   const std::string_view name(figure);
   // Everything in ContactFigures ("contact.energy_ratio") is the contact's by construction.
   if (name.starts_with("contact.")) return Measures::kContact;
-  static constexpr std::array<std::string_view, 9> kContactOnly = {
-      "force_amplitude",   "force_offset", "dissipated_energy",    "half_opening",
-      "system_free_ratio", "normal_force", "friction_coefficient", "energy_friction_coefficient",
-      "friction_drift"};
+  static constexpr std::array<std::string_view, 10> kContactOnly = {
+      "force_amplitude",      "force_offset",
+      "dissipated_energy",    "half_opening",
+      "system_free_ratio",    "normal_force",
+      "friction_coefficient", "energy_friction_coefficient",
+      "friction_drift",       "onset_system_free_ratio"};
   // The rest (displacements, slopes, the flags, which use them) carry the rig.
   return std::find(kContactOnly.begin(), kContactOnly.end(), name) != kContactOnly.end()
              ? Measures::kContact

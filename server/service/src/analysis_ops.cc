@@ -118,15 +118,18 @@ v1::Measures ToProto(analysis::Measures measures) {
                                                   : v1::MEASURES_CONTACT_AND_RIG;
 }
 
-// What each double figure of CycleFigures (and of its contact figures) measures.
+// What each figure of CycleFigures (its doubles but the time stamp, and its contact figures)
+// and the response's friction_drift measure.
 void FillMeasures(v1::AnalyzeLoopsResponse* response) {
   auto* measures = response->mutable_measures();
   const google::protobuf::Descriptor* cycle = v1::CycleFigures::descriptor();
   for (int i = 0; i < cycle->field_count(); ++i) {
     const google::protobuf::FieldDescriptor* field = cycle->field(i);
     if (field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) continue;
+    if (field->name() == "start_time") continue;  // when, not what
     (*measures)[field->name()] = ToProto(analysis::MeasuresOf(field->name().c_str()));
   }
+  (*measures)["friction_drift"] = ToProto(analysis::MeasuresOf("friction_drift"));
   const google::protobuf::Descriptor* contact = v1::ContactFigures::descriptor();
   for (int i = 0; i < contact->field_count(); ++i) {
     (*measures)["contact." + contact->field(i)->name()] = v1::MEASURES_CONTACT;
@@ -367,7 +370,9 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
         analysis::GuessRigCompliance(sets, *n, options.reversal_threshold);
     if (guess.ok()) {
       result->set_guessed_rig_compliance(guess->rig_compliance);
-      result->set_guessed_rig_compliance_error(guess->standard_error);
+      if (std::isfinite(guess->standard_error)) {
+        result->set_guessed_rig_compliance_error(guess->standard_error);
+      }
     }
   }
   return OkStatus();

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -113,7 +114,8 @@ Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet
 // below the full-stick stiffness: a starting point, not an estimate.
 struct ComplianceGuess {
   double rig_compliance = 0;  // C_t, m/N (may come out negative with noisy data; not clamped)
-  double standard_error = 0;  // of the intercept (0 with two loads)
+  // Of the intercept; NaN with two loads (a line through two points leaves no residual).
+  double standard_error = std::numeric_limits<double>::quiet_NaN();
   double slope = 0;           // c, in m/N * N^(1/(n+1))
   std::vector<double> normal_forces, apparent_stiffness;  // the points of the line, per set
 };
