@@ -51,7 +51,7 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
                  "Seconds after which an unused session is deleted (0: never)")
       ->envname("MDR_SESSION_IDLE_TIMEOUT")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0.0, static_cast<double>(mdr::service::kMaxIdleTimeoutSeconds)));
   app.add_option("--max-message-bytes", limits.max_message_bytes,
                  "Largest request or response message (RESOURCE_EXHAUSTED beyond)")
       ->envname("MDR_MAX_MESSAGE_BYTES")

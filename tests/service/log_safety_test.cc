@@ -13,6 +13,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mdr/service/log_value.h"
@@ -259,7 +260,7 @@ TEST_F(ServiceTest, IdleTimeoutMustBeANormalizedDuration) {
   timeout->set_seconds(-5);
   status = stub_->CreateSession(Context().get(), request, &session);
   ExpectInvalidArgument(status, "session.limits.idle_timeout.seconds");
-  EXPECT_THAT(status.error_message(), HasSubstr("must be in [0, 315576000000], got -5"));
+  EXPECT_THAT(status.error_message(), HasSubstr("must be in [0, 3155760000], got -5"));
   EXPECT_EQ(server_->session_count(), 0u);
   // The same rule for a snapshot's limits.
   timeout->set_seconds(60);
@@ -269,6 +270,44 @@ TEST_F(ServiceTest, IdleTimeoutMustBeANormalizedDuration) {
   import.mutable_snapshot()->mutable_limits()->mutable_idle_timeout()->set_nanos(1'500'000'000);
   ExpectInvalidArgument(stub_->ImportSession(Context().get(), import, &session),
                         "snapshot.limits.idle_timeout.nanos");
+}
+
+// A timeout too long for the clocks' nanoseconds (issue #27: 18446744074 s wrapped to 0.29 s
+// on a server whose sessions never expire) is refused before any conversion; the longest
+// accepted one is echoed and does not expire the session.
+TEST_F(ServiceTest, IdleTimeoutsBeyondTheClocksAreRefused) {
+  service::ServerOptions options = LocalServerOptions();
+  options.limits.session_idle_timeout = std::chrono::milliseconds(0);  // never
+  Restart(options);
+  v1::CreateSessionRequest request;
+  *request.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+  google::protobuf::Duration* timeout =
+      request.mutable_session()->mutable_limits()->mutable_idle_timeout();
+  v1::Session session;
+  for (std::int64_t seconds : {std::int64_t{18446744074}, std::int64_t{9223372037},
+                               service::kMaxIdleTimeoutSeconds + 1}) {
+    timeout->set_seconds(seconds);
+    const grpc::Status status = stub_->CreateSession(Context().get(), request, &session);
+    ExpectInvalidArgument(status, "session.limits.idle_timeout.seconds");
+    EXPECT_THAT(status.error_message(), HasSubstr("must be in [0, 3155760000]"));
+  }
+  EXPECT_EQ(server_->session_count(), 0u);
+  timeout->set_seconds(service::kMaxIdleTimeoutSeconds);
+  timeout->set_nanos(999'999'999);
+  ASSERT_TRUE(stub_->CreateSession(Context().get(), request, &session).ok());
+  EXPECT_EQ(session.limits().idle_timeout().seconds(), service::kMaxIdleTimeoutSeconds);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  v1::GetSessionRequest get;
+  get.set_name(session.name());
+  v1::Session got;
+  EXPECT_TRUE(stub_->GetSession(Context().get(), get, &got).ok());
+  EXPECT_GT(got.expire_time().seconds(), session.create_time().seconds() + 3'000'000'000);
+  // A snapshot's limits follow the same rule.
+  v1::ImportSessionRequest import;
+  *import.mutable_snapshot() = ExportOrDie(session.name());
+  import.mutable_snapshot()->mutable_limits()->mutable_idle_timeout()->set_seconds(18446744074);
+  ExpectInvalidArgument(stub_->ImportSession(Context().get(), import, &got),
+                        "snapshot.limits.idle_timeout.seconds");
 }
 
 TEST_F(ServiceTest, QueryRadiiAreLimitedByTheResponseSizeBeforeAnyWork) {

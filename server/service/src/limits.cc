@@ -13,13 +13,14 @@ using google::protobuf::util::TimeUtil;
 
 namespace {
 
-// A duration as the API takes it: non-negative and normalized, as google.protobuf.Duration
-// defines it (seconds in [0, 315576000000], nanos in [0, 999999999]); anything else is refused
-// rather than normalized, so an invalid Duration is never echoed back.
-Status ValidateDuration(const std::string& field, const google::protobuf::Duration& duration) {
-  if (duration.seconds() < 0 || duration.seconds() > TimeUtil::kDurationMaxSeconds) {
-    return InvalidArgument(field + ".seconds", "must be in [0, " +
-                                                   std::to_string(TimeUtil::kDurationMaxSeconds) +
+// A duration as the API takes it: non-negative and normalized (nanos in [0, 999999999]), its
+// seconds at most max_seconds, which is below google.protobuf.Duration's own bound and checked
+// before any conversion to nanoseconds could overflow; anything else is refused rather than
+// normalized or clamped, so an invalid Duration is never echoed back.
+Status ValidateDuration(const std::string& field, const google::protobuf::Duration& duration,
+                        std::int64_t max_seconds) {
+  if (duration.seconds() < 0 || duration.seconds() > max_seconds) {
+    return InvalidArgument(field + ".seconds", "must be in [0, " + std::to_string(max_seconds) +
                                                    "], got " + std::to_string(duration.seconds()));
   }
   constexpr std::int32_t kMaxNanos = 999'999'999;
@@ -42,8 +43,11 @@ Status ValidateServiceLimits(const ServiceLimits& limits) {
     return InvalidArgument("max-memory-vertices",
                            "must be >= 8, got " + std::to_string(limits.max_memory_vertices));
   }
-  if (limits.session_idle_timeout.count() < 0) {
-    return InvalidArgument("session-idle-timeout", "must be >= 0 (0: never)");
+  if (limits.session_idle_timeout.count() < 0 ||
+      limits.session_idle_timeout > std::chrono::seconds(kMaxIdleTimeoutSeconds)) {
+    return InvalidArgument("session-idle-timeout", "must be in [0, " +
+                                                       std::to_string(kMaxIdleTimeoutSeconds) +
+                                                       "] seconds (0: never)");
   }
   if (limits.max_message_bytes < 1024) {
     return InvalidArgument("max-message-bytes",
@@ -70,7 +74,7 @@ Result<v1::SessionLimits> ResolveSessionLimits(const v1::SessionLimits& requeste
         TimeUtil::MillisecondsToDuration(server.session_idle_timeout.count());
   }
   if (requested.has_idle_timeout()) {
-    if (Status s = ValidateDuration("idle_timeout", requested.idle_timeout()); !s.ok()) return s;
+    if (Status s = ValidateDuration("idle_timeout", requested.idle_timeout(), kMaxIdleTimeoutSeconds); !s.ok()) return s;
     const double seconds =
         static_cast<double>(TimeUtil::DurationToNanoseconds(requested.idle_timeout())) * 1e-9;
     Status s = server_seconds > 0 ? RequireInRange("idle_timeout", seconds, 0, server_seconds,

@@ -10,6 +10,10 @@
 
 namespace mdr::service {
 
+// The longest idle timeout, of the server or of a session: 100 years. Bounded so that a deadline
+// of now + timeout stays far inside the clocks' int64 nanoseconds (292 years from their epoch).
+inline constexpr std::int64_t kMaxIdleTimeoutSeconds = 3'155'760'000;
+
 struct ServiceLimits {
   // Sessions held at most; CreateSession/ImportSession beyond it fail with RESOURCE_EXHAUSTED.
   std::size_t max_sessions = 10000;
