@@ -126,6 +126,7 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
         !s.ok()) {
       return s;
     }
+    if (Status s = contact->CheckFiniteForces(); !s.ok()) return s;
     return contact;
   }
   Result<PiecewiseLinearMemory> memory =
@@ -134,12 +135,27 @@ Result<Contact> Contact::Restore(ContactConfig config, const ContactSnapshot& sn
   if (!memory.ok()) return memory.status();
   // The same mu_kappa() that every step clamps with: the checks are exact (memory.h).
   if (Status s = memory->CheckCoulomb(contact->mu_kappa()); !s.ok()) return s;
+  if (Status s = memory->CheckFrictionCone(contact->mu_kappa()); !s.ok()) return s;
   if (Status s = memory->CheckAnchors(contact->mu_kappa(), snapshot.tangential_displacement);
       !s.ok()) {
     return s;
   }
   contact->memory_ = std::move(memory).value();
+  if (Status s = contact->CheckFiniteForces(); !s.ok()) return s;
   return contact;
+}
+
+Status Contact::CheckFiniteForces() const {
+  if (!std::isfinite(normal_force())) {
+    return InvalidArgument("depth", "gives a normal force that is not finite (" +
+                                        FormatNumber(normal_force()) +
+                                        " N): no loading history reaches it");
+  }
+  if (!std::isfinite(tangential_force())) {
+    return InvalidArgument("tangential_displacement",
+                           "the memory gives a tangential force that is not finite");
+  }
+  return OkStatus();
 }
 
 ContactSnapshot Contact::Snapshot() const {

@@ -264,6 +264,18 @@ Status GridMemory::Restore(double depth, const std::vector<double>& u, double mu
       return InvalidArgument(Indexed("grid_anchors", j), "must be empty out of contact");
     }
   }
+  // Neighbours in contact within the friction cone (memory.h); the last one in contact is, by
+  // its Coulomb bound, within it of the first spring out (u = 0).
+  for (std::size_t j = 0; j + 1 < size(); ++j) {
+    const double za = z_[static_cast<Eigen::Index>(j)], zb = z_[static_cast<Eigen::Index>(j + 1)];
+    if (!(zb < depth)) break;
+    if (!WithinFrictionCone(za, u[j], zb, u[j + 1], mu_kappa, depth)) {
+      return InvalidArgument(Indexed("grid_u", j + 1),
+                             "differs from grid_u[" + std::to_string(j) +
+                                 "] by more than mu kappa (g(x_j+1) - g(x_j)): steeper than the "
+                                 "friction cone, which no loading history makes");
+    }
+  }
   depth_ = depth;
   u_ = Eigen::Map<const Eigen::ArrayXd>(u.data(), static_cast<Eigen::Index>(u.size()));
   tag_ = std::move(tags);

@@ -587,6 +587,20 @@ double PiecewiseLinearMemory::BoundTagTolerance(std::size_t i, double mu_kappa) 
   return kTagUlps * std::numeric_limits<double>::epsilon() * depth_ * (mu_kappa + slope);
 }
 
+Status PiecewiseLinearMemory::CheckFrictionCone(double mu_kappa) const {
+  for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
+    if (WithinFrictionCone(z_[i], u_[i], z_[i + 1], u_[i + 1], mu_kappa, depth_)) continue;
+    const double slope = (u_[i + 1] - u_[i]) / (z_[i + 1] - z_[i]);
+    return InvalidArgument(Indexed("memory", i),
+                           "the segment to the next vertex is steeper than the friction cone: "
+                           "|du/dz| = " +
+                               FormatNumber(std::abs(slope)) +
+                               " > mu kappa = " + FormatNumber(mu_kappa) +
+                               " (a Jager weight beyond +-1, which no loading history makes)");
+  }
+  return OkStatus();
+}
+
 Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
   for (std::size_t i = 0; i < z_.size(); ++i) {
     const double bound = CoulombBound(mu_kappa, depth_, z_[i]);

@@ -179,6 +179,8 @@ class Contact {
   double DepthAtNormalForce(double normal_force) const;
 
  private:
+  // A restored state's forces are finite (a snapshot's depth of 1e200 is not).
+  Status CheckFiniteForces() const;
   explicit Contact(ContactConfig config) : config_(std::move(config)) {}
   // Exact linear step to (depth1, ux1) with tangential increment dux (given with ux1, not
   // derived from it, so that an increment survives a large |ux| exactly); returns the

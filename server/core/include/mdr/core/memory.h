@@ -8,8 +8,10 @@
 // needed per increment; x = g^-1(z) is evaluated only when forces or profiles are asked for.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,6 +30,20 @@ enum BoundTag : std::uint8_t { kInside = 0, kOnUpper = 1, kOnLower = 2, kOnBoth 
 // exactly, with no tolerance (docs/engine.md, "Restorable states").
 inline double CoulombBound(double mu_kappa, double depth, double z) {
   return mu_kappa * (depth - z);
+}
+
+// The friction cone: no part of the memory is steeper than the bound lines, |du/dz| <= mu_kappa,
+// so that every Jäger weight lies in [-1, 1] (docs/engine.md, "Restorable states"). The steps keep
+// this exactly but for round-off: a sticking segment is an earlier one moved by dux, which rounds
+// its ends apart by about eps * mu_kappa * depth per step, a random walk. The slack, 2^20 eps of
+// mu_kappa * depth (2.3e-10), is far above that walk over any realistic history (10^9 steps walk
+// about 3 * 10^4 eps) and far below what shows in a force, a traction or a weight.
+inline constexpr double kFrictionConeSlack = 0x1p20 * std::numeric_limits<double>::epsilon();
+
+// Whether the springs at (za, ua) and (zb, ub), both in contact at `depth`, lie within the cone.
+inline bool WithinFrictionCone(double za, double ua, double zb, double ub, double mu_kappa,
+                               double depth) {
+  return std::abs(ub - ua) <= mu_kappa * std::abs(zb - za) + kFrictionConeSlack * mu_kappa * depth;
 }
 
 // The Coulomb bound a memory segment last lay on, and the contact's depth and tangential
@@ -157,6 +173,10 @@ class PiecewiseLinearMemory {
   // of its anchor (AnchorExcess < 0), so that a restored memory takes the next step exactly as
   // the original.
   Status CheckAnchors(double mu_kappa, double tangential_displacement) const;
+  // Every segment within the friction cone (WithinFrictionCone), field "memory[i]" naming the
+  // segment's inner vertex: a memory whose weights would leave [-1, 1] (a zigzag inside the
+  // Coulomb bound) is no state the engine reaches.
+  Status CheckFrictionCone(double mu_kappa) const;
   // How far below the bound line a vertex tagged on it may lie: a crossing vertex takes u from
   // the segment it was placed on at a z rounded to a few ulps of depth, so it sits up to
   // ~(mu_kappa + |du/dz|) * c * eps * depth inside the bound (memory.cc, PlaceCrossing).
