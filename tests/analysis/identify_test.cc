@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -26,7 +27,8 @@ ContactConfig TrueScene() {
 // contact pressed at u = 0), `cycles` cycles of `per_cycle` samples, F_x with Gaussian noise of
 // `noise` N.
 LoopSet Record(const ContactConfig& scene, double normal_force, double amplitude, int cycles,
-               int per_cycle, double noise = 0, std::uint64_t seed = 1) {
+               int per_cycle, double noise = 0, std::uint64_t seed = 1,
+               double displacement_noise = 0) {
   Contact c = std::move(Contact::Create(scene)).value();
   Step press;
   press.normal = NormalControl::kForce;
@@ -43,7 +45,7 @@ LoopSet Record(const ContactConfig& scene, double normal_force, double amplitude
     const double wave = phase < 0.25 ? 4 * phase : phase < 0.75 ? 2 - 4 * phase : 4 * phase - 4;
     move.tangential_value = amplitude * wave;
     EXPECT_TRUE(c.Apply(move).ok());
-    set.samples.displacement.push_back(move.tangential_value);
+    set.samples.displacement.push_back(move.tangential_value + displacement_noise * gauss(rng));
     set.samples.tangential_force.push_back(c.tangential_force() + noise * gauss(rng));
   }
   return set;
@@ -51,11 +53,12 @@ LoopSet Record(const ContactConfig& scene, double normal_force, double amplitude
 
 // Three loads, the actuator at 0.6, 1.2 and 2 times the contact's gross-slip displacement of
 // H1 at 100 N (the lightest set slides, the heaviest stays in partial slip).
-std::vector<LoopSet> Campaign(double noise = 0, std::uint64_t seed = 1) {
+std::vector<LoopSet> Campaign(double noise = 0, std::uint64_t seed = 1,
+                              double displacement_noise = 0) {
   const ContactConfig scene = TrueScene();
   std::vector<LoopSet> sets;
   for (double load : {30.0, 100.0, 300.0}) {
-    sets.push_back(Record(scene, load, 2e-6, 2, 120, noise, seed++));
+    sets.push_back(Record(scene, load, 2e-6, 2, 120, noise, seed++, displacement_noise));
   }
   return sets;
 }
@@ -81,26 +84,48 @@ TEST(IdentifyTest, NoiseFreeLoopsGiveTheParametersBack) {
   EXPECT_EQ(fit->fitted.rig.tangential, fit->estimates[2].value);
 }
 
-// Gaussian noise on F_x: over 100 seeded replicates each 95 % interval covers the truth in at
-// least 90 of them (the expected 95 less a binomial margin).
-TEST(IdentifyTest, IntervalsCoverTheTruthAtTheirRate) {
+// Coverage of the 95 % intervals over 100 seeded replicates of the campaign with Gaussian noise
+// of 0.05 N on F_x and `displacement_noise` on the measured displacement (the actuator itself
+// follows its path); how many intervals of each parameter hold the truth.
+std::array<int, 3> Coverage(double displacement_noise) {
   const ContactConfig truth = TrueScene();
   const double values[] = {truth.friction, truth.material.e_star, kRig};
-  int covered[3] = {0, 0, 0};
-  constexpr int kReplicates = 100;
-  for (int replicate = 0; replicate < kReplicates; ++replicate) {
+  std::array<int, 3> covered = {0, 0, 0};
+  for (int replicate = 0; replicate < 100; ++replicate) {
     FitOptions options = ThreeFree();
     options.threads = 1;
-    Result<FitResult> fit = FitLoops(truth, Campaign(0.05, 1000 + 10 * replicate), options);
-    ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+    Result<FitResult> fit =
+        FitLoops(truth, Campaign(0.05, 1000 + 10 * replicate, displacement_noise), options);
+    EXPECT_TRUE(fit.ok()) << fit.status().ToString();
+    if (!fit.ok()) return covered;
     for (int k = 0; k < 3; ++k) {
       covered[k] +=
           fit->estimates[k].lower_95 <= values[k] && values[k] <= fit->estimates[k].upper_95;
     }
   }
+  return covered;
+}
+
+// Noise on F_x: each 95 % interval covers the truth in at least 90 of 100 replicates (the
+// expected 95 less a binomial margin); measured 94, 97, 97.
+TEST(IdentifyTest, IntervalsCoverTheTruthAtTheirRate) {
+  const std::array<int, 3> covered = Coverage(0);
   for (int k = 0; k < 3; ++k) {
     EXPECT_GE(covered[k], 90) << ParameterName(ThreeFree().free[k].parameter);
   }
+}
+
+// 10 nm of noise on the measured displacement too (0.5 % of the stroke). Replayed as measured it
+// put the intervals of mu, E* and the rig around the truth in 49, 70 and 75 of 100: the turning
+// points' noise shapes the model's next half-cycle and the stick parts' residuals carry k times
+// the noise. The replay's monotone path and the half-cycle sandwich bring them to 86, 100 and 99;
+// mu's stays short of 95 (the sandwich on 9 half-cycles is itself uncertain; docs/analysis.md,
+// "Limitations").
+TEST(IdentifyTest, DisplacementNoiseKeepsMostOfTheCoverage) {
+  const std::array<int, 3> covered = Coverage(1e-8);
+  EXPECT_GE(covered[0], 84) << "friction";
+  EXPECT_GE(covered[1], 90) << "effective_modulus";
+  EXPECT_GE(covered[2], 90) << "rig_compliance";
 }
 
 // One partial-slip loop at one load: mu, E* and the rig enter the loop only through its curvature,

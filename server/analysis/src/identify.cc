@@ -40,7 +40,33 @@ struct Bounded {
 struct PreparedSet {
   const LoopSet* set;
   std::size_t first_residual;
+  // The actuator path the replay follows: the measured displacement made monotone between its
+  // reversals (ReplayPath).
+  std::vector<double> path;
+  std::vector<std::size_t> reversals;
 };
+
+// The least-squares non-decreasing fit of v[0, n) in place (pool adjacent violators).
+void MakeNonDecreasing(double* v, std::size_t n) {
+  std::vector<double> mean;
+  std::vector<std::size_t> count;
+  for (std::size_t i = 0; i < n; ++i) {
+    mean.push_back(v[i]);
+    count.push_back(1);
+    while (mean.size() > 1 && mean[mean.size() - 2] > mean.back()) {
+      const std::size_t c = count.back() + count[count.size() - 2];
+      const double m = (mean.back() * static_cast<double>(count.back()) +
+                        mean[mean.size() - 2] * static_cast<double>(count[count.size() - 2])) /
+                       static_cast<double>(c);
+      mean.pop_back(), count.pop_back();
+      mean.back() = m, count.back() = c;
+    }
+  }
+  std::size_t i = 0;
+  for (std::size_t b = 0; b < mean.size(); ++b) {
+    for (std::size_t k = 0; k < count[b]; ++k) v[i++] = mean[b];
+  }
+}
 
 // Everything the residual function needs.
 class Problem {
@@ -59,6 +85,24 @@ class Problem {
   }
 
   std::size_t residuals() const { return residuals_; }
+
+  // Where each half-cycle's residuals start (indices into the residual vector, ascending): the
+  // clusters of the robust covariance. A turning point's displacement, as measured, shapes the
+  // model's whole next half-cycle, so its noise makes their residuals move together.
+  std::vector<std::size_t> HalfCycleStarts() const {
+    std::vector<std::size_t> starts;
+    for (std::size_t i = 0; i < sets_.size(); ++i) {
+      const PreparedSet& s = sets_[i];
+      starts.push_back(offsets_[i]);
+      for (std::size_t r : s.reversals) {
+        const std::size_t next = r + 1;  // the reversal's sample closes its stretch
+        if (next > s.first_residual && next < s.set->samples.displacement.size()) {
+          starts.push_back(offsets_[i] + (next - s.first_residual));
+        }
+      }
+    }
+    return starts;
+  }
   std::size_t parameters() const { return bounds_.size(); }
   const std::vector<Bounded>& bounds() const { return bounds_; }
 
@@ -102,7 +146,7 @@ class Problem {
     for (std::size_t k = 0; k < values.size(); ++k) {
       if (options_.free[k].parameter == Parameter::kDisplacementOffset) return values[k];
     }
-    return sets_[i].set->samples.displacement.front();
+    return sets_[i].path.front();
   }
 
   // Residuals (model - measured force) of every set at phi, written to r; the sets run on up to
@@ -152,9 +196,9 @@ class Problem {
     press.normal_value = prepared.set->normal_force;
     if (Status s = c.Apply(to_offset); !s.ok()) return s;
     if (Status s = c.Apply(press); !s.ok()) return s;
-    for (std::size_t k = 0; k < samples.displacement.size(); ++k) {
+    for (std::size_t k = 0; k < prepared.path.size(); ++k) {
       if (Status s = interrupt_.CheckEvery(kInterruptPeriod, k); !s.ok()) return s;
-      move.tangential_value = samples.displacement[k];
+      move.tangential_value = prepared.path[k];
       if (Status s = c.Apply(move); !s.ok()) return s;
       if (k >= prepared.first_residual) {
         *r++ = c.tangential_force() - samples.tangential_force[k];
@@ -294,15 +338,39 @@ Result<std::vector<PreparedSet>> PrepareSets(const std::vector<LoopSet>& sets,
       }
       first = loops->reversals[burn_in - 1];
     }
-    prepared.push_back({&sets[i], first});
+    prepared.push_back({&sets[i], first, ReplayPath(sets[i].samples.displacement, loops->reversals),
+                        loops->reversals});
   }
   return prepared;
 }
 
 // Estimates, correlations and the verdict from the Jacobian at the solution.
+// The cluster-robust (sandwich) covariance of theta, clusters the half-cycles: bread (J^T J)^-1,
+// meat the sum over clusters of (J_g^T r_g)(J_g^T r_g)^T, with the small-sample factor
+// G/(G-1) (n-1)/(n-p). It is what the residuals' own correlation says, where s^2 (J^T J)^-1
+// assumes independent ones.
+Eigen::MatrixXd ClusterCovariance(const Eigen::MatrixXd& j_theta, const Eigen::VectorXd& residual,
+                                  const Eigen::MatrixXd& bread,
+                                  const std::vector<std::size_t>& starts) {
+  const Eigen::Index n = j_theta.rows(), p = j_theta.cols();
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(p, p);
+  for (std::size_t g = 0; g < starts.size(); ++g) {
+    const auto begin = static_cast<Eigen::Index>(starts[g]);
+    const Eigen::Index end = g + 1 < starts.size() ? static_cast<Eigen::Index>(starts[g + 1]) : n;
+    const Eigen::VectorXd score =
+        j_theta.middleRows(begin, end - begin).transpose() * residual.segment(begin, end - begin);
+    meat += score * score.transpose();
+  }
+  const auto clusters = static_cast<double>(starts.size());
+  const double factor =
+      clusters / (clusters - 1) * static_cast<double>(n - 1) / static_cast<double>(n - p);
+  return factor * bread * meat * bread;
+}
+
 void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen::MatrixXd& jacobian,
-            double rss, const FitOptions& options, const std::vector<LoopSet>& sets,
-            FitResult* result) {
+            const Eigen::VectorXd& residual, const FitOptions& options,
+            const std::vector<LoopSet>& sets, FitResult* result) {
+  const double rss = residual.squaredNorm();
   const std::size_t n = problem.residuals(), p = problem.parameters();
   const std::vector<double> values = problem.Values(phi.data());
   Eigen::VectorXd derivative(p), scale(p);
@@ -345,6 +413,17 @@ void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen:
   }
   const double t =
       dof > 0 ? gsl_cdf_tdist_Pinv(0.975, dof) : std::numeric_limits<double>::infinity();
+  // Where the half-cycles' residuals move together (a turning point's displacement noise), the
+  // sandwich is the larger and its interval, on G - 1 degrees of freedom, is the one reported.
+  const std::vector<std::size_t> starts = problem.HalfCycleStarts();
+  Eigen::MatrixXd robust =
+      Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(p), static_cast<Eigen::Index>(p), 0);
+  double t_robust = std::numeric_limits<double>::infinity();
+  if (!singular && starts.size() > 1) {
+    robust = ClusterCovariance(j_theta, residual,
+                               scale.asDiagonal() * relative * scale.asDiagonal(), starts);
+    t_robust = gsl_cdf_tdist_Pinv(0.975, static_cast<double>(starts.size() - 1));
+  }
   result->correlation.assign(p, std::vector<double>(p, 0));
   for (std::size_t a = 0; a < p; ++a) {
     for (std::size_t b = 0; b < p; ++b) {
@@ -358,14 +437,17 @@ void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen:
     ParameterEstimate e;
     e.parameter = options.free[k].parameter;
     e.value = values[k];
-    e.standard_error = std::sqrt(covariance(k, k));
-    e.lower_95 = e.value - t * e.standard_error;
-    e.upper_95 = e.value + t * e.standard_error;
+    const auto kk = static_cast<Eigen::Index>(k);
+    const bool clustered = robust(kk, kk) > covariance(kk, kk);
+    e.standard_error = std::sqrt(clustered ? robust(kk, kk) : covariance(kk, kk));
+    const double quantile = clustered ? t_robust : t;
+    e.lower_95 = e.value - quantile * e.standard_error;
+    e.upper_95 = e.value + quantile * e.standard_error;
     double worst = 0;
     for (std::size_t b = 0; b < p; ++b) {
       if (b != k) worst = std::max(worst, std::abs(result->correlation[k][b]));
     }
-    const double width = t * e.standard_error / scale[k];
+    const double width = quantile * e.standard_error / scale[k];
     e.identified =
         !singular && !ill_conditioned && worst < kCorrelationLimit && width < kRelativeWidthLimit;
     result->identified = result->identified && e.identified;
@@ -398,6 +480,27 @@ void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen:
 }
 
 }  // namespace
+
+// Each stretch (after one reversal, up to and including the next) replaced by its least-squares
+// monotone fit in its direction (identify.h).
+std::vector<double> ReplayPath(const std::vector<double>& u,
+                               const std::vector<std::size_t>& reversals) {
+  std::vector<double> path = u;
+  std::size_t begin = 0;
+  auto fit = [&](std::size_t end) {  // the stretch [begin, end]
+    if (end <= begin) return;
+    const bool rising = u[end] >= u[begin];
+    double* v = path.data() + begin;
+    const std::size_t n = end - begin + 1;
+    if (!rising) std::for_each(v, v + n, [](double& x) { x = -x; });
+    MakeNonDecreasing(v, n);
+    if (!rising) std::for_each(v, v + n, [](double& x) { x = -x; });
+    begin = end + 1;
+  };
+  for (std::size_t r : reversals) fit(r);
+  if (!u.empty()) fit(u.size() - 1);
+  return path;
+}
 
 const char* ParameterName(Parameter parameter) {
   switch (parameter) {
@@ -501,10 +604,12 @@ Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet
   gsl_matrix_free(j);
   if (jacobian_status != GSL_SUCCESS) return callbacks.error;
   const gsl_vector* f = gsl_multifit_nlinear_residual(workspace.get());
-  const double rss = gsl_blas_dnrm2(f) * gsl_blas_dnrm2(f);
   result.residuals = n;
   result.residual_rms = Rms(f);
-  Assess(problem, best, jacobian, rss, options, sets, &result);
+  Assess(problem, best, jacobian,
+         Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<>>(
+             f->data, static_cast<Eigen::Index>(n), Eigen::InnerStride<>(f->stride)),
+         options, sets, &result);
   Result<ContactConfig> fitted = problem.SceneAt(problem.Values(best.data()));
   if (!fitted.ok()) return fitted.status();
   result.fitted = std::move(fitted).value();

@@ -24,14 +24,25 @@
 namespace mdr::analysis {
 
 enum class Parameter {
-  kFriction,            // mu, dimensionless
-  kEffectiveModulus,    // E* in Pa (G* = E* / kappa, kappa of the scene's material kept)
-  kProfileScale,        // the profile's parameter, as FitOptions::profile_family takes it
-  kRigCompliance,       // C_t in m/N (the scene's rig, tangential)
-  kDisplacementOffset,  // u_0 in m: where, in measured coordinates, the virgin contact was pressed
+  kFriction,          // mu, dimensionless
+  kEffectiveModulus,  // E* in Pa (G* = E* / kappa, kappa of the scene's material kept)
+  kProfileScale,      // the profile's parameter, as FitOptions::profile_family takes it
+  kRigCompliance,     // C_t in m/N (the scene's rig, tangential)
+  // u_0 in m: where, in measured coordinates, the virgin contact was pressed (not free: each
+  // set's first replayed sample, ReplayPath)
+  kDisplacementOffset,
 };
 // "friction", "effective_modulus", "profile_scale", "rig_compliance", "displacement_offset".
 const char* ParameterName(Parameter parameter);
+
+// The actuator path a fit replays for a set's measured displacement: made monotone between its
+// reversals (as AnalyzeLoops finds them at the fit's threshold), each stretch by its least-squares
+// monotone fit. Between two reversals the actuator moves one way; a sensor's noise would make the
+// replayed contact unload and reload elastically wherever it reverses, which the real contact
+// never did. A path that is already monotone there (any noise-free record) is kept exactly. The
+// turning points keep their measured values, and their noise (docs/analysis.md, "Limitations").
+std::vector<double> ReplayPath(const std::vector<double>& displacement,
+                               const std::vector<std::size_t>& reversals);
 
 // One set of loops at one constant normal force: the samples (displacement and tangential force
 // are used; time and normal force may be absent) and that force in N.
@@ -116,7 +127,7 @@ struct ComplianceGuess {
   double rig_compliance = 0;  // C_t, m/N (may come out negative with noisy data; not clamped)
   // Of the intercept; NaN with two loads (a line through two points leaves no residual).
   double standard_error = std::numeric_limits<double>::quiet_NaN();
-  double slope = 0;           // c, in m/N * N^(1/(n+1))
+  double slope = 0;                                       // c, in m/N * N^(1/(n+1))
   std::vector<double> normal_forces, apparent_stiffness;  // the points of the line, per set
 };
 Result<ComplianceGuess> GuessRigCompliance(const std::vector<LoopSet>& sets, double exponent = 2,
