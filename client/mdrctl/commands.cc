@@ -10,60 +10,17 @@
 #include <memory>
 #include <sstream>
 
-#include "mdr/client/channel.h"
+#include "connection.h"
 #include "mdr/client/contact_client.h"
 #include "mdr/client/loading_path.h"
 #include "mdr/client/scene_file.h"
 #include "mdr/client/scene_runner.h"
-#include "mdr/service/server.h"
 #include "plot.h"
 
 namespace mdrctl {
 namespace {
 
 using mdr::client::ContactClient;
-
-int Fail(const std::string& message) {
-  std::fprintf(stderr, "mdrctl: %s\n", message.c_str());
-  return EXIT_FAILURE;
-}
-int Fail(const grpc::Status& status) { return Fail(status.error_message()); }
-
-// A client of --server, or of a server started in this process.
-class Connection {
- public:
-  static mdr::Result<std::unique_ptr<Connection>> Open(const Common& common) {
-    auto connection = std::unique_ptr<Connection>(new Connection());
-    std::shared_ptr<grpc::Channel> channel;
-    if (common.server.empty()) {
-      auto started = mdr::service::ContactServer::Start({});
-      if (!started.ok()) return started.status();
-      connection->embedded_ = std::move(started).value();
-      channel = connection->embedded_->InProcessChannel();
-    } else {
-      auto made =
-          mdr::client::MakeChannel({.address = common.server,
-                                    .tls = common.tls,
-                                    .root_certificates_file = common.root_certificates_file,
-                                    .client_certificate_file = common.client_certificate_file,
-                                    .client_key_file = common.client_key_file,
-                                    .bearer_token = common.token});
-      if (!made.ok()) return mdr::InvalidArgument("", made.status().error_message());
-      channel = *made;
-    }
-    const auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(
-        std::chrono::duration<double>(common.timeout_seconds));
-    connection->client_ =
-        std::make_unique<ContactClient>(channel, mdr::client::ClientOptions{.timeout = timeout});
-    return connection;
-  }
-  ContactClient& client() { return *client_; }
-
- private:
-  Connection() = default;
-  std::unique_ptr<mdr::service::ContactServer> embedded_;
-  std::unique_ptr<ContactClient> client_;
-};
 
 // "abc" -> "sessions/abc"; full names pass.
 std::string SessionName(const std::string& name) {
@@ -94,14 +51,6 @@ class ProgressBar {
   bool enabled_;
   bool drawn_ = false;
 };
-
-mdr::Result<std::string> ReadFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return mdr::InvalidArgument(path, "cannot open");
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 int PrintPlots(const mdr::v1::RunReport& report, const std::string& dir) {
   auto pngs = WritePlots(report, dir);

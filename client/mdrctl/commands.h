@@ -67,4 +67,37 @@ int ImportCommand(const Common& common, const std::string& snapshot_file, const 
 // A TransformRequest in YAML or JSON.
 int TransformCommand(const Common& common, const std::string& request_file);
 
+// mdrctl loops FILE.csv: the figures of every cycle of a rig's CSV file (AnalyzeLoops).
+struct LoopsArgs {
+  std::string file;
+  std::string displacement_column = "displacement";
+  std::string force_column = "tangential_force";
+  std::string normal_force_column;  // optional
+  std::string time_column;          // optional
+  std::string displacement_unit = "m";
+  std::string force_unit = "N";
+  std::string time_unit = "s";
+  std::optional<double> normal_force;    // N, when the file has no normal force column
+  std::optional<double> rig_compliance;  // m/N; unset: the scene's rig, if any
+  double reversal_threshold = 0;         // m; 0: automatic
+  double displacement_resolution = 0;    // m, for the regimes
+  std::string scene;                     // scene file whose scene classifies the regimes
+  std::string report_dir;
+};
+int LoopsCommand(const Common& common, const LoopsArgs& args);
+
+// mdrctl fit CAMPAIGN.yaml: analyses, fit, replay and fretting map of a campaign.
+struct FitArgs {
+  std::string campaign;
+  std::string report_dir;
+};
+int FitCommand(const Common& common, const FitArgs& args);
+
+// mdrctl synthesize SPEC.yaml --out DIR: a synthetic campaign made with the engine.
+struct SynthesizeArgs {
+  std::string spec;
+  std::string out_dir;
+};
+int SynthesizeCommand(const Common& common, const SynthesizeArgs& args);
+
 }  // namespace mdrctl

@@ -1,6 +1,7 @@
 // mdrctl: the command-line client of the mdr contact service. `run SCENE` applies a scene file's
-// loading path (YAML or JSON of mdr.v1.SceneFile) and prints one row per step; the other
-// subcommands wrap one RPC each. Without --server an in-process server is used.
+// loading path (YAML or JSON of mdr.v1.SceneFile) and prints one row per step; `loops`, `fit`
+// and `synthesize` take a rig's CSV files to a report; the other subcommands wrap one RPC each.
+// Without --server an in-process server is used.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -121,8 +122,59 @@ int main(int argc, char** argv) {
   transform->add_option("request", request_file, "TransformRequest in YAML or JSON")->required();
   transform->callback([&] { exit_code = mdrctl::TransformCommand(common, request_file); });
 
-  for (CLI::App* command :
-       {run, create, get, list, remove, apply, query, exporter, importer, transform}) {
+  CLI::App* loops = app.add_subcommand(
+      "loops", "Analyse a rig's CSV file: the figures of every cycle (AnalyzeLoops)");
+  mdrctl::LoopsArgs loops_args;
+  loops->add_option("file", loops_args.file, "CSV file with a header line")->required();
+  loops
+      ->add_option("--displacement-column", loops_args.displacement_column,
+                   "Header name of the displacement")
+      ->capture_default_str();
+  loops
+      ->add_option("--force-column", loops_args.force_column, "Header name of the tangential force")
+      ->capture_default_str();
+  loops->add_option("--normal-force-column", loops_args.normal_force_column,
+                    "Header name of the normal force (optional)");
+  loops->add_option("--time-column", loops_args.time_column, "Header name of the time (optional)");
+  loops->add_option("--displacement-unit", loops_args.displacement_unit, "m, mm, um or nm")
+      ->capture_default_str();
+  loops->add_option("--force-unit", loops_args.force_unit, "N, kN or mN (also the normal force's)")
+      ->capture_default_str();
+  loops->add_option("--time-unit", loops_args.time_unit, "s, ms or us")->capture_default_str();
+  loops->add_option_function<double>(
+      "--normal-force", [&loops_args](double p) { loops_args.normal_force = p; },
+      "Normal force in N when the file has no normal force column");
+  loops->add_option_function<double>(
+      "--rig-compliance", [&loops_args](double c) { loops_args.rig_compliance = c; },
+      "The rig's tangential compliance in m/N: the contact's own figures too (default: the "
+      "--scene's rig)");
+  loops->add_option("--reversal-threshold", loops_args.reversal_threshold,
+                    "Hysteresis of the reversal detection in m (0: 5 % of the typical stroke)");
+  loops->add_option("--displacement-resolution", loops_args.displacement_resolution,
+                    "The sensor's resolution in m: narrower loops count as sticking");
+  loops->add_option("--scene", loops_args.scene,
+                    "Scene file (YAML/JSON) whose scene classifies each cycle's regime");
+  loops->add_option("--report", loops_args.report_dir,
+                    "Write report.md, report.json and PNG plots into this directory");
+  loops->callback([&] { exit_code = mdrctl::LoopsCommand(common, loops_args); });
+
+  CLI::App* fit = app.add_subcommand(
+      "fit", "Fit a scene to a campaign of rig CSV files, replay it and map its regimes");
+  mdrctl::FitArgs fit_args;
+  fit->add_option("campaign", fit_args.campaign, "Campaign file (YAML)")->required();
+  fit->add_option("--report", fit_args.report_dir,
+                  "Write report.md, report.json and PNG plots into this directory");
+  fit->callback([&] { exit_code = mdrctl::FitCommand(common, fit_args); });
+
+  CLI::App* synthesize = app.add_subcommand(
+      "synthesize", "Generate a synthetic campaign (CSV files and campaign.yaml) with the engine");
+  mdrctl::SynthesizeArgs synthesize_args;
+  synthesize->add_option("spec", synthesize_args.spec, "Synthesis spec (YAML)")->required();
+  synthesize->add_option("--out", synthesize_args.out_dir, "Directory for the files")->required();
+  synthesize->callback([&] { exit_code = mdrctl::SynthesizeCommand(common, synthesize_args); });
+
+  for (CLI::App* command : {run, create, get, list, remove, apply, query, exporter, importer,
+                            transform, loops, fit, synthesize}) {
     AddCommonOptions(command, &common);
   }
   // The embedded server's session log would interleave with the output; errors still show.

@@ -166,15 +166,28 @@ void AddRecordPlots(const RunReport& report, const fs::path& dir, Script* script
 
 }  // namespace
 
-mdr::Status CheckGnuplot() {
+bool GnuplotInstalled() {
   const char* path = std::getenv("PATH");
   std::istringstream dirs(path == nullptr ? "" : path);
   std::string dir;
   while (std::getline(dirs, dir, ':')) {
-    if (!dir.empty() && ::access((fs::path(dir) / "gnuplot").c_str(), X_OK) == 0) {
-      return mdr::OkStatus();
-    }
+    if (!dir.empty() && ::access((fs::path(dir) / "gnuplot").c_str(), X_OK) == 0) return true;
   }
+  return false;
+}
+
+std::string GnuplotQuoted(const std::string& text) { return Quoted(text); }
+
+mdr::Status RunGnuplot(const std::string& script_file, const std::string& option) {
+  const std::string command = "gnuplot " + ShellQuoted(script_file);
+  if (std::system(command.c_str()) != 0) {
+    return mdr::FailedPrecondition(option, "gnuplot failed on " + script_file);
+  }
+  return mdr::OkStatus();
+}
+
+mdr::Status CheckGnuplot() {
+  if (GnuplotInstalled()) return mdr::OkStatus();
   return mdr::FailedPrecondition("--plot",
                                  "gnuplot is not installed (not found on PATH); install it, e.g. "
                                  "apt-get install gnuplot-nox, or run without --plot");
@@ -197,10 +210,7 @@ mdr::Result<std::vector<std::string>> WritePlots(const RunReport& report, const 
   AddRecordPlots(report, root, &script);
   const fs::path script_file = root / "plots.gp";
   std::ofstream(script_file) << script.text.str();
-  const std::string command = "gnuplot " + ShellQuoted(script_file.string());
-  if (std::system(command.c_str()) != 0) {
-    return mdr::FailedPrecondition("--plot", "gnuplot failed on " + script_file.string());
-  }
+  if (mdr::Status s = RunGnuplot(script_file.string(), "--plot"); !s.ok()) return s;
   return script.pngs;
 }
 

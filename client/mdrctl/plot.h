@@ -10,8 +10,14 @@
 
 namespace mdrctl {
 
+// Whether gnuplot is on PATH.
+bool GnuplotInstalled();
 // OK when gnuplot is on PATH; otherwise an error saying so (checked before a run starts).
 mdr::Status CheckGnuplot();
+// `text` as a gnuplot single-quoted string.
+std::string GnuplotQuoted(const std::string& text);
+// Runs gnuplot on a script file; `option` names the command-line option in the error.
+mdr::Status RunGnuplot(const std::string& script_file, const std::string& option);
 
 // Writes the data files, the gnuplot script and the PNGs into dir (created if missing); returns
 // the PNG paths written.

@@ -7,6 +7,7 @@
 #include <google/protobuf/util/time_util.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 
 #include "mdr/client/loading_path.h"
@@ -357,6 +358,152 @@ void PrintSessions(const std::vector<mdr::v1::Session>& sessions, Format format,
                           Number(session.state().tangential_force()), expires, "active"});
   }
   table.Print(format, out);
+}
+
+std::string FormatValue(double value) { return Number(value); }
+
+std::string RegimeLabel(mdr::v1::Regime regime) {
+  switch (regime) {
+    case mdr::v1::REGIME_STICKING:
+      return "sticking";
+    case mdr::v1::REGIME_PARTIAL_SLIP:
+      return "partial slip";
+    case mdr::v1::REGIME_GROSS_SLIP:
+      return "gross slip";
+    default:
+      return "-";
+  }
+}
+
+std::string MeasureLabel(const mdr::v1::AnalyzeLoopsResponse& analysis, const std::string& figure) {
+  const auto found = analysis.measures().find(figure);
+  if (found == analysis.measures().end()) return "";
+  return found->second == mdr::v1::MEASURES_CONTACT ? "contact" : "contact+rig";
+}
+
+std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analysis) {
+  using Cycle = mdr::v1::CycleFigures;
+  const auto number = [](double (Cycle::*get)() const) {
+    return [get](const Cycle& c) { return Number((c.*get)()); };
+  };
+  const auto contact = [](double (mdr::v1::ContactFigures::*get)() const) {
+    return [get](const Cycle& c) { return Number((c.contact().*get)()); };
+  };
+  std::vector<CycleColumn> columns{
+      {"first", "first_sample", "",
+       [](const Cycle& c) { return std::to_string(c.first_sample()); }},
+      {"last", "last_sample", "", [](const Cycle& c) { return std::to_string(c.last_sample()); }},
+      {"Q* [N]", "force_amplitude", "force_amplitude", number(&Cycle::force_amplitude)},
+      {"Ed [J]", "dissipated_energy", "dissipated_energy", number(&Cycle::dissipated_energy)},
+      {"delta_0 [m]", "half_opening", "half_opening", number(&Cycle::half_opening)},
+      {"C", "system_free_ratio", "system_free_ratio", number(&Cycle::system_free_ratio)},
+      {"P [N]", "normal_force", "normal_force", number(&Cycle::normal_force)},
+      {"mu", "friction_coefficient", "friction_coefficient", number(&Cycle::friction_coefficient)},
+      {"delta* [m]", "displacement_amplitude", "displacement_amplitude",
+       number(&Cycle::displacement_amplitude)},
+      {"A", "energy_ratio", "energy_ratio", number(&Cycle::energy_ratio)},
+      {"B", "sliding_ratio", "sliding_ratio", number(&Cycle::sliding_ratio)},
+      {"k_sec [N/m]", "secant_stiffness", "secant_stiffness", number(&Cycle::secant_stiffness)}};
+  const auto has_contact = [](const Cycle& c) { return c.has_contact(); };
+  if (std::any_of(analysis.cycles().begin(), analysis.cycles().end(), has_contact)) {
+    using Contact = mdr::v1::ContactFigures;
+    columns.push_back({"delta*_c [m]", "contact_displacement_amplitude",
+                       "contact.displacement_amplitude",
+                       contact(&Contact::displacement_amplitude)});
+    columns.push_back(
+        {"A_c", "contact_energy_ratio", "contact.energy_ratio", contact(&Contact::energy_ratio)});
+    columns.push_back({"B_c", "contact_sliding_ratio", "contact.sliding_ratio",
+                       contact(&Contact::sliding_ratio)});
+  }
+  const auto has_regime = [](const Cycle& c) { return c.regime() != mdr::v1::REGIME_UNSPECIFIED; };
+  if (std::any_of(analysis.cycles().begin(), analysis.cycles().end(), has_regime)) {
+    columns.push_back(
+        {"regime", "regime", "", [](const Cycle& c) { return RegimeLabel(c.regime()); }});
+    columns.push_back(
+        {"C onset", "onset_system_free_ratio", "", number(&Cycle::onset_system_free_ratio)});
+  }
+  columns.push_back({"flags", "flags", "", [](const Cycle& c) {
+                       std::string flags;
+                       if (c.flags().not_closed()) flags += "not_closed ";
+                       if (c.flags().asymmetric()) flags += "asymmetric ";
+                       if (c.flags().hooked()) flags += "hooked ";
+                       if (flags.empty()) return std::string("-");
+                       flags.pop_back();
+                       return flags;
+                     }});
+  return columns;
+}
+
+void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out) {
+  if (format == Format::kJson) {
+    std::fputs(ToJson(fit).c_str(), out);
+    return;
+  }
+  Table table;
+  table.header = {"k",        "parameter", "estimate",  "standard_error",
+                  "lower_95", "upper_95",  "identified"};
+  for (int k = 0; k < fit.estimates_size(); ++k) {
+    const auto& e = fit.estimates(k);
+    std::string name = mdr::v1::FitParameter_Name(e.parameter()).substr(14);  // FIT_PARAMETER_
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    table.rows.push_back({std::to_string(k + 1), name, Number(e.value()),
+                          Number(e.standard_error()), Number(e.lower_95()), Number(e.upper_95()),
+                          e.identified() ? "yes" : "no"});
+  }
+  table.Print(format, out);
+  if (format != Format::kTable) return;
+  std::fprintf(out,
+               "\nresidual RMS %s N over %llu samples, %d iterations%s, condition number %s: %s\n",
+               Number(fit.residual_rms()).c_str(), static_cast<unsigned long long>(fit.residuals()),
+               fit.iterations(), fit.converged() ? ", converged" : ", NOT converged",
+               Number(fit.condition_number()).c_str(),
+               fit.identified() ? "every parameter identified" : "NOT every parameter identified");
+  for (const std::string& note : fit.notes()) std::fprintf(out, "note: %s\n", note.c_str());
+  if (fit.has_guessed_rig_compliance()) {
+    std::fprintf(out, "rig compliance from the reversal slopes (a starting point): %s m/N\n",
+                 Number(fit.guessed_rig_compliance()).c_str());
+  }
+}
+
+void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
+                       std::FILE* out) {
+  if (format == Format::kJson) {
+    std::fputs(ToJson(analysis).c_str(), out);
+    return;
+  }
+  const std::vector<CycleColumn> columns = CycleColumns(analysis);
+  Table table;
+  table.header.push_back("cycle");
+  for (const CycleColumn& column : columns) {
+    table.header.push_back(format == Format::kCsv ? column.csv_name : column.header);
+  }
+  for (int i = 0; i < analysis.cycles_size(); ++i) {
+    std::vector<std::string> row{std::to_string(i + 1)};
+    for (const CycleColumn& column : columns) {
+      std::string cell = column.cell(analysis.cycles(i));
+      // A CSV cell holds no separator: flags are joined by '|'.
+      if (format == Format::kCsv) std::replace(cell.begin(), cell.end(), ' ', '|');
+      row.push_back(cell);
+    }
+    table.rows.push_back(std::move(row));
+  }
+  table.Print(format, out);
+  if (format != Format::kTable) return;
+  std::string biased;
+  for (const CycleColumn& column : columns) {
+    if (MeasureLabel(analysis, column.figure) == "contact+rig") {
+      biased += (biased.empty() ? "" : ", ") + column.header;
+    }
+  }
+  std::fprintf(out,
+               "\nbiased by the rig's compliance (contact+rig): %s; the other figures measure the "
+               "contact alone\n",
+               biased.c_str());
+  std::fprintf(out, "reversal threshold %s m, friction drift %s%s\n",
+               Number(analysis.reversal_threshold()).c_str(),
+               Number(analysis.friction_drift()).c_str(),
+               analysis.friction_drifts() ? " (drifts)" : "");
 }
 
 void PrintMessage(const Message& message, Format format, std::FILE* out) {

@@ -4,9 +4,11 @@
 #include <google/protobuf/message.h>
 
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "mdr/v1/analysis.pb.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene_file.pb.h"
 
@@ -26,5 +28,30 @@ void PrintApplyResponse(const mdr::v1::ApplyResponse& response, Format format, s
 void PrintSessions(const std::vector<mdr::v1::Session>& sessions, Format format, std::FILE* out);
 // Any message: table and CSV list every set field as "path value"; JSON as ToJson.
 void PrintMessage(const google::protobuf::Message& message, Format format, std::FILE* out);
+
+// "%.10g", the numbers of every table.
+std::string FormatValue(double value);
+
+// A column of the per-cycle table of a loop analysis.
+struct CycleColumn {
+  std::string header;    // table and Markdown, e.g. "Q* [N]"
+  std::string csv_name;  // e.g. "force_amplitude"
+  // The key of AnalyzeLoopsResponse.measures that labels the column ("contact.energy_ratio"),
+  // or "" for none (sample indices, regime, flags).
+  std::string figure;
+  std::function<std::string(const mdr::v1::CycleFigures&)> cell;
+};
+// The columns for this analysis: the rig-free contact figures only with a rig compliance, the
+// regime only with a scene.
+std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analysis);
+// "contact" or "contact+rig" for a figure, "" if `measures` does not name it.
+std::string MeasureLabel(const mdr::v1::AnalyzeLoopsResponse& analysis, const std::string& figure);
+// "partial slip", "gross slip", "sticking", or "-".
+std::string RegimeLabel(mdr::v1::Regime regime);
+// The estimates one per row (table: then the fit's figures and notes), or the JSON result.
+void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out);
+// One row per cycle (table, CSV; table adds which figures the rig biases) or the JSON response.
+void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
+                       std::FILE* out);
 
 }  // namespace mdrctl

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <random>
 #include <string_view>
 #include <thread>
@@ -76,8 +77,8 @@ RpcResult<v1::Session> ContactClient::GetSession(const std::string& name) {
   v1::GetSessionRequest request;
   request.set_name(name);
   return Call<v1::GetSessionRequest, v1::Session>(
-      [this](auto* c, const auto& r, auto* o) { return stub_->GetSession(c, r, o); }, request,
-      true, name);
+      [this](auto* c, const auto& r, auto* o) { return stub_->GetSession(c, r, o); }, request, true,
+      name);
 }
 
 RpcResult<v1::ListSessionsResponse> ContactClient::ListSessions(int page_size,
@@ -197,6 +198,57 @@ RpcResult<v1::QueryResponse> ContactClient::Query(const v1::QueryRequest& reques
 RpcResult<v1::TransformResponse> ContactClient::Transform(const v1::TransformRequest& request) {
   return Call<v1::TransformRequest, v1::TransformResponse>(
       [this](auto* c, const auto& r, auto* o) { return stub_->Transform(c, r, o); }, request, true);
+}
+
+RpcResult<v1::AnalyzeLoopsResponse> ContactClient::AnalyzeLoops(
+    const v1::AnalyzeLoopsRequest& request) {
+  return Call<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->AnalyzeLoops(c, r, o); }, request,
+      true);
+}
+
+RpcResult<v1::FitResult> ContactClient::FitLoopsOnce(const v1::FitLoopsRequest& request,
+                                                     const FitProgressObserver& on_progress) {
+  auto context = NewContext();
+  auto stream = stub_->FitLoops(context.get(), request);
+  std::optional<v1::FitResult> result;
+  v1::FitLoopsResponse response;
+  while (stream->Read(&response)) {
+    if (response.has_progress() && on_progress) on_progress(response.progress());
+    if (response.has_result()) result = std::move(*response.mutable_result());
+  }
+  const grpc::Status status = stream->Finish();
+  if (!status.ok()) return status;
+  if (!result) {
+    return grpc::Status(grpc::StatusCode::INTERNAL, "the FitLoops stream ended without a result");
+  }
+  return *std::move(result);
+}
+
+RpcResult<v1::FitResult> ContactClient::FitLoops(const v1::FitLoopsRequest& request,
+                                                 const FitProgressObserver& on_progress) {
+  std::chrono::milliseconds backoff = options_.initial_backoff;
+  for (int attempt = 1;; ++attempt) {
+    RpcResult<v1::FitResult> result = FitLoopsOnce(request, on_progress);
+    if (result.ok() || result.status().error_code() != grpc::StatusCode::UNAVAILABLE ||
+        attempt >= options_.max_attempts) {
+      return result;
+    }
+    std::this_thread::sleep_for(backoff);
+    backoff *= 2;
+  }
+}
+
+RpcResult<v1::FrettingMapResponse> ContactClient::FrettingMap(
+    const v1::FrettingMapRequest& request) {
+  return Call<v1::FrettingMapRequest, v1::FrettingMapResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->FrettingMap(c, r, o); }, request,
+      true);
+}
+
+RpcResult<v1::BackboneResponse> ContactClient::Backbone(const v1::BackboneRequest& request) {
+  return Call<v1::BackboneRequest, v1::BackboneResponse>(
+      [this](auto* c, const auto& r, auto* o) { return stub_->Backbone(c, r, o); }, request, true);
 }
 
 }  // namespace mdr::client

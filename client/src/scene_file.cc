@@ -25,22 +25,6 @@ std::string SnakeCase(const std::string& key) {
   return snake;
 }
 
-std::string JsonString(const std::string& text) {
-  std::string quoted = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') {
-      quoted += '\\';
-      quoted += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof escaped, "\\u%04x", c);
-      quoted += escaped;
-    } else {
-      quoted += c;
-    }
-  }
-  return quoted + "\"";
-}
 
 // A plain (unquoted) YAML scalar as a JSON value: numbers, booleans and null as such, YAML's
 // .inf/.nan as proto3 JSON's "Infinity"/"NaN", anything else (enum names) as a string.
@@ -58,7 +42,7 @@ std::string PlainScalarToJson(const std::string& value) {
   if (value == ".inf" || value == "+.inf" || value == ".Inf") return "\"Infinity\"";
   if (value == "-.inf" || value == "-.Inf") return "\"-Infinity\"";
   if (value == ".nan" || value == ".NaN") return "\"NaN\"";
-  return JsonString(value);
+  return JsonQuoted(value);
 }
 
 class JsonEmitter {
@@ -75,7 +59,7 @@ class JsonEmitter {
         break;
       case YAML::NodeType::Scalar:
         // A quoted scalar has the non-specific tag "!": always a string.
-        json_ += node.Tag() == "!" ? JsonString(node.Scalar()) : PlainScalarToJson(node.Scalar());
+        json_ += node.Tag() == "!" ? JsonQuoted(node.Scalar()) : PlainScalarToJson(node.Scalar());
         break;
       default:
         json_ += "null";
@@ -96,7 +80,7 @@ class JsonEmitter {
       Record(child, entry.first.Mark());
       if (!first) json_ += ',';
       first = false;
-      json_ += JsonString(key) + ':';
+      json_ += JsonQuoted(key) + ':';
       Emit(entry.second, child);
     }
     json_ += '}';
@@ -188,6 +172,23 @@ std::string SceneDocument::Where(const std::string& field) const {
 
 Status SceneDocument::Error(const std::string& field, const std::string& message) const {
   return InvalidArgument(field, message + " (" + Where(field) + ")");
+}
+
+std::string JsonQuoted(std::string_view text) {
+  std::string quoted = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') {
+      quoted += '\\';
+      quoted += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof escaped, "\\u%04x", static_cast<unsigned char>(c));
+      quoted += escaped;
+    } else {
+      quoted += c;
+    }
+  }
+  return quoted + "\"";
 }
 
 }  // namespace mdr::client

@@ -45,6 +45,24 @@ class FlakyService final : public mdr::v1::ContactService::Service {
                      mdr::v1::ApplyResponse*) override {
     return Fail() ? Unavailable() : grpc::Status::OK;
   }
+  grpc::Status AnalyzeLoops(grpc::ServerContext*, const mdr::v1::AnalyzeLoopsRequest*,
+                            mdr::v1::AnalyzeLoopsResponse*) override {
+    return Fail() ? Unavailable() : grpc::Status::OK;
+  }
+  // One progress message, then (from the second call on that does not fail) the result, unless
+  // without_result: then the stream ends OK without one.
+  grpc::Status FitLoops(grpc::ServerContext*, const mdr::v1::FitLoopsRequest*,
+                        grpc::ServerWriter<mdr::v1::FitLoopsResponse>* writer) override {
+    mdr::v1::FitLoopsResponse message;
+    message.mutable_progress()->set_iteration(1);
+    writer->Write(message);
+    if (Fail()) return Unavailable();
+    if (without_result) return grpc::Status::OK;
+    message.mutable_result()->set_iterations(7);
+    writer->Write(message);
+    return grpc::Status::OK;
+  }
+  bool without_result = false;
 
  private:
   bool Fail() { return ++calls_ <= failures_; }
@@ -90,6 +108,32 @@ TEST_F(RetryTest, CreateIsNotRetried) {
   EXPECT_EQ(client_->CreateSession(mdr::v1::Scene()).status().error_code(),
             grpc::StatusCode::UNAVAILABLE);
   EXPECT_EQ(service_->calls(), 1);
+}
+
+TEST_F(RetryTest, AnalysisCallsAreRetried) {
+  Start(2);
+  EXPECT_TRUE(client_->AnalyzeLoops({}).ok());
+  EXPECT_EQ(service_->calls(), 3);
+}
+
+// A FitLoops stream that fails with UNAVAILABLE is started again; every attempt's progress is
+// seen, and the result is the last attempt's.
+TEST_F(RetryTest, FitLoopsStreamIsRetriedAndReturnsTheResult) {
+  Start(1);
+  int progress = 0;
+  auto fit = client_->FitLoops({}, [&](const mdr::v1::FitProgress&) { ++progress; });
+  ASSERT_TRUE(fit.ok()) << fit.status().error_message();
+  EXPECT_EQ(fit->iterations(), 7);
+  EXPECT_EQ(service_->calls(), 2);
+  EXPECT_EQ(progress, 2);
+}
+
+TEST_F(RetryTest, FitLoopsStreamWithoutResultIsAnError) {
+  Start(0);
+  service_->without_result = true;
+  auto fit = client_->FitLoops({});
+  EXPECT_EQ(fit.status().error_code(), grpc::StatusCode::INTERNAL);
+  EXPECT_THAT(fit.status().error_message(), HasSubstr("without a result"));
 }
 
 TEST_F(RetryTest, ApplyIsRetriedOnlyWithRequestId) {

@@ -21,9 +21,9 @@ struct ClientOptions {
   // Deadline of every call (of a whole stream for StreamApply), from the moment it starts.
   std::chrono::milliseconds timeout = std::chrono::seconds(30);
   // Attempts of an idempotent call that fails with UNAVAILABLE (GetSession, ListSessions,
-  // ExportSession, Query, Transform, and Apply with a request_id), >= 1. mdrd answers
-  // UNAVAILABLE when it shuts down and when it is busy (its queue of computing calls is full,
-  // nothing was run): both are worth a retry after the backoff.
+  // ExportSession, Query, Transform, the analysis calls, and Apply with a request_id), >= 1. mdrd
+  // answers UNAVAILABLE when it shuts down and when it is busy (its queue of computing calls is
+  // full, nothing was run): both are worth a retry after the backoff.
   int max_attempts = 3;
   // Wait before the second attempt; doubled for every further one.
   std::chrono::milliseconds initial_backoff = std::chrono::milliseconds(100);
@@ -89,6 +89,22 @@ class ContactClient {
   // Stateless MDR <-> Jäger transformation.
   RpcResult<v1::TransformResponse> Transform(const v1::TransformRequest& request);
 
+  // The analysis of measured loops (docs/analysis.md). Stateless, so retried on UNAVAILABLE.
+  // The figures of every cycle of a run's samples.
+  RpcResult<v1::AnalyzeLoopsResponse> AnalyzeLoops(const v1::AnalyzeLoopsRequest& request);
+  // Fits scene parameters to loop sets: on_progress, if set, sees each FitProgress as it
+  // arrives (the server may skip some when the client reads slowly; a retried call starts again
+  // from iteration 1); the result is the stream's last message, and the stream's error (or
+  // INTERNAL if it ended without a result) is the returned status. The deadline covers the whole
+  // stream.
+  using FitProgressObserver = std::function<void(const v1::FitProgress&)>;
+  RpcResult<v1::FitResult> FitLoops(const v1::FitLoopsRequest& request,
+                                    const FitProgressObserver& on_progress = {});
+  // The exact loops of a scene across normal forces and relative actuator amplitudes.
+  RpcResult<v1::FrettingMapResponse> FrettingMap(const v1::FrettingMapRequest& request);
+  // Secant stiffness and damping ratio against amplitude at one normal force.
+  RpcResult<v1::BackboneResponse> Backbone(const v1::BackboneRequest& request);
+
  private:
   // A context whose deadline is now + timeout (deadlines are system_clock time points), carrying
   // the routing metadata of the session it names ("sessions/{id}" or a bare id; empty: none).
@@ -98,6 +114,9 @@ class ContactClient {
   template <typename Request, typename Response, typename Rpc>
   RpcResult<Response> Call(Rpc rpc, const Request& request, bool idempotent,
                            const std::string& session = "");
+  // One FitLoops stream: its result, or its status.
+  RpcResult<v1::FitResult> FitLoopsOnce(const v1::FitLoopsRequest& request,
+                                        const FitProgressObserver& on_progress);
 
   std::unique_ptr<v1::ContactService::Stub> stub_;
   ClientOptions options_;

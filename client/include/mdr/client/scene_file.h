@@ -6,11 +6,15 @@
 
 #include <map>
 #include <string>
+#include <string_view>
 
 #include "mdr/base/status.h"
 #include "mdr/v1/scene_file.pb.h"
 
 namespace mdr::client {
+
+// A JSON string literal of `text` (UTF-8 passes; '"', '\\' and control characters are escaped).
+std::string JsonQuoted(std::string_view text);
 
 class SceneDocument {
  public:

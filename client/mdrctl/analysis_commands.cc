@@ -1,0 +1,743 @@
+// mdrctl loops, fit and synthesize: from a rig's CSV files to a report (docs/analysis.md, "From a
+// rig's CSV files to a report").
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <numbers>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "analysis_plot.h"
+#include "analysis_report.h"
+#include "campaign.h"
+#include "commands.h"
+#include "connection.h"
+#include "loop_sessions.h"
+#include "mdr/analysis/identify.h"
+#include "mdr/base/validate.h"
+#include "mdr/client/error_details.h"
+#include "mdr/client/scene_file.h"
+#include "mdr/core/material.h"
+#include "plot.h"
+#include "report_format.h"
+#include "rig_csv.h"
+
+namespace mdrctl {
+namespace {
+
+namespace fs = std::filesystem;
+using mdr::client::ContactClient;
+
+// ---- shared ----
+
+mdr::Status MakeDirectory(const std::string& dir, const std::string& option) {
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error) return mdr::InvalidArgument(option, "cannot create " + dir + ": " + error.message());
+  return mdr::OkStatus();
+}
+
+mdr::Status WriteText(const fs::path& file, const std::string& text) {
+  std::ofstream out(file, std::ios::binary);
+  if (!(out << text) || !out.flush()) {
+    return mdr::InvalidArgument(file.string(), "cannot write");
+  }
+  return mdr::OkStatus();
+}
+
+// A service error about one sample of this CSV restated at its line and column.
+mdr::Status SampleError(const grpc::Status& status, const RigCsv& csv, const CsvLayout& layout) {
+  const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
+  if (details.field.empty()) return mdr::InvalidArgument(csv.path, status.error_message());
+  return LocateSampleError(details.field, details.description, csv, layout);
+}
+
+mdr::v1::AnalyzeLoopsRequest AnalysisRequest(const RigCsv& csv,
+                                             const mdr::v1::LoopAnalysisOptions& options,
+                                             const mdr::v1::Scene* scene) {
+  mdr::v1::AnalyzeLoopsRequest request;
+  *request.mutable_samples() = csv.samples;
+  *request.mutable_options() = options;
+  if (scene != nullptr) *request.mutable_scene() = *scene;
+  return request;
+}
+
+// The PNGs of a report, or why there are none (gnuplot missing or failing does not fail the
+// report: the Markdown and the JSON are written either way).
+template <typename Draw>
+Plots DrawPlots(Draw draw) {
+  Plots plots;
+  if (!GnuplotInstalled()) {
+    plots.skipped =
+        "gnuplot is not installed (not found on PATH; apt-get install gnuplot-nox draws them)";
+    return plots;
+  }
+  auto pngs = draw();
+  if (pngs.ok()) {
+    plots.pngs = *pngs;
+  } else {
+    plots.skipped = pngs.status().ToString();
+  }
+  return plots;
+}
+
+mdr::Status WriteReport(const std::string& dir, const std::string& markdown,
+                        const std::string& json, const Plots& plots) {
+  if (auto s = WriteText(fs::path(dir) / "report.md", markdown); !s.ok()) return s;
+  if (auto s = WriteText(fs::path(dir) / "report.json", json); !s.ok()) return s;
+  std::fprintf(stderr, "mdrctl: wrote %s/report.md, report.json", dir.c_str());
+  if (plots.skipped.empty()) {
+    std::fprintf(stderr, " and %zu plots\n", plots.pngs.size());
+  } else {
+    std::fprintf(stderr, "; plots skipped: %s\n", plots.skipped.c_str());
+  }
+  return mdr::OkStatus();
+}
+
+// ---- loops ----
+
+// An AnalyzeLoops error in the command line's terms: a sample or column at its CSV line, an
+// option by its flag, the scene at its file's line.
+mdr::Status LoopsError(const grpc::Status& status, const RigCsv& csv, const CsvLayout& layout,
+                       const mdr::client::SceneDocument* scene) {
+  const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
+  const std::string& field = details.field;
+  if (field.starts_with("samples.")) return SampleError(status, csv, layout);
+  if (field.starts_with("options.")) {
+    std::string flag = "--" + field.substr(8);
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    return mdr::InvalidArgument(flag, details.description);
+  }
+  if (field.starts_with("scene") && scene != nullptr) {
+    return scene->Error(field, details.description);
+  }
+  return mdr::InvalidArgument("", status.error_message());
+}
+
+mdr::Result<CsvLayout> LayoutFromArgs(const LoopsArgs& args) {
+  CsvLayout layout;
+  layout.displacement_column = args.displacement_column;
+  layout.force_column = args.force_column;
+  layout.normal_force_column = args.normal_force_column;
+  layout.time_column = args.time_column;
+  auto u = UnitFactor(Quantity::kDisplacement, args.displacement_unit, "--displacement-unit");
+  if (!u.ok()) return u.status();
+  auto f = UnitFactor(Quantity::kForce, args.force_unit, "--force-unit");
+  if (!f.ok()) return f.status();
+  auto t = UnitFactor(Quantity::kTime, args.time_unit, "--time-unit");
+  if (!t.ok()) return t.status();
+  layout.displacement_unit = *u;
+  layout.force_unit = *f;
+  layout.time_unit = *t;
+  return layout;
+}
+
+mdr::v1::LoopAnalysisOptions LoopsOptions(const LoopsArgs& args, const mdr::v1::Scene* scene) {
+  mdr::v1::LoopAnalysisOptions options;
+  options.set_reversal_threshold(args.reversal_threshold);
+  options.set_displacement_resolution(args.displacement_resolution);
+  if (args.normal_force) options.set_normal_force(*args.normal_force);
+  if (args.rig_compliance) {
+    options.set_rig_compliance(*args.rig_compliance);
+  } else if (scene != nullptr && scene->has_rig()) {
+    options.set_rig_compliance(scene->rig().tangential_compliance());
+  }
+  return options;
+}
+
+}  // namespace
+
+int LoopsCommand(const Common& common, const LoopsArgs& args) {
+  auto layout = LayoutFromArgs(args);
+  if (!layout.ok()) return Fail(layout.status());
+  auto csv = ReadRigCsv(args.file, *layout);
+  if (!csv.ok()) return Fail(csv.status());
+  std::optional<mdr::client::SceneDocument> document;
+  std::optional<mdr::v1::Scene> scene;
+  if (!args.scene.empty()) {
+    auto loaded = mdr::client::SceneDocument::Load(args.scene);
+    if (!loaded.ok()) return Fail(loaded.status());
+    document = std::move(loaded).value();
+    scene = document->file().scene();
+  }
+  if (!args.report_dir.empty()) {
+    if (auto s = MakeDirectory(args.report_dir, "--report"); !s.ok()) return Fail(s);
+  }
+  auto connection = Connection::Open(common);
+  if (!connection.ok()) return Fail(connection.status());
+  const mdr::v1::LoopAnalysisOptions options = LoopsOptions(args, scene ? &*scene : nullptr);
+  auto analysis = (*connection)
+                      ->client()
+                      .AnalyzeLoops(AnalysisRequest(*csv, options, scene ? &*scene : nullptr));
+  if (!analysis.ok()) {
+    return Fail(LoopsError(analysis.status(), *csv, *layout, document ? &*document : nullptr));
+  }
+  PrintLoopAnalysis(*analysis, common.format, stdout);
+  if (args.report_dir.empty()) return EXIT_SUCCESS;
+  LoopsReport report;
+  report.set.label = fs::path(args.file).filename().string();
+  report.set.csv = *csv;
+  report.set.layout = *layout;
+  report.set.normal_force = options.has_normal_force() ? options.normal_force() : std::nan("");
+  report.set.analysis = *analysis;
+  report.options = options;
+  report.scene_source = args.scene;
+  report.plots = DrawPlots([&] {
+    return WriteLoopsPlots({report.set.label, &csv->samples, &*analysis, report.set.normal_force},
+                           args.report_dir);
+  });
+  const mdr::Status written =
+      WriteReport(args.report_dir, LoopsMarkdown(report), LoopsJson(report), report.plots);
+  return written.ok() ? EXIT_SUCCESS : Fail(written);
+}
+
+}  // namespace mdrctl
+
+// ---- fit ----
+namespace mdrctl {
+namespace {
+
+mdr::Result<std::vector<ReportSet>> ReadSets(const Campaign& campaign) {
+  std::vector<ReportSet> sets;
+  for (const CampaignSet& set : campaign.sets) {
+    auto csv = ReadRigCsv(set.path, set.layout);
+    if (!csv.ok()) return csv.status();
+    ReportSet& read = sets.emplace_back();
+    read.label = set.file;
+    read.csv = std::move(csv).value();
+    read.layout = set.layout;
+    read.normal_force = set.normal_force;
+  }
+  return sets;
+}
+
+// A service error about the campaign: at the CSV's line and column for a sample, else at the
+// campaign's line of the field (the request's fields carry the campaign's names).
+mdr::Status CampaignError(const grpc::Status& status, const Campaign& campaign,
+                          const std::vector<ReportSet>& sets, int set = -1) {
+  const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
+  std::string field = details.field;
+  if (set >= 0 && !field.empty() && !field.starts_with("scene")) {
+    field = mdr::Indexed("sets", static_cast<std::size_t>(set)) + "." + field;
+  }
+  if (field.empty()) return mdr::InvalidArgument(campaign.path, status.error_message());
+  const std::string prefix = "sets[";
+  if (field.starts_with(prefix)) {
+    const std::size_t close = field.find(']');
+    const std::size_t i = std::stoul(field.substr(prefix.size(), close - prefix.size()));
+    const std::string rest = field.substr(std::min(field.size(), close + 2));
+    if (i < sets.size() && rest.starts_with("samples.")) {
+      return LocateSampleError(rest, details.description, sets[i].csv, sets[i].layout);
+    }
+    if (i < sets.size() && rest != "normal_force" && !rest.empty()) {
+      return mdr::InvalidArgument(sets[i].csv.path, rest + ": " + details.description);
+    }
+  }
+  return campaign.lines.Error(field, details.description);
+}
+
+mdr::v1::LoopAnalysisOptions SetOptions(const Campaign& campaign, const ReportSet& set,
+                                        const mdr::v1::Scene& scene) {
+  mdr::v1::LoopAnalysisOptions options;
+  options.set_reversal_threshold(campaign.reversal_threshold);
+  options.set_displacement_resolution(campaign.displacement_resolution);
+  options.set_normal_force(set.normal_force);
+  if (scene.has_rig()) options.set_rig_compliance(scene.rig().tangential_compliance());
+  return options;
+}
+
+// Every set's cycles, classified against `scene` (with its rig's compliance for the contact
+// figures).
+mdr::Status AnalyzeSets(ContactClient& client, const Campaign& campaign,
+                        const mdr::v1::Scene& scene, std::vector<ReportSet>* sets) {
+  for (std::size_t i = 0; i < sets->size(); ++i) {
+    ReportSet& set = (*sets)[i];
+    auto analysis =
+        client.AnalyzeLoops(AnalysisRequest(set.csv, SetOptions(campaign, set, scene), &scene));
+    if (!analysis.ok()) {
+      return CampaignError(analysis.status(), campaign, *sets, static_cast<int>(i));
+    }
+    set.analysis = std::move(analysis).value();
+  }
+  return mdr::OkStatus();
+}
+
+mdr::v1::FitLoopsRequest FitRequest(const Campaign& campaign, const std::vector<ReportSet>& sets,
+                                    bool with_samples) {
+  mdr::v1::FitLoopsRequest request;
+  *request.mutable_scene() = campaign.scene;
+  for (const ReportSet& set : sets) {
+    auto* loop_set = request.add_sets();
+    loop_set->set_normal_force(set.normal_force);
+    if (!with_samples) continue;
+    *loop_set->mutable_samples()->mutable_displacement() = set.csv.samples.displacement();
+    *loop_set->mutable_samples()->mutable_tangential_force() = set.csv.samples.tangential_force();
+  }
+  for (const auto& free : campaign.free) *request.add_free() = free;
+  if (campaign.burn_in_reversals) request.set_burn_in_reversals(*campaign.burn_in_reversals);
+  request.set_reversal_threshold(campaign.reversal_threshold);
+  request.set_max_iterations(campaign.max_iterations);
+  return request;
+}
+
+void PrintProgress(const mdr::v1::FitLoopsRequest& request, const mdr::v1::FitProgress& progress) {
+  std::string values;
+  for (int k = 0; k < progress.values_size() && k < request.free_size(); ++k) {
+    values += std::string(k ? ", " : "") + FitParameterName(request.free(k).parameter()) + " " +
+              FormatValue(progress.values(k));
+  }
+  std::fprintf(stderr, "mdrctl: fit iteration %d: residual RMS %s N (%s)\n", progress.iteration(),
+               FormatValue(progress.residual_rms()).c_str(), values.c_str());
+}
+
+// The actuator path the fit replays (mdr/analysis/identify.h, ReplayPath): the measured
+// displacement made monotone between the reversals, found at the fit's threshold.
+std::vector<double> ReplayedPath(const ReportSet& set) {
+  const auto& u = set.csv.samples.displacement();
+  const auto& reversals = set.analysis.reversals();
+  return mdr::analysis::ReplayPath(std::vector<double>(u.begin(), u.end()),
+                                   std::vector<std::size_t>(reversals.begin(), reversals.end()));
+}
+
+// Where the replay presses the contact: the fitted offset, else the path's first sample (as the
+// fit does: mdr/analysis/identify.h, Parameter::kDisplacementOffset).
+double ReplayOffset(const mdr::v1::FitResult& fit, const std::vector<double>& path) {
+  for (const auto& e : fit.estimates()) {
+    if (e.parameter() == mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET) return e.value();
+  }
+  return path.front();
+}
+
+// The first sample the fit counts: the burn_in-th reversal (0: the first sample).
+mdr::Result<std::size_t> FirstCounted(const mdr::v1::FitLoopsRequest& request,
+                                      const ReportSet& set) {
+  const int burn_in = request.has_burn_in_reversals() ? request.burn_in_reversals() : 2;
+  if (burn_in == 0) return std::size_t{0};
+  if (set.analysis.reversals_size() < burn_in) {
+    return mdr::FailedPrecondition(set.csv.path, "has fewer reversals than burn_in_reversals");
+  }
+  return static_cast<std::size_t>(set.analysis.reversals(burn_in - 1));
+}
+
+// Each set replayed through a session of the fitted scene: its model forces and residual RMS,
+// and the RMS over every set's counted samples.
+mdr::Status ReplaySets(ContactClient& client, const mdr::v1::FitLoopsRequest& request,
+                       const mdr::v1::FitResult& fit, FitReport* report) {
+  double sum = 0;
+  std::size_t count = 0;
+  for (ReportSet& set : report->sets) {
+    const std::vector<double> path = ReplayedPath(set);
+    set.offset = ReplayOffset(fit, path);
+    auto model = ReplayForces(client, fit.fitted_scene(), set.normal_force, set.offset, path);
+    if (!model.ok()) {
+      return mdr::Internal(
+          set.csv.path, "the replay of the fitted scene failed: " + model.status().error_message());
+    }
+    set.model = std::move(model).value();
+    auto first = FirstCounted(request, set);
+    if (!first.ok()) return first.status();
+    set.first_counted = *first;
+    double set_sum = 0;
+    for (std::size_t i = set.first_counted; i < set.model.size(); ++i) {
+      const double r = set.csv.samples.tangential_force(static_cast<int>(i)) - set.model[i];
+      set_sum += r * r;
+    }
+    const std::size_t set_count = set.model.size() - set.first_counted;
+    set.replay_rms = set_count > 0 ? std::sqrt(set_sum / static_cast<double>(set_count)) : 0;
+    sum += set_sum;
+    count += set_count;
+  }
+  report->replay_rms = count > 0 ? std::sqrt(sum / static_cast<double>(count)) : 0;
+  report->replay_residuals = count;
+  return mdr::OkStatus();
+}
+
+mdr::v1::FrettingMapRequest MapRequest(const Campaign& campaign, const mdr::v1::Scene& fitted) {
+  mdr::v1::FrettingMapRequest request;
+  *request.mutable_scene() = fitted;
+  std::vector<double> loads = campaign.map_normal_forces;
+  if (loads.empty()) {
+    const std::set<double> distinct = [&] {
+      std::set<double> s;
+      for (const CampaignSet& set : campaign.sets) s.insert(set.normal_force);
+      return s;
+    }();
+    loads.assign(distinct.begin(), distinct.end());
+  }
+  request.mutable_normal_forces()->Add(loads.begin(), loads.end());
+  const std::vector<double> amplitudes = campaign.map_relative_amplitudes.empty()
+                                             ? DefaultMapAmplitudes()
+                                             : campaign.map_relative_amplitudes;
+  request.mutable_relative_amplitudes()->Add(amplitudes.begin(), amplitudes.end());
+  return request;
+}
+
+std::vector<PlottedSet> PlottedSets(const std::vector<ReportSet>& sets) {
+  std::vector<PlottedSet> plotted;
+  for (const ReportSet& set : sets) {
+    plotted.push_back({set.label, &set.csv.samples, &set.analysis, set.normal_force, &set.model,
+                       set.first_counted});
+  }
+  return plotted;
+}
+
+// Fit, analysis with the fitted scene, replay and map: everything of the report but the plots.
+mdr::Status RunCampaign(ContactClient& client, FitReport* report) {
+  const Campaign& campaign = *report->campaign;
+  // The campaign's own scene first: bad data fail here, before the fit.
+  if (auto s = AnalyzeSets(client, campaign, campaign.scene, &report->sets); !s.ok()) return s;
+  const mdr::v1::FitLoopsRequest request = FitRequest(campaign, report->sets, true);
+  auto fit = client.FitLoops(
+      request, [&](const mdr::v1::FitProgress& progress) { PrintProgress(request, progress); });
+  if (!fit.ok()) return CampaignError(fit.status(), campaign, report->sets);
+  report->fit = std::move(fit).value();
+  report->request = FitRequest(campaign, report->sets, false);
+  const mdr::v1::Scene& fitted = report->fit.fitted_scene();
+  if (auto s = AnalyzeSets(client, campaign, fitted, &report->sets); !s.ok()) return s;
+  if (auto s = ReplaySets(client, request, report->fit, report); !s.ok()) return s;
+  report->map_request = MapRequest(campaign, fitted);
+  auto map = client.FrettingMap(report->map_request);
+  if (!map.ok()) return CampaignError(map.status(), campaign, report->sets);
+  report->map = std::move(map).value();
+  return mdr::OkStatus();
+}
+
+}  // namespace
+
+int FitCommand(const Common& common, const FitArgs& args) {
+  auto campaign = LoadCampaign(args.campaign);
+  if (!campaign.ok()) return Fail(campaign.status());
+  if (!args.report_dir.empty()) {
+    if (auto s = MakeDirectory(args.report_dir, "--report"); !s.ok()) return Fail(s);
+  }
+  FitReport report;
+  report.campaign = &*campaign;
+  auto sets = ReadSets(*campaign);
+  if (!sets.ok()) return Fail(sets.status());
+  report.sets = std::move(sets).value();
+  auto connection = Connection::Open(common);
+  if (!connection.ok()) return Fail(connection.status());
+  if (auto s = RunCampaign((*connection)->client(), &report); !s.ok()) return Fail(s);
+  PrintFitResult(report.fit, common.format, stdout);
+  if (args.report_dir.empty()) return EXIT_SUCCESS;
+  report.plots = DrawPlots(
+      [&] { return WriteFitPlots(PlottedSets(report.sets), report.map, args.report_dir); });
+  const mdr::Status written =
+      WriteReport(args.report_dir, FitMarkdown(report), FitJson(report), report.plots);
+  return written.ok() ? EXIT_SUCCESS : Fail(written);
+}
+
+}  // namespace mdrctl
+
+// ---- synthesize ----
+namespace mdrctl {
+namespace {
+
+// Standard normal numbers by Box-Muller over std::mt19937_64, whose output the standard fixes:
+// the same seed gives the same numbers with every standard library (std::normal_distribution's
+// algorithm is left to the implementation).
+class Gaussian {
+ public:
+  explicit Gaussian(std::uint64_t seed) : engine_(seed) {}
+  double Next() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    const double radius = std::sqrt(-2 * std::log(Uniform()));
+    const double angle = 2 * std::numbers::pi * Uniform();
+    spare_ = radius * std::sin(angle);
+    has_spare_ = true;
+    return radius * std::cos(angle);
+  }
+
+ private:
+  // Uniform in (0, 1): the top 53 bits, offset by half a step so that 0 never occurs.
+  double Uniform() { return (static_cast<double>(engine_() >> 11) + 0.5) * 0x1.0p-53; }
+  std::mt19937_64 engine_;
+  bool has_spare_ = false;
+  double spare_ = 0;
+};
+
+// Shortest text that reads back as the same double.
+std::string Shortest(double value) {
+  char text[32];
+  const auto end = std::to_chars(text, text + sizeof text, value).ptr;
+  return std::string(text, end);
+}
+
+std::string Csv(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.10g", value);
+  return text;
+}
+
+mdr::Result<double> EffectiveModulus(const mdr::v1::Scene& scene) {
+  if (scene.has_rigid_on_half_space()) {
+    const auto& m = scene.rigid_on_half_space();
+    auto material = mdr::RigidOnHalfSpace(m.shear_modulus(), m.poisson_ratio());
+    if (!material.ok()) return material.status().WithFieldPrefix("truth.rigid_on_half_space");
+    return material->e_star;
+  }
+  const auto& m = scene.elastic_pair();
+  auto material = mdr::ElasticPair(m.youngs_modulus_1(), m.poisson_ratio_1(), m.youngs_modulus_2(),
+                                   m.poisson_ratio_2());
+  if (!material.ok()) return material.status().WithFieldPrefix("truth.elastic_pair");
+  return material->e_star;
+}
+
+// The truth's value of every fit parameter the scene defines.
+mdr::Result<std::map<std::string, double>> TruthValues(const mdr::v1::Scene& scene) {
+  std::map<std::string, double> truth;
+  truth["friction"] = scene.friction();
+  auto e_star = EffectiveModulus(scene);
+  if (!e_star.ok()) return e_star.status();
+  truth["effective_modulus"] = *e_star;
+  truth["rig_compliance"] = scene.rig().tangential_compliance();
+  truth["displacement_offset"] = 0;
+  if (scene.has_sphere()) truth["profile_scale"] = scene.sphere().radius();
+  if (scene.has_power_law()) truth["profile_scale"] = scene.power_law().coefficient();
+  return truth;
+}
+
+// The truth with every free parameter at its initial value: the campaign's starting scene, so
+// that nothing of the truth leaks into the fit.
+mdr::Result<mdr::v1::Scene> StartingScene(const SynthesisSpec& spec,
+                                          const std::map<std::string, double>& truth) {
+  mdr::v1::Scene scene = spec.truth;
+  for (std::size_t k = 0; k < spec.free.size(); ++k) {
+    const auto& free = spec.free[k];
+    const std::string field = mdr::Indexed("fit.free", k);
+    if (free.parameter() == mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET) continue;
+    if (!free.has_initial()) {
+      return spec.lines.Error(field,
+                              "needs an initial value in a synthesis spec (the fit would "
+                              "otherwise start at the truth)");
+    }
+    const double initial = free.initial();
+    switch (free.parameter()) {
+      case mdr::v1::FIT_PARAMETER_FRICTION:
+        scene.set_friction(initial);
+        break;
+      case mdr::v1::FIT_PARAMETER_RIG_COMPLIANCE:
+        scene.mutable_rig()->set_tangential_compliance(initial);
+        break;
+      case mdr::v1::FIT_PARAMETER_EFFECTIVE_MODULUS: {
+        const double factor = initial / truth.at("effective_modulus");
+        if (scene.has_rigid_on_half_space()) {
+          auto* m = scene.mutable_rigid_on_half_space();
+          m->set_shear_modulus(m->shear_modulus() * factor);
+        } else {
+          auto* m = scene.mutable_elastic_pair();
+          m->set_youngs_modulus_1(m->youngs_modulus_1() * factor);
+          m->set_youngs_modulus_2(m->youngs_modulus_2() * factor);
+        }
+        break;
+      }
+      case mdr::v1::FIT_PARAMETER_PROFILE_SCALE:
+        if (scene.has_sphere()) {
+          scene.mutable_sphere()->set_radius(initial);
+        } else if (scene.has_power_law()) {
+          scene.mutable_power_law()->set_coefficient(initial);
+        } else {
+          return spec.lines.Error(field + ".parameter",
+                                  "profile_scale needs a sphere or a power law in the truth");
+        }
+        break;
+      default:
+        break;
+    }
+  }
+  return scene;
+}
+
+std::string TruthText(const std::map<std::string, double>& truth) {
+  std::string text = "friction " + Shortest(truth.at("friction")) + ", effective_modulus " +
+                     Shortest(truth.at("effective_modulus")) + " Pa, rig_compliance " +
+                     Shortest(truth.at("rig_compliance")) + " m/N";
+  if (truth.contains("profile_scale")) {
+    text += ", profile_scale " + Shortest(truth.at("profile_scale"));
+  }
+  return text;
+}
+
+// "p100N_u4um.csv"
+std::string RunFileName(double normal_force, double amplitude) {
+  char name[96];
+  std::snprintf(name, sizeof name, "p%gN_u%gum.csv", normal_force, amplitude * 1e6);
+  return name;
+}
+
+struct SynthesizedRun {
+  std::string file;
+  double normal_force, amplitude;
+};
+
+// The run with noise, as a CSV file (time, displacement, tangential_force in s, m, N).
+mdr::Status WriteRunCsv(const SynthesisSpec& spec, const std::string& truth_text,
+                        const SynthesizedRun& run, const RecordedRun& recorded, Gaussian* noise,
+                        const fs::path& file) {
+  const auto [lo, hi] = std::minmax_element(recorded.force.begin(), recorded.force.end());
+  const double force_sd = spec.force_noise + spec.force_noise_relative * 0.5 * (*hi - *lo);
+  std::ostringstream out;
+  out << "# SYNTHETIC: generated by mdrctl synthesize, truth: " << truth_text << "\n"
+      << "# run: normal_force " << Shortest(run.normal_force) << " N, actuator amplitude "
+      << Shortest(run.amplitude) << " m, u = U sin(2 pi f t), " << spec.cycles << " cycles of "
+      << spec.samples_per_cycle << " samples at " << Shortest(spec.sampling_rate) << " Hz\n"
+      << "# noise: Gaussian (Box-Muller over mt19937_64, seed " << spec.seed << "), sd "
+      << Shortest(spec.displacement_noise) << " m on displacement, " << Csv(force_sd)
+      << " N on tangential_force\n"
+      << "time,displacement,tangential_force\n";
+  for (std::size_t i = 0; i < recorded.displacement.size(); ++i) {
+    const double u = recorded.displacement[i] + spec.displacement_noise * noise->Next();
+    const double f = recorded.force[i] + force_sd * noise->Next();
+    out << Csv(static_cast<double>(i) / spec.sampling_rate) << ',' << Csv(u) << ',' << Csv(f)
+        << '\n';
+  }
+  return WriteText(file, out.str());
+}
+
+// A scene as a YAML node in block style (from its proto3 JSON).
+YAML::Node SceneNode(const mdr::v1::Scene& scene) {
+  std::function<void(YAML::Node)> block = [&](YAML::Node node) {
+    node.SetStyle(YAML::EmitterStyle::Block);
+    if (node.IsMap()) {
+      for (auto entry : node) block(entry.second);
+    } else if (node.IsSequence()) {
+      for (auto item : node) block(item);
+    }
+  };
+  YAML::Node node = YAML::Load(ToJson(scene));
+  block(node);
+  return node;
+}
+
+void EmitFree(const SynthesisSpec& spec, YAML::Emitter* out) {
+  *out << YAML::Key << "free" << YAML::Value << YAML::BeginSeq;
+  for (const auto& free : spec.free) {
+    *out << YAML::Flow << YAML::BeginMap << YAML::Key << "parameter" << YAML::Value
+         << FitParameterName(free.parameter());
+    if (free.has_initial())
+      *out << YAML::Key << "initial" << YAML::Value << Shortest(free.initial());
+    *out << YAML::Key << "lower" << YAML::Value << Shortest(free.lower()) << YAML::Key << "upper"
+         << YAML::Value << Shortest(free.upper()) << YAML::EndMap;
+  }
+  *out << YAML::EndSeq;
+}
+
+// The campaign format, at the top of every campaign synthesize writes.
+constexpr char kCampaignSchema[] =
+    R"(  mdrctl fit campaign.yaml [--report DIR]
+Campaign schema (docs/analysis.md, "From a rig's CSV files to a report"):
+  title: text of the report's heading (optional)
+  scene: a scene file's path (relative to this file; its `scene` is read) or an inline
+    mdr.v1.Scene: the starting point of the fit; the free parameters start at `initial`
+  columns: {displacement, tangential_force, normal_force, time}: header names in the CSV
+    files (defaults: displacement, tangential_force; normal_force and time: none)
+  units: {displacement: m|mm|um|nm, force: N|kN|mN, time: s|ms|us} (defaults m, N, s)
+  sets: [{file, normal_force (N), columns?, units?}]: one run per CSV file at a constant
+    normal force; columns and units override the defaults above for that file
+  free: [{parameter, initial?, lower, upper}]: parameter is friction, effective_modulus,
+    profile_scale, rig_compliance or displacement_offset (SI units; bounds exclusive)
+  burn_in_reversals: residuals count from this reversal of each set on (default 2)
+  reversal_threshold: hysteresis of the reversal detection in m (default 0: automatic)
+  max_iterations: of the fit, 0 to 1000 (default 0: the service's 200)
+  displacement_resolution: m; narrower loops are classified as sticking (default 0)
+  fretting_map: {normal_forces (default: the sets' loads), relative_amplitudes}
+  truth: {parameter: value}: only for synthetic data, the values they were made with
+Here the scene is the truth with every free parameter at its initial value, and `truth`
+holds the values the data were generated with, which the report compares the estimates to.)";
+
+std::string CampaignYaml(const SynthesisSpec& spec, const mdr::v1::Scene& starting,
+                         const std::vector<SynthesizedRun>& runs,
+                         const std::map<std::string, double>& truth) {
+  YAML::Emitter out;
+  out << YAML::Comment("A synthetic campaign written by `mdrctl synthesize " +
+                       fs::path(spec.path).filename().string() + "`; fit it with\n" +
+                       kCampaignSchema)
+      << YAML::Newline << YAML::BeginMap;
+  if (!spec.title.empty()) out << YAML::Key << "title" << YAML::Value << spec.title;
+  out << YAML::Key << "scene" << YAML::Value << SceneNode(starting);
+  out << YAML::Key << "columns" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+      << "displacement" << YAML::Value << "displacement" << YAML::Key << "tangential_force"
+      << YAML::Value << "tangential_force" << YAML::Key << "time" << YAML::Value << "time"
+      << YAML::EndMap;
+  out << YAML::Key << "units" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+      << "displacement" << YAML::Value << "m" << YAML::Key << "force" << YAML::Value << "N"
+      << YAML::Key << "time" << YAML::Value << "s" << YAML::EndMap;
+  out << YAML::Key << "sets" << YAML::Value << YAML::BeginSeq;
+  for (const SynthesizedRun& run : runs) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "file" << YAML::Value << run.file
+        << YAML::Key << "normal_force" << YAML::Value << Shortest(run.normal_force) << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  EmitFree(spec, &out);
+  if (spec.burn_in_reversals) {
+    out << YAML::Key << "burn_in_reversals" << YAML::Value << *spec.burn_in_reversals;
+  }
+  out << YAML::Key << "reversal_threshold" << YAML::Value << Shortest(spec.reversal_threshold);
+  out << YAML::Key << "max_iterations" << YAML::Value << spec.max_iterations;
+  if (!spec.map_relative_amplitudes.empty()) {
+    out << YAML::Key << "fretting_map" << YAML::Value << YAML::BeginMap << YAML::Key
+        << "relative_amplitudes" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (double a : spec.map_relative_amplitudes) out << Shortest(a);
+    out << YAML::EndSeq << YAML::EndMap;
+  }
+  out << YAML::Key << "truth" << YAML::Value << YAML::BeginMap;
+  for (const auto& [name, value] : truth)
+    out << YAML::Key << name << YAML::Value << Shortest(value);
+  out << YAML::EndMap << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace
+
+int SynthesizeCommand(const Common& common, const SynthesizeArgs& args) {
+  auto spec = LoadSynthesisSpec(args.spec);
+  if (!spec.ok()) return Fail(spec.status());
+  auto truth = TruthValues(spec->truth);
+  if (!truth.ok()) return Fail(spec->lines.Error(truth.status().field(), truth.status().message()));
+  auto starting = StartingScene(*spec, *truth);
+  if (!starting.ok()) return Fail(starting.status());
+  if (auto s = MakeDirectory(args.out_dir, "--out"); !s.ok()) return Fail(s);
+  auto connection = Connection::Open(common);
+  if (!connection.ok()) return Fail(connection.status());
+  const std::string truth_text = TruthText(*truth);
+  Gaussian noise(spec->seed);
+  std::vector<SynthesizedRun> runs;
+  for (double normal_force : spec->normal_forces) {
+    for (double amplitude : spec->amplitudes) {
+      const SynthesizedRun run{RunFileName(normal_force, amplitude), normal_force, amplitude};
+      auto recorded = RecordSineRun((*connection)->client(), spec->truth, normal_force, amplitude,
+                                    spec->cycles, spec->samples_per_cycle);
+      if (!recorded.ok()) {
+        return Fail(spec->lines.Error(
+            "truth", "the run at normal_force " + Shortest(normal_force) + " N, amplitude " +
+                         Shortest(amplitude) + " m failed: " + recorded.status().error_message()));
+      }
+      const fs::path file = fs::path(args.out_dir) / run.file;
+      if (auto s = WriteRunCsv(*spec, truth_text, run, *recorded, &noise, file); !s.ok()) {
+        return Fail(s);
+      }
+      std::fprintf(stderr, "mdrctl: wrote %s (%zu samples)\n", file.c_str(),
+                   recorded->displacement.size());
+      runs.push_back(run);
+    }
+  }
+  const fs::path campaign = fs::path(args.out_dir) / "campaign.yaml";
+  if (auto s = WriteText(campaign, CampaignYaml(*spec, *starting, runs, *truth)); !s.ok()) {
+    return Fail(s);
+  }
+  std::fprintf(stderr, "mdrctl: wrote %s\n", campaign.c_str());
+  return EXIT_SUCCESS;
+}
+
+}  // namespace mdrctl

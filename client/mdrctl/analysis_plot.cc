@@ -1,0 +1,368 @@
+#include "analysis_plot.h"
+
+#include <stdlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "plot.h"
+
+namespace mdrctl {
+namespace {
+
+namespace fs = std::filesystem;
+using mdr::v1::AnalyzeLoopsResponse;
+using mdr::v1::CycleFigures;
+
+// A directory for the data files and the script, removed with this object.
+class TemporaryDirectory {
+ public:
+  TemporaryDirectory() {
+    std::string pattern = (fs::temp_directory_path() / "mdrctl-plot-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) != nullptr) path_ = pattern;
+  }
+  ~TemporaryDirectory() {
+    std::error_code ignored;
+    if (!path_.empty()) fs::remove_all(path_, ignored);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::ofstream DataFile(const fs::path& file) {
+  std::ofstream out(file);
+  out.precision(12);
+  return out;
+}
+
+// The regime as a number for the scripts: 0 unknown, 1 sticking, 2 partial slip, 3 gross slip.
+int RegimeCode(mdr::v1::Regime regime) { return static_cast<int>(regime); }
+
+// u [m], F_x [N], the number of the cycle the sample belongs to (0: outside complete cycles).
+void WriteLoop(const PlottedSet& set, const fs::path& file) {
+  std::ofstream out = DataFile(file);
+  out << "# u[m] F_x[N] cycle\n";
+  const auto& samples = *set.samples;
+  const auto& cycles = set.analysis->cycles();
+  int cycle = 0;
+  for (int i = 0; i < samples.displacement_size(); ++i) {
+    while (cycle < cycles.size() && static_cast<std::uint64_t>(i) > cycles[cycle].last_sample()) {
+      ++cycle;
+    }
+    const bool inside =
+        cycle < cycles.size() && static_cast<std::uint64_t>(i) >= cycles[cycle].first_sample();
+    out << samples.displacement(i) << ' ' << samples.tangential_force(i) << ' '
+        << (inside ? cycle + 1 : 0) << '\n';
+  }
+}
+
+// One block per set: the figures of each cycle.
+void WriteCycles(const std::vector<PlottedSet>& sets, const fs::path& file) {
+  std::ofstream out = DataFile(file);
+  for (const PlottedSet& set : sets) {
+    out << "# " << set.label
+        << ": cycle Q*[N] P[N] Q*/P Ed[J] delta_0[m] C A B A_c B_c C_onset delta*[m]\n";
+    for (int i = 0; i < set.analysis->cycles_size(); ++i) {
+      const CycleFigures& c = set.analysis->cycles(i);
+      const double nan = std::nan("");
+      out << i + 1 << ' ' << c.force_amplitude() << ' ' << c.normal_force() << ' '
+          << c.force_amplitude() / c.normal_force() << ' ' << c.dissipated_energy() << ' '
+          << c.half_opening() << ' ' << c.system_free_ratio() << ' ' << c.energy_ratio() << ' '
+          << c.sliding_ratio() << ' ' << (c.has_contact() ? c.contact().energy_ratio() : nan) << ' '
+          << (c.has_contact() ? c.contact().sliding_ratio() : nan) << ' '
+          << (c.regime() != mdr::v1::REGIME_UNSPECIFIED ? c.onset_system_free_ratio() : nan) << ' '
+          << c.displacement_amplitude() << '\n';
+    }
+    out << "\n\n";
+  }
+}
+
+struct Script {
+  std::ostringstream text;
+  std::vector<std::string> pngs;
+  const fs::path dir;
+
+  explicit Script(fs::path out_dir) : dir(std::move(out_dir)) {
+    text << "set terminal pngcairo size 1000,700 noenhanced font ',11'\nset grid\n"
+         << "set datafile missing 'nan'\n";
+  }
+  void Output(const std::string& png) {
+    pngs.push_back(png);
+    text << "set output " << GnuplotQuoted((dir / png).string()) << "\n";
+  }
+  void Labels(const std::string& title, const std::string& xlabel, const std::string& ylabel) {
+    text << "set title " << GnuplotQuoted(title) << "\nset xlabel " << GnuplotQuoted(xlabel)
+         << "\nset ylabel " << GnuplotQuoted(ylabel) << "\n";
+  }
+};
+
+std::string Q(const fs::path& file) { return GnuplotQuoted(file.string()); }
+
+std::string FormatNumberShort(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g", value);
+  return text;
+}
+
+// One curve of a plot command: "<source> using <columns> with <style> title <title>".
+struct Series {
+  std::string source;  // a quoted file name and "index i" if any
+  std::string columns;
+  std::string style;
+  std::string title;
+};
+
+std::string Plot(const std::vector<Series>& series) {
+  std::string plot;
+  for (const Series& s : series) {
+    plot += (plot.empty() ? "plot " : ", ") + s.source + " using " + s.columns + " with " +
+            s.style + " title " + GnuplotQuoted(s.title);
+  }
+  return plot + "\n";
+}
+
+// One curve per set's block of `data`, coloured by set (dash type `dash`).
+std::vector<Series> PerSet(const std::vector<PlottedSet>& sets, const fs::path& data,
+                           const std::string& columns, const std::string& what, int dash = 1) {
+  std::vector<Series> series;
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    series.push_back(
+        {Q(data) + " index " + std::to_string(i), columns,
+         "linespoints lw 2 pt 7 ps 0.6 dt " + std::to_string(dash) + " lc " + std::to_string(i + 1),
+         sets.size() == 1 ? what : sets[i].label + " " + what});
+  }
+  return series;
+}
+
+std::vector<Series> Joined(std::vector<Series> a, const std::vector<Series>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+bool AllHaveLoads(const std::vector<PlottedSet>& sets) {
+  for (const PlottedSet& set : sets) {
+    for (const CycleFigures& c : set.analysis->cycles()) {
+      if (!(c.normal_force() > 0)) return false;
+    }
+  }
+  return true;
+}
+
+bool AnyContact(const std::vector<PlottedSet>& sets) {
+  for (const PlottedSet& set : sets) {
+    for (const CycleFigures& c : set.analysis->cycles()) {
+      if (c.has_contact()) return true;
+    }
+  }
+  return false;
+}
+
+bool AnyRegime(const std::vector<PlottedSet>& sets) {
+  for (const PlottedSet& set : sets) {
+    for (const CycleFigures& c : set.analysis->cycles()) {
+      if (c.regime() != mdr::v1::REGIME_UNSPECIFIED) return true;
+    }
+  }
+  return false;
+}
+
+// Q* (or Q*/P), Ed, A and B (and the contact's A), C (and the onset's) per cycle.
+void AddCyclePlots(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  script->Output("cycles.png");
+  int cycles = 0;
+  for (const PlottedSet& set : sets) cycles = std::max(cycles, set.analysis->cycles_size());
+  script->text << "set multiplot layout 2,2 title 'figures per cycle'\nset key bottom right "
+                  "font ',9'\nset xlabel 'cycle'\nunset title\n"
+               << (cycles <= 20 ? "set xtics 1\n" : "");  // a tic per cycle while legible
+  const bool loads = AllHaveLoads(sets);
+  script->text << "set ylabel " << (loads ? "'Q*/P (contact)'" : "'Q* [N] (contact)'") << "\n"
+               << Plot(PerSet(sets, data, loads ? "1:4" : "1:2", loads ? "Q*/P" : "Q*"));
+  script->text << "set ylabel 'Ed [µJ] (contact)'\n"
+               << Plot(PerSet(sets, data, "1:($5*1e6)", "Ed"));
+  std::vector<Series> ratios = Joined(PerSet(sets, data, "1:8", "A (contact+rig)"),
+                                      PerSet(sets, data, "1:9", "B (contact+rig)", 2));
+  if (AnyContact(sets)) ratios = Joined(ratios, PerSet(sets, data, "1:10", "A_c (contact)", 3));
+  script->text << "set ylabel 'A, B'\n" << Plot(ratios);
+  std::vector<Series> c = PerSet(sets, data, "1:7", "C");
+  if (AnyRegime(sets)) c = Joined(c, PerSet(sets, data, "1:12", "onset C", 2));
+  script->text << "set ylabel 'C (contact)'\n"
+               << Plot(c) << "unset multiplot\nset xtics autofreq\nset key default\n";
+}
+
+// One block per set: u [m], measured F_x, model F_x [N], counted (1) or burn-in (0).
+void WriteFitLoops(const std::vector<PlottedSet>& sets, const fs::path& file) {
+  std::ofstream out = DataFile(file);
+  for (const PlottedSet& set : sets) {
+    out << "# " << set.label << ": u[m] F_x[N] model[N] counted\n";
+    for (int i = 0; i < set.samples->displacement_size(); ++i) {
+      out << set.samples->displacement(i) << ' ' << set.samples->tangential_force(i) << ' '
+          << (*set.model)[i] << ' ' << (static_cast<std::size_t>(i) >= set.first_counted) << '\n';
+    }
+    out << "\n\n";
+  }
+}
+
+// One block per set: the running index over every set's counted samples and the residual.
+void WriteResiduals(const std::vector<PlottedSet>& sets, const fs::path& file) {
+  std::ofstream out = DataFile(file);
+  std::size_t running = 0;
+  for (const PlottedSet& set : sets) {
+    out << "# " << set.label << ": counted sample, F_x measured - model [N]\n";
+    for (int i = static_cast<int>(set.first_counted); i < set.samples->displacement_size(); ++i) {
+      out << running++ << ' ' << set.samples->tangential_force(i) - (*set.model)[i] << '\n';
+    }
+    out << "\n\n";
+  }
+}
+
+// map.dat: one block per load, the map's loops (actuator amplitude, Q*/P, regime, P); onset.dat:
+// one line per load; measured.dat: one line per measured cycle (delta*, Q*/P, regime, P).
+void WriteMap(const std::vector<PlottedSet>& sets, const mdr::v1::FrettingMapResponse& map,
+              const fs::path& dir) {
+  std::ofstream loops = DataFile(dir / "map.dat");
+  std::ofstream onsets = DataFile(dir / "onset.dat");
+  for (const auto& load : map.loads()) {
+    const double p = load.onset().normal_force();
+    loops << "# P = " << p << " N: actuator amplitude[m] Q*/P regime P[N]\n";
+    for (int i = 0; i < load.loops_size(); ++i) {
+      loops << load.loops(i).actuator_amplitude() << ' ' << load.loops(i).force_amplitude() / p
+            << ' ' << RegimeCode(load.regimes(i)) << ' ' << p << '\n';
+    }
+    loops << "\n\n";
+    onsets << load.onset().actuator_amplitude() << ' ' << load.onset().force_amplitude() / p << ' '
+           << p << '\n';
+  }
+  std::ofstream measured = DataFile(dir / "measured.dat");
+  measured << "# delta*[m] Q*/P regime P[N] colour (the map's line of that load)\n";
+  for (const PlottedSet& set : sets) {
+    int colour = 0;
+    for (int l = 0; l < map.loads_size(); ++l) {
+      if (map.loads(l).onset().normal_force() == set.normal_force) colour = l + 1;
+    }
+    for (const CycleFigures& c : set.analysis->cycles()) {
+      measured << c.displacement_amplitude() << ' ' << c.force_amplitude() / set.normal_force << ' '
+               << RegimeCode(c.regime()) << ' ' << set.normal_force << ' ' << colour << '\n';
+    }
+  }
+}
+
+void AddFitLoopsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  const int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(sets.size()))));
+  const int rows = static_cast<int>((sets.size() + columns - 1) / columns);
+  script->text << "set terminal pngcairo size " << 420 * columns + 80 << "," << 340 * rows + 60
+               << " noenhanced font ',10'\n";
+  script->Output("loops.png");
+  script->text << "set multiplot layout " << rows << "," << columns
+               << " title 'measured (grey) and fitted (red) loops'\nset key top left font ',8'\n"
+               << "set xlabel 'u [µm]'\nset ylabel 'F_x [N]'\n";
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    const std::string block = Q(data) + " index " + std::to_string(i);
+    script->text << "set title " << GnuplotQuoted(sets[i].label) << "\n"
+                 << Plot({{block, "($1*1e6):2", "points pt 7 ps 0.3 lc rgb '#999999'", "measured"},
+                          {block, "($1*1e6):($4>0?1/0:$3)", "lines lw 1 dt 2 lc rgb '#f0a0a0'",
+                           "fitted, burn-in"},
+                          {block, "($1*1e6):($4>0?$3:1/0)", "lines lw 1.5 lc rgb '#d62728'",
+                           "fitted, counted"}});
+  }
+  script->text << "unset multiplot\nset terminal pngcairo size 1000,700 noenhanced font ',11'\n";
+}
+
+void AddResidualsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  script->Output("residuals.png");
+  script->Labels("residuals of the fit, F_x measured - fitted, set after set",
+                 "counted sample (all sets in order)", "residual [N]");
+  std::vector<Series> series;
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    series.push_back({Q(data) + " index " + std::to_string(i), "1:2",
+                      "points pt 7 ps 0.3 lc " + std::to_string(i + 1), sets[i].label});
+  }
+  script->text << "set key outside right font ',9'\n" << Plot(series) << "set key default\n";
+}
+
+void AddMapPlots(const mdr::v1::FrettingMapResponse& map, const fs::path& dir, Script* script) {
+  script->Output("fretting_map.png");
+  script->Labels("fretting map of the fitted scene: Q*/P against the actuator amplitude",
+                 "actuator amplitude delta* [µm] (contact+rig)", "Q*/P");
+  std::vector<Series> series;
+  for (int l = 0; l < map.loads_size(); ++l) {
+    series.push_back({Q(dir / "map.dat") + " index " + std::to_string(l), "($1*1e6):2",
+                      "linespoints lw 1.5 pt 6 ps 0.8 lc " + std::to_string(l + 1),
+                      "map, P = " + FormatNumberShort(map.loads(l).onset().normal_force()) + " N"});
+  }
+  series.push_back({Q(dir / "onset.dat"), "($1*1e6):2", "points pt 5 ps 1.6 lc rgb 'black'",
+                    "onset of gross slip"});
+  series.push_back({Q(dir / "measured.dat"), "($1*1e6):2:5", "points pt 9 ps 1.6 lc variable",
+                    "measured cycles (coloured by load)"});
+  script->text << "set key bottom right\nset logscale x\n" << Plot(series);
+
+  script->Output("fretting_regimes.png");
+  script->Labels("regimes: normal force against actuator amplitude",
+                 "actuator amplitude delta* [µm] (contact+rig)", "normal force P [N]");
+  const std::string m = Q(dir / "map.dat"), c = Q(dir / "measured.dat");
+  script->text << Plot({{Q(dir / "onset.dat"), "($1*1e6):3", "linespoints lw 2 pt 5 lc rgb 'black'",
+                         "boundary (onset of gross slip)"},
+                        {m, "($1*1e6):($3==2?$4:1/0)", "points pt 6 ps 1 lc rgb '#2ca02c'",
+                         "map: partial slip"},
+                        {m, "($1*1e6):($3==3?$4:1/0)", "points pt 6 ps 1 lc rgb '#d62728'",
+                         "map: gross slip"},
+                        {c, "($1*1e6):($3==1?$4:1/0)", "points pt 9 ps 1.8 lc rgb '#1f77b4'",
+                         "measured: sticking"},
+                        {c, "($1*1e6):($3==2?$4:1/0)", "points pt 9 ps 1.8 lc rgb '#2ca02c'",
+                         "measured: partial slip"},
+                        {c, "($1*1e6):($3==3?$4:1/0)", "points pt 9 ps 1.8 lc rgb '#d62728'",
+                         "measured: gross slip"}})
+               << "unset logscale x\nset key default\n";
+}
+
+}  // namespace
+
+mdr::Result<std::vector<std::string>> WriteFitPlots(const std::vector<PlottedSet>& sets,
+                                                    const mdr::v1::FrettingMapResponse& map,
+                                                    const std::string& dir) {
+  TemporaryDirectory temporary;
+  if (temporary.path().empty()) return mdr::Internal("--report", "cannot create a temporary dir");
+  const fs::path& data = temporary.path();
+  WriteFitLoops(sets, data / "loops.dat");
+  WriteResiduals(sets, data / "residuals.dat");
+  WriteMap(sets, map, data);
+  Script script(fs::absolute(dir));
+  AddFitLoopsPlot(sets, data / "loops.dat", &script);
+  AddResidualsPlot(sets, data / "residuals.dat", &script);
+  AddMapPlots(map, data, &script);
+  const fs::path script_file = data / "plots.gp";
+  std::ofstream(script_file) << script.text.str();
+  if (mdr::Status s = RunGnuplot(script_file.string(), "--report"); !s.ok()) return s;
+  return script.pngs;
+}
+
+mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set,
+                                                      const std::string& dir) {
+  TemporaryDirectory temporary;
+  if (temporary.path().empty()) return mdr::Internal("--report", "cannot create a temporary dir");
+  const fs::path out = fs::absolute(dir);
+  WriteLoop(set, temporary.path() / "loop.dat");
+  WriteCycles({set}, temporary.path() / "cycles.dat");
+  Script script(out);
+  script.Output("loop.png");
+  script.Labels(set.label + ": F_x over u, coloured by cycle", "u [µm] (contact+rig)", "F_x [N]");
+  const int cycles = std::max(set.analysis->cycles_size(), 1);
+  script.text << "set key top left\nset cbrange [0.5:" << cycles + 0.5 << "]\nset cblabel 'cycle'\n"
+              << "set palette rgb 33,13,10\nplot " << Q(temporary.path() / "loop.dat")
+              << " using ($1*1e6):2 with lines lc rgb '#bbbbbb' title 'outside complete cycles', "
+              << Q(temporary.path() / "loop.dat")
+              << " using ($1*1e6):($3>0?$2:1/0):3 with lines lw 1.5 lc palette title 'cycles'\n"
+              << "unset colorbox\n";
+  AddCyclePlots({set}, temporary.path() / "cycles.dat", &script);
+  const fs::path script_file = temporary.path() / "plots.gp";
+  std::ofstream(script_file) << script.text.str();
+  if (mdr::Status s = RunGnuplot(script_file.string(), "--report"); !s.ok()) return s;
+  return script.pngs;
+}
+
+}  // namespace mdrctl

@@ -1,0 +1,61 @@
+// The reports of `mdrctl loops --report` and `mdrctl fit --report`: report.md for people (every
+// number labelled with what it measures, the verdicts in words) and report.json with the same
+// content in machine form (the service's messages as proto3 JSON, timings left out so that a
+// re-run reproduces the file).
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "campaign.h"
+#include "mdr/v1/analysis.pb.h"
+#include "rig_csv.h"
+
+namespace mdrctl {
+
+// One CSV file and what was computed from it.
+struct ReportSet {
+  std::string label;  // the file as given
+  RigCsv csv;
+  CsvLayout layout;
+  double normal_force = 0;  // N; NaN when unknown (mdrctl loops without a load)
+  mdr::v1::AnalyzeLoopsResponse analysis;
+  // mdrctl fit: F_x of the fitted scene replayed along the set's displacement, the offset the
+  // replay pressed at, the first sample the fit counts and the replay's RMS from it on.
+  std::vector<double> model;
+  double offset = 0;
+  std::size_t first_counted = 0;
+  double replay_rms = 0;
+};
+
+struct Plots {
+  std::vector<std::string> pngs;  // file names in the report directory
+  std::string skipped;            // why there are none ("" when drawn)
+};
+
+struct LoopsReport {
+  ReportSet set;
+  mdr::v1::LoopAnalysisOptions options;
+  std::string scene_source;  // the --scene file, "" without
+  Plots plots;
+};
+
+struct FitReport {
+  const Campaign* campaign = nullptr;
+  std::vector<ReportSet> sets;
+  mdr::v1::FitLoopsRequest request;  // without the samples
+  mdr::v1::FitResult fit;
+  double replay_rms = 0;  // over every set's counted samples
+  std::size_t replay_residuals = 0;
+  mdr::v1::FrettingMapRequest map_request;
+  mdr::v1::FrettingMapResponse map;
+  Plots plots;
+};
+
+std::string LoopsMarkdown(const LoopsReport& report);
+std::string LoopsJson(const LoopsReport& report);
+std::string FitMarkdown(const FitReport& report);
+std::string FitJson(const FitReport& report);
+
+}  // namespace mdrctl

@@ -1,0 +1,34 @@
+// The loading paths mdrctl drives through sessions for the loop analysis: a sinusoidal actuator
+// run that synthesize records, and the replay of a measured actuator path through a fitted scene
+// (exactly the path FitLoops replays: docs/analysis.md, "Identification").
+#pragma once
+
+#include <vector>
+
+#include "mdr/client/contact_client.h"
+#include "mdr/v1/scene.pb.h"
+
+namespace mdrctl {
+
+// What a run records after each step: the actuator's displacement and F_x.
+struct RecordedRun {
+  std::vector<double> displacement;  // m
+  std::vector<double> force;         // N
+};
+
+// A session of `scene` pressed to `normal_force` with the actuator at 0 (sample 0), then the
+// actuator at u_k = amplitude sin(2 pi k / samples_per_cycle), k = 1 .. cycles *
+// samples_per_cycle (one sample each). The session is deleted afterwards.
+mdr::client::RpcResult<RecordedRun> RecordSineRun(mdr::client::ContactClient& client,
+                                                  const mdr::v1::Scene& scene, double normal_force,
+                                                  double amplitude, int cycles,
+                                                  int samples_per_cycle);
+
+// F_x after each step of the replay in a session of `scene`: the actuator moved to `offset` while
+// unloaded, the contact pressed to `normal_force`, then the actuator at each displacement.
+mdr::client::RpcResult<std::vector<double>> ReplayForces(mdr::client::ContactClient& client,
+                                                         const mdr::v1::Scene& scene,
+                                                         double normal_force, double offset,
+                                                         const std::vector<double>& displacement);
+
+}  // namespace mdrctl

@@ -1,0 +1,271 @@
+#include "rig_csv.h"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <utility>
+
+namespace mdrctl {
+namespace {
+
+struct UnitName {
+  const char* name;
+  double factor;
+};
+constexpr std::array<UnitName, 5> kDisplacementUnits{
+    {{"m", 1}, {"mm", 1e-3}, {"um", 1e-6}, {"µm", 1e-6}, {"nm", 1e-9}}};
+constexpr std::array<UnitName, 3> kForceUnits{{{"N", 1}, {"kN", 1e3}, {"mN", 1e-3}}};
+constexpr std::array<UnitName, 4> kTimeUnits{{{"s", 1}, {"ms", 1e-3}, {"us", 1e-6}, {"µs", 1e-6}}};
+
+template <std::size_t N>
+mdr::Result<double> Lookup(const std::array<UnitName, N>& units, const std::string& unit,
+                           const std::string& field) {
+  std::string names;
+  for (const UnitName& u : units) {
+    if (unit == u.name) return u.factor;
+    names += (names.empty() ? "" : ", ") + std::string(u.name);
+  }
+  return mdr::InvalidArgument(field, "must be one of " + names + ", got " + Printable(unit));
+}
+
+std::string_view Trim(std::string_view text) {
+  const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; };
+  while (!text.empty() && space(text.front())) text.remove_prefix(1);
+  while (!text.empty() && space(text.back())) text.remove_suffix(1);
+  return text;
+}
+
+// A header name without its surrounding whitespace and double quotes.
+std::string HeaderName(std::string_view cell) {
+  cell = Trim(cell);
+  if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') {
+    cell = cell.substr(1, cell.size() - 2);
+  }
+  return std::string(Trim(cell));
+}
+
+std::vector<std::string_view> Split(std::string_view line, char delimiter) {
+  std::vector<std::string_view> cells;
+  std::size_t start = 0;
+  for (std::size_t i = 0; i <= line.size(); ++i) {
+    if (i == line.size() || line[i] == delimiter) {
+      cells.push_back(line.substr(start, i - start));
+      start = i + 1;
+    }
+  }
+  return cells;
+}
+
+bool Skipped(std::string_view line) {
+  const std::string_view trimmed = Trim(line);
+  return trimmed.empty() || trimmed.front() == '#';
+}
+
+// The file's lines without their line ends (and without a UTF-8 byte order mark).
+std::vector<std::string_view> Lines(std::string_view text) {
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  std::vector<std::string_view> lines;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(start, end - start);
+    if (line.ends_with('\r')) line.remove_suffix(1);
+    lines.push_back(line);
+    start = end + 1;
+  }
+  return lines;
+}
+
+// The separator the header uses: the only one of ',', ';' and tab it holds (',' for none).
+mdr::Result<char> Delimiter(std::string_view header, const std::string& where) {
+  std::string found;
+  for (char c : {',', ';', '\t'}) {
+    if (header.find(c) != std::string_view::npos) found += c;
+  }
+  if (found.size() > 1) {
+    return mdr::InvalidArgument(where, "the header mixes the separators " + Printable(found) +
+                                           ": use one of ',', ';' or tab");
+  }
+  return found.empty() ? ',' : found.front();
+}
+
+struct Selected {
+  std::string name;
+  double factor;
+  google::protobuf::RepeatedField<double>* values;
+  std::size_t cell = 0;
+};
+
+// The header's cells as names, checked for the selected columns.
+mdr::Status FindColumns(const std::vector<std::string>& header, const std::string& where,
+                        std::vector<Selected>* selected) {
+  for (Selected& column : *selected) {
+    std::vector<std::size_t> at;
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == column.name) at.push_back(i);
+    }
+    if (at.size() == 1) {
+      column.cell = at.front();
+      continue;
+    }
+    if (at.size() > 1) {
+      return mdr::InvalidArgument(
+          where, "column " + Printable(column.name) + " appears more than once in the header");
+    }
+    std::string names;
+    for (std::size_t i = 0; i < header.size() && i < 32; ++i) {
+      names += (i ? ", " : "") + Printable(header[i]);
+    }
+    if (header.size() > 32) names += ", ...";
+    return mdr::InvalidArgument(
+        where, "no column " + Printable(column.name) + " in the header; its columns are " + names);
+  }
+  return mdr::OkStatus();
+}
+
+// A cell as a finite number (C locale; a leading '+' is allowed).
+mdr::Result<double> ParseCell(std::string_view cell, const std::string& where,
+                              const std::string& column) {
+  const std::string_view trimmed = Trim(cell);
+  std::string_view digits = trimmed;
+  if (digits.starts_with('+')) digits.remove_prefix(1);
+  double value = 0;
+  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+  const bool whole = error == std::errc() && end == digits.data() + digits.size();
+  if (trimmed.empty()) {
+    return mdr::InvalidArgument(where, "column " + Printable(column) + ": the cell is empty");
+  }
+  if (!whole || !std::isfinite(value)) {
+    return mdr::InvalidArgument(where, "column " + Printable(column) + ": " + Printable(trimmed) +
+                                           " is not a finite number");
+  }
+  return value;
+}
+
+}  // namespace
+
+std::string Printable(std::string_view text, std::size_t limit) {
+  std::string out = "\"";
+  const bool cut = text.size() > limit;
+  for (unsigned char c : text.substr(0, limit)) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20 || c >= 0x7f) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof escaped, "\\x%02X", c);
+      out += escaped;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + (cut ? "...\"" : "\"");
+}
+
+mdr::Result<double> UnitFactor(Quantity quantity, const std::string& unit,
+                               const std::string& field) {
+  switch (quantity) {
+    case Quantity::kDisplacement:
+      return Lookup(kDisplacementUnits, unit, field);
+    case Quantity::kForce:
+      return Lookup(kForceUnits, unit, field);
+    case Quantity::kTime:
+      break;
+  }
+  return Lookup(kTimeUnits, unit, field);
+}
+
+mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return mdr::InvalidArgument(path, "cannot open the CSV file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  const std::vector<std::string_view> lines = Lines(text);
+  RigCsv csv;
+  csv.path = path;
+  const auto where = [&](std::size_t index) { return path + ":" + std::to_string(index + 1); };
+
+  std::size_t header_line = 0;
+  while (header_line < lines.size() && Skipped(lines[header_line])) ++header_line;
+  if (header_line == lines.size()) {
+    return mdr::InvalidArgument(path,
+                                "the file is empty: no header line (only comments or "
+                                "blank lines)");
+  }
+  auto delimiter = Delimiter(lines[header_line], where(header_line));
+  if (!delimiter.ok()) return delimiter.status();
+  std::vector<std::string> header;
+  for (std::string_view cell : Split(lines[header_line], *delimiter)) {
+    header.push_back(HeaderName(cell));
+  }
+  std::vector<Selected> selected{
+      {layout.displacement_column, layout.displacement_unit, csv.samples.mutable_displacement()},
+      {layout.force_column, layout.force_unit, csv.samples.mutable_tangential_force()}};
+  if (!layout.normal_force_column.empty()) {
+    selected.push_back(
+        {layout.normal_force_column, layout.force_unit, csv.samples.mutable_normal_force()});
+  }
+  if (!layout.time_column.empty()) {
+    selected.push_back({layout.time_column, layout.time_unit, csv.samples.mutable_time()});
+  }
+  if (auto s = FindColumns(header, where(header_line), &selected); !s.ok()) return s;
+
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string_view trimmed = Trim(lines[i]);
+    if (trimmed.starts_with("# SYNTHETIC") && !csv.synthetic) {
+      csv.synthetic = Printable(trimmed.substr(2), 240);
+    }
+    if (i <= header_line || Skipped(lines[i])) continue;
+    const std::vector<std::string_view> cells = Split(lines[i], *delimiter);
+    if (cells.size() != header.size()) {
+      const std::string detail =
+          cells.size() < header.size()
+              ? "; column " + Printable(header[cells.size()]) + " has no cell"
+              : "";
+      return mdr::InvalidArgument(where(i), "the row has " + std::to_string(cells.size()) +
+                                                " cells, the header (line " +
+                                                std::to_string(header_line + 1) + ") has " +
+                                                std::to_string(header.size()) + detail);
+    }
+    for (const Selected& column : selected) {
+      auto value = ParseCell(cells[column.cell], where(i), column.name);
+      if (!value.ok()) return value.status();
+      column.values->Add(*value * column.factor);
+    }
+    csv.lines.push_back(i + 1);
+  }
+  if (csv.lines.empty()) {
+    return mdr::InvalidArgument(
+        path, "no data rows after the header (line " + std::to_string(header_line + 1) + ")");
+  }
+  return csv;
+}
+
+mdr::Status LocateSampleError(const std::string& field, const std::string& message,
+                              const RigCsv& csv, const CsvLayout& layout) {
+  static const std::regex kSample(
+      R"((?:^|\.)samples\.(displacement|tangential_force|normal_force|time)(?:\[([0-9]+)\])?$)");
+  std::smatch match;
+  if (!std::regex_search(field, match, kSample)) {
+    return mdr::InvalidArgument(csv.path, field.empty() ? message : field + ": " + message);
+  }
+  const std::string which = match[1];
+  const std::string column = which == "displacement"       ? layout.displacement_column
+                             : which == "tangential_force" ? layout.force_column
+                             : which == "normal_force"     ? layout.normal_force_column
+                                                           : layout.time_column;
+  std::string where = csv.path;
+  if (match[2].matched) {
+    const std::size_t index = std::stoull(match[2]);
+    if (index < csv.lines.size()) where += ":" + std::to_string(csv.lines[index]);
+  }
+  return mdr::InvalidArgument(where, "column " + Printable(column) + ": " + message);
+}
+
+}  // namespace mdrctl

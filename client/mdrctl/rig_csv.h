@@ -1,0 +1,56 @@
+// A test rig's CSV file: one sample per row, columns chosen by their header names, values in
+// stated units converted to SI. '#' comment lines and blank lines are skipped anywhere; the first
+// other line is the header. Cells are separated by ',' (or ';' or a tab, when the header uses
+// exactly one of the three). Every error names the file, the line (1-based, counting every line
+// of the file) and the column; text taken from the file is quoted bounded and escaped (Printable).
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mdr/base/status.h"
+#include "mdr/v1/analysis.pb.h"
+
+namespace mdrctl {
+
+enum class Quantity { kDisplacement, kForce, kTime };
+
+// The factor from `unit` to SI: displacement m, mm, um (or µm), nm; force N, kN, mN; time s, ms,
+// us (or µs). Errors name `field` and list the units of the quantity.
+mdr::Result<double> UnitFactor(Quantity quantity, const std::string& unit,
+                               const std::string& field);
+
+// Which columns hold what, and their units (factors to SI; the normal force has the force's).
+struct CsvLayout {
+  std::string displacement_column = "displacement";
+  std::string force_column = "tangential_force";
+  std::string normal_force_column;  // empty: none
+  std::string time_column;          // empty: none
+  double displacement_unit = 1, force_unit = 1, time_unit = 1;
+};
+
+struct RigCsv {
+  std::string path;
+  mdr::v1::LoopSamples samples;    // SI
+  std::vector<std::size_t> lines;  // the file line of every sample
+  // The text of a "# SYNTHETIC ..." comment (bounded, escaped), if the file has one.
+  std::optional<std::string> synthetic;
+};
+
+// Reads and converts the file; errors are INVALID_ARGUMENT with the field "path:line".
+mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout);
+
+// An error of the service about a sample ("samples.time[12]", "sets[2].samples.time[12]") or a
+// column ("samples.displacement") restated at the file's line and column; other errors are
+// prefixed with the file.
+mdr::Status LocateSampleError(const std::string& field, const std::string& message,
+                              const RigCsv& csv, const CsvLayout& layout);
+
+// `text` in double quotes, cut after `limit` bytes ("..." marks the cut), with '"', '\' and every
+// byte outside printable ASCII escaped (\xNN): safe to put in any message.
+std::string Printable(std::string_view text, std::size_t limit = 64);
+
+}  // namespace mdrctl

@@ -1,0 +1,428 @@
+#!/usr/bin/env python3
+"""mdrctl loops, fit and synthesize end to end (docs/analysis.md, "From a rig's CSV files to a
+report"), one case per CTest test:
+
+  csv_errors          the rig CSV reader's errors: file, line and column named, text from the
+                      file bounded and escaped; separators and units
+  loops_figures       mdrctl loops on a noise-free synthetic run against the closed forms
+  fit_recovers        mdrctl fit on a noise-free synthetic campaign recovers mu, E* and C_t to
+                      1e-6; the report files and report.json
+  fit_without_gnuplot --report without gnuplot writes report.md/json and says plots were skipped
+  campaign_errors     campaign and synthesis files: unknown keys (escaped), bad values, service
+                      errors at their line, a bad cell in a set's CSV
+  example_reproduces  examples/rig_campaign/run.sh re-run reproduces the committed report.json
+
+Usage: rig_analysis_test.py --mdrctl PATH --source-dir DIR CASE
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+H1_SCENE = """  sphere: {radius: 0.01}
+  elastic_pair: {youngs_modulus_1: 210e9, poisson_ratio_1: 0.3, youngs_modulus_2: 210e9,
+                 poisson_ratio_2: 0.3}
+  friction: 0.3
+  rig: {tangential_compliance: 2e-8}
+"""
+H1_DEPTH = 3.4829098839e-6  # m at 100 N (docs/reference-values.md, H1)
+KAPPA = (2 - 0.3) / (2 * (1 - 0.3))  # E*/G* of two steel bodies
+
+
+class Failure(Exception):
+    pass
+
+
+def check(condition, message):
+    if not condition:
+        raise Failure(message)
+
+
+def close(actual, expected, relative, what):
+    check(abs(actual - expected) <= relative * abs(expected),
+          f"{what}: {actual!r} is not within {relative} of {expected!r}")
+
+
+def run(mdrctl, *args, env=None, cwd=None):
+    return subprocess.run([mdrctl, *args], capture_output=True, text=True, env=env, cwd=cwd,
+                          timeout=120)
+
+
+def expect_failure(mdrctl, args, regex, what):
+    result = run(mdrctl, *args)
+    check(result.returncode != 0, f"{what}: exit code 0\nstdout: {result.stdout}")
+    check(re.search(regex, result.stderr),
+          f"{what}: stderr does not match {regex!r}:\n{result.stderr}")
+    print(f"ok {what}: {result.stderr.strip()}")
+    return result.stderr
+
+
+def expect_success(mdrctl, args, what, **kwargs):
+    result = run(mdrctl, *args, **kwargs)
+    check(result.returncode == 0,
+          f"{what}: exit code {result.returncode}\nstdout: {result.stdout}\n"
+          f"stderr: {result.stderr}")
+    return result
+
+
+def write(path, data):
+    with open(path, "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+    return path
+
+
+def csv_rows(text):
+    return list(csv.DictReader(line for line in text.splitlines() if line))
+
+
+# ---- csv_errors ----
+
+def case_csv_errors(args, tmp):
+    m = args.mdrctl
+    good = "displacement,tangential_force,time\n0,0,0\n1e-6,1,0.1\n"
+    cases = [
+        ("missing.csv", b"# rig 7\ndisplacement,force\n0,0\n", [],
+         r'^mdrctl: \S*missing\.csv:2: no column "tangential_force" in the header; its columns '
+         r'are "displacement", "force"\n$', "a missing column"),
+        ("nan.csv", b"displacement,tangential_force\n0,0\n1e-6,1\n\n1e-6,nan\n", [],
+         r'^mdrctl: \S*nan\.csv:5: column "tangential_force": "nan" is not a finite number\n$',
+         "a NaN cell"),
+        ("inf.csv", b"displacement,tangential_force\n0,0\n-inf,1\n", [],
+         r'inf\.csv:3: column "displacement": "-inf" is not a finite number', "an infinite cell"),
+        ("text.csv", b"# header next\ndisplacement,tangential_force\n0,0\nabc,1\n", [],
+         r'^mdrctl: \S*text\.csv:4: column "displacement": "abc" is not a finite number\n$',
+         "a text cell"),
+        ("blank.csv", b"displacement,tangential_force\n0,0\n1e-6,\n", [],
+         r'blank\.csv:3: column "tangential_force": the cell is empty', "an empty cell"),
+        ("ragged.csv", b"# rig\n\ndisplacement,tangential_force,time\n0,0,0\n1e-6,1,0.1\n2e-6,2\n",
+         ["--time-column", "time"],
+         r'^mdrctl: \S*ragged\.csv:6: the row has 2 cells, the header \(line 3\) has 3; column '
+         r'"time" has no cell\n$', "a short row"),
+        ("long_row.csv", b"displacement,tangential_force,time\n0,0,0,7\n", [],
+         r'long_row\.csv:2: the row has 4 cells, the header \(line 1\) has 3\n$', "a long row"),
+        ("empty.csv", b"", [], r'^mdrctl: \S*empty\.csv: the file is empty', "an empty file"),
+        ("comments.csv", b"# only\n\n   \n# comments\n", [], r'comments\.csv: the file is empty',
+         "only comments"),
+        ("header_only.csv", b"# x\ndisplacement,tangential_force\n# no data\n", [],
+         r'^mdrctl: \S*header_only\.csv: no data rows after the header \(line 2\)\n$',
+         "no data rows"),
+        ("mixed.csv", b"displacement,tangential_force;time\n0,0;0\n", [],
+         r'mixed\.csv:1: the header mixes the separators ",;"', "mixed separators"),
+        ("time.csv", b"displacement,tangential_force,time\n0,0,0\n1e-6,1,0.1\n2e-6,2,0.1\n",
+         ["--time-column", "time"], r'^mdrctl: \S*time\.csv:4: column "time": ',
+         "a service error restated at the CSV line"),
+        ("good.csv", good.encode(), ["--force-unit", "lb"],
+         r'^mdrctl: --force-unit: must be one of N, kN, mN, got "lb"\n$', "an unknown unit"),
+    ]
+    for name, data, extra, regex, what in cases:
+        expect_failure(m, ["loops", write(os.path.join(tmp, name), data), *extra], regex, what)
+    expect_failure(m, ["loops", os.path.join(tmp, "none.csv")],
+                   r'none\.csv: cannot open the CSV file', "a missing file")
+    # Text from the file is cut after 64 bytes and escaped.
+    cell = b"\x01" + b"x" * 300 + b'"'
+    err = expect_failure(m, ["loops", write(os.path.join(tmp, "long.csv"),
+                                            b"displacement,tangential_force\n" + cell + b",1\n")],
+                         r'long\.csv:2: column "displacement": "\\x01x+\.\.\." is not a finite',
+                         "a long cell with a control byte")
+    quoted = re.search(r'"(\\x01x+\.\.\.)"', err).group(1)
+    check(len(quoted) == 64 + 3 + 3 and "\x01" not in err,
+          f"the cell is not bounded to 64 bytes and escaped: {err!r}")
+    err = expect_failure(m, ["loops", write(os.path.join(tmp, "names.csv"),
+                                            b"displacement,tang\x1bential\xff\n0,0\n")],
+                         r'its columns are "displacement", "tang\\x1Bential\\xFF"',
+                         "header names escaped")
+    check("\x1b" not in err, "an escape byte reached the terminal")
+
+
+# ---- loops_figures ----
+
+SPEC = """truth:
+{scene}normal_forces: [{loads}]
+amplitudes: [{amplitudes}]
+cycles: {cycles}
+samples_per_cycle: {samples}
+sampling_rate: 1000
+fit:
+  free:
+    - {{parameter: friction, initial: 0.45, lower: 0.05, upper: 1.5}}
+    - {{parameter: effective_modulus, initial: 9e10, lower: 1e10, upper: 1e12}}
+    - {{parameter: rig_compliance, initial: 3e-8, lower: 1e-10, upper: 1e-6}}
+"""
+
+
+def synthesize(mdrctl, tmp, scene, loads, amplitudes, cycles, samples):
+    spec = write(os.path.join(tmp, "spec.yaml"),
+                 SPEC.format(scene=scene, loads=loads, amplitudes=amplitudes, cycles=cycles,
+                             samples=samples))
+    out = os.path.join(tmp, "data")
+    expect_success(mdrctl, ["synthesize", spec, "--out", out], "synthesize")
+    return out
+
+
+def case_loops_figures(args, tmp):
+    m = args.mdrctl
+    data = synthesize(m, tmp, H1_SCENE, "100", "3e-6, 1e-6", 3, 400)
+    scene = write(os.path.join(tmp, "scene.yaml"), "scene:\n" + H1_SCENE)
+    gross = os.path.join(data, "p100N_u3um.csv")
+    out = expect_success(m, ["loops", gross, "--normal-force", "100", "--scene", scene,
+                             "--time-column", "time", "--format", "csv"], "loops").stdout
+    rows = csv_rows(out)
+    check(len(rows) == 2, f"expected 2 complete cycles, got {len(rows)}:\n{out}")
+    # Gross slip through the rig (2e-8 m/N, taken from the scene): Q* = mu P, the actuator's
+    # amplitude U, the contact's U - C_t Q*, Ed = 4 mu P (U_c - 0.8 U_t) (a Hertz loop's onset
+    # dissipates 4 mu P U_t / 5 and the sliding adds 4 mu P (U_c - U_t)).
+    mu, p, u, ct = 0.3, 100.0, 3e-6, 2e-8
+    onset = mu * KAPPA * H1_DEPTH
+    contact = u - ct * mu * p
+    energy = 4 * mu * p * (contact - 0.8 * onset)
+    for row in rows:
+        close(float(row["force_amplitude"]), mu * p, 1e-9, "Q*")
+        close(float(row["friction_coefficient"]), mu, 1e-9, "mu")
+        close(float(row["normal_force"]), p, 1e-12, "P")
+        close(float(row["displacement_amplitude"]), u, 1e-9, "delta*")
+        close(float(row["contact_displacement_amplitude"]), contact, 1e-9, "delta*_c")
+        close(float(row["dissipated_energy"]), energy, 2e-4, "Ed (400 samples per cycle)")
+        close(float(row["energy_ratio"]), float(row["dissipated_energy"]) / (4 * u * mu * p),
+              1e-9, "A")
+        check(row["regime"] == "gross|slip", f"regime {row['regime']!r}, expected gross slip")
+        check(row["flags"] == "-", f"flags {row['flags']!r}")
+    print(f"ok gross slip: Q* {rows[0]['force_amplitude']}, Ed {rows[0]['dissipated_energy']} "
+          f"(closed form {energy:.10g})")
+    partial = csv_rows(expect_success(
+        m, ["loops", os.path.join(data, "p100N_u1um.csv"), "--normal-force", "100", "--scene",
+            scene, "--format", "csv"], "loops, partial slip").stdout)
+    for row in partial:
+        check(row["regime"] == "partial|slip", f"regime {row['regime']!r}, expected partial slip")
+        check(float(row["force_amplitude"]) < mu * p, "partial slip reached mu P")
+    print("ok partial slip classified")
+    # The same file with ';', in mm and kN, gives the same figures.
+    with open(gross) as f:
+        lines = f.read().splitlines()
+    converted = ["# converted to mm and kN", "t;u_mm;q_kn"]
+    for line in lines:
+        if line.startswith("#") or line.startswith("time"):
+            continue
+        t, u_m, f_n = (float(x) for x in line.split(","))
+        converted.append(f"{t!r};{u_m * 1e3!r};{f_n * 1e-3!r}")
+    other = write(os.path.join(tmp, "converted.csv"), "\n".join(converted) + "\n")
+    same = csv_rows(expect_success(
+        m, ["loops", other, "--displacement-column", "u_mm", "--force-column", "q_kn",
+            "--time-column", "t", "--displacement-unit", "mm", "--force-unit", "kN",
+            "--normal-force", "100", "--scene", scene, "--format", "csv"], "loops, mm kN").stdout)
+    for a, b in zip(rows, same):
+        for key in ("force_amplitude", "dissipated_energy", "displacement_amplitude"):
+            close(float(b[key]), float(a[key]), 1e-9, f"{key} in mm and kN")
+    print("ok ';' separators, mm and kN")
+    report = os.path.join(tmp, "report")
+    expect_success(m, ["loops", gross, "--normal-force", "100", "--report", report], "report")
+    document = json.load(open(os.path.join(report, "report.json")))
+    check(len(document["set"]["analysis"]["cycles"]) == 2, "report.json has no cycles")
+    check(document["set"]["synthetic"].startswith('"SYNTHETIC'), "report.json: not synthetic")
+    text = open(os.path.join(report, "report.md")).read()
+    check("Synthetic input" in text and "(contact+rig)" in text, "report.md lacks labels")
+    check_pngs(report, ["loop.png", "cycles.png"], document)
+
+
+def check_pngs(directory, names, document):
+    if shutil.which("gnuplot") is None:
+        check(document["plots_skipped"], "no plots and no reason")
+        print("skipped the PNG checks: gnuplot is not installed")
+        return
+    check(document["plots"] == names, f"plots {document['plots']}, expected {names}")
+    for name in names:
+        with open(os.path.join(directory, name), "rb") as f:
+            check(f.read(8) == b"\x89PNG\r\n\x1a\n", f"{name} is not a PNG")
+    print(f"ok {', '.join(names)}")
+
+
+# ---- fit ----
+
+def small_campaign(mdrctl, tmp):
+    data = synthesize(mdrctl, tmp, H1_SCENE.replace("friction: 0.3", "friction: 0.6"),
+                      "50, 200", "1.5e-6, 8e-6", 3, 80)
+    return os.path.join(data, "campaign.yaml")
+
+
+def case_fit_recovers(args, tmp):
+    m = args.mdrctl
+    campaign = small_campaign(m, tmp)
+    report = os.path.join(tmp, "report")
+    result = expect_success(m, ["fit", campaign, "--report", report, "--format", "json"], "fit")
+    check("fit iteration 1: residual RMS" in result.stderr, "no progress on stderr")
+    fit = json.loads(result.stdout)
+    truth = {"FIT_PARAMETER_FRICTION": 0.6, "FIT_PARAMETER_RIG_COMPLIANCE": 2e-8,
+             "FIT_PARAMETER_EFFECTIVE_MODULUS": 210e9 / (2 * (1 - 0.3**2))}
+    check(len(fit["estimates"]) == 3, "three estimates")
+    for e in fit["estimates"]:
+        close(e["value"], truth[e["parameter"]], 1e-6, e["parameter"])
+        check(e["identified"], f"{e['parameter']} not identified")
+    check(fit["converged"] and fit["identified"], "not converged / identified")
+    print("ok recovered: " + ", ".join(f"{e['parameter']} {e['value']!r}"
+                                       for e in fit["estimates"]))
+    document = json.load(open(os.path.join(report, "report.json")))
+    names = [e["parameter"] for e in document["estimates"]]
+    check(names == ["friction", "effective_modulus", "rig_compliance"], f"estimates {names}")
+    for e in document["estimates"]:
+        check(e["truth_inside_95"] is not None and "truth" in e, "no truth check")
+        close(e["value"], truth["FIT_PARAMETER_" + e["parameter"].upper()], 1e-6, e["parameter"])
+    replay = document["replay"]
+    check(abs(replay["residual_rms"] - replay["fit_residual_rms"]) <=
+          1e-6 * replay["fit_residual_rms"] + 1e-12,
+          f"the replay does not reproduce the fit's residuals: {replay}")
+    check(len(document["sets"]) == 4 and all(s["synthetic"] for s in document["sets"]),
+          "sets / synthetic")
+    check(len(document["fretting_map"]["response"]["loads"]) == 2, "fretting map loads")
+    text = open(os.path.join(report, "report.md")).read()
+    for needle in ("Synthetic inputs", "| friction | 0.6", "identified", "Correlations",
+                   "Condition number", "Rig compliance from the reversal slopes",
+                   "(contact+rig)", "gross slip", "partial slip", "Fretting map"):
+        check(needle in text, f"report.md lacks {needle!r}")
+    check_pngs(report, ["loops.png", "residuals.png", "fretting_map.png",
+                        "fretting_regimes.png"], document)
+
+
+def case_fit_without_gnuplot(args, tmp):
+    m = args.mdrctl
+    campaign = small_campaign(m, tmp)
+    report = os.path.join(tmp, "report")
+    result = expect_success(m, ["fit", campaign, "--report", report], "fit without gnuplot",
+                            env={"PATH": "/nonexistent"})
+    check("plots skipped: gnuplot is not installed" in result.stderr, result.stderr)
+    text = open(os.path.join(report, "report.md")).read()
+    check("Plots were skipped: gnuplot is not installed" in text, "report.md does not say so")
+    document = json.load(open(os.path.join(report, "report.json")))
+    check(document["plots"] == [] and "gnuplot" in document["plots_skipped"], "report.json")
+    check(not [f for f in os.listdir(report) if f.endswith(".png")], "PNGs without gnuplot")
+    print("ok report.md and report.json without plots")
+
+
+def case_campaign_errors(args, tmp):
+    m = args.mdrctl
+    campaign = small_campaign(m, tmp)
+    original = open(campaign).read()
+
+    def variant(name, old, new):
+        check(old in original, f"{old!r} not in the campaign")
+        return write(os.path.join(os.path.dirname(campaign), name), original.replace(old, new, 1))
+
+    expect_failure(m, ["fit", variant("typo.yaml", "{parameter: friction", "{paramter: friction")],
+                   r'^mdrctl: free\[0\]\.paramter: unknown key; the keys here are parameter, '
+                   r'initial, lower, upper \(\S*typo\.yaml:\d+\)\n$', "an unknown key")
+    expect_failure(m, ["fit", variant("name.yaml", "parameter: friction", "parameter: mu")],
+                   r'^mdrctl: free\[0\]\.parameter: must be one of friction, effective_modulus, '
+                   r'profile_scale, rig_compliance, displacement_offset, got "mu" '
+                   r'\(\S*name\.yaml:\d+\)', "an unknown parameter")
+    expect_failure(m, ["fit", variant("load.yaml", "normal_force: 50}", "normal_force: -5}")],
+                   r'^mdrctl: sets\[0\]\.normal_force: must be > 0, got -5 \(\S*load\.yaml:\d+\)',
+                   "a negative load")
+    # The service's error names free[0].initial; mdrctl points at the campaign's line.
+    expect_failure(m, ["fit", variant("initial.yaml", "initial: 0.45", "initial: 2")],
+                   r'^mdrctl: free\[0\]\.initial: [^\n]*\(\S*initial\.yaml:\d+\)\n$',
+                   "an initial value outside its bounds")
+    escaped = write(os.path.join(os.path.dirname(campaign), "key.yaml"),
+                    original + '"x\\x07y": 1\n')
+    expect_failure(m, ["fit", escaped],
+                   r'^mdrctl: unknown key "x\\x07y"; the keys here are title, [^\n]*\(\S*key\.yaml:\d+\)\n$',
+                   "an unknown key with a control byte, escaped")
+    spec = open(os.path.join(tmp, "spec.yaml")).read()
+    expect_failure(m, ["synthesize", write(os.path.join(tmp, "s1.yaml"),
+                                           spec.replace("samples_per_cycle: 80",
+                                                        "samples_per_cycle: 81")),
+                       "--out", os.path.join(tmp, "s1")],
+                   r'^mdrctl: samples_per_cycle: must be a multiple of 4 [^\n]*\(\S*s1\.yaml:\d+\)',
+                   "samples per cycle not a multiple of 4")
+    expect_failure(m, ["synthesize", write(os.path.join(tmp, "s2.yaml"),
+                                           spec.replace("initial: 0.45, ", "")),
+                       "--out", os.path.join(tmp, "s2")],
+                   r'^mdrctl: fit\.free\[0\]: needs an initial value in a synthesis spec',
+                   "a synthesis spec's free parameter without an initial value")
+    data = os.path.dirname(campaign)
+    bad = os.path.join(data, "p50N_u1.5um.csv")
+    lines = open(bad).read().splitlines()
+    lines[10] = lines[10].rsplit(",", 1)[0] + ",oops"
+    write(bad, "\n".join(lines) + "\n")
+    expect_failure(m, ["fit", campaign],
+                   r'^mdrctl: \S*p50N_u1\.5um\.csv:11: column "tangential_force": "oops" is not a '
+                   r'finite number\n$', "a bad cell in a set's file")
+
+
+# ---- example_reproduces ----
+
+def numbers(value, path=""):
+    """Every number in a JSON value by its path."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            yield from numbers(item, f"{path}.{key}")
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            yield from numbers(item, f"{path}[{i}]")
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        yield path, float(value)
+
+
+def case_example_reproduces(args, tmp):
+    example = os.path.join(args.source_dir, "examples", "rig_campaign")
+    out = os.path.join(tmp, "rig_campaign")
+    result = subprocess.run(["bash", os.path.join(example, "run.sh"), out], capture_output=True,
+                            text=True, env={**os.environ, "MDRCTL": args.mdrctl}, timeout=300)
+    check(result.returncode == 0, f"run.sh failed:\n{result.stdout}\n{result.stderr}")
+    committed = json.load(open(os.path.join(example, "report", "report.json")))
+    rerun = json.load(open(os.path.join(out, "report", "report.json")))
+    a, b = dict(numbers(committed)), dict(numbers(rerun))
+    check(a.keys() == b.keys(), f"report.json keys differ: {set(a) ^ set(b)}")
+    worst, where = 0.0, ""
+    for key, value in a.items():
+        scale = max(abs(value), abs(b[key]), 1e-300)
+        difference = abs(value - b[key]) / scale
+        if difference > worst:
+            worst, where = difference, key
+    # The fit is deterministic (each set's residuals and each Jacobian column are computed
+    # independently of the thread that runs them); a tolerance covers other libm versions.
+    check(worst <= 1e-6, f"report.json differs by {worst:.3g} (relative) at {where}")
+    print(f"ok {len(a)} numbers of report.json reproduced; largest relative difference {worst:.3g}"
+          + (f" at {where}" if worst else " (identical)"))
+    for name in sorted(os.listdir(os.path.join(example, "data"))):
+        same = open(os.path.join(example, "data", name)).read() == \
+            open(os.path.join(out, "data", name)).read()
+        check(same, f"data/{name} differs from the committed file")
+    print("ok data/ reproduced byte for byte")
+    for e in rerun["estimates"]:
+        print(f"  {e['parameter']}: {e['value']:.8g} +- {e['standard_error']:.3g} "
+              f"(truth {e.get('truth')}, inside the 95 % interval: {e.get('truth_inside_95')})")
+
+
+CASES = {
+    "csv_errors": case_csv_errors,
+    "loops_figures": case_loops_figures,
+    "fit_recovers": case_fit_recovers,
+    "fit_without_gnuplot": case_fit_without_gnuplot,
+    "campaign_errors": case_campaign_errors,
+    "example_reproduces": case_example_reproduces,
+}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--mdrctl", required=True)
+    parser.add_argument("--source-dir", required=True)
+    parser.add_argument("case", choices=sorted(CASES))
+    args = parser.parse_args()
+    args.mdrctl = os.path.abspath(args.mdrctl)
+    with tempfile.TemporaryDirectory(prefix="mdrctl-rig-") as tmp:
+        try:
+            CASES[args.case](args, tmp)
+        except Failure as failure:
+            print(f"FAILED {args.case}: {failure}")
+            return 1
+    print(f"passed {args.case}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
