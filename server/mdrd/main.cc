@@ -31,6 +31,9 @@ bool InstallSignalHandlers() {
   struct sigaction action = {};
   action.sa_handler = OnTerminationSignal;
   sigemptyset(&action.sa_mask);
+  // Beyond a file-size limit (RLIMIT_FSIZE) a write then fails with EFBIG, which the journal
+  // answers UNAVAILABLE, instead of SIGXFSZ killing the process.
+  if (std::signal(SIGXFSZ, SIG_IGN) == SIG_ERR) return false;
   return sigaction(SIGTERM, &action, nullptr) == 0 && sigaction(SIGINT, &action, nullptr) == 0;
 }
 

@@ -100,6 +100,12 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_JOURNAL_SNAPSHOT_EVERY")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--journal-min-free-bytes", journal.min_free_bytes,
+                 "Room kept on the journal's volume for deletions: below it (or below what a "
+                 "file-size limit leaves) new sessions and batches are refused UNAVAILABLE while "
+                 "DeleteSession and ExportSession go on")
+      ->envname("MDR_JOURNAL_MIN_FREE_BYTES")
+      ->capture_default_str();
   app.add_flag("--journal-recover", journal.recover,
                "Start even if the journal is damaged: restore what is intact, log what was "
                "dropped, keep the damaged files as <journal>.damaged* and write a consistent "
@@ -140,16 +146,18 @@ void LogEffectiveOptions(const Options& options) {
       "event=config listen={} log_level={} max_sessions={} max_steps_per_batch={} "
       "max_memory_vertices={} session_idle_timeout_s={} max_message_bytes={} "
       "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} "
-      "journal_recover={} tls={} mtls={} auth={} max_sessions_per_token={} max_state_bytes={} "
+      "journal_recover={} journal_min_free_bytes={} tls={} mtls={} auth={} "
+      "max_sessions_per_token={} max_state_bytes={} "
       "workers={} max_queued_calls={} metrics_listen={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
       options.shutdown_grace_seconds, server.journal.path.empty() ? "-" : server.journal.path,
       mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
-      server.journal.recover, !server.tls.cert_file.empty(), !server.tls.client_ca_file.empty(),
-      !server.tokens_file.empty(), limits.max_sessions_per_token, limits.max_state_bytes,
-      server.execution.workers, server.execution.max_queued,
+      server.journal.recover, server.journal.min_free_bytes, !server.tls.cert_file.empty(),
+      !server.tls.client_ca_file.empty(), !server.tokens_file.empty(),
+      limits.max_sessions_per_token, limits.max_state_bytes, server.execution.workers,
+      server.execution.max_queued,
       server.metrics_listen_address.empty() ? "-" : server.metrics_listen_address);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(

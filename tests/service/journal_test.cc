@@ -336,6 +336,48 @@ TEST_F(JournalTest, RestartReplaysEveryBatchBitIdentically) {
   ExpectSameSnapshot(Export(*restored, "sessions/a"), Export(reference, "sessions/a"));
 }
 
+// Below the room kept for deletions (--journal-min-free-bytes) new work is refused UNAVAILABLE
+// naming the journal's room, while Export and Delete go on; nothing acknowledged is lost, and the
+// deletion is journaled (issue #27: a full volume made every DeleteSession fail). The floor above
+// any volume's size stands for a full one.
+TEST_F(JournalTest, BelowTheFloorNewWorkIsRefusedAndDeletionsGoOn) {
+  JournalOptions options = Options();
+  std::mt19937_64 random(3);
+  v1::SessionSnapshot kept_before;
+  {
+    auto operations = Open(options);
+    Create(*operations, "kept");
+    Create(*operations, "freed");
+    ApplyRandomBatches(*operations, "sessions/kept", 3, random);
+    kept_before = Export(*operations, "sessions/kept");
+  }
+  options.min_free_bytes = std::uint64_t{1} << 62;
+  {
+    auto operations = Open(options);
+    v1::ApplyResponse applied;
+    const grpc::Status refused =
+        Apply(*operations, ApplyRequestFor("sessions/kept", {DepthStep(1e-6)}), &applied);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE);
+    EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("--journal-min-free-bytes"));
+    v1::CreateSessionRequest create;
+    *create.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+    create.set_session_id("new");
+    v1::Session created;
+    EXPECT_EQ(operations->CreateSession(std::nullopt, create, &created).code(),
+              StatusCode::kUnavailable);
+    ExpectSameSnapshot(Export(*operations, "sessions/kept"), kept_before);  // unchanged
+    v1::DeleteSessionRequest remove;
+    remove.set_name("sessions/freed");
+    ASSERT_TRUE(operations->DeleteSession(std::nullopt, remove).ok());
+    EXPECT_EQ(operations->session_count(), 1u);
+  }
+  options.min_free_bytes = 0;
+  auto restored = Open(options);
+  EXPECT_EQ(restored->session_count(), 1u);
+  ExpectSameSnapshot(Export(*restored, "sessions/kept"), kept_before);
+  EXPECT_GT(service::JournalRoom(options.path), 0u);
+}
+
 // Whether the batch was replayed from the journal or is part of a snapshot (snapshot_every 1),
 // its request id is remembered.
 TEST_F(JournalTest, RequestIdsAnsweredBeforeARestartAreNotAppliedAgain) {

@@ -324,6 +324,7 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
                            "must be >= 0, got " + std::to_string(options.burn_in_reversals));
   }
   options.reversal_threshold = request.reversal_threshold();
+  options.threads = 1;  // the call's own worker: concurrency comes from the pool, not from a call
   if (request.max_iterations() > 0) options.max_iterations = request.max_iterations();
   std::vector<analysis::LoopSet> sets;
   for (const auto& set : request.sets())

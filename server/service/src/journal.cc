@@ -3,7 +3,9 @@
 #include <fcntl.h>
 #include <spdlog/spdlog.h>
 #include <sqlite3.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -310,7 +312,12 @@ Status Journal::Connect(std::vector<std::string>* damage) {
   // journal while this one holds it (its first statement fails with "database is locked").
   if (!Execute("PRAGMA locking_mode=EXCLUSIVE", &error) ||
       !Execute("PRAGMA journal_mode=WAL", &error) ||
-      !Execute(SynchronousPragma(options_.sync), &error) || !Execute("BEGIN IMMEDIATE", &error)) {
+      !Execute(SynchronousPragma(options_.sync), &error) ||
+      // A deletion must not need as much space as it frees (Debian's SQLite overwrites deleted
+      // content by default), and the log shrinks back after a checkpoint.
+      !Execute("PRAGMA secure_delete=OFF", &error) ||
+      !Execute("PRAGMA journal_size_limit=4194304", &error) ||
+      !Execute("BEGIN IMMEDIATE", &error)) {
     if (IsCorruption(sqlite3_extended_errcode(db_))) {
       damage->push_back("the database cannot be read (" + error + ")");
       return OkStatus();
@@ -755,9 +762,59 @@ Status Journal::WriteSession(const JournaledSession& session, std::string* error
   return OkStatus();
 }
 
+std::uint64_t JournalRoom(const std::string& path) {
+  const std::filesystem::path file(path);
+  const std::filesystem::path directory =
+      file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+  struct statvfs volume {};
+  if (::statvfs(directory.c_str(), &volume) != 0) return 0;
+  std::uint64_t room = static_cast<std::uint64_t>(volume.f_bavail) * volume.f_frsize;
+  struct rlimit limit {};
+  if (::getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY) {
+    std::uint64_t largest = 0;
+    for (const char* suffix : {"", "-wal", ".commit"}) {
+      struct stat info {};
+      if (::stat((path + suffix).c_str(), &info) == 0) {
+        largest = std::max(largest, static_cast<std::uint64_t>(info.st_size));
+      }
+    }
+    const auto cap = static_cast<std::uint64_t>(limit.rlim_cur);
+    room = std::min(room, cap > largest ? cap - largest : 0);
+  }
+  return room;
+}
+
+Status Journal::CheckRoom(const char* what) {
+  const std::uint64_t room = JournalRoom(options_.path);
+  ProcessMetrics().journal_free_bytes.Set(static_cast<double>(room));
+  const bool below = room < options_.min_free_bytes;
+  if (below != below_floor_) {
+    below_floor_ = below;
+    if (below) {
+      spdlog::error(
+          "event=journal_low_space path={} room_bytes={} min_free_bytes={} action=\"new sessions "
+          "and batches are refused; DeleteSession and ExportSession go on\"",
+          options_.path, room, options_.min_free_bytes);
+    } else {
+      spdlog::info("event=journal_space_restored path={} room_bytes={} min_free_bytes={}",
+                   options_.path, room, options_.min_free_bytes);
+    }
+  }
+  if (!below) return OkStatus();
+  ProcessMetrics().journal_refusals.Increment();
+  return Unavailable("", std::string("journal: cannot ") + what + ": the journal may grow by " +
+                             std::to_string(room) + " bytes, below --journal-min-free-bytes = " +
+                             std::to_string(options_.min_free_bytes) +
+                             " kept for deletions; delete or export sessions, or free space");
+}
+
 Status Journal::AddSession(const std::string& name, const std::string& owner,
                            const google::protobuf::Timestamp& create_time,
                            const v1::SessionSnapshot& snapshot) {
+  {
+    std::lock_guard lock(mutex_);
+    if (Status s = CheckRoom("record the new session"); !s.ok()) return s;
+  }
   JournaledSession session;
   session.name = name;
   session.owner = owner;
@@ -767,13 +824,18 @@ Status Journal::AddSession(const std::string& name, const std::string& owner,
                        [&](std::uint64_t, std::string* error) {
                          BindText(delete_all_batches_, 1, name);
                          BindText(delete_requests_, 1, name);
-                         return Execute(delete_all_batches_, error) && Execute(delete_requests_, error) &&
+                         return Execute(delete_all_batches_, error) &&
+                                Execute(delete_requests_, error) &&
                                 WriteSession(session, error).ok();
                        });
 }
 
 Status Journal::AddBatch(const std::string& session, std::uint64_t sequence,
                          const v1::ApplyRequest& request) {
+  {
+    std::lock_guard lock(mutex_);
+    if (Status s = CheckRoom("record the batch"); !s.ok()) return s;
+  }
   const std::string bytes = request.SerializeAsString();
   return InTransaction("record the batch", /*row_carries_commit=*/true,
                        [&](std::uint64_t commit, std::string* error) {
@@ -837,14 +899,14 @@ Status Journal::Compact(const std::string& session, std::uint64_t sequence,
 }
 
 Status Journal::RemoveSession(const std::string& session) {
-  return InTransaction("record the deletion", /*row_carries_commit=*/false,
-                       [&](std::uint64_t, std::string* error) {
-                         BindText(delete_session_, 1, session);
-                         BindText(delete_all_batches_, 1, session);
-                         BindText(delete_requests_, 1, session);
-                         return Execute(delete_session_, error) && Execute(delete_all_batches_, error) &&
-                                Execute(delete_requests_, error);
-                       });
+  return InTransaction(
+      "record the deletion", /*row_carries_commit=*/false, [&](std::uint64_t, std::string* error) {
+        BindText(delete_session_, 1, session);
+        BindText(delete_all_batches_, 1, session);
+        BindText(delete_requests_, 1, session);
+        return Execute(delete_session_, error) && Execute(delete_all_batches_, error) &&
+               Execute(delete_requests_, error);
+      });
 }
 
 bool Journal::RecordCommits(std::string* error) {

@@ -178,6 +178,14 @@ Metrics::Metrics()
                                     "Journal writes that failed (the call failed with "
                                     "UNAVAILABLE and changed nothing).",
                                     {}),
+      journal_free_bytes_family("mdr_journal_free_bytes",
+                                "Bytes the journal may still grow by (its volume's free space, "
+                                "or the file-size limit's room), as of its last write.",
+                                {}),
+      journal_refusals_family("mdr_journal_refusals_total",
+                              "New work refused with UNAVAILABLE because the journal's room was "
+                              "below --journal-min-free-bytes.",
+                              {}),
       start_time_family("mdr_start_time_seconds",
                         "Start time of the process in seconds since the Unix epoch.", {}),
       sessions(sessions_family.With({})),
@@ -185,7 +193,9 @@ Metrics::Metrics()
       work_queue_depth(work_queue_depth_family.With({})),
       work_rejected(work_rejected_family.With({})),
       journal_write_seconds(journal_write_seconds_family.With({})),
-      journal_write_failures(journal_write_failures_family.With({})) {
+      journal_write_failures(journal_write_failures_family.With({})),
+      journal_free_bytes(journal_free_bytes_family.With({})),
+      journal_refusals(journal_refusals_family.With({})) {
   start_time_family.With({}).Set(kProcessStartSeconds);
 }
 
@@ -199,6 +209,8 @@ std::string Metrics::Render() const {
   work_rejected_family.Render(&text);
   journal_write_seconds_family.Render(&text);
   journal_write_failures_family.Render(&text);
+  journal_free_bytes_family.Render(&text);
+  journal_refusals_family.Render(&text);
   start_time_family.Render(&text);
   return text;
 }

@@ -66,7 +66,16 @@ struct JournalOptions {
   // appended) and rewrites the journal with the intact sessions in one transaction (a crash
   // during it leaves the damaged journal as it was); recovery_drops() lists what was dropped.
   bool recover = false;
+  // The room kept for deletions: when the journal could grow by less than this (its volume's free
+  // space, or what a file-size limit leaves), new sessions and batches are refused UNAVAILABLE
+  // while DeleteSession and ExportSession go on, so that a full volume can always be freed.
+  std::uint64_t min_free_bytes = std::uint64_t{64} << 20;
 };
+
+// How many bytes the journal at `path` may still grow by: the free space of its volume (for an
+// unprivileged process) and, under a file-size limit (RLIMIT_FSIZE), what the limit leaves its
+// largest file; 0 if that cannot be read.
+std::uint64_t JournalRoom(const std::string& path);
 
 // One accepted batch: the ApplyRequest as received (steps, step_mask, request_id), numbered
 // 1, 2, ... per session.
@@ -115,7 +124,9 @@ class Journal {
 
   // The write operations, each one transaction that also advances the commit counter.
   // UNAVAILABLE (and logged at error level) when SQLite fails (disk full, I/O error): then
-  // nothing was written.
+  // nothing was written. AddSession and AddBatch are new work: UNAVAILABLE naming the journal's
+  // room first when it is below options.min_free_bytes (logged when it falls below, and when it
+  // is back); RemoveSession and Compact always try.
   // A new session (created or imported) with its initial snapshot as sequence 0; replaces any
   // entry of the same name.
   Status AddSession(const std::string& name, const std::string& owner,
@@ -168,6 +179,9 @@ class Journal {
   // row it writes (row_carries_commit).
   Status InTransaction(const char* what, bool row_carries_commit, Body body);
   Status WriteError(const char* what, const std::string& error) const;
+  // OK while the journal's room is at least options_.min_free_bytes; else UNAVAILABLE saying so.
+  // Records the room in the metrics and logs when it crosses the floor.
+  Status CheckRoom(const char* what);
 
   const JournalOptions options_;
   std::mutex mutex_;  // one statement or transaction at a time
@@ -177,6 +191,7 @@ class Journal {
   std::uint64_t commits_ = 0;         // the commit counter of the last commit
   std::uint64_t side_commits_ = 0;    // the side file's counter when opened
   bool checkpoint_on_close_ = false;  // opened and checked
+  bool below_floor_ = false;          // the room was below min_free_bytes at the last check
   sqlite3_stmt* begin_ = nullptr;
   sqlite3_stmt* commit_ = nullptr;
   sqlite3_stmt* rollback_ = nullptr;

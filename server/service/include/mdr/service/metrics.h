@@ -104,6 +104,8 @@ struct Metrics {
   Family<Counter> work_rejected_family;
   Family<Histogram> journal_write_seconds_family;
   Family<Counter> journal_write_failures_family;
+  Family<Gauge> journal_free_bytes_family;
+  Family<Counter> journal_refusals_family;
   Family<Gauge> start_time_family;
   // The unlabelled series of the families above (constructed after them).
   Gauge& sessions;
@@ -112,6 +114,8 @@ struct Metrics {
   Counter& work_rejected;
   Histogram& journal_write_seconds;
   Counter& journal_write_failures;
+  Gauge& journal_free_bytes;
+  Counter& journal_refusals;
 };
 
 // The process-wide instance that the hooks record to.
