@@ -14,6 +14,7 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
   mdr::service::ServerOptions& server = options->server;
   mdr::service::ServiceLimits& limits = server.limits;
   double idle_timeout_seconds = std::chrono::duration<double>(limits.session_idle_timeout).count();
+  double max_call_seconds = std::chrono::duration<double>(limits.max_call_duration).count();
   mdr::service::JournalOptions& journal = server.journal;
   std::string journal_sync = mdr::service::JournalSyncName(journal.sync);
   bool no_journal = false;
@@ -52,6 +53,13 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_SESSION_IDLE_TIMEOUT")
       ->capture_default_str()
       ->check(CLI::Range(0.0, static_cast<double>(mdr::service::kMaxIdleTimeoutSeconds)));
+  app.add_option("--max-call-seconds", max_call_seconds,
+                 "Longest a computing call (and a FitLoops stream) runs when its client sets no "
+                 "deadline or a later one: DEADLINE_EXCEEDED then, nothing changed (StreamApply "
+                 "streams are exempt)")
+      ->envname("MDR_MAX_CALL_SECONDS")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-3, 31536000.0));
   app.add_option("--max-message-bytes", limits.max_message_bytes,
                  "Largest request or response message (RESOURCE_EXHAUSTED beyond)")
       ->envname("MDR_MAX_MESSAGE_BYTES")
@@ -134,6 +142,8 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
   }
   limits.session_idle_timeout = std::chrono::duration_cast<std::chrono::milliseconds>(
       std::chrono::duration<double>(idle_timeout_seconds));
+  limits.max_call_duration = std::chrono::duration_cast<std::chrono::milliseconds>(
+      std::chrono::duration<double>(max_call_seconds));
   if (no_journal) journal.path.clear();
   mdr::service::ParseJournalSync(journal_sync, &journal.sync);  // checked above
   return std::nullopt;
@@ -144,14 +154,15 @@ void LogEffectiveOptions(const Options& options) {
   const mdr::service::ServiceLimits& limits = server.limits;
   spdlog::info(
       "event=config listen={} log_level={} max_sessions={} max_steps_per_batch={} "
-      "max_memory_vertices={} session_idle_timeout_s={} max_message_bytes={} "
+      "max_memory_vertices={} session_idle_timeout_s={} max_call_s={} max_message_bytes={} "
       "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} "
       "journal_recover={} journal_min_free_bytes={} tls={} mtls={} auth={} "
       "max_sessions_per_token={} max_state_bytes={} "
       "workers={} max_queued_calls={} metrics_listen={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
-      std::chrono::duration<double>(limits.session_idle_timeout).count(), limits.max_message_bytes,
+      std::chrono::duration<double>(limits.session_idle_timeout).count(),
+      std::chrono::duration<double>(limits.max_call_duration).count(), limits.max_message_bytes,
       options.shutdown_grace_seconds, server.journal.path.empty() ? "-" : server.journal.path,
       mdr::service::JournalSyncName(server.journal.sync), server.journal.snapshot_every,
       server.journal.recover, server.journal.min_free_bytes, !server.tls.cert_file.empty(),

@@ -271,7 +271,7 @@ TEST_F(AnalysisServiceTest, FitLoopsStreamsProgressThenTheLibrarysResult) {
   EXPECT_LT(std::abs(result.correlation(1)), 0.99);  // defined although the fit is exact
   EXPECT_EQ(result.fitted_scene().friction(), result.estimates(0).value());
   EXPECT_EQ(result.fitted_scene().rig().tangential_compliance(), result.estimates(1).value());
-  ASSERT_TRUE(result.has_guessed_rig_compliance());  // two loads of a sphere
+  ASSERT_TRUE(result.has_guessed_rig_compliance());         // two loads of a sphere
   EXPECT_FALSE(result.has_guessed_rig_compliance_error());  // no residual to estimate it
   EXPECT_GT(result.compute_seconds(), 0);
 }
@@ -345,6 +345,30 @@ TEST_F(AnalysisServiceTest, AFitPastItsDeadlineEndsWithDeadlineExceeded) {
   for (const v1::FitLoopsResponse& response : stream.responses) {
     EXPECT_FALSE(response.has_result());
   }
+}
+
+// A call whose client sets no deadline stops at the server's bound (--max-call-seconds) and
+// returns nothing half-done (issue #27: a legal call could hold a worker for a third of an hour).
+TEST_F(AnalysisServiceTest, AFitWithoutADeadlineStopsAtTheServersBound) {
+  service::ServerOptions options = LocalServerOptions();
+  options.limits.max_call_duration = std::chrono::milliseconds(20);
+  Restart(options);
+  const v1::FitLoopsRequest request = FitRequest({Record(60, 2e-6, 20), Record(150, 2e-6, 20)});
+  grpc::ClientContext no_deadline;
+  const FitStream stream = Fit(request, &no_deadline);
+  EXPECT_EQ(stream.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  for (const v1::FitLoopsResponse& response : stream.responses) {
+    EXPECT_FALSE(response.has_result());
+  }
+  // A cheap call is answered as usual.
+  v1::BackboneRequest cheap;
+  *cheap.mutable_scene() = RigScene();
+  cheap.set_normal_force(100);
+  cheap.set_kind(v1::BackboneRequest::AMPLITUDE_KIND_FORCE);
+  cheap.add_amplitudes(10);
+  v1::BackboneResponse answer;
+  grpc::ClientContext also_no_deadline;
+  EXPECT_TRUE(stub_->Backbone(&also_no_deadline, cheap, &answer).ok());
 }
 
 TEST_F(AnalysisServiceTest, FrettingMapAnswersTheLibrarysMap) {

@@ -2,11 +2,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 
+#include "mdr/service/grpc_status.h"
 #include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
-#include "mdr/service/grpc_status.h"
 
 namespace mdr::service {
 
@@ -19,15 +20,20 @@ Status CallerOf(const grpc::CallbackServerContext* context, const Authenticator*
 
 Interrupt InterruptOf(const grpc::CallbackServerContext* context,
                       const std::atomic<bool>* call_cancelled,
-                      const std::atomic<bool>* server_stopping) {
+                      const std::atomic<bool>* server_stopping,
+                      std::chrono::milliseconds max_duration) {
   // gRPC's deadline is on the system clock (infinite: far in the future); the core's is steady.
-  const auto remaining = context->deadline() - std::chrono::system_clock::now();
+  // Both bounds are compared in milliseconds below a year, so nothing overflows.
   constexpr auto kNoDeadline = std::chrono::hours(24 * 365);
+  const auto remaining = std::min<std::chrono::system_clock::duration>(
+      context->deadline() - std::chrono::system_clock::now(), kNoDeadline + std::chrono::hours(1));
+  const auto bound = std::min<std::chrono::system_clock::duration>(
+      remaining,
+      std::min<std::chrono::milliseconds>(max_duration, kNoDeadline + std::chrono::hours(1)));
   const Interrupt::Clock::time_point deadline =
-      remaining > kNoDeadline
+      bound > kNoDeadline
           ? Interrupt::Clock::time_point::max()
-          : Interrupt::Clock::now() +
-                std::chrono::duration_cast<Interrupt::Clock::duration>(remaining);
+          : Interrupt::Clock::now() + std::chrono::duration_cast<Interrupt::Clock::duration>(bound);
   return Interrupt(deadline, call_cancelled, server_stopping);
 }
 

@@ -59,11 +59,12 @@ class QueuedCall final : public grpc::ServerUnaryReactor {
   using Operation = std::function<Status(const Principal&, const Interrupt&)>;
 
   QueuedCall(grpc::CallbackServerContext* context, const char* method, std::string session,
-             const std::string& request_id, const std::atomic<bool>& server_stopping)
+             const std::string& request_id, const std::atomic<bool>& server_stopping,
+             std::chrono::milliseconds max_duration)
       : method_(method),
         session_(std::move(session)),
         request_id_(RequestIdOf(context, request_id)),
-        interrupt_(InterruptOf(context, &cancelled_, &server_stopping)) {}
+        interrupt_(InterruptOf(context, &cancelled_, &server_stopping, max_duration)) {}
 
   void OnCancel() override { cancelled_.store(true, std::memory_order_relaxed); }
   void OnDone() override { delete this; }
@@ -119,9 +120,10 @@ Status Timed(Response* response, Run run) {
 // the call after Finish (gRPC then deletes it in OnDone), and gRPC calls happen outside the lock.
 class FitLoopsCall final : public grpc::ServerWriteReactor<v1::FitLoopsResponse> {
  public:
-  FitLoopsCall(grpc::CallbackServerContext* context, const std::atomic<bool>& server_stopping)
+  FitLoopsCall(grpc::CallbackServerContext* context, const std::atomic<bool>& server_stopping,
+               std::chrono::milliseconds max_duration)
       : request_id_(RequestIdOf(context)),
-        interrupt_(InterruptOf(context, &cancelled_, &server_stopping)) {}
+        interrupt_(InterruptOf(context, &cancelled_, &server_stopping, max_duration)) {}
 
   void OnCancel() override { cancelled_.store(true, std::memory_order_relaxed); }
   void OnDone() override { delete this; }
@@ -244,7 +246,8 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext*
                                                     const char* method, const std::string& strand,
                                                     const std::string& request_id,
                                                     Operation operation) {
-  auto* call = new QueuedCall(context, method, strand, request_id, server_stopping_);
+  auto* call = new QueuedCall(context, method, strand, request_id, server_stopping_,
+                              operations_.limits().max_call_duration);
   Principal caller;
   if (Status status = CallerOf(context, authenticator_, &caller); !status.ok()) {
     call->Complete(status);
@@ -357,7 +360,7 @@ grpc::ServerUnaryReactor* ContactServiceImpl::AnalyzeLoops(grpc::CallbackServerC
 
 grpc::ServerWriteReactor<v1::FitLoopsResponse>* ContactServiceImpl::FitLoops(
     grpc::CallbackServerContext* context, const v1::FitLoopsRequest* request) {
-  auto* call = new FitLoopsCall(context, server_stopping_);
+  auto* call = new FitLoopsCall(context, server_stopping_, operations_.limits().max_call_duration);
   Principal caller;
   if (Status status = CallerOf(context, authenticator_, &caller); !status.ok()) {
     call->Complete(status, {});

@@ -45,9 +45,13 @@ Status ValidateServiceLimits(const ServiceLimits& limits) {
   }
   if (limits.session_idle_timeout.count() < 0 ||
       limits.session_idle_timeout > std::chrono::seconds(kMaxIdleTimeoutSeconds)) {
-    return InvalidArgument("session-idle-timeout", "must be in [0, " +
-                                                       std::to_string(kMaxIdleTimeoutSeconds) +
-                                                       "] seconds (0: never)");
+    return InvalidArgument(
+        "session-idle-timeout",
+        "must be in [0, " + std::to_string(kMaxIdleTimeoutSeconds) + "] seconds (0: never)");
+  }
+  if (limits.max_call_duration <= std::chrono::milliseconds(0) ||
+      limits.max_call_duration > std::chrono::hours(24 * 365)) {
+    return InvalidArgument("max-call-seconds", "must be in (0, 31536000] seconds");
   }
   if (limits.max_message_bytes < 1024) {
     return InvalidArgument("max-message-bytes",
@@ -74,7 +78,10 @@ Result<v1::SessionLimits> ResolveSessionLimits(const v1::SessionLimits& requeste
         TimeUtil::MillisecondsToDuration(server.session_idle_timeout.count());
   }
   if (requested.has_idle_timeout()) {
-    if (Status s = ValidateDuration("idle_timeout", requested.idle_timeout(), kMaxIdleTimeoutSeconds); !s.ok()) return s;
+    if (Status s =
+            ValidateDuration("idle_timeout", requested.idle_timeout(), kMaxIdleTimeoutSeconds);
+        !s.ok())
+      return s;
     const double seconds =
         static_cast<double>(TimeUtil::DurationToNanoseconds(requested.idle_timeout())) * 1e-9;
     Status s = server_seconds > 0 ? RequireInRange("idle_timeout", seconds, 0, server_seconds,

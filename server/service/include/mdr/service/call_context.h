@@ -9,8 +9,8 @@
 #include <atomic>
 #include <string>
 
-#include "mdr/core/interrupt.h"
 #include "mdr/base/status.h"
+#include "mdr/core/interrupt.h"
 #include "mdr/service/auth.h"
 #include "mdr/service/executor.h"
 #include "mdr/service/operations.h"
@@ -22,11 +22,14 @@ namespace mdr::service {
 Status CallerOf(const grpc::CallbackServerContext* context, const Authenticator* authenticator,
                 Principal* caller);
 
-// The core's Interrupt of a call: its deadline, its own cancellation flag (set by the reactor's
-// OnCancel) and the server's (set when a drain's grace period ends). Both flags must outlive it.
+// The core's Interrupt of a call: its deadline (the client's, or now + max_duration if that is
+// sooner: the server's bound on a call, ServiceLimits::max_call_duration), its own cancellation
+// flag (set by the reactor's OnCancel) and the server's (set when a drain's grace period ends).
+// Both flags must outlive it.
 Interrupt InterruptOf(const grpc::CallbackServerContext* context,
                       const std::atomic<bool>* call_cancelled,
-                      const std::atomic<bool>* server_stopping);
+                      const std::atomic<bool>* server_stopping,
+                      std::chrono::milliseconds max_duration = std::chrono::milliseconds::max());
 
 // A batch's interruption check: DEADLINE_EXCEEDED or CANCELLED when interrupt fires.
 ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt);

@@ -32,6 +32,11 @@ struct ServiceLimits {
   // Sum of the state bytes of every session (grid springs, memory vertices; state_budget.h) at
   // most: a create, import or batch beyond fails with RESOURCE_EXHAUSTED. 0: unlimited.
   std::size_t max_state_bytes = std::size_t{4} << 30;
+  // The longest a computing unary call (and a FitLoops stream) may run: one whose client set no
+  // deadline, or a later one, is stopped here with DEADLINE_EXCEEDED and changes nothing, so that
+  // no call holds a worker without bound. StreamApply streams are exempt (a rig streams for
+  // hours; each message is bounded by max_steps_per_batch). (0, 1 year].
+  std::chrono::milliseconds max_call_duration = std::chrono::minutes(5);
 };
 
 // Checks the server limits themselves (field names are the mdrd flags).
