@@ -71,6 +71,11 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
                  "unlimited)")
       ->envname("MDR_MAX_STATE_BYTES")
       ->capture_default_str();
+  app.add_option("--max-state-bytes-per-token", limits.max_state_bytes_per_token,
+                 "Bytes of session state one token's sessions hold at most, inside "
+                 "--max-state-bytes (0: only --max-state-bytes)")
+      ->envname("MDR_MAX_STATE_BYTES_PER_TOKEN")
+      ->capture_default_str();
   mdr::service::ExecutorOptions& execution = server.execution;
   app.add_option("--workers", execution.workers,
                  "Worker threads of the computing calls (Apply, StreamApply messages, Query, "

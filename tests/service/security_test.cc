@@ -253,12 +253,14 @@ class AuthTest : public SecurityTest {
   static constexpr char kAliceToken[] = "alice-secret-0123456789";
   static constexpr char kBobToken[] = "bob-secret-0123456789abc";
 
-  void StartWithTokens(std::size_t max_sessions_per_token = 0) {
+  void StartWithTokens(std::size_t max_sessions_per_token = 0,
+                       service::ServiceLimits limits = service::ServiceLimits()) {
     const std::string tokens = certificates_->Path("tokens");
     WriteFile(tokens,
               std::string("# test principals\nalice:") + kAliceToken + "\nbob:" + kBobToken + "\n");
     service::ServerOptions options;
     options.tokens_file = tokens;
+    options.limits = limits;
     options.limits.max_sessions_per_token = max_sessions_per_token;
     Start(options);
     stub_ = Stub(grpc::InsecureChannelCredentials());
@@ -382,6 +384,41 @@ TEST_F(AuthTest, MaxSessionsPerTokenCountsEachTokenAlone) {
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(status.error_message(), HasSubstr("--max-sessions-per-token"));
   EXPECT_TRUE(CreateAs(bob, "").ok());
+}
+
+// One token's sessions cannot take the state another needs (issue #27: one token filled a 1 GiB
+// budget in 4 s and the other's session could not take one more batch). Each token is charged
+// inside its own quota, the server's budget above both.
+TEST_F(AuthTest, StateBytesPerTokenKeepRoomForTheOthers) {
+  service::ServiceLimits limits;
+  limits.max_state_bytes = 4 << 20;
+  limits.max_state_bytes_per_token = 2 << 20;
+  StartWithTokens(0, limits);
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(bob, "bobs").ok());
+  v1::CreateSessionRequest grid;
+  *grid.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+  grid.mutable_session()->mutable_scene()->set_method(v1::METHOD_GRID);
+  grid.mutable_session()->mutable_scene()->mutable_grid()->set_size(20000);  // 0.8 MB each
+  grid.mutable_session()->mutable_scene()->mutable_grid()->set_max_radius(1e-3);
+  v1::Session session;
+  int created = 0;
+  grpc::Status status;
+  while ((status = stub_->CreateSession(As(alice).get(), grid, &session)).ok()) ++created;
+  EXPECT_EQ(created, 2);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("--max-state-bytes-per-token"));
+  // Bob still grows within his own quota: a session of his own, and batches on his first.
+  EXPECT_TRUE(stub_->CreateSession(As(bob).get(), grid, &session).ok());
+  v1::ApplyResponse applied;
+  for (int k = 0; k < 20; ++k) {
+    ASSERT_TRUE(stub_
+                    ->Apply(As(bob).get(),
+                            ApplyRequestFor("sessions/bobs",
+                                            {DepthStep(kDepth), DisplacementStep(1e-8 * (k % 2))}),
+                            &applied)
+                    .ok());
+  }
 }
 
 TEST_F(AuthTest, TokensTravelAsCallCredentialsOverTls) {

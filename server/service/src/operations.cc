@@ -127,13 +127,14 @@ UnavailableSession ContactOperations::Unavailable(JournaledSession entry, const 
 Status ContactOperations::Restore(const JournaledSession& journaled,
                                   std::shared_ptr<Session>* session) const {
   std::optional<SessionOrigin> state;
-  if (Status status = StateOf(journaled.snapshot, &state); !status.ok()) return status;
+  const Principal owner = journaled.owner.empty() ? Principal() : Principal(journaled.owner);
+  if (Status status = StateOf(journaled.snapshot, owner, &state); !status.ok()) return status;
   state->owner = journaled.owner;
   state->create_time = journaled.create_time;
   state->journal_sequence = journaled.snapshot_sequence;
   state->journal_snapshot_sequence = journaled.snapshot_sequence;
   state->completed = journaled.completed;
-  state->charge = StateCharge::Force(&budget_, StateBytes(*state));
+  state->charge = StateCharge::Force(BudgetOf(journaled.owner), StateBytes(*state));
   state->max_message_bytes = limits_.max_message_bytes;
   auto restored = std::make_shared<Session>(journaled.name, std::move(*state));
   // Replayed exactly as first applied: same steps, same step mask (so the responses remembered
@@ -157,6 +158,18 @@ Status ContactOperations::Restore(const JournaledSession& journaled,
   }
   *session = std::move(restored);
   return OkStatus();
+}
+
+StateBudget* ContactOperations::BudgetOf(const std::string& owner) const {
+  if (owner.empty() || limits_.max_state_bytes_per_token == 0) return &budget_;
+  std::lock_guard lock(owner_budgets_mutex_);
+  std::unique_ptr<StateBudget>& budget = owner_budgets_[owner];
+  if (budget == nullptr) {
+    budget = std::make_unique<StateBudget>(limits_.max_state_bytes_per_token, &budget_,
+                                           "this caller's session state quota",
+                                           "--max-state-bytes-per-token");
+  }
+  return budget.get();
 }
 
 void ContactOperations::CompactJournal() {
@@ -188,7 +201,9 @@ Status ContactOperations::AddSession(const Principal& caller, const std::string&
       !status.ok()) {
     return status;
   }
-  if (Status status = StateCharge::Take(&budget_, StateBytes(state), &state.charge); !status.ok()) {
+  if (Status status =
+          StateCharge::Take(BudgetOf(caller.value_or("")), StateBytes(state), &state.charge);
+      !status.ok()) {
     return status.WithFieldPrefix(state_field);
   }
   state.max_message_bytes = limits_.max_message_bytes;
@@ -218,8 +233,8 @@ Status ContactOperations::CreateSession(const Principal& caller,
   SessionOrigin state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   if (resource.scene().has_interface()) {
-    if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(), StateBytesLeft(),
-                                      limits_.max_message_bytes);
+    if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(),
+                                      StateBytesLeft(caller), limits_.max_message_bytes);
         !s.ok()) {
       return s.WithFieldPrefix("session");
     }
@@ -279,7 +294,7 @@ Status ContactOperations::ExportSession(const Principal& caller,
   return status;
 }
 
-Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
+Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot, const Principal& caller,
                                   std::optional<SessionOrigin>* state,
                                   const Interrupt& interrupt) const {
   if (snapshot.version() != Session::kSnapshotVersion) {
@@ -317,7 +332,7 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot,
   if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
   std::optional<Interface> interface;
   if (snapshot.scene().has_interface()) {
-    if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateBytesLeft(),
+    if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateBytesLeft(caller),
                                       limits_.max_message_bytes);
         !s.ok()) {
       return s.WithFieldPrefix("snapshot");
@@ -344,7 +359,7 @@ Status ContactOperations::ImportSession(const Principal& caller,
     return status;
   }
   std::optional<SessionOrigin> state;
-  if (Status status = StateOf(request.snapshot(), &state, interrupt); !status.ok()) {
+  if (Status status = StateOf(request.snapshot(), caller, &state, interrupt); !status.ok()) {
     return status;
   }
   const char* state_field =

@@ -92,14 +92,38 @@ Status StateBudget::Charge(std::size_t bytes) {
   std::size_t used = used_.load();
   do {
     if (limit_ > 0 && used + bytes > limit_) {
-      return ResourceExhausted(
-          "", "the server's session state budget of " + std::to_string(limit_) +
-                  " bytes (mdrd --max-state-bytes) would be exceeded: " + std::to_string(used) +
-                  " bytes are held, this needs " + std::to_string(bytes) +
-                  " more; delete sessions or use smaller ones");
+      return ResourceExhausted("", whose_ + " of " + std::to_string(limit_) + " bytes (mdrd " +
+                                       flag_ + ") would be exceeded: " + std::to_string(used) +
+                                       " bytes are held, this needs " + std::to_string(bytes) +
+                                       " more; delete sessions or use smaller ones");
     }
   } while (!used_.compare_exchange_weak(used, used + bytes));
+  if (parent_ != nullptr) {
+    if (Status status = parent_->Charge(bytes); !status.ok()) {
+      used_.fetch_sub(bytes);
+      return status;
+    }
+  }
   return OkStatus();
+}
+
+void StateBudget::ForceCharge(std::size_t bytes) {
+  used_.fetch_add(bytes);
+  if (parent_ != nullptr) parent_->ForceCharge(bytes);
+}
+
+void StateBudget::Release(std::size_t bytes) {
+  used_.fetch_sub(bytes);
+  if (parent_ != nullptr) parent_->Release(bytes);
+}
+
+std::size_t StateBudget::Left() const {
+  std::size_t left = 0;  // 0: unlimited so far
+  if (limit_ > 0) left = used() < limit_ ? limit_ - used() : 1;
+  if (parent_ == nullptr) return left;
+  const std::size_t above = parent_->Left();
+  if (above == 0) return left;
+  return left == 0 ? above : std::min(left, above);
 }
 
 Status StateCharge::Take(StateBudget* budget, std::size_t bytes, StateCharge* charge) {

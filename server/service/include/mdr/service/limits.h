@@ -32,6 +32,10 @@ struct ServiceLimits {
   // Sum of the state bytes of every session (grid springs, memory vertices; state_budget.h) at
   // most: a create, import or batch beyond fails with RESOURCE_EXHAUSTED. 0: unlimited.
   std::size_t max_state_bytes = std::size_t{4} << 30;
+  // The same for the sessions of one token (principal), inside max_state_bytes, so that one
+  // caller cannot take another's room (a quarter of the default budget); 0: only max_state_bytes.
+  // Callers without a token (authentication off) share max_state_bytes.
+  std::size_t max_state_bytes_per_token = std::size_t{1} << 30;
   // The longest a computing unary call (and a FitLoops stream) may run: one whose client set no
   // deadline, or a later one, is stopped here with DEADLINE_EXCEEDED and changes nothing, so that
   // no call holds a worker without bound. StreamApply streams are exempt (a rig streams for

@@ -6,14 +6,16 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/interface.h"
 #include "mdr/core/interrupt.h"
-#include "mdr/base/status.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/outputs.h"
@@ -85,18 +87,21 @@ class ContactOperations {
   const ServiceLimits& limits() const { return limits_; }
 
  private:
-  // What the state budget has left (0: no limit); for checks made before a state is built.
-  std::size_t StateBytesLeft() const {
-    if (budget_.limit() == 0) return 0;
-    return budget_.used() < budget_.limit() ? budget_.limit() - budget_.used() : 1;
+  // The budget a caller's sessions are charged to: its own quota inside the server's
+  // (--max-state-bytes-per-token), or the server's for callers without a token or without
+  // quotas. Created on first use, kept for the process.
+  StateBudget* BudgetOf(const std::string& owner) const;
+  // What the caller's budget has left (0: no limit); for checks made before a state is built.
+  std::size_t StateBytesLeft(const Principal& caller) const {
+    return BudgetOf(caller.value_or(""))->Left();
   }
   // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
   Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix,
                                       const Interrupt& interrupt) const;
   // The state a snapshot describes (ImportSession and the journal); errors name
   // "snapshot.<field>".
-  Status StateOf(const v1::SessionSnapshot& snapshot, std::optional<SessionOrigin>* state,
-                 const Interrupt& interrupt = {}) const;
+  Status StateOf(const v1::SessionSnapshot& snapshot, const Principal& owner,
+                 std::optional<SessionOrigin>* state, const Interrupt& interrupt = {}) const;
   // Adds the session unless the interrupt fired, its export would not fit a message or its
   // state the budget (errors name state_field).
   Status AddSession(const Principal& caller, const std::string& id_field,
@@ -111,7 +116,10 @@ class ContactOperations {
   const TestHooks hooks_;
   std::shared_ptr<ParallelFor> parallel_;  // for interface sessions
   // Thread-safe; mutable for Restore, which charges the restored sessions.
-  mutable StateBudget budget_;        // before sessions_, whose charges it holds
+  mutable StateBudget budget_;  // before sessions_, whose charges it holds
+  mutable std::mutex owner_budgets_mutex_;
+  // Per token, inside budget_ (before sessions_ too).
+  mutable std::map<std::string, std::unique_ptr<StateBudget>> owner_budgets_;
   std::unique_ptr<Journal> journal_;  // before sessions_: they write to it until destroyed
   SessionStore sessions_;
 };

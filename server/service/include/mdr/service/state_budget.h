@@ -9,10 +9,11 @@
 #include <atomic>
 #include <cstddef>
 #include <string>
+#include <utility>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
-#include "mdr/base/status.h"
 #include "mdr/v1/scene.pb.h"
 
 namespace mdr::service {
@@ -51,22 +52,32 @@ StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_byte
 // max_message_bytes.
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field);
 
-// The sum of the state bytes of every session, against a limit. Thread-safe.
+// The sum of the state bytes of sessions against a limit: the server's (every session), or one
+// caller's inside it (its parent), which every charge also goes to. Thread-safe.
 class StateBudget {
  public:
-  // limit_bytes 0: unlimited (still counted).
-  explicit StateBudget(std::size_t limit_bytes) : limit_(limit_bytes) {}
+  // limit_bytes 0: unlimited (still counted). `whose` names the budget in errors ("the server's
+  // session state budget", "this caller's session state quota"), `flag` its mdrd flag.
+  explicit StateBudget(std::size_t limit_bytes, StateBudget* parent = nullptr,
+                       std::string whose = "the server's session state budget",
+                       std::string flag = "--max-state-bytes")
+      : limit_(limit_bytes), parent_(parent), whose_(std::move(whose)), flag_(std::move(flag)) {}
 
-  // Adds `bytes`, or fails with RESOURCE_EXHAUSTED naming the budget and adds nothing.
+  // Adds `bytes` here and to the parent, or fails with RESOURCE_EXHAUSTED naming the budget
+  // that would be exceeded and adds nothing to either.
   Status Charge(std::size_t bytes);
-  // Adds `bytes` whatever the limit (sessions restored from the journal are never dropped).
-  void ForceCharge(std::size_t bytes) { used_.fetch_add(bytes); }
-  void Release(std::size_t bytes) { used_.fetch_sub(bytes); }
+  // Adds `bytes` whatever the limits (sessions restored from the journal are never dropped).
+  void ForceCharge(std::size_t bytes);
+  void Release(std::size_t bytes);
   std::size_t used() const { return used_.load(); }
   std::size_t limit() const { return limit_; }
+  // Bytes that can still be charged here and in the parents (0 when none limits).
+  std::size_t Left() const;
 
  private:
   const std::size_t limit_;
+  StateBudget* const parent_;
+  const std::string whose_, flag_;
   std::atomic<std::size_t> used_{0};
 };
 
