@@ -18,8 +18,8 @@
 
 namespace mdr::service {
 
-// Bytes of the contact's state in memory: 16 per grid spring (z, u), 17 per memory vertex
-// (z, u, tag).
+// Bytes of the contact's state in memory: 41 per grid spring and per memory vertex (z, u, the
+// slip tag and the anchor: GridMemory::kBytesPerSpring, PiecewiseLinearMemory::kBytesPerVertex).
 std::size_t StateBytes(const Contact& contact);
 
 // The encoded size of the scene an export writes (with the contact's effective options).
