@@ -312,6 +312,14 @@ class Estimate(NamedTuple):
     identified: bool
 
 
+def _figure_attribute(result, holder: str, name: str) -> np.ndarray:
+    """result.<holder>[name] for attribute access to a result's figures (AttributeError else)."""
+    figures = result.__dict__.get(holder)
+    if figures is not None and name in figures:
+        return figures[name]
+    raise AttributeError(name)
+
+
 @dataclass
 class LoopAnalysisResult:
     """AnalyzeLoops' answer: per-cycle figures as numpy arrays (one value per complete cycle).
@@ -345,10 +353,7 @@ class LoopAnalysisResult:
     raw: an.AnalyzeLoopsResponse = dataclasses.field(repr=False)
 
     def __getattr__(self, name: str):
-        figures = self.__dict__.get("figures")
-        if figures is not None and name in figures:
-            return figures[name]
-        raise AttributeError(name)
+        return _figure_attribute(self, "figures", name)
 
     def __len__(self) -> int:
         """The number of complete cycles."""
@@ -472,10 +477,7 @@ class FrettingMapResult:
     raw: an.FrettingMapResponse = dataclasses.field(repr=False)
 
     def __getattr__(self, name: str):
-        loops = self.__dict__.get("loops")
-        if loops is not None and name in loops:
-            return loops[name]
-        raise AttributeError(name)
+        return _figure_attribute(self, "loops", name)
 
     @classmethod
     def of(cls, request: an.FrettingMapRequest,
@@ -506,10 +508,7 @@ class BackboneResult:
     raw: an.BackboneResponse = dataclasses.field(repr=False)
 
     def __getattr__(self, name: str):
-        loops = self.__dict__.get("loops")
-        if loops is not None and name in loops:
-            return loops[name]
-        raise AttributeError(name)
+        return _figure_attribute(self, "loops", name)
 
     @classmethod
     def of(cls, request: an.BackboneRequest, response: an.BackboneResponse) -> "BackboneResult":
