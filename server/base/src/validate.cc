@@ -20,36 +20,36 @@ std::string FormatNumber(double value) {
   return out.str();
 }
 
-Status RequireFinite(const std::string& field, double value) {
+Status RequireFinite(std::string_view field, double value) {
   if (std::isfinite(value)) return OkStatus();
-  return InvalidArgument(field, "must be a finite number, got " + FormatNumber(value));
+  return InvalidArgument(std::string(field), "must be a finite number, got " + FormatNumber(value));
 }
 
-Status RequirePositive(const std::string& field, double value) {
+Status RequirePositive(std::string_view field, double value) {
   if (std::isfinite(value) && value > 0) return OkStatus();
-  return InvalidArgument(field, "must be finite and > 0, got " + FormatNumber(value));
+  return InvalidArgument(std::string(field), "must be finite and > 0, got " + FormatNumber(value));
 }
 
-Status RequireNonNegative(const std::string& field, double value) {
+Status RequireNonNegative(std::string_view field, double value) {
   if (std::isfinite(value) && value >= 0) return OkStatus();
-  return InvalidArgument(field, "must be finite and >= 0, got " + FormatNumber(value));
+  return InvalidArgument(std::string(field), "must be finite and >= 0, got " + FormatNumber(value));
 }
 
-Status RequireSceneScale(const std::string& field, double value) {
+Status RequireSceneScale(std::string_view field, double value) {
   if (Status s = RequirePositive(field, value); !s.ok()) return s;
   if (value >= kMinSceneScale && value <= kMaxSceneScale) return OkStatus();
-  return InvalidArgument(field, "must be in [" + FormatNumber(kMinSceneScale) + ", " +
-                                    FormatNumber(kMaxSceneScale) +
-                                    "] (beyond it the quantities derived from it overflow), got " +
-                                    FormatNumber(value));
+  return InvalidArgument(
+      std::string(field),
+      "must be in [" + FormatNumber(kMinSceneScale) + ", " + FormatNumber(kMaxSceneScale) +
+          "] (beyond it the quantities derived from it overflow), got " + FormatNumber(value));
 }
 
-Status RequireInRange(const std::string& field, double value, double lo, double hi, bool lo_open) {
+Status RequireInRange(std::string_view field, double value, double lo, double hi, bool lo_open) {
   const bool above_lo = lo_open ? value > lo : value >= lo;
   if (std::isfinite(value) && above_lo && value <= hi) return OkStatus();
-  return InvalidArgument(field, "must be in " + std::string(lo_open ? "(" : "[") +
-                                    FormatNumber(lo) + ", " + FormatNumber(hi) + "], got " +
-                                    FormatNumber(value));
+  return InvalidArgument(std::string(field), "must be in " + std::string(lo_open ? "(" : "[") +
+                                                 FormatNumber(lo) + ", " + FormatNumber(hi) +
+                                                 "], got " + FormatNumber(value));
 }
 
 }  // namespace mdr

@@ -31,34 +31,6 @@ Status ValidateRequestId(const std::string& request_id) {
                                            std::to_string(request_id.size()) + " characters");
 }
 
-// The snapshot carries the state of its scene's method: a polyline or grid springs, not both.
-Status CheckSnapshotMethod(const v1::ContactSnapshot& contact, Method method) {
-  if (method == Method::kGrid && contact.memory_size() > 0) {
-    return InvalidArgument("snapshot.contact.memory",
-                           "must be empty for METHOD_GRID (the state is in grid_u)");
-  }
-  if (method == Method::kExact && contact.grid_u_size() > 0) {
-    return InvalidArgument("snapshot.contact.grid_u",
-                           "must be empty for METHOD_EXACT (the state is in memory)");
-  }
-  return OkStatus();
-}
-
-// An interface session's state is in snapshot.interface, a single contact's in snapshot.contact.
-Status CheckSnapshotKind(const v1::SessionSnapshot& snapshot) {
-  if (snapshot.scene().has_interface() && snapshot.has_contact()) {
-    return InvalidArgument("snapshot.contact",
-                           "must be unset for an interface session (its state is in "
-                           "snapshot.interface)");
-  }
-  if (!snapshot.scene().has_interface() && snapshot.has_interface()) {
-    return InvalidArgument("snapshot.interface",
-                           "must be unset: the scene has no interface (the state is in "
-                           "snapshot.contact)");
-  }
-  return OkStatus();
-}
-
 Result<RadialSampling> QuerySampling(const v1::QueryRequest& request,
                                      const OutputSelection& selection, int max_message_bytes) {
   if (selection.any_radial() && request.radii().empty()) {
@@ -313,23 +285,8 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot, const Pri
   }
   Result<v1::SessionLimits> limits = ResolveSessionLimits(snapshot.limits(), limits_);
   if (!limits.ok()) return limits.status().WithFieldPrefix("snapshot.limits");
-  Result<ContactConfig> config = SessionConfig(snapshot.scene(), "snapshot", interrupt);
-  if (!config.ok()) return config.status();
-  if (Status s = CheckSnapshotKind(snapshot); !s.ok()) return s;
-  if (Status s = CheckSnapshotMethod(snapshot.contact(), config->method); !s.ok()) {
-    return s;
-  }
-  const auto vertices = static_cast<std::size_t>(snapshot.contact().memory_size());
-  if (vertices > config->max_memory_vertices) {
-    return ResourceExhausted("snapshot.contact.memory",
-                             std::to_string(vertices) + " vertices exceed the session's limit of " +
-                                 std::to_string(config->max_memory_vertices) +
-                                 " (scene.options.max_memory_vertices)");
-  }
-  Result<ContactSnapshot> contact_state = ToCoreSnapshot(snapshot.contact());
-  if (!contact_state.ok()) return contact_state.status().WithFieldPrefix("snapshot.contact");
-  Result<Contact> contact = Contact::Restore(std::move(config).value(), *contact_state);
-  if (!contact.ok()) return contact.status().WithFieldPrefix("snapshot.contact");
+  Result<Contact> contact = ToCoreContact(snapshot, limits_.max_memory_vertices, interrupt);
+  if (!contact.ok()) return contact.status();
   std::optional<Interface> interface;
   if (snapshot.scene().has_interface()) {
     if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateBytesLeft(caller),

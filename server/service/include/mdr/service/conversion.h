@@ -55,6 +55,13 @@ Result<ContactSnapshot> ToCoreSnapshot(const v1::ContactSnapshot& snapshot);
 // dissipated_energy included): snapshot.contact.last_step_dissipated_energy finite and >= 0, and
 // snapshot.applied_steps <= max_applied_steps so that the step counter cannot wrap later.
 Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t max_applied_steps);
+// The contact of a SessionSnapshot (ImportSession, the journal and the C library restore with it):
+// the scene's config (max_memory_vertices as for ToContactConfig), the state in the member of the
+// scene's kind and method, at most the config's vertices, then Contact::Restore. The counters and
+// the version are the caller's to check (CheckSnapshotCounters). For an interface scene the contact
+// is the unloaded one of its scene. Errors name "snapshot.<field>".
+Result<Contact> ToCoreContact(const v1::SessionSnapshot& snapshot, std::size_t max_memory_vertices,
+                              const Interrupt& interrupt = {});
 void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto);
 
 v1::MemoryBound ToProtoBound(std::uint8_t tag);

@@ -1,0 +1,197 @@
+/* The C interface of the MDR contact engine (libmdr_c): one tangential contact in-process, with
+ * no server, for rig controllers, simulation codes in C, Fortran and Python, MATLAB and LabVIEW.
+ * docs/capi.md describes the contract, the allocation and timing guarantees and the callers.
+ *
+ * The contact is the service's: a scene is the proto's mdr.v1.Scene (serialized bytes, or a
+ * YAML/JSON scene file as mdrctl reads it), a step is the proto's Step, and a snapshot is the
+ * proto's SessionSnapshot, so a state moves between this library and the service (ExportSession
+ * / ImportSession) and continues bit for bit. Interface scenes (scene.interface) are refused.
+ *
+ * Conventions of every function:
+ * - The return value is an mdr_status: MDR_OK (0) or an error code. On an error nothing changed
+ *   (no handle, no state, no output array beyond the documented *count) and the calling thread's
+ *   last error (mdr_last_error_code/_message/_field) names the argument or the scene field and
+ *   the allowed range. A successful call leaves the last error as it was (like errno).
+ * - Nothing throws across this interface; every C++ exception inside becomes MDR_INTERNAL (or
+ *   MDR_RESOURCE_EXHAUSTED when memory ran out).
+ * - Arrays are the caller's: a function writing values takes the array's capacity in elements
+ *   and writes the number of values to *count (also when the capacity is too small, so the
+ *   caller learns the size it needs: then MDR_OUT_OF_RANGE names the capacity argument).
+ * - A handle is used by one thread at a time (no locking inside); different handles are
+ *   independent. The last error is per thread.
+ * - Units are SI: m, N, Pa, J.
+ */
+#ifndef MDR_MDR_H_
+#define MDR_MDR_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* The library is built with hidden visibility; only the functions marked MDR_API are exported. */
+#if defined(MDR_C_BUILDING)
+#define MDR_API __attribute__((visibility("default")))
+#else
+#define MDR_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The version of this interface. It changes only when a function's signature or a struct's
+ * layout changes incompatibly; additions keep it. Compare with mdr_version() at run time. */
+#define MDR_C_API_VERSION 1
+
+/* Status codes: the numbers of the gRPC status codes the service answers with. */
+typedef enum mdr_status {
+  MDR_OK = 0,
+  MDR_CANCELLED = 1,
+  MDR_INVALID_ARGUMENT = 3,   /* an argument or a scene field is out of its range */
+  MDR_DEADLINE_EXCEEDED = 4,
+  MDR_NOT_FOUND = 5,
+  MDR_FAILED_PRECONDITION = 9, /* valid, but not from this state (|F_x| > mu F_N, grid method) */
+  MDR_RESOURCE_EXHAUSTED = 8,  /* a limit (memory vertices, grid reach) or memory ran out */
+  MDR_OUT_OF_RANGE = 11,       /* a caller's array is too small (the field names its capacity) */
+  MDR_UNIMPLEMENTED = 12,      /* not available through this library (interface scenes) */
+  MDR_INTERNAL = 13,
+  MDR_DATA_LOSS = 15
+} mdr_status;
+
+/* How each channel of a step is driven; the numbers of the proto Step's fields. HOLD leaves the
+ * channel where it is (the value must be 0). Increments are relative to the current state. */
+typedef enum mdr_normal_control {
+  MDR_NORMAL_HOLD = 0,
+  MDR_NORMAL_DEPTH = 1,           /* target depth delta in m, finite */
+  MDR_NORMAL_DEPTH_INCREMENT = 2, /* change of delta in m, finite */
+  MDR_NORMAL_FORCE = 3            /* target F_N in N, finite and >= 0 */
+} mdr_normal_control;
+
+typedef enum mdr_tangential_control {
+  MDR_TANGENTIAL_HOLD = 0,
+  MDR_TANGENTIAL_DISPLACEMENT = 4,           /* target ux in m, finite */
+  MDR_TANGENTIAL_DISPLACEMENT_INCREMENT = 5, /* change of ux in m, finite */
+  MDR_TANGENTIAL_FORCE = 6                   /* target F_x in N, |F_x| <= mu F_N at the end */
+} mdr_tangential_control;
+
+/* Routes of the surface tractions (the proto's TractionRoute). */
+typedef enum mdr_traction_route {
+  MDR_ROUTE_BOTH = 1,  /* both; the value is the Jäger one, the error their difference */
+  MDR_ROUTE_ABEL = 2,  /* inverse MDR transform by quadrature */
+  MDR_ROUTE_JAGER = 3  /* superposition of frictionless pressures (closed form) */
+} mdr_traction_route;
+
+/* The state after the last step: the proto's ContactState. Stable layout: 10 doubles then 2
+ * uint64_t, 96 bytes, no padding (a Fortran bind(C) type, a ctypes Structure, a LabVIEW cluster
+ * of 10 DBL and 2 U64 all match it). */
+typedef struct mdr_state {
+  double depth;                   /* delta in m (<= 0: no contact) */
+  double tangential_displacement; /* ux in m */
+  double contact_radius;          /* a in m */
+  double normal_force;            /* F_N in N */
+  double tangential_force;        /* F_x in N */
+  double dissipated_energy;       /* J since creation (0 without scene.options.track_energy) */
+  double friction_limit;          /* mu F_N in N */
+  double actuator_displacement;   /* ux + C_t F_x in m (ux without a rig) */
+  double actuator_depth;          /* delta + C_n F_N in m (delta without a rig) */
+  double last_step_dissipation;   /* J dissipated by the last step */
+  uint64_t applied_steps;         /* steps applied since creation (carried by snapshots) */
+  uint64_t memory_vertices;       /* vertices of the exact memory (0 for the grid method) */
+} mdr_state;
+
+/* What the last step did: the proto's StepReport. Stable layout: int32, 4 bytes padding
+ * (explicit), 2 doubles; 24 bytes. */
+typedef struct mdr_step_report {
+  int32_t substeps;   /* exact linear sub-steps used (1 for a straight step) */
+  int32_t reserved;   /* 0 */
+  double path_error;  /* estimated max |u error| / (mu kappa delta) of a curved path */
+  double dissipated;  /* J dissipated by the step (0 when energy is not tracked) */
+} mdr_step_report;
+
+/* An opaque contact: its scene's configuration and its state. */
+typedef struct mdr_contact mdr_contact;
+
+/* MDR_C_API_VERSION of the loaded library. */
+MDR_API int mdr_version(void);
+/* The library's release, e.g. "0.1.0" (static storage). */
+MDR_API const char* mdr_version_string(void);
+
+/* The calling thread's last error: its code (MDR_OK before any error), its message (UTF-8,
+ * "" before any error) and the argument or scene field it names ("scene.sphere.radius",
+ * "normal_value", "capacity"; "" when none). The strings stay valid until the thread's next
+ * failing call. */
+MDR_API int mdr_last_error_code(void);
+MDR_API const char* mdr_last_error_message(void);
+MDR_API const char* mdr_last_error_field(void);
+
+/* Creates a contact from a serialized mdr.v1.Scene (size bytes at scene; scene may be NULL only
+ * when size is 0, which is an empty and therefore invalid scene). The scene is validated as the
+ * service's CreateSession does (errors name "scene.<field>"); options left unset take the
+ * service's defaults. *out receives the new handle (NULL on error); release it with
+ * mdr_contact_destroy. */
+MDR_API int mdr_contact_create(const void* scene, size_t size, mdr_contact** out);
+
+/* Creates a contact from the scene of a scene file as mdrctl reads it: YAML or JSON text of an
+ * mdr.v1.SceneFile (NUL-terminated UTF-8; its path and outputs are not used). name stands for the
+ * file in error messages (NULL: "scene"). Parse errors name the line and the field. */
+MDR_API int mdr_contact_create_from_text(const char* text, const char* name, mdr_contact** out);
+
+/* Creates a contact from a serialized mdr.v1.SessionSnapshot, as the service's ImportSession
+ * does (version 1; a single contact, not an interface): it continues bit for bit like the
+ * exported session. Errors name "snapshot.<field>". */
+MDR_API int mdr_contact_restore(const void* snapshot, size_t size, mdr_contact** out);
+
+/* Releases a contact (NULL: nothing happens). */
+MDR_API void mdr_contact_destroy(mdr_contact* contact);
+
+/* Applies one step, atomically: on error the contact is unchanged. The path semantics are the
+ * proto Step's (docs/engine.md): both channels move linearly in a common parameter; a force
+ * channel changing together with the other one is a curved path of adaptive sub-steps. Errors
+ * name normal_control, normal_value, tangential_control, tangential_value or a scene limit.
+ * report may be NULL. Once warmed up, a step of a bounded history allocates nothing (docs/capi.md,
+ * "Allocation"). */
+MDR_API int mdr_contact_step(mdr_contact* contact, int normal_control, double normal_value,
+                             int tangential_control, double tangential_value,
+                             mdr_step_report* report);
+
+/* The state after the last step (allocation-free). */
+MDR_API int mdr_contact_state(const mdr_contact* contact, mdr_state* out);
+
+/* The incremental tangential stiffness dF_x/dux for a small further move in +x (*positive) and in
+ * -x (*negative), in N/m (allocation-free). */
+MDR_API int mdr_contact_stiffness(const mdr_contact* contact, double* positive, double* negative);
+
+/* The radial intervals where springs slip: interval i is [r_begin[i], r_end[i]] in m, direction[i]
+ * +1 at +mu kappa w, -1 at -mu kappa w. *count receives their number; the three arrays hold
+ * capacity elements each (all may be NULL when capacity is 0, to ask for the count). */
+MDR_API int mdr_contact_slip_intervals(const mdr_contact* contact, double* r_begin, double* r_end,
+                                       int32_t* direction, size_t capacity, size_t* count);
+
+/* The Jäger weights of the state (the service's jager_weights output): interval i has weight[i]
+ * on (r_begin[i], r_end[i]) in m; *edge_weight is the flat punch's edge weight (0 otherwise; may
+ * be NULL). Arrays and count as for mdr_contact_slip_intervals. FAILED_PRECONDITION for the grid
+ * method or mu = 0. */
+MDR_API int mdr_contact_jager_weights(const mdr_contact* contact, double* r_begin, double* r_end,
+                                      double* weight, size_t capacity, size_t* count,
+                                      double* edge_weight);
+
+/* The surface tractions at n radii (m, each finite and >= 0): tangential tau(r) and normal
+ * pressure p(r) in Pa, with the error estimate of each (the service's tractions and pressure
+ * outputs, by `route`). Each output array holds capacity elements (>= n); any of the four may be
+ * NULL if not wanted. Values may be infinite (a flat punch edge), never NaN. tau needs the exact
+ * method (FAILED_PRECONDITION for the grid method). */
+MDR_API int mdr_contact_tractions(const mdr_contact* contact, const double* radii, size_t n,
+                                  int route, double* tangential, double* tangential_error,
+                                  double* normal, double* normal_error, size_t capacity);
+
+/* The exact state as a serialized mdr.v1.SessionSnapshot (version 1; the scene with every option
+ * as resolved, no limits, no source name), which the service's ImportSession and
+ * mdr_contact_restore accept. *size receives its length in bytes; buffer holds capacity bytes
+ * (NULL with capacity 0 asks for the size). */
+MDR_API int mdr_contact_snapshot(const mdr_contact* contact, void* buffer, size_t capacity,
+                                 size_t* size);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+
+#endif /* MDR_MDR_H_ */

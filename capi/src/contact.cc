@@ -1,0 +1,433 @@
+// The contact handle of the C interface: the service's scene conversion, validation and snapshot
+// code around one mdr::Contact, so that the library and the service answer the same, bit for bit.
+#include "mdr/core/contact.h"
+
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "boundary.h"
+#include "mdr/client/scene_file.h"
+#include "mdr/core/jager.h"
+#include "mdr/core/traction.h"
+#include "mdr/mdr.h"
+#include "mdr/service/conversion.h"
+#include "mdr/service/limits.h"
+#include "mdr/service/session.h"
+#include "mdr/v1/contact_service.pb.h"
+#include "mdr/v1/scene.pb.h"
+
+// The handle: the scene as given (exported with its effective options), the contact, and the
+// counters a SessionSnapshot carries.
+struct mdr_contact {
+  mdr::v1::Scene scene;
+  mdr::Contact contact;
+  std::uint64_t applied_steps = 0;
+};
+
+namespace mdr::capi {
+namespace {
+
+using service::Session;
+
+// The service's default limit of memory vertices, so a scene behaves here as on a default mdrd.
+std::size_t MaxMemoryVertices() { return service::ServiceLimits{}.max_memory_vertices; }
+
+CallStatus RefuseInterface(const v1::Scene& scene, const char* field) {
+  if (!scene.has_interface()) return OkStatus();
+  return CallStatus(MDR_UNIMPLEMENTED,
+                    FailedPrecondition(field,
+                                       "interface scenes are not available through libmdr_c "
+                                       "(one contact per handle); run them on the service"));
+}
+
+// A new contact of a validated scene, as CreateSession builds it.
+CallStatus CreateContact(const v1::Scene& scene, mdr_contact** out) {
+  if (CallStatus s = RefuseInterface(scene, "scene.interface"); !s.ok()) return s;
+  Result<ContactConfig> config = service::ToContactConfig(scene, MaxMemoryVertices());
+  if (!config.ok()) return config.status();
+  Result<Contact> contact = Contact::Create(std::move(config).value());
+  if (!contact.ok()) return contact.status().WithFieldPrefix("scene");
+  *out = new mdr_contact{scene, std::move(contact).value()};
+  return OkStatus();
+}
+
+Status CheckBytes(const void* bytes, std::size_t size, const char* argument) {
+  if (size > 0 && bytes == nullptr) {
+    return InvalidArgument(argument, "must not be NULL when size is " + std::to_string(size));
+  }
+  if (size > static_cast<std::size_t>(INT_MAX)) {
+    return InvalidArgument("size", "must be at most " + std::to_string(INT_MAX) + " bytes, got " +
+                                       std::to_string(size));
+  }
+  return OkStatus();
+}
+
+// A core step of a control pair: the proto's semantics (ToCoreStep; HOLD is an unset channel).
+// The enum values are the proto Step's field numbers.
+Result<Step> ToStep(int normal_control, double normal_value, int tangential_control,
+                    double tangential_value) {
+  v1::Step step;
+  switch (normal_control) {
+    case MDR_NORMAL_HOLD:
+      break;
+    case MDR_NORMAL_DEPTH:
+      step.set_depth(normal_value);
+      break;
+    case MDR_NORMAL_DEPTH_INCREMENT:
+      step.set_depth_increment(normal_value);
+      break;
+    case MDR_NORMAL_FORCE:
+      step.set_normal_force(normal_value);
+      break;
+    default:
+      return InvalidArgument("normal_control",
+                             "must be MDR_NORMAL_HOLD (0), _DEPTH (1), _DEPTH_INCREMENT (2) or "
+                             "_FORCE (3), got " +
+                                 std::to_string(normal_control));
+  }
+  switch (tangential_control) {
+    case MDR_TANGENTIAL_HOLD:
+      break;
+    case MDR_TANGENTIAL_DISPLACEMENT:
+      step.set_displacement(tangential_value);
+      break;
+    case MDR_TANGENTIAL_DISPLACEMENT_INCREMENT:
+      step.set_displacement_increment(tangential_value);
+      break;
+    case MDR_TANGENTIAL_FORCE:
+      step.set_tangential_force(tangential_value);
+      break;
+    default:
+      return InvalidArgument("tangential_control",
+                             "must be MDR_TANGENTIAL_HOLD (0), _DISPLACEMENT (4), "
+                             "_DISPLACEMENT_INCREMENT (5) or _FORCE (6), got " +
+                                 std::to_string(tangential_control));
+  }
+  // A held channel has no value: a non-zero one is a caller's mistake, not something to ignore.
+  if (normal_control == MDR_NORMAL_HOLD && normal_value != 0) {
+    return InvalidArgument("normal_value", "must be 0 with MDR_NORMAL_HOLD");
+  }
+  if (tangential_control == MDR_TANGENTIAL_HOLD && tangential_value != 0) {
+    return InvalidArgument("tangential_value", "must be 0 with MDR_TANGENTIAL_HOLD");
+  }
+  return service::ToCoreStep(step);
+}
+
+// The core names a step's value by its proto field ("depth", "tangential_force"); the C caller
+// passed it as normal_value or tangential_value, which the error names instead.
+Status ToArgumentStatus(const Status& status, const Step& step) {
+  std::string argument;
+  if (status.field() == FieldName(step.normal)) argument = "normal_value";
+  if (status.field() == FieldName(step.tangential)) argument = "tangential_value";
+  if (argument.empty()) return status;
+  return Status(status.code(), argument, status.ToString());
+}
+
+CallStatus Step(mdr_contact* handle, int normal_control, double normal_value,
+                int tangential_control, double tangential_value, mdr_step_report* report) {
+  if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
+  if (handle->applied_steps >= Session::kMaxAppliedSteps) {
+    return FailedPrecondition("contact", "has applied the most steps a session may apply (" +
+                                             std::to_string(Session::kMaxAppliedSteps) + ")");
+  }
+  Result<mdr::Step> step =
+      ToStep(normal_control, normal_value, tangential_control, tangential_value);
+  if (!step.ok()) return step.status();
+  StepReport core_report;
+  if (Status s = handle->contact.Apply(*step, &core_report); !s.ok()) {
+    return ToArgumentStatus(s, *step);
+  }
+  ++handle->applied_steps;
+  if (report != nullptr) {
+    *report = mdr_step_report{.substeps = core_report.substeps,
+                              .reserved = 0,
+                              .path_error = core_report.path_error,
+                              .dissipated = core_report.dissipated};
+  }
+  return OkStatus();
+}
+
+void ReadState(const mdr_contact& handle, mdr_state* out) {
+  const Contact& c = handle.contact;
+  *out = mdr_state{.depth = c.depth(),
+                   .tangential_displacement = c.tangential_displacement(),
+                   .contact_radius = c.contact_radius(),
+                   .normal_force = c.normal_force(),
+                   .tangential_force = c.tangential_force(),
+                   .dissipated_energy = c.dissipated_energy(),
+                   .friction_limit = c.friction_limit(),
+                   .actuator_displacement = c.actuator_displacement(),
+                   .actuator_depth = c.actuator_depth(),
+                   .last_step_dissipation = c.last_step_dissipation(),
+                   .applied_steps = handle.applied_steps,
+                   .memory_vertices = c.memory().vertex_count()};
+}
+
+CallStatus SlipIntervals(const mdr_contact* handle, double* r_begin, double* r_end,
+                         std::int32_t* direction, std::size_t capacity, std::size_t* count) {
+  if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
+  if (Status s = RequireNonNull(count, "count"); !s.ok()) return s;
+  const std::vector<SlipInterval> intervals = handle->contact.slip_intervals();
+  *count = intervals.size();
+  if (CallStatus s = RequireCapacity(capacity, intervals.size(), "capacity"); !s.ok()) return s;
+  if (!intervals.empty()) {
+    if (Status s = RequireNonNull(r_begin, "r_begin"); !s.ok()) return s;
+    if (Status s = RequireNonNull(r_end, "r_end"); !s.ok()) return s;
+    if (Status s = RequireNonNull(direction, "direction"); !s.ok()) return s;
+  }
+  for (std::size_t i = 0; i < intervals.size(); ++i) {
+    r_begin[i] = intervals[i].r_begin;
+    r_end[i] = intervals[i].r_end;
+    direction[i] = intervals[i].direction;
+  }
+  return OkStatus();
+}
+
+CallStatus Weights(const mdr_contact* handle, double* r_begin, double* r_end, double* weight,
+                   std::size_t capacity, std::size_t* count, double* edge_weight) {
+  if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
+  if (Status s = RequireNonNull(count, "count"); !s.ok()) return s;
+  // The service's jager_weights output: the same checks and the same core call.
+  if (Status s = RequireExactMethod(handle->contact, "jager_weights"); !s.ok()) return s;
+  Result<JagerWeights> computed = ComputeJagerWeights(handle->contact);
+  if (!computed.ok()) return service::ToSceneStatus(computed.status());
+  const std::vector<WeightInterval>& intervals = computed->intervals;
+  *count = intervals.size();
+  if (CallStatus s = RequireCapacity(capacity, intervals.size(), "capacity"); !s.ok()) return s;
+  if (!intervals.empty()) {
+    if (Status s = RequireNonNull(r_begin, "r_begin"); !s.ok()) return s;
+    if (Status s = RequireNonNull(r_end, "r_end"); !s.ok()) return s;
+    if (Status s = RequireNonNull(weight, "weight"); !s.ok()) return s;
+  }
+  for (std::size_t i = 0; i < intervals.size(); ++i) {
+    r_begin[i] = intervals[i].r_begin;
+    r_end[i] = intervals[i].r_end;
+    weight[i] = intervals[i].weight;
+  }
+  if (edge_weight != nullptr) *edge_weight = computed->edge_weight;
+  return OkStatus();
+}
+
+void CopyRadial(const std::vector<RadialValue>& values, double* value, double* error) {
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (value != nullptr) value[i] = values[i].value;
+    if (error != nullptr) error[i] = values[i].error_estimate;
+  }
+}
+
+CallStatus Tractions(const mdr_contact* handle, const double* radii, std::size_t n, int route,
+                     double* tangential, double* tangential_error, double* normal,
+                     double* normal_error, std::size_t capacity) {
+  if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
+  if (n > 0) {
+    if (Status s = RequireNonNull(radii, "radii"); !s.ok()) return s;
+  }
+  if (CallStatus s = RequireCapacity(capacity, n, "capacity"); !s.ok()) return s;
+  // The service's validation of radii and route (ToRadialSampling), then its two outputs.
+  google::protobuf::RepeatedField<double> proto_radii(radii, radii + n);
+  Result<service::RadialSampling> sampling =
+      service::ToRadialSampling(proto_radii, static_cast<v1::TractionRoute>(route));
+  if (!sampling.ok()) {
+    const Status& s = sampling.status();
+    if (s.field() != "traction_route") return s;
+    return InvalidArgument("route",
+                           "must be MDR_ROUTE_BOTH (1), MDR_ROUTE_ABEL (2) or "
+                           "MDR_ROUTE_JAGER (3), got " +
+                               std::to_string(route));
+  }
+  const Contact& contact = handle->contact;
+  if (tangential != nullptr || tangential_error != nullptr) {
+    if (Status s = RequireExactMethod(contact, "tangential"); !s.ok()) return s;
+  }
+  Result<std::vector<RadialValue>> tau{std::vector<RadialValue>{}};
+  if (tangential != nullptr || tangential_error != nullptr) {
+    tau = ComputeTangentialTraction(contact, sampling->radii, sampling->traction_options);
+    if (!tau.ok()) return tau.status();
+  }
+  Result<std::vector<RadialValue>> p{std::vector<RadialValue>{}};
+  if (normal != nullptr || normal_error != nullptr) {
+    p = ComputeNormalPressure(contact, sampling->radii, sampling->traction_options);
+    if (!p.ok()) return p.status();
+  }
+  CopyRadial(*tau, tangential, tangential_error);
+  CopyRadial(*p, normal, normal_error);
+  return OkStatus();
+}
+
+// The SessionSnapshot the service's ExportSession writes for a session of this scene and state
+// (Session::ExportLocked), without the session's name and limits, which a library has not.
+v1::SessionSnapshot ToSessionSnapshot(const mdr_contact& handle) {
+  v1::SessionSnapshot snapshot;
+  snapshot.set_version(Session::kSnapshotVersion);
+  *snapshot.mutable_scene() = service::WithEffectiveOptions(handle.scene, handle.contact.config());
+  service::ToProtoSnapshot(handle.contact.Snapshot(), snapshot.mutable_contact());
+  snapshot.set_applied_steps(handle.applied_steps);
+  return snapshot;
+}
+
+CallStatus Snapshot(const mdr_contact* handle, void* buffer, std::size_t capacity,
+                    std::size_t* size) {
+  if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
+  if (Status s = RequireNonNull(size, "size"); !s.ok()) return s;
+  const v1::SessionSnapshot snapshot = ToSessionSnapshot(*handle);
+  const std::size_t bytes = snapshot.ByteSizeLong();
+  *size = bytes;
+  if (CallStatus s = RequireCapacity(capacity, bytes, "capacity"); !s.ok()) return s;
+  if (bytes > static_cast<std::size_t>(INT_MAX)) {
+    return ResourceExhausted("contact", "its snapshot of " + std::to_string(bytes) +
+                                            " bytes exceeds a protobuf message's 2 GiB");
+  }
+  if (Status s = RequireNonNull(buffer, "buffer"); !s.ok()) return s;
+  if (!snapshot.SerializeToArray(buffer, static_cast<int>(bytes))) {
+    return Internal("buffer", "the snapshot could not be serialized");
+  }
+  return OkStatus();
+}
+
+// ImportSession's checks of a snapshot of one contact (ContactOperations::StateOf), without the
+// session's own fields (limits, source name).
+CallStatus Restore(const void* bytes, std::size_t size, mdr_contact** out) {
+  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
+  *out = nullptr;
+  if (Status s = CheckBytes(bytes, size, "snapshot"); !s.ok()) return s;
+  v1::SessionSnapshot snapshot;
+  if (!snapshot.ParseFromArray(bytes, static_cast<int>(size))) {
+    return InvalidArgument("snapshot", "is not a serialized mdr.v1.SessionSnapshot");
+  }
+  if (snapshot.version() != Session::kSnapshotVersion) {
+    return InvalidArgument("snapshot.version",
+                           "must be " + std::to_string(Session::kSnapshotVersion) +
+                               " (the snapshot format this library reads), got " +
+                               std::to_string(snapshot.version()));
+  }
+  if (Status s = service::CheckSnapshotCounters(snapshot, Session::kMaxAppliedSteps); !s.ok()) {
+    return s;
+  }
+  if (CallStatus s = RefuseInterface(snapshot.scene(), "snapshot.scene.interface"); !s.ok()) {
+    return s;
+  }
+  Result<Contact> contact = service::ToCoreContact(snapshot, MaxMemoryVertices());
+  if (!contact.ok()) return contact.status();
+  *out = new mdr_contact{snapshot.scene(), std::move(contact).value(), snapshot.applied_steps()};
+  return OkStatus();
+}
+
+CallStatus CreateFromBytes(const void* bytes, std::size_t size, mdr_contact** out) {
+  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
+  *out = nullptr;
+  if (Status s = CheckBytes(bytes, size, "scene"); !s.ok()) return s;
+  v1::Scene scene;
+  if (!scene.ParseFromArray(bytes, static_cast<int>(size))) {
+    return InvalidArgument("scene", "is not a serialized mdr.v1.Scene");
+  }
+  return CreateContact(scene, out);
+}
+
+// mdrctl's reading of a scene file (SceneDocument), whose errors name the line of a field.
+CallStatus CreateFromText(const char* text, const char* name, mdr_contact** out) {
+  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
+  *out = nullptr;
+  if (Status s = RequireNonNull(text, "text"); !s.ok()) return s;
+  Result<client::SceneDocument> document =
+      client::SceneDocument::Parse(text, name != nullptr ? name : "scene");
+  if (!document.ok()) return document.status();
+  if (!document->file().has_scene()) {
+    return document->Error("scene", "required: the scene file has no scene");
+  }
+  CallStatus status = CreateContact(document->file().scene(), out);
+  if (status.ok()) return status;
+  const Status& s = status.status;
+  return CallStatus(status.code, Status(s.code(), s.field(),
+                                        s.message() + " (" + document->Where(s.field()) + ")"));
+}
+
+}  // namespace
+}  // namespace mdr::capi
+
+extern "C" {
+
+using mdr::capi::Boundary;
+using mdr::capi::CallStatus;
+
+int mdr_version(void) { return MDR_C_API_VERSION; }
+
+const char* mdr_version_string(void) { return MDR_C_VERSION_STRING; }
+
+int mdr_contact_create(const void* scene, size_t size, mdr_contact** out) {
+  return Boundary("mdr_contact_create",
+                  [&] { return mdr::capi::CreateFromBytes(scene, size, out); });
+}
+
+int mdr_contact_create_from_text(const char* text, const char* name, mdr_contact** out) {
+  return Boundary("mdr_contact_create_from_text",
+                  [&] { return mdr::capi::CreateFromText(text, name, out); });
+}
+
+int mdr_contact_restore(const void* snapshot, size_t size, mdr_contact** out) {
+  return Boundary("mdr_contact_restore", [&] { return mdr::capi::Restore(snapshot, size, out); });
+}
+
+void mdr_contact_destroy(mdr_contact* contact) { delete contact; }
+
+int mdr_contact_step(mdr_contact* contact, int normal_control, double normal_value,
+                     int tangential_control, double tangential_value, mdr_step_report* report) {
+  return Boundary("mdr_contact_step", [&] {
+    return mdr::capi::Step(contact, normal_control, normal_value, tangential_control,
+                           tangential_value, report);
+  });
+}
+
+int mdr_contact_state(const mdr_contact* contact, mdr_state* out) {
+  return Boundary("mdr_contact_state", [&]() -> CallStatus {
+    if (mdr::Status s = mdr::capi::RequireNonNull(contact, "contact"); !s.ok()) return s;
+    if (mdr::Status s = mdr::capi::RequireNonNull(out, "out"); !s.ok()) return s;
+    mdr::capi::ReadState(*contact, out);
+    return mdr::OkStatus();
+  });
+}
+
+int mdr_contact_stiffness(const mdr_contact* contact, double* positive, double* negative) {
+  return Boundary("mdr_contact_stiffness", [&]() -> CallStatus {
+    if (mdr::Status s = mdr::capi::RequireNonNull(contact, "contact"); !s.ok()) return s;
+    if (mdr::Status s = mdr::capi::RequireNonNull(positive, "positive"); !s.ok()) return s;
+    if (mdr::Status s = mdr::capi::RequireNonNull(negative, "negative"); !s.ok()) return s;
+    const mdr::TangentialStiffness stiffness = contact->contact.tangential_stiffness();
+    *positive = stiffness.positive;
+    *negative = stiffness.negative;
+    return mdr::OkStatus();
+  });
+}
+
+int mdr_contact_slip_intervals(const mdr_contact* contact, double* r_begin, double* r_end,
+                               int32_t* direction, size_t capacity, size_t* count) {
+  return Boundary("mdr_contact_slip_intervals", [&] {
+    return mdr::capi::SlipIntervals(contact, r_begin, r_end, direction, capacity, count);
+  });
+}
+
+int mdr_contact_jager_weights(const mdr_contact* contact, double* r_begin, double* r_end,
+                              double* weight, size_t capacity, size_t* count, double* edge_weight) {
+  return Boundary("mdr_contact_jager_weights", [&] {
+    return mdr::capi::Weights(contact, r_begin, r_end, weight, capacity, count, edge_weight);
+  });
+}
+
+int mdr_contact_tractions(const mdr_contact* contact, const double* radii, size_t n, int route,
+                          double* tangential, double* tangential_error, double* normal,
+                          double* normal_error, size_t capacity) {
+  return Boundary("mdr_contact_tractions", [&] {
+    return mdr::capi::Tractions(contact, radii, n, route, tangential, tangential_error, normal,
+                                normal_error, capacity);
+  });
+}
+
+int mdr_contact_snapshot(const mdr_contact* contact, void* buffer, size_t capacity, size_t* size) {
+  return Boundary("mdr_contact_snapshot",
+                  [&] { return mdr::capi::Snapshot(contact, buffer, capacity, size); });
+}
+
+}  // extern "C"

@@ -1,0 +1,354 @@
+// libmdr_c through its C header only (this test links no other project library): errors that
+// name the argument and change nothing, snapshots, and no allocation in a steady fretting cycle.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "mdr/mdr.h"
+
+// Every allocation of the process goes through malloc (operator new of libstdc++ included): these
+// definitions interpose glibc's for the executable and every shared library, libmdr_c's engine,
+// protobuf and libstdc++ among them, and count while counting is on.
+extern "C" {
+void* __libc_malloc(std::size_t size);
+void* __libc_calloc(std::size_t count, std::size_t size);
+void* __libc_realloc(void* pointer, std::size_t size);
+void* __libc_memalign(std::size_t alignment, std::size_t size);
+void __libc_free(void* pointer);
+}
+
+namespace {
+std::atomic<bool> counting{false};
+std::atomic<long> allocations{0};
+void Count() {
+  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1);
+}
+}  // namespace
+
+extern "C" {
+void* malloc(std::size_t size) {
+  Count();
+  return __libc_malloc(size);
+}
+void* calloc(std::size_t count, std::size_t size) {
+  Count();
+  return __libc_calloc(count, size);
+}
+void* realloc(void* pointer, std::size_t size) {
+  Count();
+  return __libc_realloc(pointer, size);
+}
+void* memalign(std::size_t alignment, std::size_t size) {
+  Count();
+  return __libc_memalign(alignment, size);
+}
+void* aligned_alloc(std::size_t alignment, std::size_t size) {
+  Count();
+  return __libc_memalign(alignment, size);
+}
+int posix_memalign(void** pointer, std::size_t alignment, std::size_t size) {
+  Count();
+  *pointer = __libc_memalign(alignment, size);
+  return *pointer == nullptr ? ENOMEM : 0;
+}
+void free(void* pointer) { __libc_free(pointer); }
+}
+
+namespace {
+
+// H1 (tests/fixtures/reference_scenes.h): a steel sphere R = 10 mm on a steel flat, mu = 0.3.
+constexpr char kScene[] = R"(
+scene:
+  sphere: {radius: 0.01}
+  elastic_pair:
+    youngs_modulus_1: 210e9
+    poisson_ratio_1: 0.3
+    youngs_modulus_2: 210e9
+    poisson_ratio_2: 0.3
+  friction: 0.3
+)";
+
+template <typename Body>
+long CountAllocations(Body body) {
+  allocations = 0;
+  counting = true;
+  body();
+  counting = false;
+  return allocations.load();
+}
+
+class CapiTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_EQ(mdr_contact_create_from_text(kScene, "h1.yaml", &contact_), MDR_OK)
+        << mdr_last_error_message();
+    ASSERT_EQ(Step(MDR_NORMAL_FORCE, 100, MDR_TANGENTIAL_HOLD, 0), MDR_OK)
+        << mdr_last_error_message();
+  }
+  void TearDown() override { mdr_contact_destroy(contact_); }
+
+  int Step(int normal_control, double normal_value, int tangential_control,
+           double tangential_value) {
+    return mdr_contact_step(contact_, normal_control, normal_value, tangential_control,
+                            tangential_value, nullptr);
+  }
+  mdr_state State() const {
+    mdr_state state{};
+    EXPECT_EQ(mdr_contact_state(contact_, &state), MDR_OK);
+    return state;
+  }
+  std::vector<unsigned char> Snapshot() const {
+    std::size_t size = 0;
+    EXPECT_EQ(mdr_contact_snapshot(contact_, nullptr, 0, &size), MDR_OUT_OF_RANGE);
+    std::vector<unsigned char> bytes(size);
+    EXPECT_EQ(mdr_contact_snapshot(contact_, bytes.data(), bytes.size(), &size), MDR_OK);
+    return bytes;
+  }
+  // The state is unchanged since `before` (a refused call changed nothing).
+  void ExpectUnchanged(const std::vector<unsigned char>& before) const {
+    EXPECT_EQ(Snapshot(), before);
+  }
+
+  mdr_contact* contact_ = nullptr;
+};
+
+void ExpectError(int status, int code, const std::string& field) {
+  EXPECT_EQ(status, code);
+  EXPECT_EQ(mdr_last_error_code(), code);
+  EXPECT_EQ(std::string(mdr_last_error_field()), field) << mdr_last_error_message();
+  EXPECT_NE(std::string(mdr_last_error_message()).find(field), std::string::npos)
+      << mdr_last_error_message();
+}
+
+TEST(CapiVersion, MatchesTheHeader) {
+  EXPECT_EQ(mdr_version(), MDR_C_API_VERSION);
+  EXPECT_STRNE(mdr_version_string(), "");
+  static_assert(sizeof(mdr_state) == 96 && offsetof(mdr_state, applied_steps) == 80);
+  static_assert(sizeof(mdr_step_report) == 24 && offsetof(mdr_step_report, path_error) == 8);
+}
+
+TEST_F(CapiTest, LoadsToTheHertzForce) {
+  const mdr_state state = State();
+  EXPECT_NEAR(state.normal_force, 100, 1e-9);  // to the inverse of F_N(delta)'s round-off
+  EXPECT_EQ(state.applied_steps, 1u);
+  EXPECT_GT(state.depth, 0);
+  EXPECT_EQ(state.friction_limit, 0.3 * state.normal_force);
+}
+
+TEST(CapiCreate, InvalidScenesNameTheField) {
+  mdr_contact* contact = reinterpret_cast<mdr_contact*>(1);
+  ExpectError(mdr_contact_create_from_text("scene: {sphere: {radius: -1}}", "bad.yaml", &contact),
+              MDR_INVALID_ARGUMENT, "scene.sphere.radius");
+  EXPECT_EQ(contact, nullptr);
+  EXPECT_NE(std::string(mdr_last_error_message()).find("bad.yaml:1"), std::string::npos)
+      << mdr_last_error_message();
+  ExpectError(mdr_contact_create_from_text(nullptr, nullptr, &contact), MDR_INVALID_ARGUMENT,
+              "text");
+  ExpectError(mdr_contact_create_from_text(kScene, nullptr, nullptr), MDR_INVALID_ARGUMENT, "out");
+  ExpectError(mdr_contact_create_from_text("path: []", "x.yaml", &contact), MDR_INVALID_ARGUMENT,
+              "scene");
+  ExpectError(mdr_contact_create("\xff\xff\xff", 3, &contact), MDR_INVALID_ARGUMENT, "scene");
+  ExpectError(mdr_contact_create(nullptr, 4, &contact), MDR_INVALID_ARGUMENT, "scene");
+  // An empty Scene has no profile.
+  EXPECT_EQ(mdr_contact_create(nullptr, 0, &contact), MDR_INVALID_ARGUMENT);
+  EXPECT_EQ(contact, nullptr);
+}
+
+TEST(CapiCreate, InterfaceScenesAreRefused) {
+  mdr_contact* contact = nullptr;
+  ExpectError(mdr_contact_create_from_text(R"(
+scene:
+  sphere: {radius: 0.01}
+  rigid_on_half_space: {shear_modulus: 80e9, poisson_ratio: 0.3}
+  friction: 0.3
+  interface:
+    kind: KIND_CONTACT_LIST
+    explicit_list: {heights: [0, 0], radii: [0.01, 0.01]}
+)",
+                                           "i.yaml", &contact),
+              MDR_UNIMPLEMENTED, "scene.interface");
+  EXPECT_EQ(contact, nullptr);
+}
+
+TEST_F(CapiTest, NullHandlesNameTheArgument) {
+  mdr_state state;
+  double a, b;
+  std::size_t n;
+  ExpectError(mdr_contact_step(nullptr, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_HOLD, 0, nullptr),
+              MDR_INVALID_ARGUMENT, "contact");
+  ExpectError(mdr_contact_state(nullptr, &state), MDR_INVALID_ARGUMENT, "contact");
+  ExpectError(mdr_contact_state(contact_, nullptr), MDR_INVALID_ARGUMENT, "out");
+  ExpectError(mdr_contact_stiffness(nullptr, &a, &b), MDR_INVALID_ARGUMENT, "contact");
+  ExpectError(mdr_contact_stiffness(contact_, &a, nullptr), MDR_INVALID_ARGUMENT, "negative");
+  ExpectError(mdr_contact_jager_weights(nullptr, nullptr, nullptr, nullptr, 0, &n, nullptr),
+              MDR_INVALID_ARGUMENT, "contact");
+  ExpectError(mdr_contact_jager_weights(contact_, nullptr, nullptr, nullptr, 0, nullptr, nullptr),
+              MDR_INVALID_ARGUMENT, "count");
+  ExpectError(mdr_contact_slip_intervals(nullptr, nullptr, nullptr, nullptr, 0, &n),
+              MDR_INVALID_ARGUMENT, "contact");
+  ExpectError(mdr_contact_snapshot(nullptr, nullptr, 0, &n), MDR_INVALID_ARGUMENT, "contact");
+  ExpectError(mdr_contact_snapshot(contact_, nullptr, 0, nullptr), MDR_INVALID_ARGUMENT, "size");
+  const double radius = 0;
+  ExpectError(
+      mdr_contact_tractions(nullptr, &radius, 1, MDR_ROUTE_BOTH, &a, nullptr, nullptr, nullptr, 1),
+      MDR_INVALID_ARGUMENT, "contact");
+  mdr_contact_destroy(nullptr);  // allowed, like free(NULL)
+}
+
+TEST_F(CapiTest, BadStepsNameTheArgumentAndChangeNothing) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, 5e-7), MDR_OK);
+  const std::vector<unsigned char> before = Snapshot();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ExpectError(Step(MDR_NORMAL_DEPTH, nan, MDR_TANGENTIAL_HOLD, 0), MDR_INVALID_ARGUMENT,
+              "normal_value");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, nan),
+              MDR_INVALID_ARGUMENT, "tangential_value");
+  ExpectError(Step(MDR_NORMAL_FORCE, -1, MDR_TANGENTIAL_HOLD, 0), MDR_INVALID_ARGUMENT,
+              "normal_value");
+  // Beyond the friction limit of mu F_N = 30 N.
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 31), MDR_FAILED_PRECONDITION,
+              "tangential_value");
+  ExpectError(Step(7, 0, MDR_TANGENTIAL_HOLD, 0), MDR_INVALID_ARGUMENT, "normal_control");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, 3, 0), MDR_INVALID_ARGUMENT, "tangential_control");
+  ExpectError(Step(MDR_NORMAL_HOLD, 1e-6, MDR_TANGENTIAL_HOLD, 0), MDR_INVALID_ARGUMENT,
+              "normal_value");
+  ExpectUnchanged(before);
+  EXPECT_EQ(State().applied_steps, 2u);
+}
+
+TEST_F(CapiTest, SmallBuffersReturnTheSizeNeeded) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, 5e-7), MDR_OK);
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, -2e-7), MDR_OK);
+  std::size_t count = 0;
+  double edge = -1;
+  ExpectError(mdr_contact_jager_weights(contact_, nullptr, nullptr, nullptr, 0, &count, &edge),
+              MDR_OUT_OF_RANGE, "capacity");
+  ASSERT_GE(count, 2u);
+  EXPECT_EQ(edge, -1);  // untouched on error
+  std::vector<double> r_begin(count), r_end(count), weight(count);
+  ExpectError(mdr_contact_jager_weights(contact_, r_begin.data(), r_end.data(), weight.data(),
+                                        count - 1, &count, &edge),
+              MDR_OUT_OF_RANGE, "capacity");
+  ASSERT_EQ(mdr_contact_jager_weights(contact_, r_begin.data(), r_end.data(), weight.data(), count,
+                                      &count, &edge),
+            MDR_OK);
+  EXPECT_EQ(edge, 0);  // a sphere has no edge weight
+  EXPECT_EQ(r_end.back(), State().contact_radius);
+  ExpectError(mdr_contact_jager_weights(contact_, nullptr, r_end.data(), weight.data(), count,
+                                        &count, nullptr),
+              MDR_INVALID_ARGUMENT, "r_begin");
+
+  const double radii[3] = {0, 1e-5, -1};
+  double tau[3];
+  ExpectError(
+      mdr_contact_tractions(contact_, radii, 2, MDR_ROUTE_JAGER, tau, nullptr, nullptr, nullptr, 1),
+      MDR_OUT_OF_RANGE, "capacity");
+  ExpectError(
+      mdr_contact_tractions(contact_, radii, 3, MDR_ROUTE_JAGER, tau, nullptr, nullptr, nullptr, 3),
+      MDR_INVALID_ARGUMENT, "radii[2]");
+  ExpectError(mdr_contact_tractions(contact_, radii, 2, 9, tau, nullptr, nullptr, nullptr, 2),
+              MDR_INVALID_ARGUMENT, "route");
+
+  std::size_t size = 0;
+  std::vector<unsigned char> bytes(8);
+  ExpectError(mdr_contact_snapshot(contact_, bytes.data(), bytes.size(), &size), MDR_OUT_OF_RANGE,
+              "capacity");
+  EXPECT_GT(size, bytes.size());
+}
+
+TEST_F(CapiTest, SnapshotsContinueBitForBit) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 12), MDR_OK);
+  const std::vector<unsigned char> bytes = Snapshot();
+  mdr_contact* copy = nullptr;
+  ASSERT_EQ(mdr_contact_restore(bytes.data(), bytes.size(), &copy), MDR_OK)
+      << mdr_last_error_message();
+  for (double force : {-7.0, 3.0, -12.5}) {
+    ASSERT_EQ(Step(MDR_NORMAL_FORCE, 90, MDR_TANGENTIAL_FORCE, force), MDR_OK);
+    ASSERT_EQ(mdr_contact_step(copy, MDR_NORMAL_FORCE, 90, MDR_TANGENTIAL_FORCE, force, nullptr),
+              MDR_OK);
+  }
+  mdr_state original = State(), restored{};
+  ASSERT_EQ(mdr_contact_state(copy, &restored), MDR_OK);
+  EXPECT_EQ(std::memcmp(&original, &restored, sizeof original), 0);
+  EXPECT_EQ(original.applied_steps, 5u);
+  mdr_contact_destroy(copy);
+}
+
+TEST(CapiRestore, DamagedSnapshotsNameTheField) {
+  mdr_contact* contact = nullptr;
+  ASSERT_EQ(mdr_contact_create_from_text(kScene, nullptr, &contact), MDR_OK);
+  std::size_t size = 0;
+  mdr_contact_snapshot(contact, nullptr, 0, &size);
+  std::vector<unsigned char> bytes(size);
+  ASSERT_EQ(mdr_contact_snapshot(contact, bytes.data(), size, &size), MDR_OK);
+  mdr_contact_destroy(contact);
+  // Field 1 (version) is the first byte pair: 0x08 0x01. Version 2 is not read.
+  ASSERT_EQ(bytes[0], 0x08);
+  ASSERT_EQ(bytes[1], 0x01);
+  bytes[1] = 0x02;
+  contact = reinterpret_cast<mdr_contact*>(1);
+  ExpectError(mdr_contact_restore(bytes.data(), bytes.size(), &contact), MDR_INVALID_ARGUMENT,
+              "snapshot.version");
+  EXPECT_EQ(contact, nullptr);
+  ExpectError(mdr_contact_restore("\x0a\xff", 2, &contact), MDR_INVALID_ARGUMENT, "snapshot");
+}
+
+// A Hertz fretting cycle by displacement targets, 1000 steps a cycle in partial slip: after two
+// warm-up cycles, 10^6 steps (with a state read each) allocate nothing.
+TEST_F(CapiTest, SteadyFrettingAllocatesNothing) {
+  constexpr int kPerCycle = 1000;
+  std::vector<double> targets(kPerCycle);
+  for (int i = 0; i < kPerCycle; ++i) {
+    targets[i] = 1e-6 * std::sin(2 * std::numbers::pi * (i + 1) / kPerCycle);
+  }
+  auto cycles = [&](int count) {
+    mdr_state state;
+    for (int c = 0; c < count; ++c) {
+      for (double ux : targets) {
+        if (Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, ux) != MDR_OK ||
+            mdr_contact_state(contact_, &state) != MDR_OK) {
+          ADD_FAILURE() << mdr_last_error_message();
+          return;
+        }
+      }
+    }
+  };
+  cycles(2);
+  const double dissipated_before = State().dissipated_energy;
+  EXPECT_EQ(CountAllocations([&] { cycles(1000); }), 0);
+  EXPECT_GT(State().dissipated_energy, dissipated_before);  // it did slip
+  EXPECT_EQ(State().applied_steps, 1u + 1002u * kPerCycle);
+  // The counter sees allocations where there are some.
+  EXPECT_GT(CountAllocations([&] { Snapshot(); }), 0);
+}
+
+// The same by tangential force at a constant normal force (a straight path solved for its
+// increment): 10^5 steady steps allocate nothing.
+TEST_F(CapiTest, SteadyForceFrettingAllocatesNothing) {
+  constexpr int kPerCycle = 200;
+  std::vector<double> forces(kPerCycle);
+  for (int i = 0; i < kPerCycle; ++i) {
+    forces[i] = 15 * std::sin(2 * std::numbers::pi * (i + 1) / kPerCycle);
+  }
+  auto cycles = [&](int count) {
+    for (int c = 0; c < count; ++c) {
+      for (double force : forces) {
+        if (Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, force) != MDR_OK) {
+          ADD_FAILURE() << mdr_last_error_message();
+          return;
+        }
+      }
+    }
+  };
+  cycles(2);
+  EXPECT_EQ(CountAllocations([&] { cycles(500); }), 0);
+}
+
+}  // namespace

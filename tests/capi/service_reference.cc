@@ -1,0 +1,277 @@
+// The service's answer that the C, Fortran and Python callers of libmdr_c must reproduce bit for
+// bit. Runs the service's transport-independent operations (ContactOperations, what mdrd's
+// handlers call), not the C library.
+//
+//   capi_service_reference generate SCENE_FILE OUT_DIR
+//     writes OUT_DIR/scene.pb (the scene file's Scene, serialized), history.txt (the steps),
+//     reference.txt (the expected output of a caller, tests/capi/README in docs/capi.md),
+//     snapshot.pb (the session exported after kRestoreAt steps) and final.pb (after all).
+//   capi_service_reference import OUT_DIR SNAPSHOT
+//     imports a snapshot written by the library and checks that the service's export of it has
+//     the contact, scene and step count of final.pb: a state moves from the library to the service.
+//
+// Formats (one line each, values as the 16 upper-case hex digits of a double's bits):
+//   history.txt:   NORMAL_CONTROL NORMAL_VALUE TANGENTIAL_CONTROL TANGENTIAL_VALUE
+//                  (controls as the mdr.h enum numbers, i.e. the proto Step's field numbers)
+//   reference.txt: "S depth ux a F_N F_x W" after every step of the history, then again after
+//                  every step from kRestoreAt on, continued from snapshot.pb; then of the final
+//                  state "K k+ k-", "J count edge_weight" and count lines "W r_begin r_end weight",
+//                  "T tau tau_error p p_error" at the radii a*k/8 for k = 0..7, "L count" and count
+//                  lines "I r_begin r_end direction" (direction in decimal).
+#include <google/protobuf/util/message_differencer.h>
+
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mdr/client/scene_file.h"
+#include "mdr/service/operations.h"
+
+namespace mdr::capi_testing {
+namespace {
+
+using service::ContactOperations;
+
+constexpr int kRestoreAt = 100;
+constexpr char kSessionId[] = "capi";
+constexpr char kSessionName[] = "sessions/capi";
+
+// One step of the history, with the mdr.h control numbers (= the proto Step's field numbers).
+struct HistoryStep {
+  int normal_control;
+  double normal_value;
+  int tangential_control;
+  double tangential_value;
+};
+
+// A Hertz fretting history that exercises every control: loading by normal force, fretting by
+// displacement targets (partial slip), by tangential force, increments of both channels, and
+// curved paths (normal and tangential force together).
+std::vector<HistoryStep> History() {
+  std::vector<HistoryStep> steps{{3, 100, 0, 0}};
+  constexpr int kPerCycle = 40;
+  for (int i = 1; i <= 3 * kPerCycle; ++i) {
+    steps.push_back({0, 0, 4, 1e-6 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
+  }
+  for (int i = 1; i <= 2 * kPerCycle; ++i) {
+    steps.push_back({0, 0, 6, 15 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
+  }
+  steps.push_back({3, 120, 6, 10});
+  for (int i = 0; i < 10; ++i) steps.push_back({2, 1e-8, 5, -2e-8});
+  steps.push_back({3, 100, 6, 15});
+  steps.push_back({1, 3e-6, 5, 1e-7});
+  return steps;
+}
+
+std::string Hex(double value) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  char text[17];
+  std::snprintf(text, sizeof text, "%016" PRIX64, bits);
+  return text;
+}
+
+v1::Step ToProto(const HistoryStep& s) {
+  v1::Step step;
+  switch (s.normal_control) {
+    case 1:
+      step.set_depth(s.normal_value);
+      break;
+    case 2:
+      step.set_depth_increment(s.normal_value);
+      break;
+    case 3:
+      step.set_normal_force(s.normal_value);
+      break;
+    default:
+      break;
+  }
+  switch (s.tangential_control) {
+    case 4:
+      step.set_displacement(s.tangential_value);
+      break;
+    case 5:
+      step.set_displacement_increment(s.tangential_value);
+      break;
+    case 6:
+      step.set_tangential_force(s.tangential_value);
+      break;
+    default:
+      break;
+  }
+  return step;
+}
+
+bool Check(const Status& status, const char* what) {
+  if (status.ok()) return true;
+  std::cerr << what << ": " << status.ToString() << "\n";
+  return false;
+}
+
+// Applies the steps one batch each (as a rig streams them) and appends their "S" lines.
+bool ApplySteps(ContactOperations& ops, const std::vector<HistoryStep>& steps, std::size_t first,
+                std::ostream& out) {
+  for (std::size_t i = first; i < steps.size(); ++i) {
+    v1::ApplyRequest request;
+    request.set_session(kSessionName);
+    *request.add_steps() = ToProto(steps[i]);
+    request.mutable_step_mask()->add_paths("state");
+    v1::ApplyResponse response;
+    if (!Check(ops.Apply(
+                   std::nullopt, request, [] { return OkStatus(); }, &response),
+               "Apply")) {
+      std::cerr << "at step " << i << "\n";
+      return false;
+    }
+    const v1::ContactState& s = response.step_results(0).state();
+    out << "S " << Hex(s.depth()) << ' ' << Hex(s.tangential_displacement()) << ' '
+        << Hex(s.contact_radius()) << ' ' << Hex(s.normal_force()) << ' '
+        << Hex(s.tangential_force()) << ' ' << Hex(s.dissipated_energy()) << '\n';
+  }
+  return true;
+}
+
+bool WriteFinals(ContactOperations& ops, std::ostream& out) {
+  v1::QueryRequest state_request;
+  state_request.set_session(kSessionName);
+  v1::QueryResponse state;
+  if (!Check(ops.Query(std::nullopt, state_request, &state), "Query state")) return false;
+  v1::QueryRequest request;
+  request.set_session(kSessionName);
+  for (const char* path :
+       {"tangential_stiffness", "jager_weights", "tractions", "pressure", "slip_intervals"}) {
+    request.mutable_read_mask()->add_paths(path);
+  }
+  const double a = state.state().contact_radius();
+  for (int k = 0; k < 8; ++k) request.add_radii(a * k / 8);
+  v1::QueryResponse r;
+  if (!Check(ops.Query(std::nullopt, request, &r), "Query")) return false;
+  out << "K " << Hex(r.tangential_stiffness().positive()) << ' '
+      << Hex(r.tangential_stiffness().negative()) << '\n';
+  out << "J " << r.jager_weights().intervals_size() << ' ' << Hex(r.jager_weights().edge_weight())
+      << '\n';
+  for (const v1::WeightInterval& w : r.jager_weights().intervals()) {
+    out << "W " << Hex(w.r_begin()) << ' ' << Hex(w.r_end()) << ' ' << Hex(w.weight()) << '\n';
+  }
+  for (int k = 0; k < 8; ++k) {
+    out << "T " << Hex(r.tractions(k).value()) << ' ' << Hex(r.tractions(k).error_estimate()) << ' '
+        << Hex(r.pressure(k).value()) << ' ' << Hex(r.pressure(k).error_estimate()) << '\n';
+  }
+  out << "L " << r.slip_intervals_size() << '\n';
+  for (const v1::SlipInterval& s : r.slip_intervals()) {
+    out << "I " << Hex(s.r_begin()) << ' ' << Hex(s.r_end()) << ' ' << s.direction() << '\n';
+  }
+  return true;
+}
+
+bool CreateSession(ContactOperations& ops, const v1::Scene& scene) {
+  v1::CreateSessionRequest request;
+  request.set_session_id(kSessionId);
+  *request.mutable_session()->mutable_scene() = scene;
+  v1::Session session;
+  return Check(ops.CreateSession(std::nullopt, request, &session), "CreateSession");
+}
+
+bool Export(ContactOperations& ops, v1::SessionSnapshot* snapshot) {
+  v1::ExportSessionRequest request;
+  request.set_name(kSessionName);
+  return Check(ops.ExportSession(std::nullopt, request, snapshot), "ExportSession");
+}
+
+bool Import(ContactOperations& ops, const v1::SessionSnapshot& snapshot) {
+  v1::DeleteSessionRequest remove;
+  remove.set_name(kSessionName);
+  ops.DeleteSession(std::nullopt, remove).ok();  // absent when the session is new
+  v1::ImportSessionRequest request;
+  request.set_session_id(kSessionId);
+  *request.mutable_snapshot() = snapshot;
+  v1::Session session;
+  return Check(ops.ImportSession(std::nullopt, request, &session), "ImportSession");
+}
+
+bool WriteFile(const std::string& path, const std::string& bytes) {
+  std::ofstream file(path, std::ios::binary);
+  file << bytes;
+  return static_cast<bool>(file);
+}
+
+bool ReadMessage(const std::string& path, google::protobuf::Message* message) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream bytes;
+  bytes << file.rdbuf();
+  if (file && message->ParseFromString(bytes.str())) return true;
+  std::cerr << path << ": not a readable " << message->GetTypeName() << "\n";
+  return false;
+}
+
+int Generate(const std::string& scene_file, const std::string& dir) {
+  Result<client::SceneDocument> document = client::SceneDocument::Load(scene_file);
+  if (!Check(document.status(), "scene file")) return 1;
+  const v1::Scene& scene = document->file().scene();
+  const std::vector<HistoryStep> steps = History();
+  std::ostringstream history;
+  for (const HistoryStep& s : steps) {
+    history << s.normal_control << ' ' << Hex(s.normal_value) << ' ' << s.tangential_control << ' '
+            << Hex(s.tangential_value) << '\n';
+  }
+  ContactOperations ops(service::ServiceLimits{}, service::TestHooks{});
+  std::ostringstream reference;
+  v1::SessionSnapshot middle, final;
+  if (!CreateSession(ops, scene)) return 1;
+  const std::vector<HistoryStep> first(steps.begin(), steps.begin() + kRestoreAt);
+  if (!ApplySteps(ops, first, 0, reference) || !Export(ops, &middle)) return 1;
+  if (!ApplySteps(ops, steps, kRestoreAt, reference)) return 1;
+  // The callers restore the middle snapshot and repeat the second part: the service's import of
+  // it must give the same lines again.
+  if (!Import(ops, middle) || !ApplySteps(ops, steps, kRestoreAt, reference)) return 1;
+  if (!WriteFinals(ops, reference) || !Export(ops, &final)) return 1;
+  const bool written = WriteFile(dir + "/scene.pb", scene.SerializeAsString()) &&
+                       WriteFile(dir + "/history.txt", history.str()) &&
+                       WriteFile(dir + "/reference.txt", reference.str()) &&
+                       WriteFile(dir + "/snapshot.pb", middle.SerializeAsString()) &&
+                       WriteFile(dir + "/final.pb", final.SerializeAsString());
+  if (!written) std::cerr << "cannot write into " << dir << "\n";
+  return written ? 0 : 1;
+}
+
+int CheckImport(const std::string& dir, const std::string& snapshot_path) {
+  v1::SessionSnapshot library, expected;
+  if (!ReadMessage(snapshot_path, &library) || !ReadMessage(dir + "/final.pb", &expected)) {
+    return 1;
+  }
+  ContactOperations ops(service::ServiceLimits{}, service::TestHooks{});
+  v1::SessionSnapshot exported;
+  if (!Import(ops, library) || !Export(ops, &exported)) return 1;
+  using google::protobuf::util::MessageDifferencer;
+  std::string difference;
+  MessageDifferencer differencer;
+  differencer.ReportDifferencesToString(&difference);
+  bool same = differencer.Compare(exported.contact(), expected.contact());
+  same = differencer.Compare(exported.scene(), expected.scene()) && same;
+  if (exported.applied_steps() != expected.applied_steps()) {
+    difference += "applied_steps " + std::to_string(exported.applied_steps()) +
+                  " != " + std::to_string(expected.applied_steps()) + "\n";
+    same = false;
+  }
+  if (!same) std::cerr << "the library's state differs from the service's:\n" << difference;
+  return same ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace mdr::capi_testing
+
+int main(int argc, char** argv) {
+  using namespace mdr::capi_testing;
+  const std::string mode = argc > 1 ? argv[1] : "";
+  if (mode == "generate" && argc == 4) return Generate(argv[2], argv[3]);
+  if (mode == "import" && argc == 4) return CheckImport(argv[2], argv[3]);
+  std::cerr << "usage: " << argv[0] << " generate SCENE_FILE OUT_DIR | import OUT_DIR SNAPSHOT\n";
+  return 2;
+}
