@@ -91,8 +91,15 @@ class Client:
         self._server = _server
 
     @classmethod
-    def embedded(cls, mdrd: Optional[str] = None, args: Sequence[str] = (), **options) -> "Client":
-        """Starts a local mdrd (see EmbeddedServer) and connects to it; close() stops it."""
+    def embedded(cls, mdrd: Optional[str] = None, args: Sequence[str] = (), *,
+                 in_process: bool = False, library: Optional[str] = None, **options):
+        """Starts a local mdrd (see EmbeddedServer) and connects to it; close() stops it.
+        in_process=True: no server at all, the sessions run in this process through libmdr_c
+        (mdr.inprocess.InProcessClient: the same session API, one contact per session; library:
+        the library's path, default $MDR_C_LIBRARY or the system's libmdr_c.so.1)."""
+        if in_process:
+            from .inprocess import InProcessClient  # ctypes only: no server, no gRPC call
+            return InProcessClient(library)
         server = EmbeddedServer(mdrd, args)
         try:
             return cls(server.address, _server=server, **options)

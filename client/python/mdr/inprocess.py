@@ -1,0 +1,340 @@
+"""Sessions in this process, through libmdr_c (the engine's C interface, docs/capi.md), with no
+server: the same session API as Client and Session, for a notebook or a rig script that switches
+by one argument:
+
+    with mdr.Client.embedded(in_process=True) as client:   # mdr.Client.embedded(): a local mdrd
+        with client.session("examples/hertz_cattaneo_mindlin.json") as s:
+            s.apply({"normal_force": 100})
+            r = s.apply([{"tangential_force": f} for f in (5, 10, 15)])
+            r.tangential_displacement                      # numpy array, one value per step
+
+The numbers are the service's, bit for bit (the library runs the service's conversion and the
+same engine), and snapshots move both ways (export() / import_session()). One contact per session:
+interface scenes need a server. The library is found at $MDR_C_LIBRARY, next to this package, or
+by the system's loader (libmdr_c.so.1).
+"""
+import ctypes
+import ctypes.util
+import itertools
+import os
+from typing import Iterable, Optional, Sequence, Union
+
+import grpc
+
+from .errors import MdrError
+from .messages import ApplyResult, QueryResult, SceneLike, StepLike, to_scene, to_steps
+from .v1 import contact_service_pb2 as api
+
+_OUT_OF_RANGE = 11
+_NORMAL = {"depth": 1, "depth_increment": 2, "normal_force": 3}
+_TANGENTIAL = {"displacement": 4, "displacement_increment": 5, "tangential_force": 6}
+_ROUTES = {"both": 1, "abel": 2, "jager": 3}
+# The ContactState fields that mdr_state carries, in its order (mdr.h).
+_STATE_DOUBLES = ("depth", "tangential_displacement", "contact_radius", "normal_force",
+                  "tangential_force", "dissipated_energy", "friction_limit",
+                  "actuator_displacement", "actuator_depth", "last_step_dissipation")
+_QUERY_OUTPUTS = ("state", "tangential_stiffness", "slip_intervals", "jager_weights",
+                  "tractions", "pressure")
+_STEP_OUTPUTS = ("state", "substeps", "path_error", "dissipated_energy")
+
+
+class _State(ctypes.Structure):
+    _fields_ = [(name, ctypes.c_double) for name in _STATE_DOUBLES] + [
+        ("applied_steps", ctypes.c_uint64), ("memory_vertices", ctypes.c_uint64)]
+
+
+class _StepReport(ctypes.Structure):
+    _fields_ = [("substeps", ctypes.c_int32), ("reserved", ctypes.c_int32),
+                ("path_error", ctypes.c_double), ("dissipated", ctypes.c_double)]
+
+
+def _library_path() -> str:
+    if os.environ.get("MDR_C_LIBRARY"):
+        return os.environ["MDR_C_LIBRARY"]
+    beside = os.path.join(os.path.dirname(__file__), "libmdr_c.so.1")
+    if os.path.exists(beside):
+        return beside
+    return ctypes.util.find_library("mdr_c") or "libmdr_c.so.1"
+
+
+def load_library(path: Optional[str] = None) -> ctypes.CDLL:
+    """libmdr_c with the signatures of mdr.h (interface version 1)."""
+    lib = ctypes.CDLL(path or _library_path())
+    handle, size, dbl = ctypes.c_void_p, ctypes.c_size_t, ctypes.POINTER(ctypes.c_double)
+    signatures = {
+        "mdr_version": [],
+        "mdr_contact_create": [ctypes.c_char_p, size, ctypes.POINTER(handle)],
+        "mdr_contact_restore": [ctypes.c_char_p, size, ctypes.POINTER(handle)],
+        "mdr_contact_step": [handle, ctypes.c_int, ctypes.c_double, ctypes.c_int,
+                             ctypes.c_double, ctypes.POINTER(_StepReport)],
+        "mdr_contact_state": [handle, ctypes.POINTER(_State)],
+        "mdr_contact_stiffness": [handle, dbl, dbl],
+        "mdr_contact_slip_intervals": [handle, dbl, dbl, ctypes.POINTER(ctypes.c_int32), size,
+                                       ctypes.POINTER(size)],
+        "mdr_contact_jager_weights": [handle, dbl, dbl, dbl, size, ctypes.POINTER(size), dbl],
+        "mdr_contact_tractions": [handle, dbl, size, ctypes.c_int, dbl, dbl, dbl, dbl, size],
+        "mdr_contact_snapshot": [handle, ctypes.c_void_p, size, ctypes.POINTER(size)],
+        "mdr_last_error_code": [],
+    }
+    for name, arguments in signatures.items():
+        getattr(lib, name).argtypes = arguments
+        getattr(lib, name).restype = ctypes.c_int
+    lib.mdr_contact_destroy.argtypes, lib.mdr_contact_destroy.restype = [handle], None
+    lib.mdr_last_error_message.restype = ctypes.c_char_p
+    lib.mdr_last_error_field.restype = ctypes.c_char_p
+    if lib.mdr_version() != 1:
+        raise ImportError(f"libmdr_c interface version {lib.mdr_version()}, this package "
+                          f"reads version 1")
+    return lib
+
+
+def _code_of(number: int) -> grpc.StatusCode:
+    for code in grpc.StatusCode:
+        if code.value[0] == number:
+            return code
+    return grpc.StatusCode.UNKNOWN
+
+
+class InProcessClient:
+    """Client's session calls, in this process. As a context manager: nothing to stop."""
+
+    def __init__(self, library: Optional[str] = None):
+        self._lib = load_library(library)
+        self._sessions = {}
+        self._ids = itertools.count(1)
+
+    def __enter__(self) -> "InProcessClient":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        for session in list(self._sessions.values()):
+            session.delete()
+
+    def _check(self, status: int) -> None:
+        if status == 0:
+            return
+        field = self._lib.mdr_last_error_field().decode()
+        message = self._lib.mdr_last_error_message().decode()
+        if field and message.startswith(field + ": "):
+            message = message[len(field) + 2:]
+        raise MdrError(_code_of(status), field, message)
+
+    def _adopt(self, handle: ctypes.c_void_p, session_id: str) -> "InProcessSession":
+        session_id = session_id or f"local-{next(self._ids)}"
+        name = f"sessions/{session_id}"
+        if name in self._sessions:
+            self._lib.mdr_contact_destroy(handle)
+            raise MdrError(grpc.StatusCode.ALREADY_EXISTS, "session_id",
+                           f"a session {name!r} exists")
+        session = InProcessSession(self, name, handle)
+        self._sessions[name] = session
+        return session
+
+    def create_session(self, scene: SceneLike, session_id: str = "") -> "InProcessSession":
+        """A new contact of the scene (a dict, a Scene, or a scene file's path)."""
+        data = to_scene(scene).SerializeToString()
+        handle = ctypes.c_void_p()
+        self._check(self._lib.mdr_contact_create(data, len(data), ctypes.byref(handle)))
+        return self._adopt(handle, session_id)
+
+    def session(self, scene: SceneLike, session_id: str = "") -> "InProcessSession":
+        """create_session, for a with statement (deleted on exit)."""
+        return self.create_session(scene, session_id)
+
+    def import_session(self, snapshot: api.SessionSnapshot,
+                       session_id: str = "") -> "InProcessSession":
+        """A session continuing a snapshot (from export() here or a server's ExportSession)."""
+        data = snapshot.SerializeToString()
+        handle = ctypes.c_void_p()
+        self._check(self._lib.mdr_contact_restore(data, len(data), ctypes.byref(handle)))
+        return self._adopt(handle, session_id)
+
+    def list_sessions(self) -> list:
+        return sorted(self._sessions)
+
+
+class InProcessSession:
+    """A contact in this process with Session's API (apply, query, export, delete)."""
+
+    def __init__(self, client: InProcessClient, name: str, handle: ctypes.c_void_p):
+        self.client = client
+        self.name = name
+        self._handle = handle
+
+    def __enter__(self) -> "InProcessSession":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.delete()
+
+    def __repr__(self) -> str:
+        return f"InProcessSession({self.name!r})"
+
+    @property
+    def _lib(self):
+        return self.client._lib
+
+    def _live(self) -> ctypes.c_void_p:
+        if not self._handle:
+            raise MdrError(grpc.StatusCode.NOT_FOUND, "name", f"{self.name} was deleted")
+        return self._handle
+
+    def delete(self) -> None:
+        if self._handle:
+            self._lib.mdr_contact_destroy(self._handle)
+            self._handle = None
+            self.client._sessions.pop(self.name, None)
+
+    def export(self) -> api.SessionSnapshot:
+        size = ctypes.c_size_t()
+        status = self._lib.mdr_contact_snapshot(self._live(), None, 0, ctypes.byref(size))
+        if status != _OUT_OF_RANGE:
+            self.client._check(status)
+        buffer = ctypes.create_string_buffer(size.value)
+        self.client._check(self._lib.mdr_contact_snapshot(self._handle, buffer, size,
+                                                          ctypes.byref(size)))
+        snapshot = api.SessionSnapshot()
+        snapshot.ParseFromString(buffer.raw[:size.value])
+        snapshot.source_name = self.name
+        return snapshot
+
+    def _state(self) -> api.ContactState:
+        raw = _State()
+        self.client._check(self._lib.mdr_contact_state(self._live(), ctypes.byref(raw)))
+        state = api.ContactState(applied_steps=raw.applied_steps,
+                                 memory_vertices=raw.memory_vertices)
+        for name in _STATE_DOUBLES[:-1]:  # last_step_dissipation is the Energy output's
+            setattr(state, name, getattr(raw, name))
+        return state
+
+    def _step(self, step, report: _StepReport) -> None:
+        normal = step.WhichOneof("normal")
+        tangential = step.WhichOneof("tangential")
+        if step.contact_normal_values or step.contact_tangential_values:
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "contact_normal_values",
+                           "per-contact values are for contact list sessions (a server's)")
+        try:
+            self.client._check(self._lib.mdr_contact_step(
+                self._live(), _NORMAL.get(normal, 0), getattr(step, normal) if normal else 0.0,
+                _TANGENTIAL.get(tangential, 0), getattr(step, tangential) if tangential else 0.0,
+                ctypes.byref(report)))
+        except MdrError as error:
+            # The library names its arguments; the service names the Step's fields.
+            field = {"normal_value": normal, "tangential_value": tangential}.get(error.field)
+            if not field:
+                raise
+            message = error.message
+            if message.startswith(field + ": "):
+                message = message[len(field) + 2:]
+            raise MdrError(error.code, field, message) from None
+
+    def apply(self, steps: Union[StepLike, Iterable[StepLike]],
+              outputs: Sequence[str] = ("state",), request_id: str = "") -> ApplyResult:
+        """Session.apply in this process: the steps as one atomic batch (on a failure the
+        session is restored to its state before the batch and MdrError names steps[i])."""
+        steps = to_steps(steps)
+        unknown = [path for path in outputs if path.split(".")[0] not in _STEP_OUTPUTS]
+        if unknown:
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "step_mask",
+                           f"unknown paths {unknown}; known: {list(_STEP_OUTPUTS)}")
+        before = self.export() if len(steps) > 1 else None
+        response = api.ApplyResponse()
+        report = _StepReport()
+        for i, step in enumerate(steps):
+            try:
+                self._step(step, report)
+            except MdrError as error:
+                if before is not None and i > 0:
+                    self._restore(before)
+                prefix = f"steps[{i}]"
+                raise MdrError(error.code, f"{prefix}.{error.field}" if error.field else prefix,
+                               error.message) from None
+            if outputs:
+                result = response.step_results.add()
+                if any(path.startswith("state") for path in outputs):
+                    result.state.CopyFrom(self._state())
+                if "substeps" in outputs:
+                    result.substeps = report.substeps
+                if "path_error" in outputs:
+                    result.path_error = report.path_error
+                if "dissipated_energy" in outputs:
+                    result.dissipated_energy = report.dissipated
+        response.state.CopyFrom(self._state())
+        return ApplyResult.of(response)
+
+    def _restore(self, snapshot: api.SessionSnapshot) -> None:
+        data = snapshot.SerializeToString()
+        handle = ctypes.c_void_p()
+        self.client._check(self._lib.mdr_contact_restore(data, len(data), ctypes.byref(handle)))
+        self._lib.mdr_contact_destroy(self._handle)
+        self._handle = handle
+
+    def _sized(self, function, kinds, *extra):
+        """Calls function(contact, arrays..., capacity, &count, *extra): sizes, then values."""
+        count = ctypes.c_size_t()
+        status = function(self._live(), *[None] * len(kinds), 0, ctypes.byref(count), *extra)
+        if status != _OUT_OF_RANGE:
+            self.client._check(status)
+        arrays = [(kind * max(count.value, 1))() for kind in kinds]
+        self.client._check(function(self._handle, *arrays, count.value, ctypes.byref(count),
+                                    *extra))
+        return arrays, count.value
+
+    def query(self, outputs: Sequence[str] = ("state",), radii: Sequence[float] = (),
+              route: str = "both") -> QueryResult:
+        """Session.query in this process: "state", "tangential_stiffness", "slip_intervals",
+        "jager_weights", "tractions" and "pressure" (the others need a server)."""
+        unknown = [path for path in outputs if path.split(".")[0] not in _QUERY_OUTPUTS]
+        if unknown:
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "read_mask",
+                           f"{unknown} are not available in process; available: "
+                           f"{list(_QUERY_OUTPUTS)}")
+        if route not in _ROUTES:
+            raise ValueError(f"route must be one of {sorted(_ROUTES)}, got {route!r}")
+        response = api.QueryResponse()
+        if "state" in outputs or not outputs:
+            response.state.CopyFrom(self._state())
+        if any(path.startswith("tangential_stiffness") for path in outputs):
+            positive, negative = ctypes.c_double(), ctypes.c_double()
+            self.client._check(self._lib.mdr_contact_stiffness(self._live(), positive, negative))
+            response.tangential_stiffness.positive = positive.value
+            response.tangential_stiffness.negative = negative.value
+        if "slip_intervals" in outputs:
+            (begin, end, direction), n = self._sized(
+                self._lib.mdr_contact_slip_intervals, (ctypes.c_double, ctypes.c_double,
+                                                       ctypes.c_int32))
+            for i in range(n):
+                response.slip_intervals.add(r_begin=begin[i], r_end=end[i],
+                                            direction=direction[i])
+        if "jager_weights" in outputs:
+            edge = ctypes.c_double()
+            (begin, end, weight), n = self._sized(self._lib.mdr_contact_jager_weights,
+                                                  (ctypes.c_double,) * 3, ctypes.byref(edge))
+            weights = response.jager_weights
+            weights.contact_radius = self._state().contact_radius
+            weights.edge_weight = edge.value
+            for i in range(n):
+                weights.intervals.add(r_begin=begin[i], r_end=end[i], weight=weight[i])
+        if "tractions" in outputs or "pressure" in outputs:
+            self._radial(response, list(radii), outputs, route)
+        return QueryResult.of(response)
+
+    def _radial(self, response, radii, outputs, route) -> None:
+        n = len(radii)
+        if n == 0:
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "radii",
+                           "required (at least one radius) when tractions or pressure are read")
+        values = [(ctypes.c_double * n)() for _ in range(4)]
+        tau, tau_error, p, p_error = values
+        self.client._check(self._lib.mdr_contact_tractions(
+            self._live(), (ctypes.c_double * n)(*radii), n, _ROUTES[route],
+            tau if "tractions" in outputs else None, tau_error if "tractions" in outputs else None,
+            p if "pressure" in outputs else None, p_error if "pressure" in outputs else None, n))
+        for name, value, error in (("tractions", tau, tau_error), ("pressure", p, p_error)):
+            if name in outputs:
+                for i in range(n):
+                    getattr(response, name).add(radius=radii[i], value=value[i],
+                                                error_estimate=error[i])

@@ -1,0 +1,113 @@
+#!/usr/bin/python3
+"""pip install of the Python package from the repository into a clean virtual environment, then
+a session in process (through libmdr_c, no server) beside the same session on a local mdrd, bit
+for bit, with snapshots moving both ways. As the README says:
+
+    python3 -m venv --system-site-packages venv
+    venv/bin/pip install --no-index --no-build-isolation client/python
+
+Usage: pip_install_test.py --source-dir REPO --work-dir DIR --library LIBMDR_C --mdrd MDRD
+
+The sources (client/python and proto/) are copied to DIR first, so that the build leaves nothing
+in the repository; the venv is made anew in DIR; the check runs from DIR with no PYTHONPATH, so
+`import mdr` can only find the installed package.
+"""
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+
+CHECK = r'''
+import os, sys
+import numpy as np
+import mdr
+
+assert mdr.__file__.startswith(sys.prefix), f"mdr imported from {mdr.__file__}, not the venv"
+H1 = {"sphere": {"radius": 0.01}, "friction": 0.3,
+      "elastic_pair": {"youngs_modulus_1": 210e9, "poisson_ratio_1": 0.3,
+                       "youngs_modulus_2": 210e9, "poisson_ratio_2": 0.3}}
+LOAD = [{"normal_force": 100}]
+CYCLE = ([{"tangential_force": f} for f in (5, 10, 15, 0, -15)]
+         + [{"displacement": u} for u in np.linspace(-4e-7, 4e-7, 9)]
+         + [{"normal_force": 120, "tangential_force": 10}, {"depth_increment": 1e-8}])
+QUERY = dict(outputs=["state", "tangential_stiffness", "jager_weights", "slip_intervals",
+                      "tractions", "pressure"], radii=np.linspace(0, 1.5e-4, 7))
+
+
+def bits(values):
+    return np.asarray(values, dtype=np.float64).view(np.uint64)
+
+
+def same(a, b, what):
+    for name in ("depth", "tangential_displacement", "contact_radius", "normal_force",
+                 "tangential_force", "dissipated_energy"):
+        assert np.array_equal(bits(getattr(a, name)), bits(getattr(b, name))), (what, name)
+
+
+def run(client):
+    with client.session(H1) as s:
+        s.apply(LOAD)
+        first = s.apply(CYCLE, outputs=["state", "substeps"])
+        query = s.query(**QUERY)
+        return first, query, s.export()
+
+
+local = mdr.Client.embedded(in_process=True)
+with local, mdr.Client.embedded(os.environ["MDRD"]) as server:
+    a, qa, snap_a = run(local)
+    b, qb, snap_b = run(server)
+    same(a, b, "apply")
+    assert len(a.tangential_force) == len(CYCLE)
+    assert a.response.step_results[-2].substeps > 1  # the curved force path
+    assert qa.response.tangential_stiffness == qb.response.tangential_stiffness
+    weights = lambda q: [(w.r_begin, w.r_end, w.weight) for w in q.response.jager_weights.intervals]
+    assert weights(qa) == weights(qb) and len(weights(qa)) > 1  # (libmdr_c has no depths)
+    assert qa.response.slip_intervals == qb.response.slip_intervals
+    for name in ("tractions", "pressure"):
+        for key in ("value", "error_estimate"):
+            assert np.array_equal(bits(getattr(qa, name)[key]), bits(getattr(qb, name)[key])), name
+    assert snap_a.contact == snap_b.contact and snap_a.applied_steps == snap_b.applied_steps
+    # Snapshots both ways: the library's state continues on the server and the server's here.
+    with server.import_session(snap_a) as on_server, local.import_session(snap_b) as here:
+        same(on_server.apply(CYCLE), here.apply(CYCLE), "after import")
+    # Errors name the Step's field, as the server does, and change nothing.
+    with local.session(H1) as s:
+        s.apply(LOAD)
+        before = s.export()
+        try:
+            s.apply([{"tangential_force": 1}, {"depth": float("nan")}])
+            raise AssertionError("a NaN depth was accepted")
+        except mdr.MdrError as error:
+            assert error.field == "steps[1].depth", error.field
+        assert s.export() == before
+print("in-process session identical to mdrd's")
+'''
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    for name in ("--source-dir", "--work-dir", "--library", "--mdrd"):
+        parser.add_argument(name, required=True)
+    args = parser.parse_args()
+    work = os.path.abspath(args.work_dir)
+    shutil.rmtree(work, ignore_errors=True)
+    ignore = shutil.ignore_patterns("build", "*.egg-info", "__pycache__", "CMakeLists.txt")
+    shutil.copytree(os.path.join(args.source_dir, "client", "python"),
+                    os.path.join(work, "src", "client", "python"), ignore=ignore)
+    shutil.copytree(os.path.join(args.source_dir, "proto"), os.path.join(work, "src", "proto"))
+    venv = os.path.join(work, "venv")
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", venv], check=True)
+    python = os.path.join(venv, "bin", "python")
+    subprocess.run([python, "-m", "pip", "install", "--no-index", "--no-build-isolation",
+                    "--quiet", os.path.join(work, "src", "client", "python")], check=True,
+                   cwd=work)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(MDR_C_LIBRARY=os.path.abspath(args.library), MDRD=os.path.abspath(args.mdrd))
+    check = subprocess.run([python, "-c", CHECK], cwd=work, env=env)
+    if check.returncode != 0:
+        sys.exit("the in-process check failed (its traceback above)")
+
+
+if __name__ == "__main__":
+    main()
