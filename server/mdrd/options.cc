@@ -89,6 +89,19 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_MAX_QUEUED_CALLS")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--max-queued-calls-per-caller", execution.max_queued_per_caller,
+                 "Computing calls one caller (token, or client host without authentication) may "
+                 "have waiting; beyond, RESOURCE_EXHAUSTED at once. A caller under its share of "
+                 "--max-queued-calls is admitted even when that queue is full")
+      ->envname("MDR_MAX_QUEUED_CALLS_PER_CALLER")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-streams-per-caller", limits.max_streams_per_caller,
+                 "Open StreamApply streams one caller (token, or client host without "
+                 "authentication) may hold; a stream beyond ends at once with RESOURCE_EXHAUSTED")
+      ->envname("MDR_MAX_STREAMS_PER_CALLER")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--shutdown-grace", options->shutdown_grace_seconds,
                  "Seconds running calls get to finish after SIGTERM/SIGINT")
       ->envname("MDR_SHUTDOWN_GRACE")
@@ -163,7 +176,8 @@ void LogEffectiveOptions(const Options& options) {
       "shutdown_grace_s={} journal={} journal_sync={} journal_snapshot_every={} "
       "journal_recover={} journal_min_free_bytes={} tls={} mtls={} auth={} "
       "max_sessions_per_token={} max_state_bytes={} "
-      "workers={} max_queued_calls={} metrics_listen={}",
+      "workers={} max_queued_calls={} max_queued_calls_per_caller={} "
+      "max_streams_per_caller={} metrics_listen={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(),
@@ -173,7 +187,8 @@ void LogEffectiveOptions(const Options& options) {
       server.journal.recover, server.journal.min_free_bytes, !server.tls.cert_file.empty(),
       !server.tls.client_ca_file.empty(), !server.tokens_file.empty(),
       limits.max_sessions_per_token, limits.max_state_bytes, server.execution.workers,
-      server.execution.max_queued,
+      server.execution.max_queued, server.execution.max_queued_per_caller,
+      limits.max_streams_per_caller,
       server.metrics_listen_address.empty() ? "-" : server.metrics_listen_address);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(

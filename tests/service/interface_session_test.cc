@@ -720,10 +720,12 @@ TEST(PoolParallelForTest, ASaturatedPoolStillCompletesEveryIndexOnce) {
   std::shared_future<void> released = release.get_future().share();
   std::atomic<int> blocked{0};
   for (int i = 0; i < 2; ++i) {
-    ASSERT_TRUE(executor.Submit("", [&blocked, released] {
-      ++blocked;
-      released.wait();
-    }));
+    ASSERT_EQ(executor.Submit("", "",
+                              [&blocked, released] {
+                                ++blocked;
+                                released.wait();
+                              }),
+              service::Executor::Admission::kQueued);
     while (blocked.load() < i + 1) std::this_thread::yield();  // out of the queue, running
   }
   service::PoolParallelFor parallel(executor);

@@ -9,6 +9,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <future>
 #include <fstream>
 #include <sstream>
 
@@ -254,11 +255,11 @@ class AuthTest : public SecurityTest {
   static constexpr char kBobToken[] = "bob-secret-0123456789abc";
 
   void StartWithTokens(std::size_t max_sessions_per_token = 0,
-                       service::ServiceLimits limits = service::ServiceLimits()) {
+                       service::ServiceLimits limits = service::ServiceLimits(),
+                       service::ServerOptions options = service::ServerOptions()) {
     const std::string tokens = certificates_->Path("tokens");
     WriteFile(tokens,
               std::string("# test principals\nalice:") + kAliceToken + "\nbob:" + kBobToken + "\n");
-    service::ServerOptions options;
     options.tokens_file = tokens;
     options.limits = limits;
     options.limits.max_sessions_per_token = max_sessions_per_token;
@@ -418,6 +419,110 @@ TEST_F(AuthTest, StateBytesPerTokenKeepRoomForTheOthers) {
                                             {DepthStep(kDepth), DisplacementStep(1e-8 * (k % 2))}),
                             &applied)
                     .ok());
+  }
+}
+
+// A caller's queue is its own: with one worker held inside alice's batch and a queue of one call
+// per caller, alice's next calls are refused RESOURCE_EXHAUSTED naming the quota while bob's is
+// queued and answered.
+TEST_F(AuthTest, ACallersQueuedCallsAreBoundedOnTheirOwn) {
+  std::atomic<bool> hold{false};
+  std::atomic<int> held{0};
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  service::ServerOptions options;
+  options.execution = {.workers = 1, .max_queued_per_caller = 1};
+  options.test_hooks.before_step = [&](int) {
+    if (!hold) return;
+    ++held;
+    released.wait();
+  };
+  StartWithTokens(0, service::ServiceLimits(), options);
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(alice, "alices").ok());
+  ASSERT_TRUE(CreateAs(bob, "bobs").ok());
+  hold = true;
+  const auto apply_as = [this](const std::string& who, const std::string& session) {
+    return std::async(std::launch::async, [this, who, session] {
+      v1::ApplyResponse response;
+      return stub_->Apply(As(who).get(), ApplyRequestFor(session, {DepthStep(kDepth)}), &response);
+    });
+  };
+  auto running = apply_as(alice, "sessions/alices");
+  while (held.load() == 0) std::this_thread::yield();  // alice holds the only worker
+  auto second = apply_as(alice, "sessions/alices");
+  auto third = apply_as(alice, "sessions/alices");
+  // One of them waits in alice's queue; the other is refused at once.
+  std::future<grpc::Status>* refused = nullptr;
+  while (refused == nullptr) {
+    for (auto* call : {&second, &third}) {
+      if (call->wait_for(std::chrono::milliseconds(1)) == std::future_status::ready) {
+        refused = call;
+      }
+    }
+  }
+  const grpc::Status status = refused->get();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("--max-queued-calls-per-caller"));
+  auto bobs = apply_as(bob, "sessions/bobs");
+  release.set_value();
+  EXPECT_TRUE(bobs.get().ok());
+  EXPECT_TRUE(running.get().ok());
+  EXPECT_TRUE((refused == &second ? third : second).get().ok());
+}
+
+// Open streams are counted per caller: alice's third stream ends RESOURCE_EXHAUSTED naming the
+// quota, bob's is served, and alice may open another once she closed one.
+TEST_F(AuthTest, ACallersOpenStreamsAreBoundedOnTheirOwn) {
+  service::ServiceLimits limits;
+  limits.max_streams_per_caller = 2;
+  StartWithTokens(0, limits);
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(alice, "alices").ok());
+  ASSERT_TRUE(CreateAs(bob, "bobs").ok());
+  struct Open {
+    std::unique_ptr<grpc::ClientContext> context;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::StreamApplyRequest, v1::StreamApplyResponse>>
+        stream;
+  };
+  // Opens a stream and applies one batch on it: whether it was answered.
+  const auto open = [this](const std::string& who, const std::string& session, Open* out) {
+    out->context = As(who);
+    out->stream = stub_->StreamApply(out->context.get());
+    v1::StreamApplyRequest message;
+    *message.mutable_apply() = ApplyRequestFor(session, {DepthStep(kDepth)});
+    v1::StreamApplyResponse response;
+    return out->stream->Write(message) && out->stream->Read(&response) &&
+           response.status().code() == 0;
+  };
+  Open first, second, third, bobs;
+  ASSERT_TRUE(open(alice, "sessions/alices", &first));
+  ASSERT_TRUE(open(alice, "sessions/alices", &second));
+  EXPECT_FALSE(open(alice, "sessions/alices", &third));
+  const grpc::Status status = third.stream->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("--max-streams-per-caller"));
+  EXPECT_TRUE(open(bob, "sessions/bobs", &bobs));
+  first.stream->WritesDone();
+  EXPECT_TRUE(first.stream->Finish().ok());
+  // The server forgets the closed stream when gRPC calls its OnDone, just after the client saw
+  // its status: try for a while.
+  bool reopened = false;
+  for (int attempt = 0; attempt < 500 && !reopened; ++attempt) {
+    Open again;
+    reopened = open(alice, "sessions/alices", &again);
+    if (!reopened) {
+      again.stream->Finish();
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    } else {
+      again.stream->WritesDone();
+      EXPECT_TRUE(again.stream->Finish().ok());
+    }
+  }
+  EXPECT_TRUE(reopened);
+  for (Open* stream : {&second, &bobs}) {
+    stream->stream->WritesDone();
+    EXPECT_TRUE(stream->stream->Finish().ok());
   }
 }
 

@@ -49,11 +49,43 @@ ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt) {
   };
 }
 
-Status BusyStatus(const Executor& executor) {
+std::string PeerCallerKey(std::string_view peer) {
+  std::string_view address = peer;
+  if (peer.starts_with("ipv4:") || peer.starts_with("ipv6:")) {
+    address.remove_prefix(5);
+    // The port follows the last ':' ("[::1]:5" keeps its brackets, "1.2.3.4:5").
+    if (const std::size_t colon = address.rfind(':');
+        colon != std::string_view::npos && address.find(']', colon) == std::string_view::npos) {
+      address = address.substr(0, colon);
+    }
+  }
+  return "peer:" + std::string(address);
+}
+
+std::string CallerKeyOf(const grpc::CallbackServerContext* context, const Principal& caller) {
+  if (caller) return "token:" + *caller;
+  return PeerCallerKey(context->peer());
+}
+
+Status RefusalStatus(const Executor& executor, Executor::Admission admission) {
+  switch (admission) {
+    case Executor::Admission::kCallerQueueFull:
+      return ResourceExhausted(
+          "max-queued-calls-per-caller",
+          "this caller already has " + std::to_string(executor.max_queued_per_caller()) +
+              " calls waiting for a worker (mdrd --max-queued-calls-per-caller); nothing was "
+              "run: wait for their answers before sending more");
+    case Executor::Admission::kStopped:
+      return Unavailable("", "the server is shutting down; nothing was run: retry elsewhere");
+    case Executor::Admission::kQueued:
+    case Executor::Admission::kBusy:
+      break;
+  }
   return Unavailable("",
                      "the server is busy: " + std::to_string(executor.max_queued()) +
                          " calls already wait for its " + std::to_string(executor.workers()) +
-                         " workers (mdrd --max-queued-calls); nothing was run: retry with backoff");
+                         " workers (mdrd --max-queued-calls) and this caller has its share of "
+                         "them; nothing was run: retry with backoff");
 }
 
 std::string RequestIdOf(const grpc::CallbackServerContext* context,

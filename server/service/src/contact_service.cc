@@ -253,9 +253,14 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext*
     call->Complete(status);
     return call;
   }
-  const bool queued = executor_.Submit(
-      strand, [call, caller, operation = std::move(operation)] { call->Run(caller, operation); });
-  if (!queued) call->Complete(BusyStatus(executor_));
+  const Executor::Admission admission =
+      executor_.Submit(CallerKeyOf(context, caller), strand,
+                       [call, caller, operation = std::move(operation)] {
+                         call->Run(caller, operation);
+                       });
+  if (admission != Executor::Admission::kQueued) {
+    call->Complete(RefusalStatus(executor_, admission));
+  }
   return call;
 }
 
@@ -366,7 +371,7 @@ grpc::ServerWriteReactor<v1::FitLoopsResponse>* ContactServiceImpl::FitLoops(
     call->Complete(status, {});
     return call;
   }
-  const bool queued = executor_.Submit("", [this, call, request] {
+  const Executor::Admission admission = executor_.Submit(CallerKeyOf(context, caller), "", [this, call, request] {
     v1::FitResult result;
     const Clock::time_point start = Clock::now();
     Status status = call->interrupt().Check();
@@ -382,7 +387,9 @@ grpc::ServerWriteReactor<v1::FitLoopsResponse>* ContactServiceImpl::FitLoops(
     }
     call->Complete(status, std::move(result));
   });
-  if (!queued) call->Complete(BusyStatus(executor_), {});
+  if (admission != Executor::Admission::kQueued) {
+    call->Complete(RefusalStatus(executor_, admission), {});
+  }
   return call;
 }
 

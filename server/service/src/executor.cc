@@ -3,6 +3,7 @@
 #include <pthread.h>
 
 #include <algorithm>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -16,6 +17,8 @@ std::size_t WorkerCount(std::size_t requested) {
   return std::max(1u, std::thread::hardware_concurrency());
 }
 
+thread_local std::string current_caller;
+
 }  // namespace
 
 Status ValidateExecutorOptions(const ExecutorOptions& options) {
@@ -25,11 +28,13 @@ Status ValidateExecutorOptions(const ExecutorOptions& options) {
                                "] (0: one per core), got " + std::to_string(options.workers));
   }
   if (options.max_queued < 1) return InvalidArgument("max-queued-calls", "must be >= 1, got 0");
+  if (options.max_queued_per_caller < 1) {
+    return InvalidArgument("max-queued-calls-per-caller", "must be >= 1, got 0");
+  }
   return OkStatus();
 }
 
-Executor::Executor(const ExecutorOptions& options)
-    : max_queued_(std::max<std::size_t>(options.max_queued, 1)) {
+Executor::Executor(const ExecutorOptions& options) : options_(options) {
   const std::size_t count = WorkerCount(options.workers);
   workers_.reserve(count);
   for (std::size_t i = 0; i < count; ++i) workers_.emplace_back([this] { Work(); });
@@ -37,28 +42,47 @@ Executor::Executor(const ExecutorOptions& options)
 
 Executor::~Executor() { Stop(); }
 
-bool Executor::Submit(const std::string& strand, Task task) {
+const std::string& Executor::CurrentCaller() { return current_caller; }
+
+Executor::Admission Executor::Submit(std::string_view caller, std::string_view strand,
+                                     Task task) {
   {
     std::lock_guard lock(mutex_);
-    if (stopping_) return false;
-    if (queued_ >= max_queued_) {
+    if (stopping_) return Admission::kStopped;
+    const Clock::time_point now = Clock::now();
+    auto [it, new_caller] = callers_.try_emplace(std::string(caller));
+    CallerQueue& queue = it->second;
+    Admission refusal = Admission::kQueued;
+    if (queue.queued >= options_.max_queued_per_caller) {
+      refusal = Admission::kCallerQueueFull;
+    } else if (queued_ >= options_.max_queued) {
+      // Its fair share of the full queue: the active callers, itself included.
+      const std::size_t others = ActiveCallersLocked(now, &it->first);
+      const std::size_t share = std::max<std::size_t>(options_.max_queued / (others + 1), 1);
+      if (queue.queued >= share || queued_ >= 2 * options_.max_queued) refusal = Admission::kBusy;
+    }
+    if (refusal != Admission::kQueued) {
       ProcessMetrics().work_rejected.Increment();
-      return false;
+      if (new_caller) callers_.erase(it);
+      return refusal;
     }
     // Session names never start with a control character, so anonymous strands cannot collide.
-    std::string key = strand;
+    std::string key(strand);
     if (key.empty()) {
       key = '\x01';  // (not "\x01" + ...: GCC 12 warns falsely on that form)
-      key += std::to_string(anonymous_strands_++);
+      key += std::to_string(queue.anonymous_strands++);
     }
-    auto [it, created] = strands_.try_emplace(key);
-    it->second.push_back(std::move(task));
+    queue.last_active = now;
+    ++queue.queued;
     ++queued_;
-    if (!created) return true;  // already ready or running: it runs after the earlier ones
-    ready_.push_back(key);
+    auto [strand_it, new_strand] = queue.strands.try_emplace(key);
+    strand_it->second.push_back(std::move(task));
+    if (!new_strand) return Admission::kQueued;  // it runs after the strand's earlier tasks
+    queue.ready.push_back(std::move(key));
+    if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
   }
   wakeup_.notify_one();
-  return true;
+  return Admission::kQueued;
 }
 
 void Executor::Stop() {
@@ -79,28 +103,84 @@ std::size_t Executor::queued() const {
   return queued_;
 }
 
+bool Executor::ActiveLocked(const CallerQueue& queue, Clock::time_point now) const {
+  return queue.queued > 0 || queue.running > 0 || now - queue.last_active <= options_.recent_window;
+}
+
+std::size_t Executor::ActiveCallersLocked(Clock::time_point now, const std::string* except) const {
+  return std::count_if(callers_.begin(), callers_.end(), [&](const Callers::value_type& entry) {
+    return (except == nullptr || entry.first != *except) && ActiveLocked(entry.second, now);
+  });
+}
+
+void Executor::ForgetIdleCallersLocked(Clock::time_point now) {
+  std::erase_if(callers_,
+                [&](const Callers::value_type& entry) { return !ActiveLocked(entry.second, now); });
+}
+
+std::size_t Executor::RunningCapLocked(std::size_t active) const {
+  if (stopping_) return std::numeric_limits<std::size_t>::max();  // drain at full speed
+  const std::size_t reserved = active > 0 ? active - 1 : 0;      // one worker per other caller
+  return workers_.size() > reserved ? workers_.size() - reserved : 1;
+}
+
+Executor::Callers::iterator Executor::NextRunnableLocked(Clock::time_point now) {
+  ForgetIdleCallersLocked(now);
+  if (ready_callers_.empty()) return callers_.end();
+  const std::size_t cap = RunningCapLocked(ActiveCallersLocked(now, nullptr));
+  for (auto name = ready_callers_.begin(); name != ready_callers_.end(); ++name) {
+    auto it = callers_.find(*name);
+    if (it->second.running >= cap) continue;
+    ready_callers_.erase(name);
+    return it;
+  }
+  return callers_.end();
+}
+
 void Executor::Work() {
   pthread_setname_np(pthread_self(), "mdr-worker");  // tells them apart in top -H, perf and gdb
   std::unique_lock lock(mutex_);
   for (;;) {
-    wakeup_.wait(lock, [this] { return !ready_.empty() || (stopping_ && strands_.empty()); });
-    if (ready_.empty()) return;  // stopping, and every task has run
-    std::string key = std::move(ready_.front());
-    ready_.pop_front();
-    std::deque<Task>& tasks = strands_.at(key);
+    auto it = NextRunnableLocked(Clock::now());
+    if (it == callers_.end()) {
+      if (stopping_ && queued_ == 0) return;  // every task has run or runs on another worker
+      if (ready_callers_.empty()) {
+        wakeup_.wait(lock);
+      } else {
+        // Capped while others are active: look again when their activity may have expired.
+        wakeup_.wait_for(lock, options_.recent_window);
+      }
+      continue;
+    }
+    const std::string caller = it->first;
+    CallerQueue& queue = it->second;
+    std::string strand = std::move(queue.ready.front());
+    queue.ready.pop_front();
+    if (!queue.ready.empty()) ready_callers_.push_back(caller);  // behind the others: its turn
+    std::deque<Task>& tasks = queue.strands.at(strand);
     Task task = std::move(tasks.front());
     tasks.pop_front();
+    --queue.queued;
     --queued_;
+    ++queue.running;
+    ++running_;
     lock.unlock();
+    current_caller = caller;
     task();
     task = nullptr;  // destroyed outside the lock
+    current_caller.clear();
     lock.lock();
-    std::deque<Task>& rest = strands_.at(key);  // rehashing may have moved it
+    CallerQueue& after = callers_.at(caller);  // rehashing may have moved it
+    --after.running;
+    --running_;
+    after.last_active = Clock::now();
+    std::deque<Task>& rest = after.strands.at(strand);
     if (rest.empty()) {
-      strands_.erase(key);
-      if (stopping_ && strands_.empty()) wakeup_.notify_all();
+      after.strands.erase(strand);
+      if (stopping_ && queued_ == 0) wakeup_.notify_all();
     } else {
-      ready_.push_back(std::move(key));  // behind the other strands: fair between sessions
+      after.ready.push_back(std::move(strand));  // behind its other strands: fair between them
+      if (after.ready.size() == 1) ready_callers_.push_back(caller);
       wakeup_.notify_one();
     }
   }

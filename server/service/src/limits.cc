@@ -53,6 +53,9 @@ Status ValidateServiceLimits(const ServiceLimits& limits) {
       limits.max_call_duration > std::chrono::hours(24 * 365)) {
     return InvalidArgument("max-call-seconds", "must be in (0, 31536000] seconds");
   }
+  if (limits.max_streams_per_caller < 1) {
+    return InvalidArgument("max-streams-per-caller", "must be >= 1, got 0");
+  }
   if (limits.max_message_bytes < 1024) {
     return InvalidArgument("max-message-bytes",
                            "must be >= 1024, got " + std::to_string(limits.max_message_bytes));

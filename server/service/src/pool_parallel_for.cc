@@ -50,10 +50,13 @@ void PoolParallelFor::Run(std::size_t n, const Body& body) {
   const std::size_t count = std::max<std::size_t>(std::min(n, pool_workers * kSharesPerWorker), 1);
   auto shares = std::make_shared<Shares>(n, count, body);
   for (std::size_t helper = 1; helper < std::min(pool_workers, count); ++helper) {
-    // A full queue refuses the helper (and counts a rejected task): skip it, the caller's share
-    // loop covers its part.
+    // A full queue refuses the helper: skip it, the caller's share loop covers its part. The
+    // helper is the running task's caller's work, under its quotas and turns.
     if (executor_.queued() >= executor_.max_queued()) break;
-    if (!executor_.Submit("", [shares] { shares->RunUnclaimed(); })) break;
+    if (executor_.Submit(Executor::CurrentCaller(), "", [shares] { shares->RunUnclaimed(); }) !=
+        Executor::Admission::kQueued) {
+      break;
+    }
   }
   shares->RunUnclaimed();
   shares->WaitUntilDone();  // only shares already running on other workers remain

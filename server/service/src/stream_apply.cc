@@ -9,16 +9,26 @@
 
 namespace mdr::service {
 
-bool StreamRegistry::Add(StreamApplyReactor* stream) {
+StreamRegistry::Admission StreamRegistry::Add(StreamApplyReactor* stream,
+                                               const std::string& caller) {
   std::lock_guard lock(mutex_);
-  if (draining_) return false;
-  streams_.insert(stream);
-  return true;
+  if (draining_) return Admission::kDraining;
+  std::size_t& open = per_caller_[caller];
+  if (open >= max_per_caller_) {
+    if (open == 0) per_caller_.erase(caller);
+    return Admission::kCallerFull;
+  }
+  ++open;
+  streams_.emplace(stream, caller);
+  return Admission::kAdded;
 }
 
 void StreamRegistry::Remove(StreamApplyReactor* stream) {
   std::lock_guard lock(mutex_);
-  streams_.erase(stream);
+  auto it = streams_.find(stream);
+  if (it == streams_.end()) return;
+  if (auto open = per_caller_.find(it->second); --open->second == 0) per_caller_.erase(open);
+  streams_.erase(it);
 }
 
 void StreamRegistry::DrainAll() {
@@ -26,7 +36,7 @@ void StreamRegistry::DrainAll() {
   // deleted, so every pointer here is alive.
   std::lock_guard lock(mutex_);
   draining_ = true;
-  for (StreamApplyReactor* stream : streams_) stream->Drain();
+  for (const auto& [stream, caller] : streams_) stream->Drain();
 }
 
 std::size_t StreamRegistry::size() const {
@@ -53,10 +63,22 @@ StreamApplyReactor::StreamApplyReactor(grpc::CallbackServerContext* context,
     Finish(sent);
     return;
   }
+  caller_key_ = CallerKeyOf(context, caller_);
+  const StreamRegistry::Admission admission = registry_.Add(this, caller_key_);
+  if (admission == StreamRegistry::Admission::kCallerFull) {
+    const grpc::Status sent = ToGrpcStatus(ResourceExhausted(
+        "max-streams-per-caller",
+        "this caller already holds " + std::to_string(registry_.max_per_caller()) +
+            " open StreamApply streams (mdrd --max-streams-per-caller); close one first"));
+    LogCall("StreamApply", "", metadata_request_id_, sent, 0);
+    finished_ = true;
+    Finish(sent);
+    return;
+  }
   reading_ = true;
   read_buffer_ = std::make_unique<Message>();
   StartRead(read_buffer_.get());
-  if (!registry_.Add(this)) Drain();
+  if (admission == StreamRegistry::Admission::kDraining) Drain();
 }
 
 void StreamApplyReactor::Drain() {
@@ -99,9 +121,11 @@ void StreamApplyReactor::SubmitNext() {
   while (next != nullptr) {
     const std::string& session = next->apply().session();
     // The strand is copied before the task can run.
-    if (executor_.Submit(session, [this] { ApplyRun(); })) return;
+    const Executor::Admission admission =
+        executor_.Submit(caller_key_, session, [this] { ApplyRun(); });
+    if (admission == Executor::Admission::kQueued) return;
     v1::StreamApplyResponse busy;
-    const grpc::Status refused = ToGrpcStatus(BusyStatus(executor_));
+    const grpc::Status refused = ToGrpcStatus(RefusalStatus(executor_, admission));
     ToRpcStatus(refused, busy.mutable_status());
     LogCall("StreamApply", session, metadata_request_id_, refused, 0);
     bool same_session = false;

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <string>
+#include <string_view>
 
 #include "mdr/base/status.h"
 #include "mdr/core/interrupt.h"
@@ -34,9 +35,17 @@ Interrupt InterruptOf(const grpc::CallbackServerContext* context,
 // A batch's interruption check: DEADLINE_EXCEEDED or CANCELLED when interrupt fires.
 ContactOperations::Interruption InterruptionOf(const Interrupt& interrupt);
 
-// UNAVAILABLE with a retry hint: the executor's queue is full and the call (or stream message)
-// was not run.
-Status BusyStatus(const Executor& executor);
+// Whom the executor's fairness and quotas count a call against: "token:<principal>" when
+// authenticated, else "peer:<address>" (the client's IP address without its port, or the unix
+// socket), so the connections of one host share one queue.
+std::string CallerKeyOf(const grpc::CallbackServerContext* context, const Principal& caller);
+// The same for a peer string as gRPC gives it ("ipv4:1.2.3.4:5", "ipv6:[::1]:5", "unix:/p").
+std::string PeerCallerKey(std::string_view peer);
+
+// Why the executor did not take a call (or stream message), which was not run:
+// RESOURCE_EXHAUSTED naming max-queued-calls-per-caller when the caller's own queue is full,
+// else UNAVAILABLE with a retry hint.
+Status RefusalStatus(const Executor& executor, Executor::Admission admission);
 
 // explicit_id if set, else the client's "x-request-id" metadata, else "-"; raw client text,
 // for LogCall only.

@@ -62,7 +62,8 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
       : operations_(operations),
         authenticator_(authenticator),
         executor_(executor),
-        server_stopping_(server_stopping) {
+        server_stopping_(server_stopping),
+        streams_(operations.limits().max_streams_per_caller) {
     SetMessageAllocatorFor_Apply(&apply_messages_);
   }
 

@@ -1,13 +1,27 @@
 // The bounded worker pool that runs the computing calls (Apply, each StreamApply message, Query,
-// ExportSession, Transform, CreateSession, ImportSession) off gRPC's threads, so that cheap calls
-// (health, GetSession, ListSessions, DeleteSession) answered inline never wait behind them.
+// ExportSession, Transform, CreateSession, ImportSession, the analyses) off gRPC's threads, so
+// that cheap calls (health, GetSession, ListSessions, DeleteSession) answered inline never wait
+// behind them.
 //
-// Tasks carry a strand key (the session name): the tasks of one strand run one at a time and in
-// the order they were submitted, so a session's calls stay serialised without a worker blocking on
-// the session's mutex; different strands run in parallel. Admission control: at most max_queued
-// tasks wait for a worker; Submit refuses more at once.
+// Every task belongs to a caller (a token's principal, or a peer's address without
+// authentication) and to a strand of that caller (the session name): the tasks of one strand run
+// one at a time and in the order they were submitted, so a session's calls stay serialised
+// without a worker blocking on the session's mutex; different strands run in parallel.
+//
+// Fairness between callers (docs/operations.md, "Fairness between callers"):
+// - Workers take the callers in turn (round robin), and each caller's strands in turn, so a
+//   caller with many sessions or streams gets no more turns than one with a single session.
+// - A caller runs on at most workers - (other active callers) workers, at least one: while
+//   others are active (a task queued or running, or one submitted or finished within
+//   recent_window), a worker stays free for them, so one caller's long tasks cannot hold every
+//   worker. A caller alone has every worker.
+// - Admission: a caller may have at most max_queued_per_caller tasks waiting (beyond:
+//   kCallerQueueFull). While max_queued tasks wait in total, a caller is still admitted below
+//   its fair share (max_queued / active callers, at least one), up to a hard total of
+//   2 max_queued (beyond: kBusy), so a busy caller cannot fill the queue for the others.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -15,6 +29,7 @@
 #include <functional>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <unordered_map>
 #include <vector>
@@ -27,16 +42,32 @@ struct ExecutorOptions {
   static constexpr std::size_t kMaxWorkers = 1024;
   // Worker threads; 0: one per core (std::thread::hardware_concurrency).
   std::size_t workers = 0;
-  // Tasks waiting for a worker at most (not counting the running ones), >= 1.
+  // Tasks waiting for a worker in total (not counting the running ones), >= 1; see admission.
   std::size_t max_queued = 256;
+  // Tasks one caller may have waiting, >= 1. By default a caller alone may fill the queue
+  // (clients on one host are one caller without authentication); the fair share still admits the
+  // others.
+  std::size_t max_queued_per_caller = 256;
+  // How long a caller counts as active after its last task was submitted or finished: the
+  // workers kept free for it while it works call after call.
+  std::chrono::milliseconds recent_window{1000};
 };
 
-// Field names are the mdrd flags: workers in [0, kMaxWorkers], max-queued-calls >= 1.
+// Field names are the mdrd flags: workers in [0, kMaxWorkers], max-queued-calls >= 1,
+// max-queued-calls-per-caller >= 1.
 Status ValidateExecutorOptions(const ExecutorOptions& options);
 
 class Executor {
  public:
   using Task = std::function<void()>;
+  using Clock = std::chrono::steady_clock;
+
+  enum class Admission {
+    kQueued,
+    kCallerQueueFull,  // the caller has max_queued_per_caller tasks waiting
+    kBusy,             // the queue is full and the caller has its share of it
+    kStopped,
+  };
 
   explicit Executor(const ExecutorOptions& options);
   Executor(const Executor&) = delete;
@@ -44,30 +75,56 @@ class Executor {
   // Stop().
   ~Executor();
 
-  // Queues task behind the earlier tasks of its strand (empty strand: ordered with nothing).
-  // False, and the task is dropped unrun, when max_queued tasks are waiting or after Stop.
-  bool Submit(const std::string& strand, Task task);
+  // Queues task behind the earlier tasks of the caller's strand (empty strand: ordered with
+  // nothing). Anything but kQueued: the task is dropped unrun.
+  Admission Submit(std::string_view caller, std::string_view strand, Task task);
   // Refuses new tasks, runs every queued one, then joins the workers. Idempotent.
   void Stop();
 
+  // The caller of the task running on this thread ("" outside a task): work a task spreads over
+  // the pool (PoolParallelFor) stays its caller's.
+  static const std::string& CurrentCaller();
+
   std::size_t workers() const { return workers_.size(); }
-  std::size_t max_queued() const { return max_queued_; }
+  std::size_t max_queued() const { return options_.max_queued; }
+  std::size_t max_queued_per_caller() const { return options_.max_queued_per_caller; }
   // Tasks waiting for a worker now.
   std::size_t queued() const;
 
  private:
-  void Work();
+  struct CallerQueue {
+    // The strands with tasks not yet finished; a strand is in ready while it has a task waiting
+    // and none running.
+    std::unordered_map<std::string, std::deque<Task>> strands;
+    std::deque<std::string> ready;
+    std::size_t queued = 0;
+    std::size_t running = 0;
+    Clock::time_point last_active;
+    std::uint64_t anonymous_strands = 0;
+  };
+  using Callers = std::unordered_map<std::string, CallerQueue>;
 
-  const std::size_t max_queued_;
+  void Work();
+  // Whether a caller is active: a task waiting or running, or one submitted or finished within
+  // recent_window.
+  bool ActiveLocked(const CallerQueue& queue, Clock::time_point now) const;
+  // The active callers, but `except` (if not null).
+  std::size_t ActiveCallersLocked(Clock::time_point now, const std::string* except) const;
+  // How many workers a caller may hold while `active` callers (itself included) are active.
+  std::size_t RunningCapLocked(std::size_t active) const;
+  // The next caller in turn that may start a task now (taken out of ready_callers_);
+  // callers_.end() if none.
+  Callers::iterator NextRunnableLocked(Clock::time_point now);
+  void ForgetIdleCallersLocked(Clock::time_point now);
+
+  const ExecutorOptions options_;
   mutable std::mutex mutex_;
   std::condition_variable wakeup_;
-  // The strands with tasks not yet finished; a strand is in ready_ while it has a task waiting
-  // and none running.
-  std::unordered_map<std::string, std::deque<Task>> strands_;  // guarded by mutex_
-  std::deque<std::string> ready_;                              // guarded by mutex_
-  std::size_t queued_ = 0;                                     // guarded by mutex_
-  std::uint64_t anonymous_strands_ = 0;                        // guarded by mutex_
-  bool stopping_ = false;                                      // guarded by mutex_
+  Callers callers_;                          // guarded by mutex_
+  std::deque<std::string> ready_callers_;    // guarded by mutex_; callers with a ready strand
+  std::size_t queued_ = 0;                   // guarded by mutex_
+  std::size_t running_ = 0;                  // guarded by mutex_
+  bool stopping_ = false;                    // guarded by mutex_
   std::vector<std::thread> workers_;
 };
 

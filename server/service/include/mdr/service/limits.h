@@ -41,6 +41,10 @@ struct ServiceLimits {
   // no call holds a worker without bound. StreamApply streams are exempt (a rig streams for
   // hours; each message is bounded by max_steps_per_batch). (0, 1 year].
   std::chrono::milliseconds max_call_duration = std::chrono::minutes(5);
+  // Open StreamApply streams one caller (a token's principal, or a client host without
+  // authentication) may hold, >= 1: each holds up to StreamApplyReactor::kMaxPendingResponses
+  // messages, so this bounds what one caller's streams hold in memory.
+  std::size_t max_streams_per_caller = 256;
 };
 
 // Checks the server limits themselves (field names are the mdrd flags).

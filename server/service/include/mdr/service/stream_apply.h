@@ -19,8 +19,9 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
+#include <map>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "mdr/service/auth.h"
@@ -32,21 +33,31 @@ namespace mdr::service {
 
 class StreamApplyReactor;
 
-// The open streams, so that a shutdown can tell each to finish.
+// The open streams, so that a shutdown can tell each to finish, counted per caller (executor.h's
+// caller keys) against ServiceLimits::max_streams_per_caller.
 class StreamRegistry {
  public:
-  // False once draining: the stream must end at once.
-  bool Add(StreamApplyReactor* stream);
+  enum class Admission { kAdded, kDraining, kCallerFull };
+
+  explicit StreamRegistry(std::size_t max_per_caller) : max_per_caller_(max_per_caller) {}
+
+  // kDraining: the stream must end at once; kCallerFull: the caller holds max_per_caller open
+  // streams, this one is not added and must end at once.
+  Admission Add(StreamApplyReactor* stream, const std::string& caller);
+  // Removes an added stream (nothing for one that was not).
   void Remove(StreamApplyReactor* stream);
   // Every open stream (and every later one) finishes with UNAVAILABLE after answering the
   // message it is working on.
   void DrainAll();
   std::size_t size() const;
+  std::size_t max_per_caller() const { return max_per_caller_; }
 
  private:
+  const std::size_t max_per_caller_;
   mutable std::mutex mutex_;
-  std::set<StreamApplyReactor*> streams_;  // guarded by mutex_
-  bool draining_ = false;                  // guarded by mutex_
+  std::map<StreamApplyReactor*, std::string> streams_;       // guarded by mutex_; their callers
+  std::unordered_map<std::string, std::size_t> per_caller_;  // guarded by mutex_
+  bool draining_ = false;                                    // guarded by mutex_
 };
 
 class StreamApplyReactor final
@@ -110,6 +121,7 @@ class StreamApplyReactor final
   const Interrupt interrupt_;                           // after cancelled_, which it reads
   const ContactOperations::Interruption interruption_;  // interrupt_ between steps
   Principal caller_;                                    // set once by the constructor
+  std::string caller_key_;                              // the executor's key of caller_
   std::string metadata_request_id_;  // the stream's x-request-id (or "-"), for the call logs
 
   std::mutex mutex_;

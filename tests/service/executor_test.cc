@@ -1,0 +1,195 @@
+// The executor's fairness between callers (executor.h): callers served in turn, a caller's
+// strands in turn, a caller's own queue bound, its fair share of a full queue, and a worker kept
+// free for the other active callers. Tasks are held by latches, not sleeps; a wait that would
+// hang without the property under test fails after kPatience instead.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <future>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "mdr/service/call_context.h"
+#include "mdr/service/executor.h"
+
+namespace mdr::service {
+namespace {
+
+using Admission = Executor::Admission;
+constexpr auto kPatience = std::chrono::seconds(30);
+
+// A task that reports it started and then waits until released.
+class Held {
+ public:
+  Executor::Task Task() {
+    return [this] {
+      started_.set_value();
+      release_future_.wait();
+    };
+  }
+  bool AwaitStart() { return started_future_.wait_for(kPatience) == std::future_status::ready; }
+  bool Started() {
+    return started_future_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  }
+  void Release() { release_.set_value(); }
+
+ private:
+  std::promise<void> started_, release_;
+  std::future<void> started_future_ = started_.get_future();
+  std::shared_future<void> release_future_ = release_.get_future().share();
+};
+
+// Records the order in which tasks ran.
+class Order {
+ public:
+  Executor::Task Record(std::string label) {
+    return [this, label = std::move(label)] {
+      std::lock_guard lock(mutex_);
+      ran_.push_back(label);
+    };
+  }
+  std::vector<std::string> ran() {
+    std::lock_guard lock(mutex_);
+    return ran_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::string> ran_;
+};
+
+TEST(ExecutorTest, CallersAreServedInTurnWhateverTheirNumberOfStrands) {
+  Executor executor({.workers = 1});
+  Held gate;
+  ASSERT_EQ(executor.Submit("alice", "s0", gate.Task()), Admission::kQueued);
+  ASSERT_TRUE(gate.AwaitStart());
+  Order order;
+  for (int i = 1; i <= 10; ++i) {
+    const std::string label = "alice" + std::to_string(i);
+    ASSERT_EQ(executor.Submit("alice", "s" + std::to_string(i), order.Record(label)),
+              Admission::kQueued);
+  }
+  ASSERT_EQ(executor.Submit("bob", "b", order.Record("bob")), Admission::kQueued);
+  gate.Release();
+  executor.Stop();  // runs every queued task
+  const std::vector<std::string> ran = order.ran();
+  ASSERT_EQ(ran.size(), 11u);
+  // Bob waited for one of alice's ten, not for all of them.
+  EXPECT_EQ(ran[0], "alice1");
+  EXPECT_EQ(ran[1], "bob");
+}
+
+TEST(ExecutorTest, StrandsKeepTheirOrderAndTakeTurnsWithinACaller) {
+  Executor executor({.workers = 1});
+  Held gate;
+  ASSERT_EQ(executor.Submit("alice", "g", gate.Task()), Admission::kQueued);
+  ASSERT_TRUE(gate.AwaitStart());
+  Order order;
+  for (int i = 1; i <= 3; ++i) {
+    ASSERT_EQ(executor.Submit("alice", "long", order.Record("long" + std::to_string(i))),
+              Admission::kQueued);
+  }
+  ASSERT_EQ(executor.Submit("alice", "short", order.Record("short")), Admission::kQueued);
+  gate.Release();
+  executor.Stop();
+  EXPECT_THAT(order.ran(), ::testing::ElementsAre("long1", "short", "long2", "long3"));
+}
+
+TEST(ExecutorTest, ACallersOwnQueueIsBoundedWithoutTouchingTheOthers) {
+  Executor executor({.workers = 1, .max_queued = 100, .max_queued_per_caller = 2});
+  Held gate;
+  ASSERT_EQ(executor.Submit("alice", "", gate.Task()), Admission::kQueued);
+  ASSERT_TRUE(gate.AwaitStart());  // running: not waiting
+  EXPECT_EQ(executor.Submit("alice", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.Submit("alice", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.Submit("alice", "", [] {}), Admission::kCallerQueueFull);
+  EXPECT_EQ(executor.Submit("bob", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.queued(), 3u);
+  gate.Release();
+}
+
+TEST(ExecutorTest, ACallerUnderItsShareIsAdmittedToAFullQueue) {
+  Executor executor({.workers = 1, .max_queued = 4});
+  Held gate;
+  ASSERT_EQ(executor.Submit("alice", "", gate.Task()), Admission::kQueued);
+  ASSERT_TRUE(gate.AwaitStart());
+  for (int i = 0; i < 4; ++i) ASSERT_EQ(executor.Submit("alice", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.Submit("alice", "", [] {}), Admission::kBusy);
+  // Two active callers: a share of 4 / 2 each.
+  EXPECT_EQ(executor.Submit("bob", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.Submit("bob", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.Submit("bob", "", [] {}), Admission::kBusy);
+  // New callers still get one each, but never beyond twice the queue.
+  EXPECT_EQ(executor.Submit("carol", "", [] {}), Admission::kQueued);  // shares 4 / 3 and 4 / 4
+  EXPECT_EQ(executor.Submit("dave", "", [] {}), Admission::kQueued);
+  EXPECT_EQ(executor.queued(), 8u);
+  EXPECT_EQ(executor.Submit("erin", "", [] {}), Admission::kBusy);
+  gate.Release();
+}
+
+TEST(ExecutorTest, ACallerAloneHasEveryWorker) {
+  Executor executor({.workers = 2});
+  Held first, second;
+  ASSERT_EQ(executor.Submit("alice", "a", first.Task()), Admission::kQueued);
+  ASSERT_EQ(executor.Submit("alice", "b", second.Task()), Admission::kQueued);
+  EXPECT_TRUE(first.AwaitStart());
+  EXPECT_TRUE(second.AwaitStart());
+  first.Release();
+  second.Release();
+}
+
+TEST(ExecutorTest, AWorkerStaysFreeForAnotherActiveCaller) {
+  Executor executor({.workers = 2, .recent_window = std::chrono::minutes(10)});
+  // Bob made a call a moment ago: he is active for the window.
+  std::promise<void> bob_done;
+  ASSERT_EQ(executor.Submit("bob", "", [&] { bob_done.set_value(); }), Admission::kQueued);
+  ASSERT_EQ(bob_done.get_future().wait_for(kPatience), std::future_status::ready);
+  // Alice's two long tasks: one runs, the other waits, so bob's next call finds a worker.
+  Held first, second;
+  ASSERT_EQ(executor.Submit("alice", "a", first.Task()), Admission::kQueued);
+  ASSERT_EQ(executor.Submit("alice", "b", second.Task()), Admission::kQueued);
+  ASSERT_TRUE(first.AwaitStart());
+  std::promise<void> bob_again;
+  ASSERT_EQ(executor.Submit("bob", "", [&] { bob_again.set_value(); }), Admission::kQueued);
+  EXPECT_EQ(bob_again.get_future().wait_for(kPatience), std::future_status::ready);
+  EXPECT_FALSE(second.Started());
+  first.Release();
+  EXPECT_TRUE(second.AwaitStart());  // alice's turn once her first is done
+  second.Release();
+}
+
+TEST(ExecutorTest, WorkSpreadByATaskStaysItsCallers) {
+  Executor executor({.workers = 1});
+  std::promise<std::string> seen;
+  ASSERT_EQ(executor.Submit("alice", "", [&] { seen.set_value(Executor::CurrentCaller()); }),
+            Admission::kQueued);
+  EXPECT_EQ(seen.get_future().get(), "alice");
+  EXPECT_EQ(Executor::CurrentCaller(), "");
+}
+
+TEST(ExecutorTest, StopRunsEveryQueuedTaskAndRefusesNewOnes) {
+  Executor executor({.workers = 2, .recent_window = std::chrono::minutes(10)});
+  std::atomic<int> ran{0};
+  for (int i = 0; i < 50; ++i) {
+    ASSERT_EQ(executor.Submit(i % 2 ? "alice" : "bob", std::to_string(i % 7), [&] { ++ran; }),
+              Admission::kQueued);
+  }
+  executor.Stop();
+  EXPECT_EQ(ran.load(), 50);
+  EXPECT_EQ(executor.Submit("alice", "", [] {}), Admission::kStopped);
+}
+
+TEST(CallerKeyTest, PeersAreKeyedByHostNotByConnection) {
+  EXPECT_EQ(PeerCallerKey("ipv4:127.0.0.1:45678"), "peer:127.0.0.1");
+  EXPECT_EQ(PeerCallerKey("ipv4:127.0.0.1:1"), PeerCallerKey("ipv4:127.0.0.1:2"));
+  EXPECT_EQ(PeerCallerKey("ipv6:[::1]:45678"), "peer:[::1]");
+  EXPECT_EQ(PeerCallerKey("ipv6:[fe80::1%25eth0]:80"), "peer:[fe80::1%25eth0]");
+  EXPECT_EQ(PeerCallerKey("unix:/run/mdr.sock"), "peer:unix:/run/mdr.sock");
+  EXPECT_NE(PeerCallerKey("ipv4:10.0.0.1:5"), PeerCallerKey("ipv4:10.0.0.2:5"));
+}
+
+}  // namespace
+}  // namespace mdr::service
