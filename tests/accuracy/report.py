@@ -324,6 +324,14 @@ def main():
         with open(interface_load) as f:
             perf += ["### Contact list through the service (`mdr_interface_load`)", "", "```",
                      f.read().rstrip(), "```", ""]
+    fairness = os.path.join(out, "fairness.txt")
+    if os.path.exists(fairness):
+        with open(fairness) as f:
+            perf += ["### Fairness between callers (`mdr_fairness`)", "",
+                     "Bob's one-step Apply while alice, another token on the same mdrd, holds "
+                     "256 streams that never read or runs heavy calls (docs/operations.md, "
+                     "\"Fairness between callers\"); all three processes on this machine.", "",
+                     "```", f.read().rstrip(), "```", ""]
     load = os.path.join(out, "load.json")
     if os.path.exists(load):
         perf += load_markdown(load)
