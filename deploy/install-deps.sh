@@ -21,6 +21,7 @@ BUILD_PACKAGES=(
   "${COMPILE_PACKAGES[@]}" git libbenchmark-dev nlohmann-json3-dev openssl
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml python3-matplotlib
   gnuplot-nox prometheus
+  gfortran python3-venv python3-setuptools
 )
 if [ "${1:-}" = "--runtime" ]; then
   PACKAGES=("${RUNTIME_PACKAGES[@]}")

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -349,6 +350,122 @@ TEST_F(CapiTest, SteadyForceFrettingAllocatesNothing) {
   };
   cycles(2);
   EXPECT_EQ(CountAllocations([&] { cycles(500); }), 0);
+}
+
+}  // namespace
+
+namespace {
+
+// Random inputs through every entry point (deterministic: fixed seeds), as a fuzzer would send:
+// no crash, every error has a code the header lists and names a field, and a refused step
+// changes nothing.
+bool IsListedCode(int code) {
+  for (int listed : {MDR_CANCELLED, MDR_INVALID_ARGUMENT, MDR_DEADLINE_EXCEEDED, MDR_NOT_FOUND,
+                     MDR_FAILED_PRECONDITION, MDR_RESOURCE_EXHAUSTED, MDR_OUT_OF_RANGE,
+                     MDR_UNIMPLEMENTED, MDR_INTERNAL, MDR_DATA_LOSS}) {
+    if (code == listed) return true;
+  }
+  return false;
+}
+
+double RandomValue(std::mt19937_64& rng) {
+  constexpr double kSpecial[] = {0.0,
+                                 -0.0,
+                                 std::numeric_limits<double>::quiet_NaN(),
+                                 std::numeric_limits<double>::infinity(),
+                                 -std::numeric_limits<double>::infinity(),
+                                 1e300,
+                                 -1e300,
+                                 5e-324,
+                                 100,
+                                 30,
+                                 -30};
+  std::uniform_int_distribution<int> kind(0, 3);
+  switch (kind(rng)) {
+    case 0:
+      return kSpecial[rng() % std::size(kSpecial)];
+    case 1:  // a depth or a displacement of a fretting contact
+      return std::uniform_real_distribution<double>(-5e-6, 5e-6)(rng);
+    case 2:  // a force
+      return std::uniform_real_distribution<double>(-40, 140)(rng);
+    default: {
+      double value;
+      const std::uint64_t bits = rng();
+      std::memcpy(&value, &bits, sizeof value);
+      return value;
+    }
+  }
+}
+
+TEST_F(CapiTest, RandomStepsFailCleanlyOrApply) {
+  std::mt19937_64 rng(26);
+  constexpr int kNormal[] = {0, 1, 2, 3, -1, 4, 7}, kTangential[] = {0, 4, 5, 6, 3, -2, 9};
+  int applied = 0, refused = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const int nc = kNormal[rng() % std::size(kNormal)];
+    const int tc = kTangential[rng() % std::size(kTangential)];
+    const double nv = nc == 0 && rng() % 2 ? 0 : RandomValue(rng);
+    const double tv = tc == 0 && rng() % 2 ? 0 : RandomValue(rng);
+    mdr_state before{}, after{};
+    ASSERT_EQ(mdr_contact_state(contact_, &before), MDR_OK);
+    const int status = Step(nc, nv, tc, tv);
+    ASSERT_EQ(mdr_contact_state(contact_, &after), MDR_OK);
+    if (status == MDR_OK) {
+      ++applied;
+      ASSERT_EQ(after.applied_steps, before.applied_steps + 1);
+      ASSERT_TRUE(std::isfinite(after.normal_force) && std::isfinite(after.tangential_force));
+      continue;
+    }
+    ++refused;
+    ASSERT_TRUE(IsListedCode(status)) << status;
+    ASSERT_STRNE(mdr_last_error_field(), "") << mdr_last_error_message();
+    ASSERT_EQ(std::memcmp(&before, &after, sizeof before), 0) << mdr_last_error_message();
+  }
+  EXPECT_GT(applied, 300);
+  EXPECT_GT(refused, 300);
+}
+
+TEST(CapiRandomBytes, ScenesAndSnapshotsFailCleanly) {
+  std::mt19937_64 rng(126);
+  mdr_contact* contact = nullptr;
+  ASSERT_EQ(mdr_contact_create_from_text(kScene, nullptr, &contact), MDR_OK);
+  mdr_contact_step(contact, MDR_NORMAL_FORCE, 100, MDR_TANGENTIAL_FORCE, 12, nullptr);
+  std::size_t size = 0;
+  mdr_contact_snapshot(contact, nullptr, 0, &size);
+  std::vector<unsigned char> valid(size);
+  ASSERT_EQ(mdr_contact_snapshot(contact, valid.data(), size, &size), MDR_OK);
+  mdr_contact_destroy(contact);
+  int created = 0;
+  for (int i = 0; i < 5000; ++i) {
+    // Mutations of a valid snapshot (a few bytes changed, cut short) and random bytes.
+    std::vector<unsigned char> bytes = valid;
+    if (i % 3 == 2) {
+      bytes.resize(rng() % 64);
+      for (unsigned char& b : bytes) b = static_cast<unsigned char>(rng());
+    } else {
+      for (int k = 0; k < 1 + i % 4; ++k)
+        bytes[rng() % bytes.size()] = static_cast<unsigned char>(rng());
+      if (i % 3 == 1) bytes.resize(rng() % bytes.size());
+    }
+    for (int which = 0; which < 2; ++which) {
+      contact = nullptr;
+      const int status = which == 0 ? mdr_contact_restore(bytes.data(), bytes.size(), &contact)
+                                    : mdr_contact_create(bytes.data(), bytes.size(), &contact);
+      if (status == MDR_OK) {
+        ++created;
+        mdr_state state;
+        ASSERT_EQ(mdr_contact_state(contact, &state), MDR_OK);
+        mdr_contact_step(contact, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, 1e-7,
+                         nullptr);
+        mdr_contact_destroy(contact);
+      } else {
+        ASSERT_TRUE(IsListedCode(status)) << status;
+        ASSERT_EQ(contact, nullptr);
+        ASSERT_STRNE(mdr_last_error_message(), "");
+      }
+    }
+  }
+  EXPECT_GT(created, 0);  // some mutations are still valid states (a changed u inside the cone)
 }
 
 }  // namespace
