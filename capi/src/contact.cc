@@ -1,21 +1,16 @@
 // The contact handle of the C interface: the service's scene conversion, validation and snapshot
 // code around one mdr::Contact, so that the library and the service answer the same, bit for bit.
-#include "mdr/core/contact.h"
-
-#include <climits>
-#include <cmath>
-#include <cstring>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "boundary.h"
-#include "mdr/client/scene_file.h"
+#include "inputs.h"
+#include "mdr/core/contact.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/traction.h"
 #include "mdr/mdr.h"
 #include "mdr/service/conversion.h"
-#include "mdr/service/limits.h"
 #include "mdr/service/session.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"
@@ -33,36 +28,23 @@ namespace {
 
 using service::Session;
 
-// The service's default limit of memory vertices, so a scene behaves here as on a default mdrd.
-std::size_t MaxMemoryVertices() { return service::ServiceLimits{}.max_memory_vertices; }
-
-CallStatus RefuseInterface(const v1::Scene& scene, const char* field) {
+// An interface scene has its own handle (mdr_interface).
+Status RefuseInterface(const v1::Scene& scene, const char* field) {
   if (!scene.has_interface()) return OkStatus();
-  return CallStatus(MDR_UNIMPLEMENTED,
-                    FailedPrecondition(field,
-                                       "interface scenes are not available through libmdr_c "
-                                       "(one contact per handle); run them on the service"));
+  return InvalidArgument(field,
+                         "this scene is an interface (many contacts): create it with "
+                         "mdr_interface_create, mdr_interface_create_from_text or "
+                         "mdr_interface_restore");
 }
 
 // A new contact of a validated scene, as CreateSession builds it.
 CallStatus CreateContact(const v1::Scene& scene, mdr_contact** out) {
-  if (CallStatus s = RefuseInterface(scene, "scene.interface"); !s.ok()) return s;
+  if (Status s = RefuseInterface(scene, "scene.interface"); !s.ok()) return s;
   Result<ContactConfig> config = service::ToContactConfig(scene, MaxMemoryVertices());
   if (!config.ok()) return config.status();
   Result<Contact> contact = Contact::Create(std::move(config).value());
   if (!contact.ok()) return contact.status().WithFieldPrefix("scene");
   *out = new mdr_contact{scene, std::move(contact).value()};
-  return OkStatus();
-}
-
-Status CheckBytes(const void* bytes, std::size_t size, const char* argument) {
-  if (size > 0 && bytes == nullptr) {
-    return InvalidArgument(argument, "must not be NULL when size is " + std::to_string(size));
-  }
-  if (size > static_cast<std::size_t>(INT_MAX)) {
-    return InvalidArgument("size", "must be at most " + std::to_string(INT_MAX) + " bytes, got " +
-                                       std::to_string(size));
-  }
   return OkStatus();
 }
 
@@ -130,10 +112,7 @@ Status ToArgumentStatus(const Status& status, const Step& step) {
 CallStatus Step(mdr_contact* handle, int normal_control, double normal_value,
                 int tangential_control, double tangential_value, mdr_step_report* report) {
   if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
-  if (handle->applied_steps >= Session::kMaxAppliedSteps) {
-    return FailedPrecondition("contact", "has applied the most steps a session may apply (" +
-                                             std::to_string(Session::kMaxAppliedSteps) + ")");
-  }
+  if (Status s = CheckStepCount(handle->applied_steps, "contact"); !s.ok()) return s;
   Result<mdr::Step> step =
       ToStep(normal_control, normal_value, tangential_control, tangential_value);
   if (!step.ok()) return step.status();
@@ -149,22 +128,6 @@ CallStatus Step(mdr_contact* handle, int normal_control, double normal_value,
                               .dissipated = core_report.dissipated};
   }
   return OkStatus();
-}
-
-void ReadState(const mdr_contact& handle, mdr_state* out) {
-  const Contact& c = handle.contact;
-  *out = mdr_state{.depth = c.depth(),
-                   .tangential_displacement = c.tangential_displacement(),
-                   .contact_radius = c.contact_radius(),
-                   .normal_force = c.normal_force(),
-                   .tangential_force = c.tangential_force(),
-                   .dissipated_energy = c.dissipated_energy(),
-                   .friction_limit = c.friction_limit(),
-                   .actuator_displacement = c.actuator_displacement(),
-                   .actuator_depth = c.actuator_depth(),
-                   .last_step_dissipation = c.last_step_dissipation(),
-                   .applied_steps = handle.applied_steps,
-                   .memory_vertices = c.memory().vertex_count()};
 }
 
 CallStatus SlipIntervals(const mdr_contact* handle, double* r_begin, double* r_end,
@@ -272,20 +235,7 @@ v1::SessionSnapshot ToSessionSnapshot(const mdr_contact& handle) {
 CallStatus Snapshot(const mdr_contact* handle, void* buffer, std::size_t capacity,
                     std::size_t* size) {
   if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
-  if (Status s = RequireNonNull(size, "size"); !s.ok()) return s;
-  const v1::SessionSnapshot snapshot = ToSessionSnapshot(*handle);
-  const std::size_t bytes = snapshot.ByteSizeLong();
-  *size = bytes;
-  if (CallStatus s = RequireCapacity(capacity, bytes, "capacity"); !s.ok()) return s;
-  if (bytes > static_cast<std::size_t>(INT_MAX)) {
-    return ResourceExhausted("contact", "its snapshot of " + std::to_string(bytes) +
-                                            " bytes exceeds a protobuf message's 2 GiB");
-  }
-  if (Status s = RequireNonNull(buffer, "buffer"); !s.ok()) return s;
-  if (!snapshot.SerializeToArray(buffer, static_cast<int>(bytes))) {
-    return Internal("buffer", "the snapshot could not be serialized");
-  }
-  return OkStatus();
+  return WriteMessage(ToSessionSnapshot(*handle), buffer, capacity, size);
 }
 
 // ImportSession's checks of a snapshot of one contact (ContactOperations::StateOf), without the
@@ -293,56 +243,33 @@ CallStatus Snapshot(const mdr_contact* handle, void* buffer, std::size_t capacit
 CallStatus Restore(const void* bytes, std::size_t size, mdr_contact** out) {
   if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
   *out = nullptr;
-  if (Status s = CheckBytes(bytes, size, "snapshot"); !s.ok()) return s;
-  v1::SessionSnapshot snapshot;
-  if (!snapshot.ParseFromArray(bytes, static_cast<int>(size))) {
-    return InvalidArgument("snapshot", "is not a serialized mdr.v1.SessionSnapshot");
-  }
-  if (snapshot.version() != Session::kSnapshotVersion) {
-    return InvalidArgument("snapshot.version",
-                           "must be " + std::to_string(Session::kSnapshotVersion) +
-                               " (the snapshot format this library reads), got " +
-                               std::to_string(snapshot.version()));
-  }
-  if (Status s = service::CheckSnapshotCounters(snapshot, Session::kMaxAppliedSteps); !s.ok()) {
+  Result<v1::SessionSnapshot> snapshot = ParseSnapshot(bytes, size);
+  if (!snapshot.ok()) return snapshot.status();
+  if (Status s = RefuseInterface(snapshot->scene(), "snapshot.scene.interface"); !s.ok()) {
     return s;
   }
-  if (CallStatus s = RefuseInterface(snapshot.scene(), "snapshot.scene.interface"); !s.ok()) {
-    return s;
-  }
-  Result<Contact> contact = service::ToCoreContact(snapshot, MaxMemoryVertices());
+  Result<Contact> contact = service::ToCoreContact(*snapshot, MaxMemoryVertices());
   if (!contact.ok()) return contact.status();
-  *out = new mdr_contact{snapshot.scene(), std::move(contact).value(), snapshot.applied_steps()};
+  *out = new mdr_contact{snapshot->scene(), std::move(contact).value(), snapshot->applied_steps()};
   return OkStatus();
 }
 
 CallStatus CreateFromBytes(const void* bytes, std::size_t size, mdr_contact** out) {
   if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
   *out = nullptr;
-  if (Status s = CheckBytes(bytes, size, "scene"); !s.ok()) return s;
-  v1::Scene scene;
-  if (!scene.ParseFromArray(bytes, static_cast<int>(size))) {
-    return InvalidArgument("scene", "is not a serialized mdr.v1.Scene");
-  }
-  return CreateContact(scene, out);
+  Result<v1::Scene> scene = ParseScene(bytes, size);
+  if (!scene.ok()) return scene.status();
+  return CreateContact(*scene, out);
 }
 
-// mdrctl's reading of a scene file (SceneDocument), whose errors name the line of a field.
+// mdrctl's reading of a scene file, whose errors name the line of a field.
 CallStatus CreateFromText(const char* text, const char* name, mdr_contact** out) {
   if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
   *out = nullptr;
-  if (Status s = RequireNonNull(text, "text"); !s.ok()) return s;
-  Result<client::SceneDocument> document =
-      client::SceneDocument::Parse(text, name != nullptr ? name : "scene");
-  if (!document.ok()) return document.status();
-  if (!document->file().has_scene()) {
-    return document->Error("scene", "required: the scene file has no scene");
-  }
-  CallStatus status = CreateContact(document->file().scene(), out);
-  if (status.ok()) return status;
-  const Status& s = status.status;
-  return CallStatus(status.code, Status(s.code(), s.field(),
-                                        s.message() + " (" + document->Where(s.field()) + ")"));
+  Result<SceneText> scene = ParseSceneText(text, name);
+  if (!scene.ok()) return scene.status();
+  CallStatus status = CreateContact(scene->scene(), out);
+  return status.ok() ? status : scene->Locate(status);
 }
 
 }  // namespace
@@ -385,7 +312,7 @@ int mdr_contact_state(const mdr_contact* contact, mdr_state* out) {
   return Boundary("mdr_contact_state", [&]() -> CallStatus {
     if (mdr::Status s = mdr::capi::RequireNonNull(contact, "contact"); !s.ok()) return s;
     if (mdr::Status s = mdr::capi::RequireNonNull(out, "out"); !s.ok()) return s;
-    mdr::capi::ReadState(*contact, out);
+    mdr::capi::ReadState(contact->contact, contact->applied_steps, out);
     return mdr::OkStatus();
   });
 }

@@ -162,20 +162,118 @@ TEST(CapiCreate, InvalidScenesNameTheField) {
   EXPECT_EQ(contact, nullptr);
 }
 
-TEST(CapiCreate, InterfaceScenesAreRefused) {
-  mdr_contact* contact = nullptr;
-  ExpectError(mdr_contact_create_from_text(R"(
+constexpr char kContactList[] = R"(
 scene:
   sphere: {radius: 0.01}
-  rigid_on_half_space: {shear_modulus: 80e9, poisson_ratio: 0.3}
+  elastic_pair:
+    youngs_modulus_1: 210e9
+    poisson_ratio_1: 0.3
+    youngs_modulus_2: 210e9
+    poisson_ratio_2: 0.3
   friction: 0.3
   interface:
     kind: KIND_CONTACT_LIST
-    explicit_list: {heights: [0, 0], radii: [0.01, 0.01]}
-)",
-                                           "i.yaml", &contact),
-              MDR_UNIMPLEMENTED, "scene.interface");
+    explicit_list: {heights: [0, 0, 0], radii: [0.01, 0.01, 0.01]}
+)";
+
+TEST(CapiCreate, EachKindOfSceneHasItsHandle) {
+  mdr_contact* contact = nullptr;
+  ExpectError(mdr_contact_create_from_text(kContactList, "i.yaml", &contact), MDR_INVALID_ARGUMENT,
+              "scene.interface");
   EXPECT_EQ(contact, nullptr);
+  mdr_interface* interface = nullptr;
+  ExpectError(mdr_interface_create_from_text(kScene, "c.yaml", &interface), MDR_INVALID_ARGUMENT,
+              "scene.interface");
+  EXPECT_EQ(interface, nullptr);
+}
+
+// A contact list is independent contacts (docs/interfaces.md): each one bit for bit a single
+// contact driven by its own values.
+TEST(CapiInterface, ContactListMatchesSingleContacts) {
+  mdr_interface* list = nullptr;
+  ASSERT_EQ(mdr_interface_create_from_text(kContactList, "list.yaml", &list), MDR_OK)
+      << mdr_last_error_message();
+  std::size_t n = 0;
+  ASSERT_EQ(mdr_interface_size(list, &n), MDR_OK);
+  ASSERT_EQ(n, 3u);
+  mdr_contact* single[3];
+  for (mdr_contact*& c : single) ASSERT_EQ(mdr_contact_create_from_text(kScene, "", &c), MDR_OK);
+  const double depths[3] = {3.5e-6, 2e-6, 1e-6};
+  const double forces[3][3] = {{10, 5, 2}, {-10, -5, -2}, {3, 0, -1}};
+  ASSERT_EQ(mdr_interface_step(list, MDR_NORMAL_DEPTH_INCREMENT, 0, MDR_TANGENTIAL_HOLD, 0, depths,
+                               nullptr, 3),
+            MDR_OK)
+      << mdr_last_error_message();
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_EQ(mdr_contact_step(single[i], MDR_NORMAL_DEPTH_INCREMENT, depths[i],
+                               MDR_TANGENTIAL_HOLD, 0, nullptr),
+              MDR_OK);
+  }
+  for (const auto& step : forces) {
+    ASSERT_EQ(mdr_interface_step(list, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 0, nullptr, step,
+                                 3),
+              MDR_OK)
+        << mdr_last_error_message();
+    for (int i = 0; i < 3; ++i) {
+      ASSERT_EQ(mdr_contact_step(single[i], MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, step[i],
+                                 nullptr),
+                MDR_OK);
+    }
+  }
+  mdr_state states[3], total{};
+  ASSERT_EQ(mdr_interface_contact_states(list, states, 3, &n), MDR_OK);
+  ASSERT_EQ(mdr_interface_state(list, &total), MDR_OK);
+  double normal_force = 0;
+  for (int i = 0; i < 3; ++i) {
+    mdr_state expected;
+    ASSERT_EQ(mdr_contact_state(single[i], &expected), MDR_OK);
+    EXPECT_EQ(std::memcmp(&states[i], &expected, sizeof expected), 0) << "contact " << i;
+    normal_force += expected.normal_force;
+    mdr_contact_destroy(single[i]);
+  }
+  EXPECT_EQ(total.normal_force, normal_force);  // summed in contact order
+  EXPECT_EQ(total.applied_steps, 4u);
+
+  // Bad steps name the argument and change nothing.
+  const double nan[3] = {0, std::numeric_limits<double>::quiet_NaN(), 0};
+  ExpectError(mdr_interface_step(list, MDR_NORMAL_DEPTH_INCREMENT, 0, MDR_TANGENTIAL_HOLD, 0, nan,
+                                 nullptr, 3),
+              MDR_INVALID_ARGUMENT, "normal_values[1]");
+  ExpectError(mdr_interface_step(list, MDR_NORMAL_DEPTH_INCREMENT, 0, MDR_TANGENTIAL_HOLD, 0,
+                                 depths, nullptr, 2),
+              MDR_INVALID_ARGUMENT, "normal_values");
+  ExpectError(mdr_interface_step(list, MDR_NORMAL_DEPTH_INCREMENT, 0, MDR_TANGENTIAL_HOLD, 0,
+                                 nullptr, nullptr, 3),
+              MDR_INVALID_ARGUMENT, "n");
+  ExpectError(mdr_interface_step(nullptr, 0, 0, 0, 0, nullptr, nullptr, 0), MDR_INVALID_ARGUMENT,
+              "interface");
+  ExpectError(mdr_interface_contact_states(list, states, 2, &n), MDR_OUT_OF_RANGE, "capacity");
+  EXPECT_EQ(n, 3u);
+  mdr_state after[3];
+  ASSERT_EQ(mdr_interface_contact_states(list, after, 3, &n), MDR_OK);
+  EXPECT_EQ(std::memcmp(after, states, sizeof after), 0);
+
+  // A snapshot continues bit for bit.
+  std::size_t size = 0;
+  EXPECT_EQ(mdr_interface_snapshot(list, nullptr, 0, &size), MDR_OUT_OF_RANGE);
+  std::vector<unsigned char> bytes(size);
+  ASSERT_EQ(mdr_interface_snapshot(list, bytes.data(), size, &size), MDR_OK);
+  mdr_interface* copy = nullptr;
+  ASSERT_EQ(mdr_interface_restore(bytes.data(), size, &copy), MDR_OK) << mdr_last_error_message();
+  mdr_contact* wrong = nullptr;
+  ExpectError(mdr_contact_restore(bytes.data(), size, &wrong), MDR_INVALID_ARGUMENT,
+              "snapshot.scene.interface");
+  for (mdr_interface* h : {list, copy}) {
+    ASSERT_EQ(mdr_interface_step(h, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, 0,
+                                 nullptr, depths, 3),
+              MDR_OK);
+  }
+  mdr_state a[3], b[3];
+  ASSERT_EQ(mdr_interface_contact_states(list, a, 3, &n), MDR_OK);
+  ASSERT_EQ(mdr_interface_contact_states(copy, b, 3, &n), MDR_OK);
+  EXPECT_EQ(std::memcmp(a, b, sizeof a), 0);
+  mdr_interface_destroy(copy);
+  mdr_interface_destroy(list);
 }
 
 TEST_F(CapiTest, NullHandlesNameTheArgument) {

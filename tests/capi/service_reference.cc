@@ -6,6 +6,9 @@
 //     writes OUT_DIR/scene.pb (the scene file's Scene, serialized), history.txt (the steps),
 //     reference.txt (the expected output of a caller, tests/capi/README in docs/capi.md),
 //     snapshot.pb (the session exported after kRestoreAt steps) and final.pb (after all).
+//   capi_service_reference contact_list SCENE_FILE OUT_DIR
+//     the same for a contact list (an interface session of 3 contacts): list_history.txt and
+//     list_reference.txt.
 //   capi_service_reference import OUT_DIR SNAPSHOT
 //     imports a snapshot written by the library and checks that the service's export of it has
 //     the contact, scene and step count of final.pb: a state moves from the library to the service.
@@ -18,6 +21,11 @@
 //                  state "K k+ k-", "J count edge_weight" and count lines "W r_begin r_end weight",
 //                  "T tau tau_error p p_error" at the radii a*k/8 for k = 0..7, "L count" and count
 //                  lines "I r_begin r_end direction" (direction in decimal).
+//   list_history.txt: NORMAL_CONTROL TANGENTIAL_CONTROL, then one normal and one tangential value
+//                  per contact (0 for a held channel)
+//   list_reference.txt: after every step "S" and per contact "depth ux F_N F_x W", then "T F_N F_x
+//   W"
+//                  of the interface's totals
 #include <google/protobuf/util/message_differencer.h>
 
 #include <cinttypes>
@@ -241,6 +249,73 @@ int Generate(const std::string& scene_file, const std::string& dir) {
   return written ? 0 : 1;
 }
 
+// A contact list's history: per-contact targets and increments of both channels, force targets
+// of both channels together (a curved path per contact) included.
+struct ListStep {
+  int normal_control, tangential_control;
+  std::vector<double> normal, tangential;
+};
+
+std::vector<ListStep> ListHistory() {
+  std::vector<ListStep> steps{{1, 0, {3.5e-6, 2e-6, 1e-6}, {0, 0, 0}}};
+  for (int k = 1; k <= 40; ++k) {
+    const double s = std::sin(2 * std::numbers::pi * k / 20);
+    steps.push_back({0, 4, {0, 0, 0}, {8e-7 * s, 4e-7 * s, 1e-7 * s}});
+  }
+  steps.push_back({3, 6, {100, 50, 20}, {10, -5, 2}});
+  for (int k = 0; k < 5; ++k) steps.push_back({2, 5, {1e-8, -1e-8, 2e-8}, {-3e-8, 1e-8, 0}});
+  return steps;
+}
+
+int GenerateContactList(const std::string& scene_file, const std::string& dir) {
+  Result<client::SceneDocument> document = client::SceneDocument::Load(scene_file);
+  if (!Check(document.status(), "scene file")) return 1;
+  ContactOperations ops(service::ServiceLimits{}, service::TestHooks{});
+  if (!CreateSession(ops, document->file().scene())) return 1;
+  std::ostringstream history, reference;
+  for (const ListStep& step : ListHistory()) {
+    history << step.normal_control << ' ' << step.tangential_control;
+    for (double v : step.normal) history << ' ' << Hex(v);
+    for (double v : step.tangential) history << ' ' << Hex(v);
+    history << '\n';
+    v1::ApplyRequest request;
+    request.set_session(kSessionName);
+    v1::Step* proto = request.add_steps();
+    *proto = ToProto({step.normal_control, 0, step.tangential_control, 0});
+    if (step.normal_control != 0)
+      proto->mutable_contact_normal_values()->Add(step.normal.begin(), step.normal.end());
+    if (step.tangential_control != 0) {
+      proto->mutable_contact_tangential_values()->Add(step.tangential.begin(),
+                                                      step.tangential.end());
+    }
+    v1::ApplyResponse response;
+    if (!Check(ops.Apply(
+                   std::nullopt, request, [] { return OkStatus(); }, &response),
+               "Apply")) {
+      return 1;
+    }
+    reference << 'S';
+    for (std::uint64_t i = 0; i < step.normal.size(); ++i) {
+      v1::QueryRequest query;
+      query.set_session(kSessionName);
+      query.set_contact_index(i);
+      v1::QueryResponse answer;
+      if (!Check(ops.Query(std::nullopt, query, &answer), "Query")) return 1;
+      const v1::ContactState& c = answer.state();
+      reference << ' ' << Hex(c.depth()) << ' ' << Hex(c.tangential_displacement()) << ' '
+                << Hex(c.normal_force()) << ' ' << Hex(c.tangential_force()) << ' '
+                << Hex(c.dissipated_energy());
+    }
+    const v1::ContactState& t = response.state();
+    reference << "\nT " << Hex(t.normal_force()) << ' ' << Hex(t.tangential_force()) << ' '
+              << Hex(t.dissipated_energy()) << '\n';
+  }
+  const bool written = WriteFile(dir + "/list_history.txt", history.str()) &&
+                       WriteFile(dir + "/list_reference.txt", reference.str());
+  if (!written) std::cerr << "cannot write into " << dir << "\n";
+  return written ? 0 : 1;
+}
+
 int CheckImport(const std::string& dir, const std::string& snapshot_path) {
   v1::SessionSnapshot library, expected;
   if (!ReadMessage(snapshot_path, &library) || !ReadMessage(dir + "/final.pb", &expected)) {
@@ -272,6 +347,9 @@ int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "generate" && argc == 4) return Generate(argv[2], argv[3]);
   if (mode == "import" && argc == 4) return CheckImport(argv[2], argv[3]);
-  std::cerr << "usage: " << argv[0] << " generate SCENE_FILE OUT_DIR | import OUT_DIR SNAPSHOT\n";
+  if (mode == "contact_list" && argc == 4) return GenerateContactList(argv[2], argv[3]);
+  std::cerr << "usage: " << argv[0]
+            << " generate SCENE_FILE OUT_DIR | contact_list SCENE_FILE OUT_DIR | import OUT_DIR "
+               "SNAPSHOT\n";
   return 2;
 }

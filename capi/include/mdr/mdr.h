@@ -5,7 +5,9 @@
  * The contact is the service's: a scene is the proto's mdr.v1.Scene (serialized bytes, or a
  * YAML/JSON scene file as mdrctl reads it), a step is the proto's Step, and a snapshot is the
  * proto's SessionSnapshot, so a state moves between this library and the service (ExportSession
- * / ImportSession) and continues bit for bit. Interface scenes (scene.interface) are refused.
+ * / ImportSession) and continues bit for bit. A scene of one contact is an mdr_contact; a scene
+ * with an interface (scene.interface: a shared motion or a contact list of many contacts,
+ * docs/interfaces.md) is an mdr_interface.
  *
  * Conventions of every function:
  * - The return value is an mdr_status: MDR_OK (0) or an error code. On an error nothing changed
@@ -52,7 +54,7 @@ typedef enum mdr_status {
   MDR_FAILED_PRECONDITION = 9, /* valid, but not from this state (|F_x| > mu F_N, grid method) */
   MDR_RESOURCE_EXHAUSTED = 8,  /* a limit (memory vertices, grid reach) or memory ran out */
   MDR_OUT_OF_RANGE = 11,       /* a caller's array is too small (the field names its capacity) */
-  MDR_UNIMPLEMENTED = 12,      /* not available through this library (interface scenes) */
+  MDR_UNIMPLEMENTED = 12,      /* not available through this library */
   MDR_INTERNAL = 13,
   MDR_DATA_LOSS = 15
 } mdr_status;
@@ -136,8 +138,9 @@ MDR_API int mdr_contact_create(const void* scene, size_t size, mdr_contact** out
 MDR_API int mdr_contact_create_from_text(const char* text, const char* name, mdr_contact** out);
 
 /* Creates a contact from a serialized mdr.v1.SessionSnapshot, as the service's ImportSession
- * does (version 1; a single contact, not an interface): it continues bit for bit like the
- * exported session. Errors name "snapshot.<field>". */
+ * does (version 1; a single contact: an interface's snapshot is mdr_interface_restore's): it
+ * continues bit for bit like the exported session. Errors name "snapshot.<field>". The create
+ * functions refuse an interface scene (INVALID_ARGUMENT naming scene.interface). */
 MDR_API int mdr_contact_restore(const void* snapshot, size_t size, mdr_contact** out);
 
 /* Releases a contact (NULL: nothing happens). */
@@ -189,6 +192,54 @@ MDR_API int mdr_contact_tractions(const mdr_contact* contact, const double* radi
  * (NULL with capacity 0 asks for the size). */
 MDR_API int mdr_contact_snapshot(const mdr_contact* contact, void* buffer, size_t capacity,
                                  size_t* size);
+
+/* ---- Interfaces: many contacts in one handle (docs/interfaces.md) ---- */
+
+/* An opaque interface: a shared motion of contacts at height offsets, or a contact list of
+ * independent contacts (a discrete-element code's), as an interface session of the service. */
+typedef struct mdr_interface mdr_interface;
+
+/* Create, create from a scene file's text, restore from a SessionSnapshot and release an
+ * interface: as the mdr_contact functions, for a scene with scene.interface (INVALID_ARGUMENT
+ * naming scene.interface for a scene of one contact). The service's CreateSession and
+ * ImportSession checks apply, its size check included. */
+MDR_API int mdr_interface_create(const void* scene, size_t size, mdr_interface** out);
+MDR_API int mdr_interface_create_from_text(const char* text, const char* name,
+                                           mdr_interface** out);
+MDR_API int mdr_interface_restore(const void* snapshot, size_t size, mdr_interface** out);
+MDR_API void mdr_interface_destroy(mdr_interface* interface);
+
+/* The number of contacts in *count. */
+MDR_API int mdr_interface_size(const mdr_interface* interface, size_t* count);
+
+/* Applies one step, atomically, as the service's Step of an interface session:
+ * - a shared motion: the controls move the approach (depth), the total normal force, the common
+ *   tangential displacement or the total tangential force; normal_values and tangential_values
+ *   are NULL and n is 0;
+ * - a contact list: a control chooses what the values of its channel mean for every contact
+ *   (target depth, depth increment, target normal force; displacement, its increment, tangential
+ *   force), its own value must be 0, and the channel's array holds one value per contact (n =
+ *   mdr_interface_size); a HOLD channel passes NULL.
+ * Errors name normal_control, normal_value, tangential_control, tangential_value,
+ * normal_values[i], tangential_values[i] or n. */
+MDR_API int mdr_interface_step(mdr_interface* interface, int normal_control, double normal_value,
+                               int tangential_control, double tangential_value,
+                               const double* normal_values, const double* tangential_values,
+                               size_t n);
+
+/* The interface's state as the service reports it: forces, energy and friction limit summed over
+ * the contacts in contact order, depth and tangential_displacement the shared motion's (0 for a
+ * contact list), contact_radius and last_step_dissipation 0, memory_vertices summed. */
+MDR_API int mdr_interface_state(const mdr_interface* interface, mdr_state* out);
+
+/* Every contact's own state, in contact order, into out[0..*count) (capacity records). */
+MDR_API int mdr_interface_contact_states(const mdr_interface* interface, mdr_state* out,
+                                         size_t capacity, size_t* count);
+
+/* The exact state as a serialized mdr.v1.SessionSnapshot with snapshot.interface, as
+ * mdr_contact_snapshot (the service's ImportSession accepts it). */
+MDR_API int mdr_interface_snapshot(const mdr_interface* interface, void* buffer, size_t capacity,
+                                   size_t* size);
 
 #ifdef __cplusplus
 } /* extern "C" */
