@@ -1,5 +1,5 @@
-/* The C interface of the MDR contact engine (libmdr_c): one tangential contact in-process, with
- * no server, for rig controllers, simulation codes in C, Fortran and Python, MATLAB and LabVIEW.
+/* The C interface of the MDR contact engine (libmdr_c): tangential contacts in-process, with no
+ * server, for rig controllers, simulation codes in C, Fortran and Python, MATLAB and LabVIEW.
  * docs/capi.md describes the contract, the allocation and timing guarantees and the callers.
  *
  * The contact is the service's: a scene is the proto's mdr.v1.Scene (serialized bytes, or a
