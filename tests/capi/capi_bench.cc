@@ -78,7 +78,7 @@ class Histogram {
 struct Variant {
   const char* name;
   std::function<void(double ux)> step;
-  Histogram times;
+  Histogram times{};
 };
 
 // The four variants in turn, one cycle each, so that they share the machine's state (frequency,
