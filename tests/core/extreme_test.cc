@@ -238,3 +238,57 @@ TEST(ExtremeTest, SubnormalDepthsGiveFiniteForces) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+// Found by the C interface's fuzzer: every state a step leaves must restore from its snapshot.
+// Two finite increments of -1.5e308 m overflow ux; and a history from a depth of 90 m (and a
+// displacement of 55 m) back to microns rounds the memory at the large scale, beyond the friction
+// cone's slack. Both steps are refused and change nothing (bit for bit), and every accepted
+// state restores.
+TEST(ExtremeTest, StepsWhoseStateCouldNotBeRestoredAreRefused) {
+  const auto restores = [](const Contact& c) {
+    return Contact::Restore(c.config(), c.Snapshot()).ok();
+  };
+  const auto same = [](const ContactSnapshot& a, const ContactSnapshot& b) {
+    return a.depth == b.depth && a.tangential_displacement == b.tangential_displacement &&
+           a.dissipated_energy == b.dissipated_energy && a.z == b.z && a.u == b.u &&
+           a.tags == b.tags;
+  };
+  Contact overflow = testing::MakeContact(*MakeSphere(0.01), *RigidOnHalfSpace(80e9, 0.3), 0.3);
+  const Step down{NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement,
+                  -1.5e308};
+  ASSERT_TRUE(overflow.Apply(down).ok());
+  const ContactSnapshot before = overflow.Snapshot();
+  const Status refused = overflow.Apply(down);
+  EXPECT_EQ(refused.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(refused.field(), "displacement_increment");
+  EXPECT_TRUE(same(overflow.Snapshot(), before));
+  EXPECT_TRUE(restores(overflow));
+
+  // H1, then the fuzzer's history.
+  Contact c = testing::SteelSphere();
+  const Step history[] = {
+      {NormalControl::kDepth, 3e-6, TangentialControl::kDisplacement, 2e-7},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kForce, -19.213867187500547},
+      {NormalControl::kDepthIncrement, 90.791308879995128, TangentialControl::kDisplacement,
+       -55.473339557284625},
+      {NormalControl::kForce, 55.293965339547661, TangentialControl::kForce,
+       5.5294117657467292e-06},
+  };
+  int refusals = 0;
+  for (const Step& step : history) {
+    const ContactSnapshot previous = c.Snapshot();
+    const Status status = c.Apply(step);
+    if (!status.ok()) {
+      ++refusals;
+      EXPECT_TRUE(same(c.Snapshot(), previous)) << status.ToString();
+    }
+    EXPECT_TRUE(restores(c)) << status.ToString();
+  }
+  EXPECT_LE(refusals, 1);
+}
+
+}  // namespace
+}  // namespace mdr

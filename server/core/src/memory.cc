@@ -587,6 +587,13 @@ double PiecewiseLinearMemory::BoundTagTolerance(std::size_t i, double mu_kappa) 
   return kTagUlps * std::numeric_limits<double>::epsilon() * depth_ * (mu_kappa + slope);
 }
 
+Status PiecewiseLinearMemory::CheckReachable(double mu_kappa,
+                                             double tangential_displacement) const {
+  if (Status s = CheckCoulomb(mu_kappa); !s.ok()) return s;
+  if (Status s = CheckFrictionCone(mu_kappa); !s.ok()) return s;
+  return CheckAnchors(mu_kappa, tangential_displacement);
+}
+
 Status PiecewiseLinearMemory::CheckFrictionCone(double mu_kappa) const {
   for (std::size_t i = 0; i + 1 < z_.size(); ++i) {
     if (WithinFrictionCone(z_[i], u_[i], z_[i + 1], u_[i + 1], mu_kappa, depth_)) continue;

@@ -177,6 +177,9 @@ class PiecewiseLinearMemory {
   // segment's inner vertex: a memory whose weights would leave [-1, 1] (a zigzag inside the
   // Coulomb bound) is no state the engine reaches.
   Status CheckFrictionCone(double mu_kappa) const;
+  // The three checks above: what a restored snapshot must satisfy. Every step's result is held to
+  // the cone's (Contact::CheckStepResult), the one check with a rounding slack.
+  Status CheckReachable(double mu_kappa, double tangential_displacement) const;
   // How far below the bound line a vertex tagged on it may lie: a crossing vertex takes u from
   // the segment it was placed on at a z rounded to a few ulps of depth, so it sits up to
   // ~(mu_kappa + |du/dz|) * c * eps * depth inside the bound (memory.cc, PlaceCrossing).
