@@ -113,7 +113,6 @@ class StreamApplyReactor final
   void DropUnappliedLocked();
   void RecycleLocked(std::unique_ptr<Message> message);
 
-  grpc::CallbackServerContext* const context_;
   ContactOperations& operations_;
   StreamRegistry& registry_;
   Executor& executor_;
