@@ -298,6 +298,28 @@ def targets_markdown(core_path, load_path, interface_path=None, interface_load_p
     return lines + [""]
 
 
+def capi_markdown(path):
+    """Step-time percentiles of capi_bench: libmdr_c's step beside the C++ engine's."""
+    with open(path) as f:
+        report = json.load(f)
+    bench = report["benchmarks"][0]
+    order = ["cpp_move_to", "cpp_apply", "c_step", "c_step_state"]
+    variants = sorted((k[:-len("_p50")] for k in bench if k.endswith("_p50")),
+                      key=lambda v: order.index(v) if v in order else len(order))
+    steps = int(bench["run_name"].split("/")[1])
+    lines = ["### Steps through the C interface (`capi_bench.json`)", "",
+             f"H1 fretting, {steps:,} steps per variant, the variants in "
+             "turn cycle by cycle; each step timed alone (steady clock), so the figures include "
+             "the clock's own cost. `Contact::Apply` is the atomic step the service and the C "
+             "interface run; `mdr_contact_step` adds the C boundary (docs/capi.md).", "",
+             "| variant | p50 | p99 | p99.9 | max |", "|---|---|---|---|---|"]
+    for v in variants:
+        lines.append(f"| {v} | " + " | ".join(f"{bench[v + '_' + p]:.0f} ns"
+                                              for p in ("p50", "p99", "p99.9")) +
+                     f" | {bench[v + '_max'] / 1e3:.0f} us |")
+    return lines + [""]
+
+
 def main():
     out = sys.argv[1]
     with open(os.path.join(out, "accuracy.csv")) as f:
@@ -324,6 +346,9 @@ def main():
         with open(interface_load) as f:
             perf += ["### Contact list through the service (`mdr_interface_load`)", "", "```",
                      f.read().rstrip(), "```", ""]
+    capi = os.path.join(out, "capi_bench.json")
+    if os.path.exists(capi):
+        perf += capi_markdown(capi)
     fairness = os.path.join(out, "fairness.txt")
     if os.path.exists(fairness):
         with open(fairness) as f:

@@ -9,7 +9,7 @@ cd "$(dirname "$0")/../.."
 quick=${1:-}
 out=docs/report
 bash deploy/build.sh release --target mdr_accuracy_study mdr_core_bench mdr_load \
-  mdr_interface_bench mdr_interface_load mdr_operations_bench mdr_analysis_bench mdr_fairness mdrd
+  mdr_interface_bench mdr_interface_load mdr_operations_bench mdr_analysis_bench mdr_fairness mdrd capi_bench
 mkdir -p "$out"
 echo "accuracy study -> $out/accuracy.csv"
 build/release/tests/accuracy/mdr_accuracy_study $quick > "$out/accuracy.csv"
@@ -32,6 +32,9 @@ build/release/tests/bench/mdr_analysis_bench --benchmark_repetitions=3 \
 echo "contact list through the service -> $out/interface_load.txt"
 { build/release/tests/bench/mdr_interface_load --seconds 3
   build/release/tests/bench/mdr_interface_load --seconds 3 --no-energy; } > "$out/interface_load.txt"
+echo "steps through the C interface -> $out/capi_bench.json"
+build/release/tests/capi/capi_bench --benchmark_out_format=json \
+  --benchmark_out="$out/capi_bench.json" > /dev/null
 echo "fairness between two tokens -> $out/fairness.txt"
 build/release/tests/bench/mdr_fairness --mdrd build/release/server/mdrd/mdrd --seconds 5 \
   > "$out/fairness.txt"
