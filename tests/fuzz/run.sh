@@ -30,7 +30,7 @@ for target in engine request capi; do
   status=$?
   set -e
   if [ "$status" -ne 0 ]; then
-    grep -E "invariant|ERROR|runtime error|SUMMARY" "$work/log" | head -n 20 >&2
+    grep -E "invariant|ERROR|runtime error|SUMMARY" "$work/log" | head -n 20 >&2 || tail -n 20 "$work/log" >&2
     echo "fuzz: $target failed (exit $status); inputs kept in $artifacts:" >&2
     ls "$artifacts" >&2
     exit "$status"
