@@ -254,24 +254,6 @@ CallStatus Restore(const void* bytes, std::size_t size, mdr_contact** out) {
   return OkStatus();
 }
 
-CallStatus CreateFromBytes(const void* bytes, std::size_t size, mdr_contact** out) {
-  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
-  *out = nullptr;
-  Result<v1::Scene> scene = ParseScene(bytes, size);
-  if (!scene.ok()) return scene.status();
-  return CreateContact(*scene, out);
-}
-
-// mdrctl's reading of a scene file, whose errors name the line of a field.
-CallStatus CreateFromText(const char* text, const char* name, mdr_contact** out) {
-  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
-  *out = nullptr;
-  Result<SceneText> scene = ParseSceneText(text, name);
-  if (!scene.ok()) return scene.status();
-  CallStatus status = CreateContact(scene->scene(), out);
-  return status.ok() ? status : scene->Locate(status);
-}
-
 }  // namespace
 }  // namespace mdr::capi
 
@@ -285,13 +267,15 @@ int mdr_version(void) { return MDR_C_API_VERSION; }
 const char* mdr_version_string(void) { return MDR_C_VERSION_STRING; }
 
 int mdr_contact_create(const void* scene, size_t size, mdr_contact** out) {
-  return Boundary("mdr_contact_create",
-                  [&] { return mdr::capi::CreateFromBytes(scene, size, out); });
+  return Boundary("mdr_contact_create", [&] {
+    return mdr::capi::CreateFromBytes(scene, size, out, mdr::capi::CreateContact);
+  });
 }
 
 int mdr_contact_create_from_text(const char* text, const char* name, mdr_contact** out) {
-  return Boundary("mdr_contact_create_from_text",
-                  [&] { return mdr::capi::CreateFromText(text, name, out); });
+  return Boundary("mdr_contact_create_from_text", [&] {
+    return mdr::capi::CreateFromText(text, name, out, mdr::capi::CreateContact);
+  });
 }
 
 int mdr_contact_restore(const void* snapshot, size_t size, mdr_contact** out) {

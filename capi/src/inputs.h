@@ -33,6 +33,26 @@ struct SceneText {
 };
 Result<SceneText> ParseSceneText(const char* text, const char* name);
 
+// A handle (mdr_contact, mdr_interface) made by create(scene, out) from a serialized Scene, or
+// from a scene file's text with the line of a failing field in the error. *out is null on error.
+template <typename Handle, typename Create>
+CallStatus CreateFromBytes(const void* bytes, std::size_t size, Handle** out, Create create) {
+  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
+  *out = nullptr;
+  Result<v1::Scene> scene = ParseScene(bytes, size);
+  if (!scene.ok()) return scene.status();
+  return create(*scene, out);
+}
+template <typename Handle, typename Create>
+CallStatus CreateFromText(const char* text, const char* name, Handle** out, Create create) {
+  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
+  *out = nullptr;
+  Result<SceneText> scene = ParseSceneText(text, name);
+  if (!scene.ok()) return scene.status();
+  CallStatus status = create(scene->scene(), out);
+  return status.ok() ? status : scene->Locate(status);
+}
+
 // A snapshot from serialized bytes with ImportSession's checks of its version and counters;
 // errors name "snapshot.<field>".
 Result<v1::SessionSnapshot> ParseSnapshot(const void* bytes, std::size_t size);

@@ -52,23 +52,6 @@ CallStatus CreateInterface(const v1::Scene& scene, mdr_interface** out) {
   return OkStatus();
 }
 
-CallStatus CreateFromBytes(const void* bytes, std::size_t size, mdr_interface** out) {
-  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
-  *out = nullptr;
-  Result<v1::Scene> scene = ParseScene(bytes, size);
-  if (!scene.ok()) return scene.status();
-  return CreateInterface(*scene, out);
-}
-
-CallStatus CreateFromText(const char* text, const char* name, mdr_interface** out) {
-  if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
-  *out = nullptr;
-  Result<SceneText> scene = ParseSceneText(text, name);
-  if (!scene.ok()) return scene.status();
-  CallStatus status = CreateInterface(scene->scene(), out);
-  return status.ok() ? status : scene->Locate(status);
-}
-
 // ImportSession's reading of an interface snapshot (ContactOperations::StateOf).
 CallStatus Restore(const void* bytes, std::size_t size, mdr_interface** out) {
   if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
@@ -240,13 +223,15 @@ using mdr::capi::Boundary;
 using mdr::capi::CallStatus;
 
 int mdr_interface_create(const void* scene, size_t size, mdr_interface** out) {
-  return Boundary("mdr_interface_create",
-                  [&] { return mdr::capi::CreateFromBytes(scene, size, out); });
+  return Boundary("mdr_interface_create", [&] {
+    return mdr::capi::CreateFromBytes(scene, size, out, mdr::capi::CreateInterface);
+  });
 }
 
 int mdr_interface_create_from_text(const char* text, const char* name, mdr_interface** out) {
-  return Boundary("mdr_interface_create_from_text",
-                  [&] { return mdr::capi::CreateFromText(text, name, out); });
+  return Boundary("mdr_interface_create_from_text", [&] {
+    return mdr::capi::CreateFromText(text, name, out, mdr::capi::CreateInterface);
+  });
 }
 
 int mdr_interface_restore(const void* snapshot, size_t size, mdr_interface** out) {
