@@ -102,6 +102,13 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_MAX_STREAMS_PER_CALLER")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--contended-stream-share", limits.stream_pacing.contended_share,
+                 "While other callers are active, the fraction of one core one caller's "
+                 "StreamApply streams may use (application and transport); beyond, its streams "
+                 "are read more slowly. A caller alone is not paced")
+      ->envname("MDR_CONTENDED_STREAM_SHARE")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--shutdown-grace", options->shutdown_grace_seconds,
                  "Seconds running calls get to finish after SIGTERM/SIGINT")
       ->envname("MDR_SHUTDOWN_GRACE")
@@ -177,7 +184,7 @@ void LogEffectiveOptions(const Options& options) {
       "journal_recover={} journal_min_free_bytes={} tls={} mtls={} auth={} "
       "max_sessions_per_token={} max_state_bytes={} "
       "workers={} max_queued_calls={} max_queued_calls_per_caller={} "
-      "max_streams_per_caller={} metrics_listen={}",
+      "max_streams_per_caller={} contended_stream_share={} metrics_listen={}",
       server.listen_address, options.log_level, limits.max_sessions, limits.max_steps_per_batch,
       limits.max_memory_vertices,
       std::chrono::duration<double>(limits.session_idle_timeout).count(),
@@ -188,7 +195,7 @@ void LogEffectiveOptions(const Options& options) {
       !server.tls.client_ca_file.empty(), !server.tokens_file.empty(),
       limits.max_sessions_per_token, limits.max_state_bytes, server.execution.workers,
       server.execution.max_queued, server.execution.max_queued_per_caller,
-      limits.max_streams_per_caller,
+      limits.max_streams_per_caller, limits.stream_pacing.contended_share,
       server.metrics_listen_address.empty() ? "-" : server.metrics_listen_address);
   if (!server.tokens_file.empty() && server.tls.cert_file.empty()) {
     spdlog::warn(

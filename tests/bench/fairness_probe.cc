@@ -4,6 +4,7 @@
 // (this program again, --abuse), and bob's probe (this process).
 //   build/release/tests/bench/mdr_fairness --mdrd build/release/server/mdrd/mdrd
 //                                          [--seconds S] [--streams N] [--heavy-clients N]
+//                                          [--alice-competes] [--mdrd-arg=--flag ...]
 //
 // Bob's probe: a one-step Apply on his loaded H1 session every 2 ms (partial-slip cycling), its
 // round-trip time and whether it succeeded. Measured alone (quiet), then while alice
@@ -13,12 +14,16 @@
 // - "heavy calls": runs N clients (default 4) of heavy calls back to back, each a
 //   CreateSession of a tabulated profile of 20000 samples or a 20-step batch on a grid of 2^20
 //   springs, both hundreds of milliseconds of a core.
-// Prints bob's p50/p99/max and refusals per phase and the p99 against quiet with the target
-// (<= 2x). Exit status 1 if any of bob's calls failed: he must never be refused. Timing is
-// judged here and in the report, never in the test suite (the ctest run only checks the exit
-// status). Clients in their own processes matter: a synchronous gRPC call's thread also polls the
-// process's other connections, so an abuser in bob's process would slow bob's client, not mdrd.
+// Alice's client runs at SCHED_IDLE, standing in for a client on its own machine (her 256 client
+// threads would otherwise take most of this machine's cores whatever mdrd does);
+// --alice-competes runs it at normal priority. Prints bob's p50/p99/max and refusals per phase,
+// the p99 against quiet with the target (<= 2x), and the cores mdrd and alice's client used. Exit
+// status 1 if any of bob's calls failed: he must never be refused. Timing is judged here and in the
+// report, never in the test suite (the ctest run only checks the exit status). Clients in their own
+// processes matter: a synchronous gRPC call's thread also polls the process's other connections, so
+// an abuser in bob's process would slow bob's client, not mdrd.
 #include <grpcpp/grpcpp.h>
+#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -34,8 +39,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <regex>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -253,6 +260,8 @@ struct Settings {
   double seconds = 4;
   int streams = 256;
   int heavy_clients = 4;
+  std::vector<std::string> mdrd_args;  // passed on to mdrd
+  bool alice_competes = false;         // her client at normal priority instead of SCHED_IDLE
   std::string abuse;    // child mode: "streams" or "heavy"
   std::string connect;  // child mode: mdrd's address
 };
@@ -267,6 +276,11 @@ Settings Parse(int argc, char** argv) {
       ->check(CLI::Range(1, 256));
   app.add_option("--heavy-clients", settings.heavy_clients, "alice's clients of heavy calls")
       ->check(CLI::Range(1, 64));
+  app.add_option("--mdrd-arg", settings.mdrd_args,
+                 "an argument passed on to mdrd (repeat: --mdrd-arg=--workers --mdrd-arg=4)");
+  app.add_flag("--alice-competes", settings.alice_competes,
+               "run alice's client at normal priority (default: SCHED_IDLE, as if on its own "
+               "machine)");
   app.add_option("--abuse", settings.abuse, "(internal) run as alice until killed")
       ->check(CLI::IsMember({"streams", "heavy"}));
   app.add_option("--connect", settings.connect, "(internal) alice's server address");
@@ -319,6 +333,36 @@ pid_t Spawn(const std::vector<std::string>& command, int* output) {
   return pid;
 }
 
+// A process's CPU time (user and system, all threads) since construction, in cores.
+class CpuClock {
+ public:
+  explicit CpuClock(pid_t pid)
+      : pid_(pid), cpu_(Seconds()), start_(std::chrono::steady_clock::now()) {}
+  double Cores() const {
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    return (Seconds() - cpu_) / wall;
+  }
+
+ private:
+  // Fields 14 and 15 of /proc/PID/stat (after the parenthesised command name).
+  double Seconds() const {
+    std::ifstream stat("/proc/" + std::to_string(pid_) + "/stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    std::istringstream fields(text.substr(text.rfind(')') + 2));
+    std::string field;
+    double ticks = 0;
+    for (int i = 3; i <= 15 && fields >> field; ++i) {
+      if (i >= 14) ticks += std::stod(field);
+    }
+    return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+  }
+
+  pid_t pid_;
+  double cpu_;
+  std::chrono::steady_clock::time_point start_;
+};
+
 void Stop(pid_t pid) {
   kill(pid, SIGTERM);
   int status = 0;
@@ -326,11 +370,14 @@ void Stop(pid_t pid) {
 }
 
 // Starts mdrd with the two tokens and no journal; returns its address once it serves.
-std::string StartMdrd(const std::string& mdrd, const std::string& tokens, pid_t* pid) {
+std::string StartMdrd(const Settings& settings, const std::string& tokens, pid_t* pid) {
   int output = -1;
-  *pid = Spawn({mdrd, "--listen", "127.0.0.1:0", "--no-journal", "--tokens-file", tokens,
-                "--max-message-bytes", std::to_string(64 << 20), "--log-level", "info"},
-               &output);
+  std::vector<std::string> command = {
+      settings.mdrd,   "--listen", "127.0.0.1:0",         "--no-journal",
+      "--tokens-file", tokens,     "--max-message-bytes", std::to_string(64 << 20),
+      "--log-level",   "info"};
+  command.insert(command.end(), settings.mdrd_args.begin(), settings.mdrd_args.end());
+  *pid = Spawn(command, &output);
   FILE* log = fdopen(output, "r");
   const std::regex serving(R"(event=serving.*\bport="?(\d+))");
   char line[4096];
@@ -351,6 +398,13 @@ std::string StartMdrd(const std::string& mdrd, const std::string& tokens, pid_t*
 }
 
 int RunAlice(const Settings& settings) {
+  if (!settings.alice_competes) {
+    // SCHED_IDLE (inherited by her threads): her client stands in for one on its own machine.
+    // Without it, her gRPC client's 256 threads alone take 1.3-1.4 of this machine's 2 cores,
+    // however slowly mdrd reads her streams, and that is no server's doing.
+    sched_param parameter{};
+    if (sched_setscheduler(0, SCHED_IDLE, &parameter) != 0) Fail("sched_setscheduler(SCHED_IDLE)");
+  }
   if (settings.abuse == "streams") {
     AbandonedStreams abuse(settings.connect, settings.streams);
     pause();  // until SIGTERM ends the process
@@ -370,7 +424,7 @@ int main(int argc, char** argv) {
       std::filesystem::temp_directory_path() / ("mdr_fairness_tokens." + std::to_string(getpid()));
   std::ofstream(tokens) << "alice:" << kAliceToken << "\nbob:" << kBobToken << "\n";
   pid_t mdrd = 0;
-  const std::string address = StartMdrd(settings.mdrd, tokens.string(), &mdrd);
+  const std::string address = StartMdrd(settings, tokens.string(), &mdrd);
   std::filesystem::remove(tokens);
 
   auto bob = Connect(address);
@@ -383,26 +437,41 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "mdr_fairness: %u hardware threads, mdrd with default workers and limits; bob's one-step "
-      "Apply every %lld ms for %g s per phase; alice: %d streams / %d heavy clients\n",
+      "Apply every %lld ms for %g s per phase; alice: %d streams / %d heavy clients, her client "
+      "%s\n",
       std::thread::hardware_concurrency(), static_cast<long long>(kProbePeriod.count()),
-      settings.seconds, settings.streams, settings.heavy_clients);
+      settings.seconds, settings.streams, settings.heavy_clients,
+      settings.alice_competes ? "at normal priority (--alice-competes)" : "at SCHED_IDLE");
   Probe(*bob, session, 0.5);  // warm-up
+  const CpuClock quiet_cpu(mdrd);
   const ProbeFigures quiet = Probe(*bob, session, settings.seconds);
+  const double quiet_cores = quiet_cpu.Cores();
   bool never_refused = Report("quiet", quiet, 0);
+  std::printf("  during it: mdrd used %.2f cores\n", quiet_cores);
   const double quiet_p99 = Percentile(quiet.millis, 0.99);
   const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
   for (const char* kind : {"streams", "heavy"}) {
-    const pid_t alice =
-        Spawn({self, "--abuse", kind, "--connect", address, "--streams",
-               std::to_string(settings.streams), "--heavy-clients",
-               std::to_string(settings.heavy_clients)},
-              nullptr);
+    std::vector<std::string> command = {self,
+                                        "--abuse",
+                                        kind,
+                                        "--connect",
+                                        address,
+                                        "--streams",
+                                        std::to_string(settings.streams),
+                                        "--heavy-clients",
+                                        std::to_string(settings.heavy_clients)};
+    if (settings.alice_competes) command.push_back("--alice-competes");
+    const pid_t alice = Spawn(command, nullptr);
     std::this_thread::sleep_for(std::chrono::seconds(2));  // her sessions and calls are going
+    const CpuClock mdrd_cpu(mdrd), alice_cpu(alice);
     const ProbeFigures figures = Probe(*bob, session, settings.seconds);
+    const double mdrd_cores = mdrd_cpu.Cores(), alice_cores = alice_cpu.Cores();
     Stop(alice);
     never_refused &=
         Report(std::strcmp(kind, "streams") == 0 ? "abandoned streams" : "heavy calls", figures,
                quiet_p99);
+    std::printf("  during it: mdrd used %.2f cores, alice's client %.2f\n", mdrd_cores,
+                alice_cores);
   }
   Stop(mdrd);
   return never_refused ? EXIT_SUCCESS : EXIT_FAILURE;

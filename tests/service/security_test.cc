@@ -9,11 +9,13 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <future>
 #include <fstream>
+#include <future>
 #include <sstream>
+#include <thread>
 
 #include "mdr/service/auth.h"
+#include "mdr/service/metrics.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -524,6 +526,105 @@ TEST_F(AuthTest, ACallersOpenStreamsAreBoundedOnTheirOwn) {
     stream->stream->WritesDone();
     EXPECT_TRUE(stream->stream->Finish().ok());
   }
+}
+
+// Pacing that makes every stream message cost milliseconds, so that a few messages exceed it.
+service::ServiceLimits SlowlyPacedStreams(double share, std::chrono::nanoseconds transport_cost) {
+  service::ServiceLimits limits;
+  limits.stream_pacing.contended_share = share;
+  limits.stream_pacing.burst = std::chrono::nanoseconds(0);
+  limits.stream_pacing.transport_cost = transport_cost;
+  return limits;
+}
+
+TEST_F(AuthTest, ACallersStreamsArePacedOnlyWhileAnotherCallerIsActive) {
+  StartWithTokens(0, SlowlyPacedStreams(0.5, std::chrono::milliseconds(2)));
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(alice, "alices").ok());
+  constexpr int kMessages = 20;
+  // Alice's messages one at a time; between them, bob's Apply when `with_bob`. Returns the
+  // pauses of her streams' reads.
+  const auto stream_alone_or_with_bob = [&](bool with_bob) {
+    const std::uint64_t pauses_before = service::ProcessMetrics().stream_read_pauses.value();
+    auto context = As(alice);
+    auto stream = stub_->StreamApply(context.get());
+    for (int i = 0; i < kMessages; ++i) {
+      v1::StreamApplyRequest message;
+      *message.mutable_apply() =
+          ApplyRequestFor("sessions/alices", {DisplacementIncrementStep(i % 2 ? -1e-9 : 1e-9)});
+      v1::StreamApplyResponse response;
+      EXPECT_TRUE(stream->Write(message) && stream->Read(&response));
+      EXPECT_EQ(response.status().code(), 0) << response.status().message();
+      if (with_bob) {
+        v1::ApplyResponse bobs;
+        EXPECT_TRUE(
+            stub_
+                ->Apply(As(bob).get(), ApplyRequestFor("sessions/bobs", {DepthStep(kDepth)}), &bobs)
+                .ok());
+      }
+    }
+    stream->WritesDone();
+    EXPECT_TRUE(stream->Finish().ok());
+    return service::ProcessMetrics().stream_read_pauses.value() - pauses_before;
+  };
+  EXPECT_EQ(stream_alone_or_with_bob(false), 0u) << "a caller alone was paced";
+  ASSERT_TRUE(CreateAs(bob, "bobs").ok());
+  // 2 ms of transport per message drained at half a core: alice owes 4 ms per message, and reads
+  // ahead of her answers only when she has repaid it; her client sends the next after bob's call.
+  EXPECT_GE(stream_alone_or_with_bob(true), kMessages / 2u);
+  v1::Session session;
+  v1::GetSessionRequest get;
+  get.set_name("sessions/alices");
+  ASSERT_TRUE(stub_->GetSession(As(alice).get(), get, &session).ok());
+  EXPECT_EQ(session.state().applied_steps(), 2u * kMessages) << "a paced message was lost";
+}
+
+TEST_F(AuthTest, APausedStreamEndsWhenItsClientCancelsOrTheServerStops) {
+  // A booked read an hour away (the longest wait), after the first message.
+  service::ServiceLimits limits = SlowlyPacedStreams(1e-6, std::chrono::seconds(1));
+  limits.max_streams_per_caller = 1;
+  StartWithTokens(0, limits);
+  const std::string alice = Bearer(kAliceToken), bob = Bearer(kBobToken);
+  ASSERT_TRUE(CreateAs(alice, "alices").ok());
+  ASSERT_TRUE(CreateAs(bob, "bobs").ok());  // bob is active from now on (for a second)
+  // Opens a stream and has messages answered until the server pauses its next read.
+  const auto open_and_pause = [&](std::unique_ptr<grpc::ClientContext>* context) {
+    *context = As(alice);
+    (*context)->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    auto stream = stub_->StreamApply(context->get());
+    v1::StreamApplyRequest message;
+    *message.mutable_apply() =
+        ApplyRequestFor("sessions/alices", {DisplacementIncrementStep(1e-9)});
+    v1::StreamApplyResponse response;
+    const std::uint64_t before = service::ProcessMetrics().stream_read_pauses.value();
+    // The next read is booked before a message is applied, so before its answer arrives.
+    for (int i = 0; i < 3 && service::ProcessMetrics().stream_read_pauses.value() == before; ++i) {
+      EXPECT_TRUE(stream->Write(message) && stream->Read(&response));
+      EXPECT_EQ(response.status().code(), 0);
+    }
+    EXPECT_GT(service::ProcessMetrics().stream_read_pauses.value(), before);
+    return stream;
+  };
+  std::unique_ptr<grpc::ClientContext> first_context;
+  auto first = open_and_pause(&first_context);
+  first_context->TryCancel();
+  EXPECT_EQ(first->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  // The paused stream notices within a pause's longest part (200 ms) and frees alice's only
+  // stream slot; a slot still held refuses the next stream with RESOURCE_EXHAUSTED.
+  std::unique_ptr<grpc::ClientContext> second_context;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::StreamApplyRequest, v1::StreamApplyResponse>> second;
+  for (int attempt = 0; attempt < 500 && server_->open_streams() > 0; ++attempt) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(server_->open_streams(), 0u) << "the cancelled stream stayed paused";
+  ASSERT_TRUE(CreateAs(bob, "bobs2").ok());  // bob active again
+  second = open_and_pause(&second_context);
+  std::thread shutdown(
+      [&] { server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(30)); });
+  const grpc::Status status = second->Finish();
+  shutdown.join();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+  EXPECT_THAT(status.error_message(), HasSubstr("shutting down"));
 }
 
 TEST_F(AuthTest, TokensTravelAsCallCredentialsOverTls) {

@@ -1,6 +1,7 @@
 #include "mdr/service/executor.h"
 
 #include <pthread.h>
+#include <time.h>
 
 #include <algorithm>
 #include <limits>
@@ -10,7 +11,14 @@
 #include "mdr/service/metrics.h"
 
 namespace mdr::service {
+
 namespace {
+
+std::int64_t ThreadCpuNanoseconds() {
+  timespec now{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+  return std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec;
+}
 
 std::size_t WorkerCount(std::size_t requested) {
   if (requested > 0) return requested;
@@ -57,7 +65,8 @@ Executor::Admission Executor::Submit(std::string_view caller, std::string_view s
       refusal = Admission::kCallerQueueFull;
     } else if (queued_ >= options_.max_queued) {
       // Its fair share of the full queue: the active callers, itself included.
-      const std::size_t others = ActiveCallersLocked(now, &it->first);
+      const std::string_view self = it->first;
+      const std::size_t others = ActiveCallersLocked(now, &self);
       const std::size_t share = std::max<std::size_t>(options_.max_queued / (others + 1), 1);
       if (queue.queued >= share || queued_ >= 2 * options_.max_queued) refusal = Admission::kBusy;
     }
@@ -107,7 +116,13 @@ bool Executor::ActiveLocked(const CallerQueue& queue, Clock::time_point now) con
   return queue.queued > 0 || queue.running > 0 || now - queue.last_active <= options_.recent_window;
 }
 
-std::size_t Executor::ActiveCallersLocked(Clock::time_point now, const std::string* except) const {
+std::size_t Executor::OtherActiveCallers(std::string_view caller) const {
+  std::lock_guard lock(mutex_);
+  return ActiveCallersLocked(Clock::now(), &caller);
+}
+
+std::size_t Executor::ActiveCallersLocked(Clock::time_point now,
+                                          const std::string_view* except) const {
   return std::count_if(callers_.begin(), callers_.end(), [&](const Callers::value_type& entry) {
     return (except == nullptr || entry.first != *except) && ActiveLocked(entry.second, now);
   });
@@ -166,8 +181,10 @@ void Executor::Work() {
     ++running_;
     lock.unlock();
     current_caller = caller;
+    const std::int64_t cpu_before = ThreadCpuNanoseconds();
     task();
     task = nullptr;  // destroyed outside the lock
+    task_cpu_nanoseconds_.fetch_add(ThreadCpuNanoseconds() - cpu_before, std::memory_order_relaxed);
     current_caller.clear();
     lock.lock();
     CallerQueue& after = callers_.at(caller);  // rehashing may have moved it

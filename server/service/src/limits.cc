@@ -56,6 +56,11 @@ Status ValidateServiceLimits(const ServiceLimits& limits) {
   if (limits.max_streams_per_caller < 1) {
     return InvalidArgument("max-streams-per-caller", "must be >= 1, got 0");
   }
+  if (const double share = limits.stream_pacing.contended_share; !(share > 0 && share <= 1024)) {
+    return InvalidArgument(
+        "contended-stream-share",
+        "must be in (0, 1024] (a fraction of one core), got " + std::to_string(share));
+  }
   if (limits.max_message_bytes < 1024) {
     return InvalidArgument("max-message-bytes",
                            "must be >= 1024, got " + std::to_string(limits.max_message_bytes));

@@ -1,5 +1,6 @@
 #include "mdr/service/metrics.h"
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -171,6 +172,10 @@ Metrics::Metrics()
       work_rejected_family("mdr_work_rejected_total",
                            "Computing calls refused with UNAVAILABLE because the queue was full.",
                            {}),
+      stream_read_pauses_family("mdr_stream_read_pauses_total",
+                                "StreamApply streams paused because their caller used more than "
+                                "--contended-stream-share while other callers were active.",
+                                {}),
       journal_write_seconds_family("mdr_journal_write_seconds",
                                    "Seconds of each journal write transaction (commit included).",
                                    {}, kSecondsBuckets),
@@ -192,6 +197,7 @@ Metrics::Metrics()
       steps_applied(steps_applied_family.With({})),
       work_queue_depth(work_queue_depth_family.With({})),
       work_rejected(work_rejected_family.With({})),
+      stream_read_pauses(stream_read_pauses_family.With({})),
       journal_write_seconds(journal_write_seconds_family.With({})),
       journal_write_failures(journal_write_failures_family.With({})),
       journal_free_bytes(journal_free_bytes_family.With({})),
@@ -207,6 +213,7 @@ std::string Metrics::Render() const {
   steps_applied_family.Render(&text);
   work_queue_depth_family.Render(&text);
   work_rejected_family.Render(&text);
+  stream_read_pauses_family.Render(&text);
   journal_write_seconds_family.Render(&text);
   journal_write_failures_family.Render(&text);
   journal_free_bytes_family.Render(&text);
@@ -220,7 +227,14 @@ Metrics& ProcessMetrics() {
   return metrics;
 }
 
+namespace {
+std::atomic<std::uint64_t> recorded_calls{0};
+}  // namespace
+
+std::uint64_t RecordedCalls() { return recorded_calls.load(std::memory_order_relaxed); }
+
 void RecordCall(const char* method, const char* code, double seconds) {
+  recorded_calls.fetch_add(1, std::memory_order_relaxed);
   Metrics& metrics = ProcessMetrics();
   metrics.rpc_calls.With({method, code}).Increment();
   metrics.rpc_duration_seconds.With({method}).Observe(seconds);

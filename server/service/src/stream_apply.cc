@@ -1,11 +1,14 @@
 #include "mdr/service/stream_apply.h"
 
 #include <spdlog/spdlog.h>
+#include <time.h>
 
+#include <algorithm>
 #include <utility>
 
 #include "mdr/service/call_context.h"
 #include "mdr/service/grpc_status.h"
+#include "mdr/service/metrics.h"
 
 namespace mdr::service {
 
@@ -32,11 +35,29 @@ void StreamRegistry::Remove(StreamApplyReactor* stream) {
 }
 
 void StreamRegistry::DrainAll() {
-  // Held throughout: a stream removes itself (in OnDone, never inline in Finish) before it is
-  // deleted, so every pointer here is alive.
-  std::lock_guard lock(mutex_);
-  draining_ = true;
-  for (const auto& [stream, caller] : streams_) stream->Drain();
+  {
+    // Held throughout: a stream removes itself (in OnDone, never inline in Finish) before it is
+    // deleted, so every pointer here is alive.
+    std::lock_guard lock(mutex_);
+    draining_ = true;
+    for (const auto& [stream, caller] : streams_) stream->Drain();
+  }
+  resumptions_.RunAllNow();
+}
+
+void StreamRegistry::MaybeCalibrate(StreamBudget::Clock::time_point now) {
+  StreamBudget::Clock::rep due = next_calibration_.load(std::memory_order_relaxed);
+  const StreamBudget::Clock::rep ticks = now.time_since_epoch().count();
+  if (ticks < due ||
+      !next_calibration_.compare_exchange_strong(
+          due, ticks + StreamBudget::Clock::duration(kCalibrationInterval).count())) {
+    return;  // not yet, or another thread samples
+  }
+  timespec process{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &process);
+  budget_.Calibrate(
+      {std::chrono::seconds(process.tv_sec) + std::chrono::nanoseconds(process.tv_nsec),
+       executor_.task_cpu_time(), RecordedCalls()});
 }
 
 std::size_t StreamRegistry::size() const {
@@ -86,6 +107,22 @@ void StreamApplyReactor::Drain() {
     std::lock_guard lock(mutex_);
     draining_ = true;  // the owner of applying_ drops the unapplied messages
     actions = NextActionsLocked();
+  }
+  Start(actions);
+}
+
+void StreamApplyReactor::Resume() {
+  Actions actions;
+  {
+    std::lock_guard lock(mutex_);
+    const auto now = StreamBudget::Clock::now();
+    if (now < read_booked_at_ && !StoppedLocked() && !cancelled_.load(std::memory_order_relaxed)) {
+      actions.resume_at = std::min(read_booked_at_, now + registry_.budget().pacing().max_pause);
+    } else {
+      paused_ = false;
+      read_booked_ = true;
+      actions = NextActionsLocked();
+    }
   }
   Start(actions);
 }
@@ -229,9 +266,11 @@ v1::StreamApplyResponse StreamApplyReactor::Answer(const v1::ApplyRequest& apply
     response.clear_result();
     ToRpcStatus(status, response.mutable_status());
   }
+  const auto end = std::chrono::steady_clock::now();
+  registry_.budget().Charge(caller_key_, end - start, end);
   LogCall("StreamApply", apply.session(),
           apply.request_id().empty() ? metadata_request_id_ : apply.request_id(), status,
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+          std::chrono::duration<double>(end - start).count());
   return response;
 }
 
@@ -243,7 +282,21 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked() {
     actions.write = &pending_.front();  // deque::push_back keeps it valid
   }
   const bool more_wanted = !reads_done_ && !draining_ && !write_failed_;
-  if (more_wanted && !reading_ && unapplied_.size() + pending_.size() < kMaxPendingResponses) {
+  if (more_wanted && !reading_ && !paused_ &&
+      unapplied_.size() + pending_.size() < kMaxPendingResponses) {
+    if (!std::exchange(read_booked_, false)) {
+      const auto now = StreamBudget::Clock::now();
+      registry_.MaybeCalibrate(now);
+      const auto delay =
+          registry_.budget().BookRead(caller_key_, executor_.OtherActiveCallers(caller_key_), now);
+      if (delay.count() > 0) {
+        paused_ = true;
+        read_booked_at_ = now + delay;
+        actions.resume_at = std::min(read_booked_at_, now + registry_.budget().pacing().max_pause);
+        ProcessMetrics().stream_read_pauses.Increment();
+        return actions;  // a write started above goes on; nothing finishes while paused
+      }
+    }
     reading_ = true;
     if (spare_.empty()) {
       read_buffer_ = std::make_unique<Message>();
@@ -253,7 +306,7 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked() {
     }
     actions.read = read_buffer_.get();
   }
-  if (writing_ || applying_) return actions;
+  if (writing_ || applying_ || paused_) return actions;
   if (write_failed_) {
     actions.finish = ToGrpcStatus(Cancelled("", "the client stopped reading"));
   } else if (draining_) {
@@ -269,6 +322,7 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked() {
 }
 
 void StreamApplyReactor::Start(const Actions& actions) {
+  if (actions.resume_at) registry_.ResumeAt(*actions.resume_at, [this] { Resume(); });
   if (actions.write != nullptr) StartWrite(actions.write);
   if (actions.read != nullptr) StartRead(actions.read);
   if (actions.finish) Finish(*actions.finish);

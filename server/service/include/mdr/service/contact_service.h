@@ -63,7 +63,8 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
         authenticator_(authenticator),
         executor_(executor),
         server_stopping_(server_stopping),
-        streams_(operations.limits().max_streams_per_caller) {
+        streams_(operations.limits().max_streams_per_caller, operations.limits().stream_pacing,
+                 executor) {
     SetMessageAllocatorFor_Apply(&apply_messages_);
   }
 

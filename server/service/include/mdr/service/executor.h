@@ -21,6 +21,7 @@
 //   2 max_queued (beyond: kBusy), so a busy caller cannot fill the queue for the others.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
@@ -90,6 +91,13 @@ class Executor {
   std::size_t max_queued_per_caller() const { return options_.max_queued_per_caller; }
   // Tasks waiting for a worker now.
   std::size_t queued() const;
+  // The active callers other than `caller` (see above): whether it competes with anyone now.
+  std::size_t OtherActiveCallers(std::string_view caller) const;
+  // CPU time the workers spent in tasks so far (their threads' CPU clocks), so that the rest of
+  // the process's CPU time can be told apart: gRPC's transport (stream_pacer.h).
+  std::chrono::nanoseconds task_cpu_time() const {
+    return std::chrono::nanoseconds(task_cpu_nanoseconds_.load(std::memory_order_relaxed));
+  }
 
  private:
   struct CallerQueue {
@@ -109,7 +117,7 @@ class Executor {
   // recent_window.
   bool ActiveLocked(const CallerQueue& queue, Clock::time_point now) const;
   // The active callers, but `except` (if not null).
-  std::size_t ActiveCallersLocked(Clock::time_point now, const std::string* except) const;
+  std::size_t ActiveCallersLocked(Clock::time_point now, const std::string_view* except) const;
   // How many workers a caller may hold while `active` callers (itself included) are active.
   std::size_t RunningCapLocked(std::size_t active) const;
   // The next caller in turn that may start a task now (taken out of ready_callers_);
@@ -125,6 +133,7 @@ class Executor {
   std::size_t queued_ = 0;                   // guarded by mutex_
   std::size_t running_ = 0;                  // guarded by mutex_
   bool stopping_ = false;                    // guarded by mutex_
+  std::atomic<std::int64_t> task_cpu_nanoseconds_{0};
   std::vector<std::thread> workers_;
 };
 

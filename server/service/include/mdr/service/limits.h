@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "mdr/base/status.h"
+#include "mdr/service/stream_pacer.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -45,6 +46,9 @@ struct ServiceLimits {
   // authentication) may hold, >= 1: each holds up to StreamApplyReactor::kMaxPendingResponses
   // messages, so this bounds what one caller's streams hold in memory.
   std::size_t max_streams_per_caller = 256;
+  // How one caller's StreamApply streams are paced while other callers are active
+  // (stream_pacer.h); contended_share (mdrd --contended-stream-share) in (0, 1024].
+  StreamPacing stream_pacing;
 };
 
 // Checks the server limits themselves (field names are the mdrd flags).

@@ -102,6 +102,7 @@ struct Metrics {
   Family<Counter> steps_applied_family;
   Family<Gauge> work_queue_depth_family;
   Family<Counter> work_rejected_family;
+  Family<Counter> stream_read_pauses_family;
   Family<Histogram> journal_write_seconds_family;
   Family<Counter> journal_write_failures_family;
   Family<Gauge> journal_free_bytes_family;
@@ -112,6 +113,7 @@ struct Metrics {
   Counter& steps_applied;
   Gauge& work_queue_depth;
   Counter& work_rejected;
+  Counter& stream_read_pauses;
   Histogram& journal_write_seconds;
   Counter& journal_write_failures;
   Gauge& journal_free_bytes;
@@ -123,6 +125,8 @@ Metrics& ProcessMetrics();
 
 // Records one finished call (or StreamApply message): method is a fixed handler name.
 void RecordCall(const char* method, const char* code, double seconds);
+// The calls and stream messages recorded so far (what gRPC's threads carried; stream_pacer.h).
+std::uint64_t RecordedCalls();
 
 // Observes the seconds from its construction to its destruction (a journal write).
 class JournalWriteTimer {

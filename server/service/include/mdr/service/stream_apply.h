@@ -7,7 +7,8 @@
 // the Executor (strand: the message's session), a run of consecutive messages for one session
 // in one task (at most kMaxRunLength, then the task queues behind the others). A message the
 // full queue refuses is answered with UNAVAILABLE in its response status, unapplied, and the
-// stream goes on.
+// stream goes on. While other callers are active, the caller's streams read at the pace its
+// StreamBudget allows (stream_pacer.h): a paused stream resumes from the pacer's thread.
 #pragma once
 
 #include <grpcpp/server_context.h>
@@ -16,10 +17,10 @@
 #include <atomic>
 #include <cstddef>
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <map>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -27,6 +28,7 @@
 #include "mdr/service/auth.h"
 #include "mdr/service/executor.h"
 #include "mdr/service/operations.h"
+#include "mdr/service/stream_pacer.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -34,12 +36,15 @@ namespace mdr::service {
 class StreamApplyReactor;
 
 // The open streams, so that a shutdown can tell each to finish, counted per caller (executor.h's
-// caller keys) against ServiceLimits::max_streams_per_caller.
+// caller keys) against ServiceLimits::max_streams_per_caller; and the pacing of their reads
+// (stream_pacer.h), whose thread resumes paused streams.
 class StreamRegistry {
  public:
   enum class Admission { kAdded, kDraining, kCallerFull };
 
-  explicit StreamRegistry(std::size_t max_per_caller) : max_per_caller_(max_per_caller) {}
+  // executor: whose task CPU time the transport's measurement leaves out.
+  StreamRegistry(std::size_t max_per_caller, const StreamPacing& pacing, const Executor& executor)
+      : max_per_caller_(max_per_caller), budget_(pacing), executor_(executor) {}
 
   // kDraining: the stream must end at once; kCallerFull: the caller holds max_per_caller open
   // streams, this one is not added and must end at once.
@@ -47,13 +52,26 @@ class StreamRegistry {
   // Removes an added stream (nothing for one that was not).
   void Remove(StreamApplyReactor* stream);
   // Every open stream (and every later one) finishes with UNAVAILABLE after answering the
-  // message it is working on.
+  // message it is working on; paused streams resume at once to do so.
   void DrainAll();
   std::size_t size() const;
   std::size_t max_per_caller() const { return max_per_caller_; }
 
+  StreamBudget& budget() { return budget_; }
+  // Feeds the budget a sample of the process's clocks at most every kCalibrationInterval.
+  static constexpr std::chrono::milliseconds kCalibrationInterval{100};
+  void MaybeCalibrate(StreamBudget::Clock::time_point now);
+  // Runs resume at `when` on the pacer's thread.
+  void ResumeAt(StreamBudget::Clock::time_point when, std::function<void()> resume) {
+    resumptions_.At(when, std::move(resume));
+  }
+
  private:
   const std::size_t max_per_caller_;
+  StreamBudget budget_;
+  const Executor& executor_;
+  std::atomic<StreamBudget::Clock::rep> next_calibration_{0};
+  DelayedCalls resumptions_;  // its thread outlives every stream (the registry outlives the server)
   mutable std::mutex mutex_;
   std::map<StreamApplyReactor*, std::string> streams_;       // guarded by mutex_; their callers
   std::unordered_map<std::string, std::size_t> per_caller_;  // guarded by mutex_
@@ -76,6 +94,9 @@ class StreamApplyReactor final
   // Stops reading; the stream ends with UNAVAILABLE once the responses already computed are
   // written. Messages read from now on are not applied.
   void Drain();
+  // Ends a pause (on the pacer's thread): reads the booked message once its time has come (else
+  // pauses again, up to max_pause), or finishes.
+  void Resume();
 
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
@@ -102,6 +123,7 @@ class StreamApplyReactor final
   struct Actions {
     const v1::StreamApplyResponse* write = nullptr;
     Message* read = nullptr;
+    std::optional<StreamBudget::Clock::time_point> resume_at;  // paused until then
     std::optional<grpc::Status> finish;
   };
   Actions NextActionsLocked();
@@ -140,6 +162,11 @@ class StreamApplyReactor final
   bool write_failed_ = false;  // the client is gone
   bool draining_ = false;
   bool finished_ = false;
+  // Reading waits for the caller's budget; nothing finishes the stream while paused, so the
+  // pacer's resumption always finds it alive.
+  bool paused_ = false;
+  StreamBudget::Clock::time_point read_booked_at_;  // while paused: when the booked read may start
+  bool read_booked_ = false;  // resumed: the next read was charged when the pause began
   std::size_t answered_ = 0;
 };
 
