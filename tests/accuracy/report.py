@@ -355,7 +355,9 @@ def main():
             perf += ["### Fairness between callers (`mdr_fairness`)", "",
                      "Bob's one-step Apply while alice, another token on the same mdrd, holds "
                      "256 streams that never read or runs heavy calls (docs/operations.md, "
-                     "\"Fairness between callers\"); all three processes on this machine.", "",
+                     "\"Fairness between callers\"); all three processes on this machine. Three "
+                     "runs with alice's client at SCHED_IDLE (standing in for a client on its "
+                     "own machine), then one with it at normal priority (--alice-competes).", "",
                      "```", f.read().rstrip(), "```", ""]
     load = os.path.join(out, "load.json")
     if os.path.exists(load):
