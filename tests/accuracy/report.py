@@ -160,21 +160,26 @@ def load_markdown(path):
              "flight per stream.",
              f"- Client threads: {context['client_threads']}.",
              f"- Each side runs {context['seconds_per_side']:g} s in {context['rounds']} rounds; "
-             "throughput is the median over the rounds, p50/p99 the latency per call (streams: per "
-             "message from write to answer, including the wait in the window).",
+             "throughput is the median over the rounds, p50/p99/p99.9 the latency per call "
+             "(streams: per message from write to answer, including the wait in the window), "
+             "for mdrd and, after the slash, for the echo in the same run.",
              "- Server compute: `ApplyResponse.compute_seconds` per step.",
              "- `engine inline` (streams): the echo stream that first applies each message's step "
              "to an engine contact of its session on the transport's thread, over the echo: the "
              "ceiling of any server computing the same steps. mdrd hands every message to a worker "
              "instead (docs/operations.md, execution model).", "",
-             "| scenario | sessions | p50 | p99 | throughput | echo throughput | ratio | "
-             "server compute | engine inline |", "|---|---|---|---|---|---|---|---|---|"]
+             "| scenario | sessions | p50 | p99 | p99.9 | throughput | echo throughput | ratio | "
+             "server compute | engine inline |", "|---|---|---|---|---|---|---|---|---|---|"]
     for (scenario, sessions), f in rows.items():
         inline = f.get("engine_inline_ratio")
         inline_cell = f"{inline['value']:.2f}" if inline else "-"
+        def latency(name):
+            echo = f.get("echo_" + name)
+            echo_cell = f" / {echo['value']:.0f}" if echo else ""
+            return f"{f[name]['value']:.0f}{echo_cell} us" if name in f else "-"
         lines.append(
-            f"| {scenario} | {sessions} | {f['p50_latency']['value']:.0f} us | "
-            f"{f['p99_latency']['value']:.0f} us | {f['throughput']['value']:,.0f} steps/s | "
+            f"| {scenario} | {sessions} | {latency('p50_latency')} | {latency('p99_latency')} | "
+            f"{latency('p999_latency')} | {f['throughput']['value']:,.0f} steps/s | "
             f"{f['echo_throughput']['value']:,.0f} steps/s | {f['ratio']['value']:.2f} | "
             f"{f['server_compute_per_step']['value']:.0f} ns/step | {inline_cell} |")
     lines += ["", f"Host: {context['host_cpus']} CPUs, gRPC {context['grpc_version']}, "
@@ -295,6 +300,13 @@ def targets_markdown(core_path, load_path, interface_path=None, interface_load_p
             ceiling = f" (engine inline: {inline:.2f})" if inline is not None else ""
             lines.append(f"| {scenario}, {sessions} session(s) / echo | {value:.2f}{ceiling} | "
                          f">= {bound:g} | {'yes' if value >= bound else 'no'} |")
+        # Issue #25's latency target: a one-step unary round trip's p99 against the echo's.
+        apply_p99 = found.get(("apply batch 1", 1, "p99_latency"))
+        echo_p99 = found.get(("apply batch 1", 1, "echo_p99_latency"))
+        if apply_p99 and echo_p99:
+            ratio = apply_p99 / echo_p99
+            lines.append(f"| apply batch 1, 1 session, p99 / echo p99 | {ratio:.2f} | <= 1.3 | "
+                         f"{'yes' if ratio <= 1.3 else 'no'} |")
     return lines + [""]
 
 

@@ -259,6 +259,7 @@ struct RunFigures {
   double calls_per_second = 0;
   double p50_us = 0;
   double p99_us = 0;
+  double p999_us = 0;
   double compute_seconds = 0;
   double compute_ns_per_step() const { return compute_seconds / steps * 1e9; }
 };
@@ -296,6 +297,7 @@ RunFigures Summarise(const std::vector<Round>& rounds) {
   std::sort(latencies.begin(), latencies.end());
   figures.p50_us = Percentile(latencies, 0.50);
   figures.p99_us = Percentile(latencies, 0.99);
+  figures.p999_us = Percentile(latencies, 0.999);
   figures.steps_per_second = Median(steps_per_second);
   figures.calls_per_second = Median(calls_per_second);
   return figures;
@@ -641,19 +643,20 @@ class LoadRun {
 // Output: a table on stdout and the figures as JSON.
 
 void PrintTableHeader() {
-  std::printf("%-17s %8s %7s %9s %9s %12s %9s %9s %12s %7s %9s %8s\n", "scenario", "sessions",
-              "threads", "p50 [us]", "p99 [us]", "steps/s", "echo p50", "echo p99", "echo steps/s",
-              "ratio", "ns/step*", "inline**");
+  std::printf("%-17s %8s %7s %9s %9s %9s %12s %9s %9s %9s %12s %7s %9s %8s\n", "scenario",
+              "sessions", "threads", "p50 [us]", "p99 [us]", "p99.9", "steps/s", "echo p50",
+              "echo p99", "echo p99.9", "echo steps/s", "ratio", "ns/step*", "inline**");
 }
 
 void PrintRow(const ScenarioResult& r) {
   char engine_inline[16] = "-";
   if (r.engine_inline)
     std::snprintf(engine_inline, sizeof engine_inline, "%.2f", r.engine_inline_ratio());
-  std::printf("%-17s %8d %7d %9.1f %9.1f %12.0f %9.1f %9.1f %12.0f %7.2f %9.0f %8s\n",
+  std::printf("%-17s %8d %7d %9.1f %9.1f %9.1f %12.0f %9.1f %9.1f %9.1f %12.0f %7.2f %9.0f %8s\n",
               r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
-              r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us, r.echo.steps_per_second,
-              r.ratio(), r.apply.compute_ns_per_step(), engine_inline);
+              r.apply.p999_us, r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us,
+              r.echo.p999_us, r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(),
+              engine_inline);
   std::fflush(stdout);
 }
 
@@ -671,6 +674,7 @@ void AddRunFigures(nlohmann::json& figures, const ScenarioResult& r, const std::
                    const RunFigures& run) {
   AddFigure(figures, r, prefix + "p50_latency", run.p50_us, "us");
   AddFigure(figures, r, prefix + "p99_latency", run.p99_us, "us");
+  AddFigure(figures, r, prefix + "p999_latency", run.p999_us, "us");
   AddFigure(figures, r, prefix + "throughput", run.steps_per_second, "steps/s");
   AddFigure(figures, r, prefix + "call_rate", run.calls_per_second, "calls/s");
   AddFigure(figures, r, prefix + "calls", static_cast<double>(run.calls), "calls");
