@@ -79,7 +79,7 @@ TEST(StreamBudgetTest, RepaidAccountsAreForgotten) {
   EXPECT_EQ(budget.callers(), 1u);
 }
 
-TEST(StreamBudgetTest, TransportCostIsMeasuredOutsideTheWorkersTasks) {
+TEST(StreamBudgetTest, TransportCostIsMeasuredOutsideTheWorkers) {
   StreamBudget budget(Pacing());
   EXPECT_EQ(budget.transport_cost(), microseconds(10));
   budget.Calibrate({milliseconds(100), milliseconds(60), 1000});  // starts the measurement
@@ -87,7 +87,7 @@ TEST(StreamBudgetTest, TransportCostIsMeasuredOutsideTheWorkersTasks) {
   // Too few calls: the interval goes on.
   budget.Calibrate({milliseconds(101), milliseconds(60), 1000 + StreamBudget::kMinCalls - 1});
   EXPECT_EQ(budget.transport_cost(), microseconds(10));
-  // 1000 more calls; 140 ms more process CPU, 40 ms of it in tasks: 100 µs each outside them,
+  // 1000 more calls; 140 ms more process CPU, 40 ms of it on the workers: 100 µs each outside,
   // and the estimate moves halfway: 55 µs.
   budget.Calibrate({milliseconds(240), milliseconds(100), 2000});
   ExpectAbout(budget.transport_cost(), microseconds(55));

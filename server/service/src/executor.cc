@@ -11,14 +11,7 @@
 #include "mdr/service/metrics.h"
 
 namespace mdr::service {
-
 namespace {
-
-std::int64_t ThreadCpuNanoseconds() {
-  timespec now{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-  return std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec;
-}
 
 std::size_t WorkerCount(std::size_t requested) {
   if (requested > 0) return requested;
@@ -116,6 +109,21 @@ bool Executor::ActiveLocked(const CallerQueue& queue, Clock::time_point now) con
   return queue.queued > 0 || queue.running > 0 || now - queue.last_active <= options_.recent_window;
 }
 
+std::chrono::nanoseconds Executor::worker_cpu_time() const {
+  std::lock_guard lock(mutex_);
+  // Workers return only once stopping_ is set: until then every clock is a live thread's.
+  if (stopping_) return stopped_worker_cpu_;
+  std::chrono::nanoseconds total{0};
+  for (const clockid_t clock : worker_clocks_) {
+    timespec used{};
+    if (clock_gettime(clock, &used) == 0) {
+      total += std::chrono::seconds(used.tv_sec) + std::chrono::nanoseconds(used.tv_nsec);
+    }
+  }
+  stopped_worker_cpu_ = total;
+  return total;
+}
+
 std::size_t Executor::OtherActiveCallers(std::string_view caller) const {
   std::lock_guard lock(mutex_);
   return ActiveCallersLocked(Clock::now(), &caller);
@@ -154,7 +162,10 @@ Executor::Callers::iterator Executor::NextRunnableLocked(Clock::time_point now) 
 
 void Executor::Work() {
   pthread_setname_np(pthread_self(), "mdr-worker");  // tells them apart in top -H, perf and gdb
+  clockid_t clock{};
+  const bool has_clock = pthread_getcpuclockid(pthread_self(), &clock) == 0;
   std::unique_lock lock(mutex_);
+  if (has_clock) worker_clocks_.push_back(clock);
   for (;;) {
     auto it = NextRunnableLocked(Clock::now());
     if (it == callers_.end()) {
@@ -181,10 +192,8 @@ void Executor::Work() {
     ++running_;
     lock.unlock();
     current_caller = caller;
-    const std::int64_t cpu_before = ThreadCpuNanoseconds();
     task();
     task = nullptr;  // destroyed outside the lock
-    task_cpu_nanoseconds_.fetch_add(ThreadCpuNanoseconds() - cpu_before, std::memory_order_relaxed);
     current_caller.clear();
     lock.lock();
     CallerQueue& after = callers_.at(caller);  // rehashing may have moved it

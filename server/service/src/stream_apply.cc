@@ -57,7 +57,7 @@ void StreamRegistry::MaybeCalibrate(StreamBudget::Clock::time_point now) {
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &process);
   budget_.Calibrate(
       {std::chrono::seconds(process.tv_sec) + std::chrono::nanoseconds(process.tv_nsec),
-       executor_.task_cpu_time(), RecordedCalls()});
+       executor_.worker_cpu_time(), RecordedCalls()});
 }
 
 std::size_t StreamRegistry::size() const {

@@ -50,7 +50,7 @@ void StreamBudget::Calibrate(const TransportSample& sample) {
   const std::uint64_t calls = sample.calls - calibrated_from_->calls;
   if (calls < kMinCalls) return;
   const double outside_tasks = Seconds((sample.process_cpu - calibrated_from_->process_cpu) -
-                                       (sample.task_cpu - calibrated_from_->task_cpu));
+                                       (sample.worker_cpu - calibrated_from_->worker_cpu));
   const double measured = std::clamp(outside_tasks / static_cast<double>(calls), 1e-6, 1e-2);
   transport_seconds_ = 0.5 * (transport_seconds_ + measured);
   calibrated_from_ = sample;

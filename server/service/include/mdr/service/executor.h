@@ -21,7 +21,8 @@
 //   2 max_queued (beyond: kBusy), so a busy caller cannot fill the queue for the others.
 #pragma once
 
-#include <atomic>
+#include <time.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
@@ -93,11 +94,10 @@ class Executor {
   std::size_t queued() const;
   // The active callers other than `caller` (see above): whether it competes with anyone now.
   std::size_t OtherActiveCallers(std::string_view caller) const;
-  // CPU time the workers spent in tasks so far (their threads' CPU clocks), so that the rest of
-  // the process's CPU time can be told apart: gRPC's transport (stream_pacer.h).
-  std::chrono::nanoseconds task_cpu_time() const {
-    return std::chrono::nanoseconds(task_cpu_nanoseconds_.load(std::memory_order_relaxed));
-  }
+  // CPU time the worker threads used so far (their tasks and the dispatch between them), read
+  // from their CPU clocks, so that the rest of the process's CPU time can be told apart: gRPC's
+  // transport (stream_pacer.h). Two system calls per worker: for a sampler, not per task.
+  std::chrono::nanoseconds worker_cpu_time() const;
 
  private:
   struct CallerQueue {
@@ -133,7 +133,8 @@ class Executor {
   std::size_t queued_ = 0;                   // guarded by mutex_
   std::size_t running_ = 0;                  // guarded by mutex_
   bool stopping_ = false;                    // guarded by mutex_
-  std::atomic<std::int64_t> task_cpu_nanoseconds_{0};
+  std::vector<clockid_t> worker_clocks_;     // guarded by mutex_; read while !stopping_
+  mutable std::chrono::nanoseconds stopped_worker_cpu_{0};  // guarded by mutex_; last reading
   std::vector<std::thread> workers_;
 };
 

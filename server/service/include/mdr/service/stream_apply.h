@@ -42,7 +42,7 @@ class StreamRegistry {
  public:
   enum class Admission { kAdded, kDraining, kCallerFull };
 
-  // executor: whose task CPU time the transport's measurement leaves out.
+  // executor: whose workers' CPU time the transport's measurement leaves out.
   StreamRegistry(std::size_t max_per_caller, const StreamPacing& pacing, const Executor& executor)
       : max_per_caller_(max_per_caller), budget_(pacing), executor_(executor) {}
 

@@ -6,7 +6,7 @@
 // transport (reading, parsing, writing the answer) on gRPC's threads, which serve every caller
 // alike. A caller with hundreds of pipelined streams kept the CPU busy with that alone. So every
 // message is charged to its caller: the transport's cost per message (measured continuously: the
-// process's CPU time outside the workers' tasks per call answered) when it is read, and the
+// process's CPU time outside the worker threads per call answered) when it is read, and the
 // measured time of its application when it is answered. While other callers are active, the charges
 // drain at `contended_share` of one core, and a stream whose caller is in debt beyond `burst` stops
 // reading until the debt would be repaid, then reads the one message it booked (a stream pauses
@@ -47,11 +47,11 @@ struct StreamPacing {
   std::chrono::nanoseconds max_pause{std::chrono::milliseconds(200)};
 };
 
-// A reading of the process's clocks: its CPU time, the part its workers spent in tasks, and the
+// A reading of the process's clocks: its CPU time, the part its worker threads used, and the
 // calls and stream messages it answered so far.
 struct TransportSample {
   std::chrono::nanoseconds process_cpu{0};
-  std::chrono::nanoseconds task_cpu{0};
+  std::chrono::nanoseconds worker_cpu{0};
   std::uint64_t calls = 0;
 };
 
@@ -80,7 +80,7 @@ class StreamBudget {
   std::size_t callers() const;
 
   // Measures the transport's cost per call from two samples: the CPU time the process spent
-  // outside its workers' tasks (gRPC's threads, this pacing) divided by the calls and messages
+  // outside its worker threads (gRPC's threads, this pacing) divided by the calls and messages
   // answered in between. The first sample only starts the measurement; an interval with fewer
   // than kMinCalls calls is extended. The estimate moves halfway to each measurement and stays
   // in [1 µs, 10 ms].
