@@ -3,8 +3,10 @@
 // single-contact step of the same run; force-target steps of the whole interface; memory.
 //   build/release/tests/bench/mdr_interface_bench
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 
 #include <algorithm>
+#include <chrono>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -55,6 +57,31 @@ long ResidentBytes() {
   return resident * 4096;
 }
 
+// The largest resident size of the process so far (VmHWM), in bytes.
+long PeakResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  long kib = 0;
+  while (status >> key) {
+    if (key == "VmHWM:") {
+      status >> kib;
+      return kib * 1024;
+    }
+  }
+  return 0;
+}
+
+// Bytes the allocator has handed out and not taken back (small blocks and mapped ones): unlike
+// the resident size, it does not depend on what earlier benchmarks freed into the heap.
+long HeapInUse() {
+  const struct mallinfo2 m = mallinfo2();
+  return static_cast<long>(m.uordblks + m.hblkhd);
+}
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
 // One Hertz asperity of the population, stepped alone (the same engine call per increment).
 void BM_SingleContactCycling(benchmark::State& state) {
   ContactConfig config;
@@ -77,7 +104,7 @@ BENCHMARK(BM_SingleContactCycling)->Arg(0)->Arg(1);
 // The interface: each iteration is one step of the shared motion, kAsperities increments.
 // Args: energy on/off, workers.
 void BM_InterfaceCycling(benchmark::State& state) {
-  const long rss_before = ResidentBytes();
+  const long heap_before = HeapInUse();
   Interface interface = RoughSteelInterface(state.range(0) != 0);
   const int workers = static_cast<int>(state.range(1));
   if (workers > 1) interface.set_parallel(*MakeThreadParallelFor(workers));
@@ -101,8 +128,8 @@ void BM_InterfaceCycling(benchmark::State& state) {
   state.counters["gross_slip"] = static_cast<double>(totals.gross_slip);
   state.counters["bytes_per_contact"] =
       static_cast<double>(interface.MemoryBytes()) / static_cast<double>(interface.size());
-  state.counters["rss_bytes_per_contact"] =
-      static_cast<double>(ResidentBytes() - rss_before) / static_cast<double>(interface.size());
+  state.counters["heap_bytes_per_contact"] =
+      static_cast<double>(HeapInUse() - heap_before) / static_cast<double>(interface.size());
   state.counters["energy"] = state.range(0) != 0;
   state.counters["workers"] = workers;
 }
@@ -114,6 +141,80 @@ BENCHMARK(BM_InterfaceCycling)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
+// 10^6 Hertz asperities (issue #25): created, pressed to 3 sigma, cycled (Mindlin-Deresiewicz,
+// energy on, kStepsPerHalfCycle steps per half-cycle, two cycles) and snapshotted, once each.
+// Counters: seconds to create, per step (median of the cycling steps) and to snapshot; bytes per
+// asperity held (MemoryBytes), handed out by the allocator, resident (all three after cycling)
+// and the resident peak over the whole run (VmHWM: creation's config list and the steps' new
+// record arrays are transient). Run it in a process of its own for the resident figures:
+//   mdr_interface_bench --benchmark_filter=MillionAsperities/1
+// Arg: workers.
+void BM_MillionAsperities(benchmark::State& state) {
+  constexpr std::size_t kMillion = 1'000'000;
+  const int workers = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    const long resident0 = ResidentBytes(), heap0 = HeapInUse(), peak0 = PeakResidentBytes();
+    auto start = std::chrono::steady_clock::now();
+    PopulationSpec spec;
+    spec.count = kMillion;
+    spec.height_scale = kHeightSigma;
+    spec.radius = kRadius;
+    spec.seed = 2026;
+    Interface interface =
+        std::move(Interface::Create(*HertzInterfaceConfig(*GeneratePopulation(spec),
+                                                          *ElasticPair(210e9, 0.3, 210e9, 0.3),
+                                                          kFriction, /*track_energy=*/true)))
+            .value();
+    const double create = Seconds(start);
+    if (workers > 1) interface.set_parallel(*MakeThreadParallelFor(workers));
+    if (Status s = interface.Apply({NormalControl::kDepth, 3 * kHeightSigma}); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+      return;
+    }
+    const double amplitude = Amplitude(interface.contact(0));
+    std::vector<double> step_seconds;
+    for (int k = 0; k < 4 * kStepsPerHalfCycle; ++k) {
+      start = std::chrono::steady_clock::now();
+      const Status s =
+          interface.Apply({NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement,
+                           CycleDisplacement(k, amplitude)});
+      step_seconds.push_back(Seconds(start));
+      if (!s.ok()) {
+        state.SkipWithError(s.ToString().c_str());
+        return;
+      }
+    }
+    std::nth_element(step_seconds.begin(), step_seconds.begin() + step_seconds.size() / 2,
+                     step_seconds.end());
+    const double held = static_cast<double>(interface.MemoryBytes());
+    const double resident = static_cast<double>(ResidentBytes() - resident0);
+    const double heap = static_cast<double>(HeapInUse() - heap0);
+    const double peak = static_cast<double>(PeakResidentBytes() - std::max(peak0, resident0));
+    const InterfaceTotals totals = *interface.Totals();
+    start = std::chrono::steady_clock::now();
+    const InterfaceSnapshot snapshot = interface.Snapshot();
+    const double snapshot_seconds = Seconds(start);
+    benchmark::DoNotOptimize(snapshot.contacts.data());
+    const double n = static_cast<double>(interface.size());
+    state.counters["create_s"] = create;
+    state.counters["step_s"] = step_seconds[step_seconds.size() / 2];
+    state.counters["snapshot_s"] = snapshot_seconds;
+    state.counters["held_bytes_per_asperity"] = held / n;
+    state.counters["heap_bytes_per_asperity"] = heap / n;
+    state.counters["resident_bytes_per_asperity"] = resident / n;
+    state.counters["peak_resident_bytes_per_asperity"] = peak / n;  // before the snapshot
+    state.counters["in_contact"] = static_cast<double>(totals.in_contact);
+    state.counters["partial_slip"] = static_cast<double>(totals.partial_slip);
+    state.counters["workers"] = workers;
+  }
+}
+BENCHMARK(BM_MillionAsperities)
+    ->Arg(1)
+    ->Arg(2)
+    ->Iterations(1)
+    ->UseRealTime()
+    ->Unit(benchmark::kSecond);
+
 // A contact list of the same asperities, each stepped by its own packed values (the
 // discrete-element use): depth held, tangential displacement of the same cycle. Args: energy,
 // workers.
@@ -121,13 +222,14 @@ void BM_ContactListCycling(benchmark::State& state) {
   Interface shared = RoughSteelInterface(state.range(0) != 0);
   InterfaceConfig config;
   config.kind = InterfaceKind::kContactList;
-  for (std::size_t i = 0; i < shared.size(); ++i)
-    config.contacts.push_back(shared.contact(i).config());
+  for (std::size_t i = 0; i < shared.size(); ++i) {
+    config.contacts.push_back(shared.contact_config(i));
+  }
   Interface list = std::move(Interface::Create(config)).value();
   const int workers = static_cast<int>(state.range(1));
   if (workers > 1) list.set_parallel(*MakeThreadParallelFor(workers));
   std::vector<double> depth(list.size()), ux(list.size());
-  for (std::size_t i = 0; i < list.size(); ++i) depth[i] = shared.contact(i).depth();
+  for (std::size_t i = 0; i < list.size(); ++i) depth[i] = shared.contact_depth(i);
   (void)list.ApplyEach({NormalControl::kDepth, depth, TangentialControl::kDisplacement, ux});
   const std::vector<double> hold(list.size(), 0.0);
   const double amplitude = Amplitude(list.contact(0));

@@ -220,7 +220,8 @@ TEST(InterfaceTest, OneContactIsBitIdenticalToASingleContact) {
 // and without worker threads.
 // with_grid: contact 1 uses the grid method, which sends every step through the step buffer
 // (Interface::Move) instead of in place.
-void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = false) {
+void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = false,
+                                   int steps = 60) {
   InterfaceConfig config = RoughInterface(n, 21);
   if (with_grid) {
     config.contacts[1].method = Method::kGrid;
@@ -237,7 +238,7 @@ void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = 
   }
   const double d0 = 2e-6;
   RandomHistory history{std::mt19937_64(9), d0, 0.3 * singles[0].mu_kappa() * d0};
-  for (int k = 0; k < 60; ++k) {
+  for (int k = 0; k < steps; ++k) {
     const auto [depth, ux] = history.Next();
     ASSERT_TRUE(
         interface.Apply({NormalControl::kDepth, depth - 2e-6, TangentialControl::kDisplacement, ux})
@@ -265,9 +266,12 @@ TEST(InterfaceTest, TotalsAreSumsOfIndependentContacts) { CheckSumOfIndependentC
 
 TEST(InterfaceTest, TwoWorkersGiveTheSameBits) { CheckSumOfIndependentContacts(5000, 2); }
 
-TEST(InterfaceTest, StepsThroughTheStepBufferGiveTheSameBits) {
+TEST(InterfaceTest, StepsThroughNewRecordsGiveTheSameBits) {
+  // A grid contact, or more contacts than a step makes in place, send every step through a new
+  // record array (Interface::StepContacts).
   CheckSumOfIndependentContacts(40, 1, /*with_grid=*/true);
   CheckSumOfIndependentContacts(3000, 2, /*with_grid=*/true);
+  CheckSumOfIndependentContacts(Interface::kMaxInPlaceContacts + 1000, 2, false, /*steps=*/8);
 }
 
 // A contact that fails in the middle of a step (grid reach, vertex limit): no contact changes.
@@ -507,36 +511,60 @@ TEST(InterfaceTest, ACancelledStepChangesNothing) {
   EXPECT_EQ(interface.Totals(interrupt).status().code(), StatusCode::kCancelled);
 }
 
-TEST(InterfaceTest, MemoryPerContactIsReported) {
+// Each contact is one record (PackedContacts) beside its height; the configs are shared. A
+// memory longer than a record holds takes a heap block, which MemoryBytes counts; a copy holds
+// the same state and bytes.
+TEST(InterfaceTest, MemoryBytesCountRecordsBlocksAndSharedConfigs) {
   Interface interface = *Interface::Create(RoughInterface(1000, 14));
   ASSERT_TRUE(interface.Apply({NormalControl::kForce, 50.0}).ok());
-  const double per_contact = static_cast<double>(interface.MemoryBytes()) / interface.size();
-  // Two Contacts (state and step buffer) at least; a few polylines of a few vertices at most.
-  EXPECT_GE(per_contact, 2.0 * sizeof(Contact));
-  EXPECT_LE(per_contact, 2.0 * sizeof(Contact) + 1024);
+  EXPECT_EQ(interface.distinct_configs(), 1u);
+  const auto per_contact = [&] {
+    return static_cast<double>(interface.MemoryBytes()) / static_cast<double>(interface.size());
+  };
+  constexpr double kRecordAndHeight = PackedContacts::kRecordBytes + sizeof(double);
+  EXPECT_GE(per_contact(), kRecordAndHeight);
+  EXPECT_LE(per_contact(), kRecordAndHeight + 2);  // the config and the object, shared
+  // Reversals of decreasing amplitude nest: the memories outgrow their records.
+  const double slip = interface.contact(0).mu_kappa() * 1e-6;
+  for (const double dux : {0.4, -0.7, 0.5, -0.3, 0.2, -0.1}) {
+    ASSERT_TRUE(interface
+                    .Apply({NormalControl::kDepthIncrement, 0,
+                            TangentialControl::kDisplacementIncrement, dux * slip})
+                    .ok());
+  }
+  EXPECT_GT(per_contact(), kRecordAndHeight + 8);  // blocks of 64 bytes for some contacts
+  EXPECT_LT(per_contact(), kRecordAndHeight + 2 + 64 * 4);
+  const Interface copy = interface;
+  EXPECT_EQ(copy.MemoryBytes(), interface.MemoryBytes());
+  EXPECT_TRUE(SameInterfaceState(copy.Snapshot(), interface.Snapshot()));
+  // Steps that shorten the memories again give their blocks back.
+  ASSERT_TRUE(interface
+                  .Apply({NormalControl::kDepthIncrement, 0,
+                          TangentialControl::kDisplacementIncrement, 3 * slip})
+                  .ok());
+  EXPECT_LE(per_contact(), kRecordAndHeight + 2);
 }
 
-// MemoryBytes keeps the step buffer's part until the buffer changes; after every kind of step
-// (in place, through the buffer, force targets solved in it) it must equal a full count, which a
-// moved interface makes (a move forgets the kept part, and keeps every vector's capacity).
-TEST(InterfaceTest, MemoryBytesKeptForTheStepBufferEqualsAFullCount) {
-  Interface interface = *Interface::Create(RoughInterface(300, 21));
+// The bound of what a step holds while it runs covers what it holds after it, and a new record
+// array besides.
+TEST(InterfaceTest, StepBytesBoundCoversTheStep) {
+  Interface interface = *Interface::Create(RoughInterface(500, 15));
   const double slip = interface.contact(0).mu_kappa() * 1e-6;
   const std::vector<Step> steps = {
       {NormalControl::kForce, 20.0},
       {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.3 * slip},
       {NormalControl::kDepthIncrement, 0, TangentialControl::kForce, 1.0},
       {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, -0.7 * slip},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.4 * slip},
+      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, -0.2 * slip},
       {NormalControl::kDepthIncrement, 2e-7, TangentialControl::kDisplacementIncrement, 0.1 * slip},
-      {NormalControl::kForce, 5.0},
-      {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement, 0.2 * slip}};
+      {NormalControl::kForce, 5.0}};
   for (std::size_t k = 0; k < steps.size(); ++k) {
-    (void)interface.MemoryBytes();  // the step buffer's part is kept from here
+    const std::size_t before = interface.MemoryBytes();
+    const std::size_t bound = interface.StepBytesBound();
+    EXPECT_GE(bound, interface.size() * PackedContacts::kRecordBytes) << k;
     ASSERT_TRUE(interface.Apply(steps[k]).ok()) << k;
-    const std::size_t kept = interface.MemoryBytes();
-    Interface moved = std::move(interface);
-    EXPECT_EQ(moved.MemoryBytes(), kept) << k;
-    interface = std::move(moved);
+    EXPECT_LE(interface.MemoryBytes(), before + bound) << k;
   }
 }
 

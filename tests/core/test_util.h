@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "fixtures/reference_scenes.h"
+#include "fixtures/slip_state_check.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
 
@@ -96,43 +97,10 @@ struct RandomScene {
   double RelativeAmplitude() { return Sign() * LogUniform(1e-12, 2); }
 };
 
-// Bit-identical doubles (0 and -0 differ, a NaN equals itself).
-inline bool SameBits(double a, double b) {
-  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
-}
-inline bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (!SameBits(a[i], b[i])) return false;
-  }
-  return true;
-}
-
-inline bool SameBits(const std::vector<SegmentAnchor>& a, const std::vector<SegmentAnchor>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (a[i].bound != b[i].bound ||
-        !SameBits(a[i].tangential_displacement, b[i].tangential_displacement) ||
-        !SameBits(a[i].depth, b[i].depth)) {
-      return false;
-    }
-  }
-  return true;
-}
-
-// Two snapshots equal field by field, bit for bit.
+// Two snapshots equal field by field, bit for bit (SameBits and SnapshotDifference:
+// fixtures/slip_state_check.h).
 inline ::testing::AssertionResult SameSnapshot(const ContactSnapshot& a, const ContactSnapshot& b) {
-  const char* differs =
-      !SameBits(a.depth, b.depth)                                       ? "depth"
-      : !SameBits(a.tangential_displacement, b.tangential_displacement) ? "tangential_displacement"
-      : !SameBits(a.dissipated_energy, b.dissipated_energy)             ? "dissipated_energy"
-      : !SameBits(a.last_step_dissipation, b.last_step_dissipation)     ? "last_step_dissipation"
-      : !SameBits(a.z, b.z)                                             ? "z"
-      : !SameBits(a.u, b.u)                                             ? "u"
-      : a.tags != b.tags                                                ? "tags"
-      : !SameBits(a.anchors, b.anchors)                                 ? "anchors"
-      : !SameBits(a.grid_u, b.grid_u)                                   ? "grid_u"
-                                                                        : nullptr;
+  const char* differs = SnapshotDifference(a, b);
   if (differs == nullptr) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure() << "snapshots differ in " << differs;
 }

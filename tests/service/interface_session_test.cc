@@ -123,7 +123,7 @@ TEST_F(InterfaceSessionTest, CreatesGeneratedAndExplicitInterfaces) {
   v1::QueryResponse response;
   ASSERT_TRUE(QueryInterface(generated, {"interface"}, &response, std::nullopt, 10).ok());
   EXPECT_EQ(response.interface().contact_count(), 200u);
-  EXPECT_GT(response.interface().memory_bytes(), 200u * sizeof(Contact));
+  EXPECT_GT(response.interface().memory_bytes(), 200u * PackedContacts::kRecordBytes);
   // A new shared-motion interface touches its highest summit: nothing is loaded yet.
   EXPECT_EQ(response.interface().totals().normal_force(), 0);
   EXPECT_EQ(response.interface().slip_histogram_size(), 10);
@@ -544,21 +544,25 @@ TEST_F(InterfaceFailureTest, ABadValueAtOneContactChangesNothing) {
 
 TEST_F(InterfaceFailureTest, TheStateBudgetRefusesAGrowingStepAndChangesNothing) {
   constexpr std::size_t kCount = 50;
-  const v1::Scene scene = GeneratedScene(v1::Interface::KIND_CONTACT_LIST, kCount);
-  const v1::SessionSnapshot fresh = ExportOrDie(CreateScene(scene));
+  auto slide = [](double displacement) {
+    return ListStep(std::vector<double>(kCount, 0), std::vector<double>(kCount, displacement));
+  };
+  // Loaded and reversed twice, every contact's memory still fits its record (PackedContacts); one
+  // more reversal makes it longer than a record holds, so that each contact needs a heap block.
+  const std::string source = CreateScene(GeneratedScene(v1::Interface::KIND_CONTACT_LIST, kCount));
+  ApplyOrDie(source, {LoadEach(kCount, kDepth), slide(4e-8), slide(-6e-8), slide(4e-8)});
+  const v1::SessionSnapshot loaded = ExportOrDie(source);
   v1::QueryResponse query;
-  ASSERT_TRUE(QueryInterface(Import(fresh), {"interface.memory_bytes"}, &query).ok());
+  ASSERT_TRUE(QueryInterface(Import(loaded), {"interface.memory_bytes"}, &query).ok());
   const std::uint64_t bytes = query.interface().memory_bytes();
-  // Room for the session as it is (and the 8 bytes per contact of scratch that a contact list's
-  // in-place check keeps once it ran), not for the memory vertices that loading adds.
+  // Room for the session as it is, not for the heap blocks of the next reversal.
   service::ServerOptions options = LocalServerOptions();
-  options.limits.max_state_bytes = bytes + 8 * kCount + 100;
+  options.limits.max_state_bytes = bytes + 100;
   Restart(options);
-  Remember(Import(fresh));
+  Remember(Import(loaded));
   v1::ApplyResponse response;
   for (const std::vector<v1::Step>& batch :
-       {std::vector<v1::Step>{LoadEach(kCount, kDepth)},
-        std::vector<v1::Step>{LoadEach(kCount, 0), LoadEach(kCount, kDepth)}}) {
+       {std::vector<v1::Step>{slide(-2e-8)}, std::vector<v1::Step>{slide(0), slide(-2e-8)}}) {
     grpc::Status refused = Apply(session_, batch, &response);
     EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
     EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-state-bytes"));
@@ -566,8 +570,8 @@ TEST_F(InterfaceFailureTest, TheStateBudgetRefusesAGrowingStepAndChangesNothing)
   }
   // A step that adds nothing fits: the bound of what it could add does not, so the exact state
   // after it decides (on a copy).
-  ASSERT_TRUE(Apply(session_, {LoadEach(kCount, 0)}, &response).ok());
-  EXPECT_EQ(response.state().applied_steps(), 1u);
+  ASSERT_TRUE(Apply(session_, {slide(0)}, &response).ok());
+  EXPECT_EQ(response.state().applied_steps(), applied_ + 1);
 }
 
 TEST_F(InterfaceFailureTest, TheExportLimitRefusesAGrowingStepAndChangesNothing) {

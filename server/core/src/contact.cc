@@ -1,7 +1,9 @@
 #include "mdr/core/contact.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <sstream>
 
@@ -71,15 +73,49 @@ Status ValidateContactConfig(const ContactConfig& config) {
   return OkStatus();
 }
 
+namespace {
+
+bool SameBits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
+
+}  // namespace
+
+bool SameConfig(const ContactConfig& a, const ContactConfig& b) {
+  // Every field: a field added to ContactConfig must be compared here.
+  static_assert(sizeof(ContactConfig) == 112, "compare the new field of ContactConfig");
+  return a.profile == b.profile && SameBits(a.material.e_star, b.material.e_star) &&
+         SameBits(a.material.g_star, b.material.g_star) && SameBits(a.friction, b.friction) &&
+         a.track_energy == b.track_energy &&
+         SameBits(a.force_path_tolerance, b.force_path_tolerance) &&
+         a.max_memory_vertices == b.max_memory_vertices &&
+         SameBits(a.rig.tangential, b.rig.tangential) && SameBits(a.rig.normal, b.rig.normal) &&
+         a.method == b.method && a.grid_size == b.grid_size &&
+         SameBits(a.grid_max_radius, b.grid_max_radius) && a.grid_step_rule == b.grid_step_rule;
+}
+
+double NormalForceAtDepth(const ContactConfig& config, double depth) {
+  return config.material.e_star * config.profile->NormalForcePerModulus(depth);
+}
+
+double DepthAtNormalForce(const ContactConfig& config, double normal_force) {
+  return config.profile->DepthAtNormalForcePerModulus(normal_force / config.material.e_star);
+}
+
+double ContactRadiusAtDepth(const ContactConfig& config, double depth) {
+  return depth > 0 ? config.profile->RadiusAtDepth(depth) : 0;
+}
+
+Contact::Contact(ContactConfig config) : config_(std::move(config)) {
+  if (config_.method == Method::kGrid) {
+    memory_.emplace<GridMemory>(*config_.profile, config_.grid_size, config_.grid_max_radius,
+                                config_.grid_step_rule);
+  }
+}
+
 Result<Contact> Contact::Create(ContactConfig config) {
   if (Status s = ValidateContactConfig(config); !s.ok()) return s;
-  Contact contact(std::move(config));
-  const ContactConfig& c = contact.config_;
-  if (c.method == Method::kGrid) {
-    contact.memory_.emplace<GridMemory>(*c.profile, c.grid_size, c.grid_max_radius,
-                                        c.grid_step_rule);
-  }
-  return contact;
+  return Contact(std::move(config));
 }
 
 std::vector<MemoryPiece> Contact::memory_pieces() const {
@@ -177,16 +213,14 @@ ContactSnapshot Contact::Snapshot() const {
 }
 
 double Contact::NormalForceAtDepth(double depth) const {
-  return config_.material.e_star * config_.profile->NormalForcePerModulus(depth);
+  return mdr::NormalForceAtDepth(config_, depth);
 }
 
 double Contact::DepthAtNormalForce(double normal_force) const {
-  return config_.profile->DepthAtNormalForcePerModulus(normal_force / config_.material.e_star);
+  return mdr::DepthAtNormalForce(config_, normal_force);
 }
 
-double Contact::contact_radius() const {
-  return depth() > 0 ? config_.profile->RadiusAtDepth(depth()) : 0;
-}
+double Contact::contact_radius() const { return ContactRadiusAtDepth(config_, depth()); }
 
 double Contact::normal_force() const { return NormalForceAtDepth(depth()); }
 
@@ -417,8 +451,8 @@ Status Contact::CheckStepResult(const char* tangential_field) const {
       return FailedPrecondition(tangential_field,
                                 "this step would leave a memory the doubles cannot hold exactly "
                                 "enough at this scale, after a history many orders of magnitude "
-                                "larger (" + s.field() + ": " + s.message() +
-                                    "); nothing was applied");
+                                "larger (" +
+                                    s.field() + ": " + s.message() + "); nothing was applied");
     }
   }
   if (memory().vertex_count() > config_.max_memory_vertices) {

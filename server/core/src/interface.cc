@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -80,23 +81,20 @@ bool HasVertexHeadroom(const Contact& contact) {
 }
 
 // Moves contact i to (depth, ux) and checks what an interface needs after it; errors name
-// contacts[i]. A contact left without vertex headroom for the next step is recorded, not an error.
-Status MoveContact(Contact& contact, std::size_t i, double depth, double ux,
-                   std::atomic<bool>& headroom_lost) {
+// contacts[i].
+Status MoveContact(Contact& contact, std::size_t i, double depth, double ux) {
   if (Status s = contact.MoveTo(depth, ux); !s.ok()) {
     return s.WithFieldPrefix(Indexed("contacts", i));
   }
-  if (!HasVertexHeadroom(contact)) headroom_lost.store(true, std::memory_order_relaxed);
   if (Status s = CheckSteppedContact(contact); !s.ok()) {
     return s.WithFieldPrefix(Indexed("contacts", i));
   }
   return OkStatus();
 }
 
-// The depth at which this contact's mu F_N reaches kForceCap (+inf if never).
-double MaxDepth(const Contact& contact) {
-  const double depth =
-      contact.DepthAtNormalForce(kForceCap / std::max(contact.config().friction, 1.0));
+// The depth at which a contact of this config reaches mu F_N = kForceCap (+inf if never).
+double MaxDepth(const ContactConfig& config) {
+  const double depth = DepthAtNormalForce(config, kForceCap / std::max(config.friction, 1.0));
   return std::isfinite(depth) ? depth : std::numeric_limits<double>::infinity();
 }
 
@@ -257,6 +255,26 @@ Result<InterfaceConfig> SharedProfileInterfaceConfig(const Population& populatio
   return config;
 }
 
+namespace {
+
+// The error of the lowest failing contact index, whatever the split into ranges.
+class FirstFailure {
+ public:
+  explicit FirstFailure(std::size_t n) : failed_at_(n) {}
+  void Add(std::size_t i, Status s) {
+    std::lock_guard lock(mutex_);
+    if (i < failed_at_) failed_at_ = i, failure_ = std::move(s);
+  }
+  Status Take() { return std::move(failure_); }
+
+ private:
+  std::mutex mutex_;
+  std::size_t failed_at_;
+  Status failure_;
+};
+
+}  // namespace
+
 Result<Interface> Interface::Create(InterfaceConfig config) {
   const std::size_t n = config.contacts.size();
   if (n < 1 || n > kMaxInterfaceContacts) {
@@ -285,33 +303,54 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
   Interface built;
   built.kind_ = config.kind;
   built.heights_ = std::move(config.heights);
-  built.contacts_.reserve(n);
-  built.max_depth_.reserve(n);
+  built.contacts_ = PackedContacts(n);
   built.max_approach_ = std::numeric_limits<double>::infinity();
+  // Each distinct config once (validated once), found through its profile.
+  std::unordered_map<const Profile*, std::vector<std::uint32_t>> by_profile;
+  std::vector<std::uint32_t> config_of(n);
   for (std::size_t i = 0; i < n; ++i) {
-    Result<Contact> contact = Contact::Create(std::move(config.contacts[i]));
-    if (!contact.ok()) return contact.status().WithFieldPrefix(Indexed("contacts", i));
-    built.max_depth_.push_back(MaxDepth(*contact));
-    built.all_exact_ = built.all_exact_ && contact->config().method == Method::kExact;
-    built.max_mu_kappa_ = std::max(built.max_mu_kappa_, contact->mu_kappa());
-    built.max_approach_ = std::min(built.max_approach_, built.height(i) + built.max_depth_.back());
-    built.contacts_.push_back(std::move(contact).value());
+    ContactConfig& c = config.contacts[i];
+    std::vector<std::uint32_t>& candidates = by_profile[c.profile.get()];
+    const auto same = std::find_if(candidates.begin(), candidates.end(), [&](std::uint32_t k) {
+      return SameConfig(built.configs_[k], c);
+    });
+    if (same != candidates.end()) {
+      config_of[i] = *same;
+    } else {
+      if (Status s = ValidateContactConfig(c); !s.ok()) {
+        return s.WithFieldPrefix(Indexed("contacts", i));
+      }
+      config_of[i] = static_cast<std::uint32_t>(built.configs_.size());
+      candidates.push_back(config_of[i]);
+      built.max_depth_.push_back(MaxDepth(c));
+      built.all_exact_ = built.all_exact_ && c.method == Method::kExact;
+      built.max_mu_kappa_ = std::max(built.max_mu_kappa_, MuKappa(c));
+      built.configs_.push_back(std::move(c));
+    }
+    built.max_approach_ =
+        std::min(built.max_approach_, built.height(i) + built.max_depth_[config_of[i]]);
   }
+  config.contacts.clear();
+  config.contacts.shrink_to_fit();
+  std::unordered_set<const Profile*> profiles;
+  for (const ContactConfig& c : built.configs_) profiles.insert(c.profile.get());
+  built.distinct_profiles_ = profiles.size();
   if (shared) {
     // Touching the highest contact: every depth delta - h_i <= 0, so nothing is loaded.
     built.approach_ = built.heights_.empty()
                           ? 0.0
                           : *std::min_element(built.heights_.begin(), built.heights_.end());
     built.min_height_ = built.approach_;
-    for (std::size_t i = 0; i < n; ++i) {
-      Status s = built.contacts_[i].MoveTo(built.approach_ - built.height(i), 0.0);
+  }
+  ContactCursor cursor(built.configs_);
+  for (std::size_t i = 0; i < n; ++i) {
+    Contact& contact = cursor.Fresh(config_of[i]);
+    if (shared) {
+      Status s = contact.MoveTo(built.approach_ - built.height(i), 0.0);
       if (!s.ok()) return s.WithFieldPrefix(Indexed("contacts", i));
     }
+    built.contacts_.Put(i, contact, config_of[i]);
   }
-  std::unordered_set<const Profile*> profiles;
-  for (const Contact& contact : built.contacts_) profiles.insert(contact.config().profile.get());
-  built.distinct_profiles_ = profiles.size();
-  built.trial_ = built.contacts_;
   return built;
 }
 
@@ -321,7 +360,6 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
                            "the snapshot holds " + std::to_string(snapshot.contacts.size()) +
                                " contacts, the config " + std::to_string(config.contacts.size()));
   }
-  std::vector<ContactConfig> configs = config.contacts;
   Result<Interface> created = Create(std::move(config));
   if (!created.ok()) return created;
   Interface& restored = *created;
@@ -337,9 +375,10 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
       return s;
     }
   }
-  for (std::size_t i = 0; i < configs.size(); ++i) {
+  for (std::size_t i = 0; i < restored.size(); ++i) {
     const std::string prefix = Indexed("contacts", i);
-    Result<Contact> contact = Contact::Restore(std::move(configs[i]), snapshot.contacts[i]);
+    const std::uint32_t k = restored.contacts_.config_index(i);
+    Result<Contact> contact = Contact::Restore(restored.configs_[k], snapshot.contacts[i]);
     if (!contact.ok()) return contact.status().WithFieldPrefix(prefix);
     const double expected_depth = snapshot.approach - restored.height(i);
     if (shared && contact->depth() != expected_depth) {
@@ -353,19 +392,18 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
                                  FormatNumber(snapshot.tangential_displacement) + " m, got " +
                                  FormatNumber(contact->tangential_displacement()));
     }
-    if (Status s = CheckDepthLimit(prefix + ".depth", contact->depth(), restored.max_depth_[i]);
+    if (Status s = CheckDepthLimit(prefix + ".depth", contact->depth(), restored.max_depth(i));
         !s.ok()) {
       return s;
     }
     restored.energy_bound_ = std::max(restored.energy_bound_, contact->dissipated_energy());
     restored.vertex_headroom_ = restored.vertex_headroom_ && HasVertexHeadroom(*contact);
-    restored.contacts_[i] = std::move(contact).value();
+    restored.contacts_.Put(i, *contact, k);
   }
   if (shared) {
     restored.approach_ = snapshot.approach;
     restored.ux_ = snapshot.tangential_displacement;
   }
-  restored.trial_ = restored.contacts_;
   return created;
 }
 
@@ -374,32 +412,46 @@ InterfaceSnapshot Interface::Snapshot() const {
   snapshot.approach = approach_;
   snapshot.tangential_displacement = ux_;
   snapshot.contacts.reserve(contacts_.size());
-  for (const Contact& contact : contacts_) snapshot.contacts.push_back(contact.Snapshot());
+  ContactCursor cursor(configs_);
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    snapshot.contacts.push_back(cursor.Load(contacts_, i).Snapshot());
+  }
   return snapshot;
+}
+
+Contact Interface::contact(std::size_t i) const {
+  ContactCursor cursor(configs_);
+  return cursor.Load(contacts_, i);
 }
 
 Status Interface::ForEach(const std::function<Status(std::size_t)>& fn,
                           const Interrupt& interrupt) const {
-  std::mutex mutex;
-  std::size_t failed_at = contacts_.size();
-  Status failure;
-  auto run = [&](std::size_t begin, std::size_t end) {
-    // Keep the lowest failing index, so that the error does not depend on the split.
-    auto fail = [&](std::size_t i, Status s) {
-      std::lock_guard lock(mutex);
-      if (i < failed_at) failed_at = i, failure = std::move(s);
-    };
+  FirstFailure failure(contacts_.size());
+  RunOverContacts([&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       // Each Status is constructed in place, never assigned: an assignment per contact (two
       // strings) costs about as much as a contact's bookkeeping.
       if (Status s = interrupt.CheckEvery(kInterruptPeriod, i - begin); !s.ok()) {
-        return fail(i, std::move(s));
+        return failure.Add(i, std::move(s));
       }
-      if (Status s = fn(i); !s.ok()) return fail(i, std::move(s));
+      if (Status s = fn(i); !s.ok()) return failure.Add(i, std::move(s));
     }
-  };
-  RunOverContacts(run);
-  return failure;
+  });
+  return failure.Take();
+}
+
+Status Interface::ForEachContact(const ContactStep& fn, const Interrupt& interrupt) const {
+  FirstFailure failure(contacts_.size());
+  RunOverContacts([&](std::size_t begin, std::size_t end) {
+    ContactCursor cursor(configs_);
+    for (std::size_t i = begin; i < end; ++i) {
+      if (Status s = interrupt.CheckEvery(kInterruptPeriod, i - begin); !s.ok()) {
+        return failure.Add(i, std::move(s));
+      }
+      if (Status s = fn(i, cursor.Load(contacts_, i)); !s.ok()) return failure.Add(i, std::move(s));
+    }
+  });
+  return failure.Take();
 }
 
 void Interface::RunOverContacts(const ParallelFor::Body& body) const {
@@ -410,25 +462,61 @@ void Interface::RunOverContacts(const ParallelFor::Body& body) const {
   }
 }
 
-Status Interface::StepAll(const TrialStep& per_contact, const Interrupt& interrupt) {
-  trial_bytes_.Reset();
-  return ForEach(
-      [&](std::size_t i) {
-        trial_[i] = contacts_[i];  // reuses the buffer's vectors (once they have grown)
-        return per_contact(i, trial_[i]);
-      },
-      interrupt);
-}
-
-Status Interface::TrialMove(double delta1, double ux1, const Interrupt& interrupt) {
-  std::atomic<bool> headroom_lost{false};
-  Status status = StepAll(
-      [&](std::size_t i, Contact& trial) {
-        return MoveContact(trial, i, delta1 - height(i), ux1, headroom_lost);
-      },
-      interrupt);
-  trial_headroom_ = !headroom_lost.load();
-  return status;
+Status Interface::StepContacts(const ContactStep& step, bool in_place, const Interrupt& interrupt,
+                               const CommitGate& gate) {
+  if (in_place) {
+    // Nothing can fail below, so the gate is passed first and the pass is not interrupted.
+    if (Status s = interrupt.Check(); !s.ok()) return s;
+    if (Status s = PassGate(gate); !s.ok()) return s;
+  }
+  kept_forces_valid_ = false;
+  const std::size_t n = contacts_.size();
+  PackedContacts next = in_place ? PackedContacts() : PackedContacts(n);
+  PackedContacts& into = in_place ? contacts_ : next;
+  const Interrupt& checked = in_place ? Interrupt{} : interrupt;
+  FirstFailure failure(n);
+  std::mutex mutex;
+  bool headroom_lost = false;
+  double max_energy = 0;
+  RunOverContacts([&](std::size_t begin, std::size_t end) {
+    ContactCursor cursor(configs_);
+    bool lost = false;
+    double energy = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      if (Status s = checked.CheckEvery(kInterruptPeriod, i - begin); !s.ok()) {
+        failure.Add(i, std::move(s));
+        break;
+      }
+      Contact& contact = cursor.Load(contacts_, i);
+      if (Status s = step(i, contact); !s.ok()) {
+        failure.Add(i, std::move(s));
+        break;
+      }
+      lost = lost || !HasVertexHeadroom(contact);
+      energy = std::max(energy, contact.dissipated_energy());
+      if (keep_step_forces_) {  // while the contact is decoded
+        kept_normal_forces_[i] = contact.normal_force();
+        kept_tangential_forces_[i] = contact.tangential_force();
+      }
+      into.Put(i, contact, contacts_.config_index(i));
+    }
+    std::lock_guard lock(mutex);
+    headroom_lost = headroom_lost || lost;
+    max_energy = std::max(max_energy, energy);
+  });
+  if (Status s = failure.Take(); !s.ok()) {
+    if (!in_place) return s;
+    return Internal(s.field(), "an in-place step failed although its limits were checked (" +
+                                   s.message() + "); the interface is inconsistent");
+  }
+  if (!in_place) {
+    if (Status s = PassGate(gate); !s.ok()) return s;
+    contacts_ = std::move(next);
+  }
+  vertex_headroom_ = !headroom_lost;
+  energy_bound_ = max_energy;  // every contact was stepped: the exact largest energy
+  kept_forces_valid_ = keep_step_forces_;
+  return OkStatus();
 }
 
 void Interface::set_keep_step_forces(bool keep) {
@@ -438,16 +526,6 @@ void Interface::set_keep_step_forces(bool keep) {
   kept_tangential_forces_.assign(keep ? contacts_.size() : 0, 0.0);
   kept_normal_forces_.shrink_to_fit();
   kept_tangential_forces_.shrink_to_fit();
-}
-
-void Interface::Commit(double delta1, double ux1, double slide_scale) {
-  kept_forces_valid_ = false;
-  contacts_.swap(trial_);
-  trial_bytes_.Reset();
-  vertex_headroom_ = trial_headroom_;
-  approach_ = delta1;
-  ux_ = ux1;
-  energy_bound_ += kForceCap * slide_scale;
 }
 
 double Interface::SlideScale(double delta1, double ux1) const {
@@ -461,50 +539,14 @@ bool Interface::CanStepInPlace(double slide_scale) const {
          energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy;
 }
 
-template <typename Target>
-Status Interface::StepInPlace(const Target& target, double slide_scale) {
-  kept_forces_valid_ = false;
-  std::atomic<bool> headroom_lost{false};
-  Status status = ForEach(
-      [&](std::size_t i) {
-        const ContactTarget to = target(i);
-        Contact& contact = contacts_[i];
-        Status moved = MoveContact(contact, i, to.depth, to.ux, headroom_lost);
-        if (keep_step_forces_ && moved.ok()) {  // while the contact is in cache
-          kept_normal_forces_[i] = contact.normal_force();
-          kept_tangential_forces_[i] = contact.tangential_force();
-        }
-        return moved;
-      },
-      Interrupt{});
-  if (!status.ok()) {
-    return Internal(status.field(), "an in-place step failed although its limits were checked (" +
-                                        status.message() + "); the interface is inconsistent");
-  }
-  vertex_headroom_ = !headroom_lost.load();
-  energy_bound_ += kForceCap * slide_scale;
-  kept_forces_valid_ = keep_step_forces_;
-  return OkStatus();
-}
-
 Status Interface::Move(double delta1, double ux1, const Interrupt& interrupt,
                        const CommitGate& gate) {
-  const double slide_scale = SlideScale(delta1, ux1);
-  if (!CanStepInPlace(slide_scale)) {
-    if (Status s = TrialMove(delta1, ux1, interrupt); !s.ok()) return s;
-    if (Status s = PassGate(gate); !s.ok()) return s;
-    Commit(delta1, ux1, slide_scale);
-    return OkStatus();
-  }
-  // Nothing can fail below (CanStepInPlace), so the contacts are stepped in place, without the
-  // copy into the step buffer; the pass is bounded by kMaxInPlaceContacts and not interrupted.
-  if (Status s = interrupt.Check(); !s.ok()) return s;
-  if (Status s = PassGate(gate); !s.ok()) return s;
-  if (Status s = StepInPlace(
-          [&](std::size_t i) {
-            return ContactTarget{delta1 - height(i), ux1};
+  const bool in_place = CanStepInPlace(SlideScale(delta1, ux1));
+  if (Status s = StepContacts(
+          [&](std::size_t i, Contact& contact) {
+            return MoveContact(contact, i, delta1 - height(i), ux1);
           },
-          slide_scale);
+          in_place, interrupt, gate);
       !s.ok()) {
     return s;
   }
@@ -526,10 +568,10 @@ Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Int
 
   const bool normal_force = step.normal == NormalControl::kForce;
   const bool tangential_force = step.tangential == TangentialControl::kForce;
-  const double ux1 = step.tangential == TangentialControl::kDisplacement ? step.tangential_value
-                     : step.tangential == TangentialControl::kDisplacementIncrement
-                         ? ux_ + step.tangential_value
-                         : ux_;
+  double ux1 = step.tangential == TangentialControl::kDisplacement ? step.tangential_value
+               : step.tangential == TangentialControl::kDisplacementIncrement
+                   ? ux_ + step.tangential_value
+                   : ux_;
   if (Status s = RequireFinite(tangential_field, ux1); !s.ok()) return s;
   // A force target with the other channel moving is a curved path in (delta, ux).
   if (normal_force && ux1 != ux_) {
@@ -560,16 +602,12 @@ Status Interface::Apply(const Step& step, InterfaceStepReport* report, const Int
                            "is curved in (delta, ux), which interfaces do not follow): apply the "
                            "two as separate steps");
   }
-
   if (tangential_force) {
     Result<double> solved = SolveTangential(step.tangential_value, &local, interrupt);
     if (!solved.ok()) return solved.status();
-    // The step buffer holds the solution.
-    if (Status s = PassGate(gate); !s.ok()) return s;
-    Commit(delta1, *solved, SlideScale(delta1, *solved));
-  } else if (Status s = Move(delta1, ux1, interrupt, gate); !s.ok()) {
-    return s;
+    ux1 = *solved;
   }
+  if (Status s = Move(delta1, ux1, interrupt, gate); !s.ok()) return s;
   if (report) *report = local;
   return OkStatus();
 }
@@ -579,13 +617,12 @@ double Interface::TotalNormalForce(double delta, double* stiffness, const Interr
   std::vector<double> force(contacts_.size()), slope(contacts_.size());
   *status = ForEach(
       [&](std::size_t i) {
-        const Contact& contact = contacts_[i];
+        const ContactConfig& config = contact_config(i);
         const double depth = delta - height(i);
-        force[i] = contact.NormalForceAtDepth(depth);
+        force[i] = NormalForceAtDepth(config, depth);
         // dF_N/d(delta) = 2 E* a (docs/physics.md).
-        slope[i] = depth > 0 ? 2 * contact.config().material.e_star *
-                                   contact.config().profile->RadiusAtDepth(depth)
-                             : 0.0;
+        slope[i] =
+            depth > 0 ? 2 * config.material.e_star * config.profile->RadiusAtDepth(depth) : 0.0;
         return OkStatus();
       },
       interrupt);
@@ -612,7 +649,7 @@ Result<double> Interface::SolveApproach(double target, InterfaceStepReport* repo
                              std::min_element(heights_.begin(), heights_.end()) - heights_.begin());
   double lo = height(first);
   if (target == 0) return lo;
-  double hi = std::min(lo + contacts_[first].DepthAtNormalForce(target), max_approach_);
+  double hi = std::min(lo + DepthAtNormalForce(contact_config(first), target), max_approach_);
   if (hi == max_approach_) {
     double unused = 0;
     const double largest = TotalNormalForce(hi, &unused, interrupt, &status);
@@ -658,9 +695,8 @@ Result<Interface::TangentialState> Interface::MeasureTangentialState(
     const Interrupt& interrupt) const {
   const std::size_t n = contacts_.size();
   std::vector<double> force(n), limit(n), lo(n), hi(n);
-  Status s = ForEach(
-      [&](std::size_t i) {
-        const Contact& c = contacts_[i];
+  Status s = ForEachContact(
+      [&](std::size_t i, Contact& c) {
         force[i] = c.tangential_force();
         limit[i] = c.friction_limit();
         const double m = c.mu_kappa(), d = c.depth();
@@ -680,7 +716,7 @@ Result<Interface::TangentialState> Interface::MeasureTangentialState(
 }
 
 Result<double> Interface::SolveTangential(double target, InterfaceStepReport* report,
-                                          const Interrupt& interrupt) {
+                                          const Interrupt& interrupt) const {
   Result<TangentialState> state = MeasureTangentialState(interrupt);
   if (!state.ok()) return state.status();
   const double total_limit = state->friction_limit;
@@ -696,14 +732,23 @@ Result<double> Interface::SolveTangential(double target, InterfaceStepReport* re
   const std::size_t n = contacts_.size();
   std::vector<double> force(n), up(n), down(n);  // each contact's stiffness toward +x and -x
   double slope = 0;                              // the total's toward the target
-  double evaluated = std::numeric_limits<double>::quiet_NaN();  // increment in the step buffer
-  // F_x and its slope toward the target after a step by dux (from `contacts`, the state or the
-  // step buffer).
-  auto measure = [&](const std::vector<Contact>& contacts) -> Status {
-    Status s = ForEach(
-        [&](std::size_t i) {
-          force[i] = contacts[i].tangential_force();
-          const TangentialStiffness k = contacts[i].tangential_stiffness();
+  std::optional<double> evaluated;               // the increment last measured
+  // F_x and its slope toward the target after a step by dux (none: the state itself), each
+  // contact stepped in its cursor only: nothing is stored until Apply moves to the solution.
+  auto measure = [&](std::optional<double> dux) -> Status {
+    if (dux) {
+      evaluated = dux;
+      ++report->solver_iterations;
+    }
+    Status s = ForEachContact(
+        [&](std::size_t i, Contact& c) {
+          if (dux) {
+            if (Status moved = MoveContact(c, i, approach_ - height(i), ux_ + *dux); !moved.ok()) {
+              return moved;
+            }
+          }
+          force[i] = c.tangential_force();
+          const TangentialStiffness k = c.tangential_stiffness();
           up[i] = k.positive;
           down[i] = k.negative;
           return OkStatus();
@@ -712,12 +757,6 @@ Result<double> Interface::SolveTangential(double target, InterfaceStepReport* re
     f = Sum(force) - target;
     slope = f < 0 ? Sum(up) : Sum(down);
     return s;
-  };
-  auto evaluate = [&](double dux) -> Status {
-    if (Status s = TrialMove(approach_, ux_ + dux, interrupt); !s.ok()) return s;
-    evaluated = dux;
-    ++report->solver_iterations;
-    return measure(trial_);
   };
   if (total_limit == 0 || std::abs(f) <= stop) {
     x = 0;  // F_x = 0 for any ux without contact; a held target keeps ux
@@ -729,7 +768,7 @@ Result<double> Interface::SolveTangential(double target, InterfaceStepReport* re
     // Newton from the current state: F_x(dux) is monotone, concave toward +x and convex toward
     // -x (slip zones only grow along a monotone path), so Newton approaches the root from the
     // start side; the bracket and the midpoint guard round-off and the kinks.
-    if (Status s = measure(contacts_); !s.ok()) return s;
+    if (Status s = measure(std::nullopt); !s.ok()) return s;
     for (int iteration = 0; iteration < kMaxSolveIterations; ++iteration) {
       (f < 0 ? lo : hi) = x;
       const double resolution =
@@ -738,12 +777,12 @@ Result<double> Interface::SolveTangential(double target, InterfaceStepReport* re
       double next = slope > 0 ? x - f / slope : 0.5 * (lo + hi);
       if (!(next > lo && next < hi) || next == x) next = 0.5 * (lo + hi);
       x = next;
-      if (Status s = evaluate(x); !s.ok()) return s;
+      if (Status s = measure(x); !s.ok()) return s;
       if (std::abs(f) <= stop) break;
     }
   }
-  if (!(evaluated == x)) {
-    if (Status s = evaluate(x); !s.ok()) return s;
+  if (!(evaluated == x)) {  // the residual (and the contacts' checks) of the step to be applied
+    if (Status s = measure(x); !s.ok()) return s;
   }
   report->force_residual = std::abs(f);
   return ux_ + x;
@@ -767,95 +806,72 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
   }
   const bool displacements =
       step.normal != NormalControl::kForce && step.tangential != TangentialControl::kForce;
+  bool in_place = false;
   if (displacements && all_exact_ && vertex_headroom_ && n <= kMaxInPlaceContacts) {
-    bool stepped = false;
-    if (Status s = StepListInPlace(step, interrupt, gate, &stepped); !s.ok() || stepped) return s;
+    Result<bool> fits = ListStepFitsInPlace(step, interrupt);
+    if (!fits.ok()) return fits.status();
+    in_place = *fits;
   }
-  std::atomic<bool> headroom_lost{false};
-  std::vector<double> energy(n);
-  Status s = StepAll(
-      [&](std::size_t i, Contact& trial) {
+  return StepContacts(
+      [&](std::size_t i, Contact& contact) {
         Status status;
         if (displacements) {
           // The exact linear step of Contact::Apply for displacement channels (the same depth
-          // and ux arithmetic), without its copy of the contact: the step buffer is the copy.
-          const ContactTarget target = DisplacementTarget(step, i, trial);
+          // and ux arithmetic), without its undo copy: the record is written only after it.
+          const ContactTarget target =
+              DisplacementTarget(step, i, contact.depth(), contact.tangential_displacement());
           if (Status c = CheckListTarget(i, target); !c.ok()) return c;
-          status = trial.MoveTo(target.depth, target.ux);
-          if (status.ok()) status = CheckSteppedContact(trial);
+          status = contact.MoveTo(target.depth, target.ux);
+          if (status.ok()) status = CheckSteppedContact(contact);
         } else {
-          status = trial.Apply(
+          status = contact.Apply(
               {step.normal, step.normal_values[i], step.tangential, step.tangential_values[i]},
               nullptr, interrupt);
         }
         if (!status.ok()) return status.WithFieldPrefix(Indexed("contacts", i));
-        if (!HasVertexHeadroom(trial)) headroom_lost.store(true, std::memory_order_relaxed);
-        energy[i] = trial.dissipated_energy();
-        if (trial.depth() <= max_depth_[i]) return OkStatus();
-        return CheckDepthLimit(Indexed("normal_values", i), trial.depth(), max_depth_[i]);
+        if (contact.depth() <= max_depth(i)) return OkStatus();
+        return CheckDepthLimit(Indexed("normal_values", i), contact.depth(), max_depth(i));
       },
-      interrupt);
-  if (!s.ok()) return s;
-  if (Status passed = PassGate(gate); !passed.ok()) return passed;
-  kept_forces_valid_ = false;
-  contacts_.swap(trial_);
-  trial_bytes_.Reset();
-  vertex_headroom_ = !headroom_lost.load();
-  energy_bound_ = std::max(energy_bound_, *std::max_element(energy.begin(), energy.end()));
-  return OkStatus();
+      in_place, interrupt, gate);
 }
 
 Interface::ContactTarget Interface::DisplacementTarget(const ContactListStep& step, std::size_t i,
-                                                       const Contact& contact) {
-  const double depth = step.normal == NormalControl::kDepth
-                           ? step.normal_values[i]
-                           : contact.depth() + step.normal_values[i];
-  const double ux = step.tangential == TangentialControl::kDisplacement
-                        ? step.tangential_values[i]
-                        : contact.tangential_displacement() + step.tangential_values[i];
-  return {depth, ux};
+                                                       double depth, double ux) {
+  return {
+      step.normal == NormalControl::kDepth ? step.normal_values[i] : depth + step.normal_values[i],
+      step.tangential == TangentialControl::kDisplacement ? step.tangential_values[i]
+                                                          : ux + step.tangential_values[i]};
 }
 
 Status Interface::CheckListTarget(std::size_t i, const ContactTarget& target) const {
   // The common case without building field names (a string per contact and step).
-  if (std::isfinite(target.depth) && std::isfinite(target.ux) && target.depth <= max_depth_[i]) {
+  if (std::isfinite(target.depth) && std::isfinite(target.ux) && target.depth <= max_depth(i)) {
     return OkStatus();
   }
   if (Status s = RequireFinite(Indexed("normal_values", i), target.depth); !s.ok()) return s;
   if (Status s = RequireFinite(Indexed("tangential_values", i), target.ux); !s.ok()) return s;
-  return CheckDepthLimit(Indexed("normal_values", i), target.depth, max_depth_[i]);
+  return CheckDepthLimit(Indexed("normal_values", i), target.depth, max_depth(i));
 }
 
-Status Interface::StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
-                                  const CommitGate& gate, bool* stepped) {
-  // Every target is checked first, and the largest slide scale decides (as in Move).
-  std::vector<double>& scale = slide_scales_;
-  scale.resize(contacts_.size());
+Result<bool> Interface::ListStepFitsInPlace(const ContactListStep& step,
+                                            const Interrupt& interrupt) const {
+  // Every target is checked first, and the largest slide scale decides (as in Move); the
+  // records' scalars suffice, no memory is decoded.
+  std::vector<double> scale(contacts_.size());
   Status checked = ForEach(
       [&](std::size_t i) {
-        const Contact& c = contacts_[i];
-        const ContactTarget target = DisplacementTarget(step, i, c);
+        const double depth = contacts_.depth(i), ux = contacts_.tangential_displacement(i);
+        const ContactTarget target = DisplacementTarget(step, i, depth, ux);
         if (Status s = CheckListTarget(i, target); !s.ok()) return s;
-        scale[i] = std::abs(target.ux - c.tangential_displacement()) +
-                   2 * c.mu_kappa() * std::max({c.depth(), target.depth, 0.0});
+        scale[i] = std::abs(target.ux - ux) +
+                   2 * MuKappa(contact_config(i)) * std::max({depth, target.depth, 0.0});
         return OkStatus();
       },
       interrupt);
   if (!checked.ok()) return checked;
   const double slide_scale = *std::max_element(scale.begin(), scale.end());
-  if (!(slide_scale <= kMaxInPlaceSlide &&
-        energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy)) {
-    return OkStatus();
-  }
-  if (Status s = interrupt.Check(); !s.ok()) return s;
-  if (Status s = PassGate(gate); !s.ok()) return s;
-  if (Status s = StepInPlace(
-          [&](std::size_t i) { return DisplacementTarget(step, i, contacts_[i]); }, slide_scale);
-      !s.ok()) {
-    return s;
-  }
-  *stepped = true;
-  return OkStatus();
+  return slide_scale <= kMaxInPlaceSlide &&
+         energy_bound_ + kForceCap * slide_scale <= kMaxInPlaceEnergy;
 }
 
 Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
@@ -864,9 +880,8 @@ Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
     SlipState state;
   };
   std::vector<PerContact> per(contacts_.size());
-  if (Status s = ForEach(
-          [&](std::size_t i) {
-            const Contact& c = contacts_[i];
+  if (Status s = ForEachContact(
+          [&](std::size_t i, Contact& c) {
             const TangentialStiffness kt = c.tangential_stiffness();
             per[i] = {c.normal_force(),      c.tangential_force(),
                       c.dissipated_energy(), c.last_step_dissipation(),
@@ -899,24 +914,35 @@ Result<InterfaceTotals> Interface::Totals(const Interrupt& interrupt) const {
 
 Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool energy) const {
   std::vector<ForceSums> per(contacts_.size());
-  // After an in-place step with kept forces, the same values as the contacts give.
+  // After a step with kept forces, the same values as the contacts give. The normal force, the
+  // friction limit and the energy need no decoding (a config and a record's scalars).
   const bool kept = kept_forces_valid_;
-  const auto take = [&](std::size_t i) {
-    const Contact& c = contacts_[i];
+  auto take_scalars = [&](std::size_t i) {
     if (normal) {
-      per[i].normal_force = kept ? kept_normal_forces_[i] : c.normal_force();
-      per[i].friction_limit = c.config().friction * per[i].normal_force;
+      per[i].normal_force =
+          kept ? kept_normal_forces_[i] : NormalForceAtDepth(contact_config(i), contacts_.depth(i));
+      per[i].friction_limit = contact_config(i).friction * per[i].normal_force;
     }
-    if (tangential) {
-      per[i].tangential_force = kept ? kept_tangential_forces_[i] : c.tangential_force();
-    }
-    if (energy) per[i].dissipated_energy = c.dissipated_energy();
-    return OkStatus();
+    if (tangential && kept) per[i].tangential_force = kept_tangential_forces_[i];
+    if (energy) per[i].dissipated_energy = contacts_.dissipated_energy(i);
   };
-  if (kept) {
-    for (std::size_t i = 0; i < contacts_.size(); ++i) (void)take(i);  // reads only: no workers
+  if (tangential && !kept) {
+    (void)ForEachContact(
+        [&](std::size_t i, Contact& c) {
+          take_scalars(i);
+          per[i].tangential_force = c.tangential_force();
+          return OkStatus();
+        },
+        Interrupt{});
+  } else if (kept) {
+    for (std::size_t i = 0; i < contacts_.size(); ++i) take_scalars(i);  // reads only: no workers
   } else {
-    (void)ForEach(take, Interrupt{});
+    (void)ForEach(
+        [&](std::size_t i) {
+          take_scalars(i);
+          return OkStatus();
+        },
+        Interrupt{});
   }
   ForceSums sums;
   for (const ForceSums& p : per) {
@@ -933,10 +959,9 @@ Interface::VertexTotals Interface::CountVertices() const {
   RunOverContacts([&](std::size_t begin, std::size_t end) {
     std::size_t n = 0, bound = 0;
     for (std::size_t i = begin; i < end; ++i) {
-      const Contact& c = contacts_[i];
-      const std::size_t vertices = c.memory().vertex_count();
+      const std::size_t vertices = contacts_.vertex_count(i);
       n += vertices;
-      bound += std::min(3 * vertices + 1, c.config().max_memory_vertices);
+      bound += std::min(3 * vertices + 1, contact_config(i).max_memory_vertices);
     }
     now.fetch_add(n, std::memory_order_relaxed);  // integer sums: the split does not matter
     after.fetch_add(bound, std::memory_order_relaxed);
@@ -950,9 +975,9 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
     return InvalidArgument("bins", "must be in [1, 1000], got " + std::to_string(bins));
   }
   std::vector<SlipSummary> slip(contacts_.size());
-  if (Status s = ForEach(
-          [&](std::size_t i) {
-            slip[i] = ClassifySlip(contacts_[i]);
+  if (Status s = ForEachContact(
+          [&](std::size_t i, Contact& c) {
+            slip[i] = ClassifySlip(c);
             return OkStatus();
           },
           interrupt);
@@ -969,40 +994,37 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
 }
 
 std::size_t Interface::MemoryBytes() const {
-  // The private step scratch of each memory holds about two polylines' worth (estimate).
-  constexpr std::size_t kVertexBytes = PiecewiseLinearMemory::kBytesPerVertex;
   constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
-  auto memory_bytes = [](const Contact& c) {
-    const PiecewiseLinearMemory& m = c.memory();
-    std::size_t bytes = m.z().capacity() * sizeof(double) + m.u().capacity() * sizeof(double) +
-                        m.tags().capacity() + m.anchors().capacity() * sizeof(SegmentAnchor) +
-                        2 * m.vertex_count() * kVertexBytes;
-    if (const GridMemory* grid = c.grid_memory()) {
-      bytes += grid->size() * GridMemory::kBytesPerSpring;
-    }
-    return bytes;
-  };
-  // Summed per worker (integer sums do not depend on the split): this runs after every step of
-  // the service, which charges the state budget exactly. The step buffer's part is walked only
-  // when it has changed since the last call.
-  const bool trial_known = trial_bytes_.get() != CachedBytes::kUnknown;
-  std::atomic<std::size_t> contact_bytes{0}, trial_bytes{0};
+  return sizeof(Interface) + contacts_.MemoryBytes() +
+         (heights_.capacity() + max_depth_.capacity() + kept_normal_forces_.capacity() +
+          kept_tangential_forces_.capacity()) *
+             sizeof(double) +
+         configs_.capacity() * sizeof(ContactConfig) + distinct_profiles_ * kProfileBytes;
+}
+
+std::size_t Interface::StepBytesBound() const {
+  // A new record array, and for every memory that may outgrow its record a heap block of the
+  // raw encoding's size for 3n + 1 vertices (the compact one is smaller) plus the block's
+  // granule; the cursors' vectors (per worker, a few memories' worth) are far below that.
+  constexpr std::size_t kRawBytesPerVertex = 2 * sizeof(double) + 1 + 1 + 2 * sizeof(double);
+  constexpr std::size_t kBlockSlack = 64 + 1;
+  std::atomic<std::size_t> blocks{0};
   RunOverContacts([&](std::size_t begin, std::size_t end) {
-    std::size_t contact_part = 0, trial_part = 0;
+    std::size_t bytes = 0;
     for (std::size_t i = begin; i < end; ++i) {
-      contact_part += memory_bytes(contacts_[i]);
-      if (!trial_known) trial_part += memory_bytes(trial_[i]);  // equal sizes
+      const ContactConfig& config = contact_config(i);
+      if (config.method == Method::kGrid) {
+        bytes += config.grid_size * (sizeof(double) + 1 + 1 + 2 * sizeof(double)) + kBlockSlack;
+        continue;
+      }
+      const std::size_t after =
+          std::min(3 * contacts_.vertex_count(i) + 1, config.max_memory_vertices);
+      const std::size_t encoded = after * kRawBytesPerVertex + kBlockSlack;
+      if (encoded > PackedContacts::kInlineBytes) bytes += encoded;
     }
-    contact_bytes.fetch_add(contact_part, std::memory_order_relaxed);
-    trial_bytes.fetch_add(trial_part, std::memory_order_relaxed);
+    blocks.fetch_add(bytes, std::memory_order_relaxed);
   });
-  const std::size_t trial_part = trial_known ? trial_bytes_.get() : trial_bytes.load();
-  trial_bytes_.set(trial_part);
-  return sizeof(Interface) +
-         (heights_.capacity() + max_depth_.capacity() + slide_scales_.capacity()) * sizeof(double) +
-         (contacts_.capacity() + trial_.capacity()) * sizeof(Contact) +
-         (kept_normal_forces_.capacity() + kept_tangential_forces_.capacity()) * sizeof(double) +
-         contact_bytes.load() + trial_part + distinct_profiles_ * kProfileBytes;
+  return contacts_.size() * PackedContacts::kRecordBytes + blocks.load();
 }
 
 }  // namespace mdr

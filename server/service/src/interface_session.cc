@@ -431,7 +431,7 @@ void WriteInterfaceStepResult(const Interface& interface, std::uint64_t applied_
   if (selection.has(Output::kStepResultDissipatedEnergy)) {
     double energy = 0;  // summed in index order, as Interface::Totals
     for (std::size_t i = 0; i < interface.size(); ++i) {
-      energy += interface.contact(i).last_step_dissipation();
+      energy += interface.contact_last_step_dissipation(i);
     }
     result->set_dissipated_energy(energy);
   }

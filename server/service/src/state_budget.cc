@@ -22,16 +22,6 @@ constexpr std::size_t kExportAllowance = 1024;
 // An interface's ContactSnapshot: four doubles with their tags, its own tag and length.
 constexpr std::size_t kExportBytesPerContact = 48;
 
-// What one MoveTo of an exact contact with n vertices can allocate, per (n + 2): the memory step
-// (memory.cc) extends the polyline by at most two vertices (kBytesPerVertex each, growing by
-// doubling: twice that) and builds the refined polyline in scratch vectors reserved for 3 (n + 2)
-// (z, u, crossing, tag, segment index, bound, anchor); on the interface's step buffer the copy
-// of the contact first allocates its n vertices. Buffers that are only swapped allocate nothing.
-constexpr std::size_t kRefinedVertexBytes =
-    2 * sizeof(double) + 3 * sizeof(std::uint8_t) + sizeof(std::uint32_t) + sizeof(SegmentAnchor);
-constexpr std::size_t kMoveAllocationBytesPerVertex =
-    2 * kBytesPerVertex + 3 * kRefinedVertexBytes + kBytesPerVertex;
-
 std::size_t InterfaceExportBytes(std::size_t contacts, std::size_t vertices,
                                  std::size_t scene_bytes) {
   return scene_bytes + kExportAllowance + contacts * kExportBytesPerContact +
@@ -72,9 +62,8 @@ std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes
 
 StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes) {
   const Interface::VertexTotals vertices = interface.CountVertices();
-  // Sum over contacts of kMoveAllocationBytesPerVertex * (n_i + 2).
-  const std::size_t growth = kMoveAllocationBytesPerVertex * (vertices.now + 2 * interface.size());
-  return {growth, InterfaceExportBytes(interface.size(), vertices.after_one_move, scene_bytes)};
+  return {interface.StepBytesBound(),
+          InterfaceExportBytes(interface.size(), vertices.after_one_move, scene_bytes)};
 }
 
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field) {

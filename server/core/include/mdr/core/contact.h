@@ -29,6 +29,7 @@ enum class Method {
 struct RigCompliance {
   double tangential = 0;  // C_t in m/N, >= 0
   double normal = 0;      // C_n in m/N, >= 0
+  bool operator==(const RigCompliance&) const = default;
 };
 
 struct ContactConfig {
@@ -58,6 +59,20 @@ struct ContactConfig {
   double grid_max_radius = 0;    // m, > 0 for Method::kGrid
   GridStepRule grid_step_rule = GridStepRule::kExact;
 };
+
+// Same config: the same profile object and every other field equal bit for bit (an interface
+// stores each distinct config once; PackedContacts).
+bool SameConfig(const ContactConfig& a, const ContactConfig& b);
+
+// What a config alone fixes: mu kappa, F_N(delta) for its profile and material and the inverse
+// (F_N >= 0), and the contact radius at a depth (0 out of contact). Contact's members of these
+// names call them.
+inline double MuKappa(const ContactConfig& config) {
+  return config.friction * config.material.kappa();
+}
+double NormalForceAtDepth(const ContactConfig& config, double depth);
+double DepthAtNormalForce(const ContactConfig& config, double normal_force);
+double ContactRadiusAtDepth(const ContactConfig& config, double depth);
 
 // Validates a config: profile present, material moduli > 0, friction >= 0 and finite,
 // tolerance in (0, 0.1], vertex limit >= 8, grid_size in [2, 2^22], grid_max_radius > 0 for the
@@ -149,7 +164,7 @@ class Contact {
   // (equal to the contact's without a rig).
   double actuator_displacement() const;
   double actuator_depth() const;
-  double mu_kappa() const { return config_.friction * config_.material.kappa(); }
+  double mu_kappa() const { return MuKappa(config_); }
   double contact_radius() const;
   double normal_force() const;
   double tangential_force() const;
@@ -179,9 +194,14 @@ class Contact {
   double DepthAtNormalForce(double normal_force) const;
 
  private:
+  // The interface's compact store and its cursor read and write the state directly.
+  friend class PackedContacts;
+  friend class ContactCursor;
+
   // A restored state's forces are finite (a snapshot's depth of 1e200 is not).
   Status CheckFiniteForces() const;
-  explicit Contact(ContactConfig config) : config_(std::move(config)) {}
+  // Out of contact; the config is not validated (Create does that).
+  explicit Contact(ContactConfig config);
   // Exact linear step to (depth1, ux1) with tangential increment dux (given with ux1, not
   // derived from it, so that an increment survives a large |ux| exactly); returns the
   // dissipation (J) if tracked.

@@ -96,6 +96,8 @@ class GridMemory {
   }
 
  private:
+  friend class PackedContacts;  // encodes and decodes the state (packed_contacts.h)
+
   // The springs beyond the innermost one on a bound are on it too (memory.cc, the same rule).
   void KeepSlipZoneAnnular(double mu_kappa, double ux1);
 

@@ -1,8 +1,10 @@
 // Many exact contacts in one container (issue #17, docs/interfaces.md): a rough interface of N
 // contacts under one shared rigid motion, or a contact list where every step carries one
-// increment (or target) per contact. Each contact is an ordinary Contact (contact.h) driven
-// through its public API, so a one-contact interface is bit-identical to a single Contact and the
-// totals are sums over independent contacts. No gRPC in here.
+// increment (or target) per contact. Each contact is an ordinary Contact (contact.h), kept
+// compactly between steps (PackedContacts: one 128-byte record per contact, issue #25) and
+// decoded to be stepped or read through the Contact's public API, so a one-contact interface is
+// bit-identical to a single Contact and the totals are sums over independent contacts. No gRPC
+// in here.
 #pragma once
 
 #include <atomic>
@@ -15,6 +17,7 @@
 #include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
+#include "mdr/core/packed_contacts.h"
 #include "mdr/core/population.h"
 
 namespace mdr {
@@ -47,7 +50,8 @@ enum class InterfaceKind {
 
 struct InterfaceConfig {
   InterfaceKind kind = InterfaceKind::kSharedMotion;
-  // One config per contact; contacts may share a ProfilePtr.
+  // One config per contact; contacts may share a ProfilePtr. The interface keeps each distinct
+  // config (SameConfig) once.
   std::vector<ContactConfig> contacts;
   // Shared motion: height offset h_i of each contact (m, finite, |h| <= 1e100), or empty for all
   // 0. Contact i touches at delta = h_i. Must be empty for a contact list.
@@ -153,7 +157,19 @@ class Interface {
 
   InterfaceKind kind() const { return kind_; }
   std::size_t size() const { return contacts_.size(); }
-  const Contact& contact(std::size_t i) const { return contacts_[i]; }
+  // Contact i, decoded into a Contact of its own (a copy: it allocates; passes over all contacts
+  // use the accessors below or the interface's own outputs).
+  Contact contact(std::size_t i) const;
+  const ContactConfig& contact_config(std::size_t i) const {
+    return configs_[contacts_.config_index(i)];
+  }
+  double contact_depth(std::size_t i) const { return contacts_.depth(i); }
+  double contact_dissipated_energy(std::size_t i) const { return contacts_.dissipated_energy(i); }
+  double contact_last_step_dissipation(std::size_t i) const {
+    return contacts_.last_step_dissipation(i);
+  }
+  // The distinct configs the contacts share.
+  std::size_t distinct_configs() const { return configs_.size(); }
   double height(std::size_t i) const { return heights_.empty() ? 0.0 : heights_[i]; }
   double approach() const { return approach_; }
   double tangential_displacement() const { return ux_; }
@@ -177,56 +193,63 @@ class Interface {
   // Contacts in contact by slip fraction (slipping radius / contact radius) in `bins` equal bins
   // of [0, 1] (the last one closed); bins in [1, 1000].
   Result<std::vector<std::size_t>> SlipHistogram(int bins, const Interrupt& interrupt = {}) const;
-  // Bytes held (contacts with their memories and step buffers, heights, configs), an estimate
-  // from vector capacities and object sizes.
+  // Bytes held between steps (the contacts' records and heap blocks, heights, kept forces,
+  // configs and profiles), counted from sizes and capacities.
   std::size_t MemoryBytes() const;
+  // Bytes a step may hold beyond MemoryBytes() while it runs, at most: a step that is not made
+  // in place writes every contact into a new record array (and heap blocks for memories that do
+  // not fit a record, each of at most 3n + 1 vertices for n now) before the old one goes.
+  std::size_t StepBytesBound() const;
 
   static constexpr std::size_t kInterruptPeriod = 4096;
-  // Shared-motion displacement steps of at most this many exact contacts, far from every limit,
-  // run in place without the step buffer's copy and are not interrupted once started (at
-  // ~0.2 us per contact that is ~13 ms); all others check interrupt every kInterruptPeriod.
+  // Displacement steps of at most this many exact contacts, far from every limit, run in place
+  // (each record overwritten as it is stepped) and are not interrupted once started (at
+  // ~0.2 us per contact that is ~13 ms); all others write into a new record array that replaces
+  // the old one only when every contact has succeeded, checking interrupt every
+  // kInterruptPeriod contacts.
   static constexpr std::size_t kMaxInPlaceContacts = 1 << 16;
 
  private:
   Interface() = default;
 
-  // Runs per_contact(i, trial) on every contact with trial = a copy of contact i in the step
-  // buffer; the caller swaps the buffer in on success. On an error (the lowest index is
-  // reported) or an interrupt the state is untouched.
-  using TrialStep = std::function<Status(std::size_t i, Contact& trial)>;
-  Status StepAll(const TrialStep& per_contact, const Interrupt& interrupt);
-  // Stepping every contact to approach delta1 and tangential displacement ux1, into the step
-  // buffer (not committed).
-  Status TrialMove(double delta1, double ux1, const Interrupt& interrupt);
-  void Commit(double delta1, double ux1, double slide_scale);
-  // Steps every contact to (delta1, ux1): in place when no contact can fail, else through the
-  // step buffer.
-  Status Move(double delta1, double ux1, const Interrupt& interrupt, const CommitGate& gate);
-  // |dux| + 2 max(mu kappa) (max(delta0, delta1) - min h): how far any spring can slide.
-  double SlideScale(double delta1, double ux1) const;
-  bool CanStepInPlace(double slide_scale) const;
-  // Where a displacement step takes contact i: its depth and ux after the step.
-  struct ContactTarget {
-    double depth, ux;
-  };
-  static ContactTarget DisplacementTarget(const ContactListStep& step, std::size_t i,
-                                          const Contact& contact);
-  // Finite, and within contact i's depth limit (fields normal_values[i], tangential_values[i]).
-  Status CheckListTarget(std::size_t i, const ContactTarget& target) const;
-  // A contact list's displacement step in place when every target passes and no contact can
-  // fail (*stepped = true); otherwise nothing changes (*stepped stays false, or an error).
-  Status StepListInPlace(const ContactListStep& step, const Interrupt& interrupt,
-                         const CommitGate& gate, bool* stepped);
-  // Steps every contact i in place to target(i) (a ContactTarget), uninterrupted: the caller has
-  // checked that no contact can fail (a failure is Internal). Updates the vertex headroom and the
-  // energy bound by slide_scale.
-  template <typename Target>
-  Status StepInPlace(const Target& target, double slide_scale);
+  // What a step does to contact i, decoded in `contact` (a cursor's: changes to it are kept only
+  // by StepContacts).
+  using ContactStep = std::function<Status(std::size_t i, Contact& contact)>;
+  // Steps every contact and keeps the results: in place when the caller has checked that no
+  // contact can fail (not interrupted once started: an error is Internal), else into a new record
+  // array that replaces the old one only when every contact succeeded and the gate passed (on an
+  // error, the lowest index's, or an interrupt nothing changes). Keeps the step's forces if asked
+  // (set_keep_step_forces), and the vertex headroom and the energy bound.
+  Status StepContacts(const ContactStep& step, bool in_place, const Interrupt& interrupt,
+                      const CommitGate& gate);
+  // Runs fn(i, contact) on every contact decoded, split by parallel_, checking interrupt; the
+  // lowest failing index's error.
+  Status ForEachContact(const ContactStep& fn, const Interrupt& interrupt) const;
   // Runs fn(i) for every contact index, split by parallel_, checking interrupt.
   Status ForEach(const std::function<Status(std::size_t)>& fn, const Interrupt& interrupt) const;
   // Runs body over [0, size()) in ranges: on parallel_ when it has several workers and there are
   // at least kMinParallelContacts contacts (fewer cost more to hand out), else in one call here.
   void RunOverContacts(const ParallelFor::Body& body) const;
+
+  // Steps every contact to (delta1, ux1): in place when no contact can fail, else through a new
+  // record array.
+  Status Move(double delta1, double ux1, const Interrupt& interrupt, const CommitGate& gate);
+  // |dux| + 2 max(mu kappa) (max(delta0, delta1) - min h): how far any spring can slide.
+  double SlideScale(double delta1, double ux1) const;
+  bool CanStepInPlace(double slide_scale) const;
+  // The depth at which contact i's mu F_N reaches the force cap (its config's).
+  double max_depth(std::size_t i) const { return max_depth_[contacts_.config_index(i)]; }
+  // Where a displacement step takes contact i: its depth and ux after the step.
+  struct ContactTarget {
+    double depth, ux;
+  };
+  static ContactTarget DisplacementTarget(const ContactListStep& step, std::size_t i, double depth,
+                                          double ux);
+  // Finite, and within contact i's depth limit (fields normal_values[i], tangential_values[i]).
+  Status CheckListTarget(std::size_t i, const ContactTarget& target) const;
+  // Whether a contact list's displacement step can run in place: every target passes (else its
+  // error) and no contact can fail.
+  Result<bool> ListStepFitsInPlace(const ContactListStep& step, const Interrupt& interrupt) const;
 
   Result<double> SolveApproach(double normal_force, InterfaceStepReport* report,
                                const Interrupt& interrupt) const;
@@ -236,38 +259,18 @@ class Interface {
     double gross_slip_down, gross_slip_up;
   };
   Result<TangentialState> MeasureTangentialState(const Interrupt& interrupt) const;
-  // Solves and leaves the solution in the step buffer; returns the tangential displacement.
+  // The tangential displacement at which the total F_x is the target (nothing changes).
   Result<double> SolveTangential(double tangential_force, InterfaceStepReport* report,
-                                 const Interrupt& interrupt);
+                                 const Interrupt& interrupt) const;
   double TotalNormalForce(double delta, double* stiffness, const Interrupt& interrupt,
                           Status* status) const;
 
   InterfaceKind kind_ = InterfaceKind::kSharedMotion;
-  std::vector<Contact> contacts_;
-  std::vector<Contact> trial_;  // the step buffer: steps are made here and swapped in
-  // The step buffer's memory bytes, kept by MemoryBytes until the buffer changes (a step in place
-  // leaves it alone, so the service's charge after such a step walks only the contacts). Copies
-  // and moves start unknown: a copied vector's capacity is not its source's.
-  class CachedBytes {
-   public:
-    static constexpr std::size_t kUnknown = static_cast<std::size_t>(-1);
-    CachedBytes() = default;
-    CachedBytes(const CachedBytes&) {}
-    CachedBytes& operator=(const CachedBytes&) {
-      Reset();
-      return *this;
-    }
-    std::size_t get() const { return value_.load(std::memory_order_relaxed); }
-    void set(std::size_t bytes) const { value_.store(bytes, std::memory_order_relaxed); }
-    void Reset() const { set(kUnknown); }
-
-   private:
-    mutable std::atomic<std::size_t> value_{kUnknown};
-  };
-  CachedBytes trial_bytes_;
-  std::vector<double> heights_;    // shared motion; empty: all 0
-  std::vector<double> max_depth_;  // per contact: the depth at which mu F_N reaches kForceCap
-  double max_approach_ = 0;        // min_i (h_i + max_depth_i)
+  std::vector<ContactConfig> configs_;  // the distinct configs, by PackedContacts::config_index
+  std::vector<double> max_depth_;       // per config: the depth at which mu F_N reaches kForceCap
+  PackedContacts contacts_;
+  std::vector<double> heights_;  // shared motion; empty: all 0
+  double max_approach_ = 0;      // min_i (h_i + max_depth_i)
   double approach_ = 0;
   double ux_ = 0;
   // What decides whether a step can run in place (Move).
@@ -275,11 +278,9 @@ class Interface {
   double max_mu_kappa_ = 0;      // over all contacts
   double min_height_ = 0;        // min h_i
   bool vertex_headroom_ = true;  // every contact has room for one more step's vertices
-  bool trial_headroom_ = true;   // the same for the step buffer
   double energy_bound_ = 0;      // >= every contact's dissipated energy
   std::shared_ptr<ParallelFor> parallel_;
-  std::vector<double> slide_scales_;  // StepListInPlace's per-contact scratch, kept between steps
-  // set_keep_step_forces: F_N and F_x per contact as the last in-place step left them, valid
+  // set_keep_step_forces: F_N and F_x per contact as the last step left them, valid
   // (kept_forces_valid_) until anything else changes the contacts.
   bool keep_step_forces_ = false;
   bool kept_forces_valid_ = false;

@@ -213,6 +213,8 @@ class PiecewiseLinearMemory {
   double LeavingDissipation(double depth1, double dux, double mu_kappa,
                             const Profile& profile) const;
 
+  friend class PackedContacts;  // encodes and decodes the state (packed_contacts.h)
+
   double depth_ = 0;  // may be negative (indenter lifted): then there are no vertices
   std::vector<double> z_, u_;
   std::vector<std::uint8_t> tag_;

@@ -39,8 +39,9 @@ std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes
 
 // Bounds of what one step that moves every contact once (Interface::Apply of any kind, a contact
 // list's displacement step) can make of an interface, from its state before the step, so that a
-// step run in place can be checked before it happens: the bytes it may allocate (StateBytes may
-// grow by at most that much) and ExportBytesBound after it. Not for a contact list's force
+// step run in place can be checked before it happens: the bytes it may hold beyond StateBytes
+// while it runs (Interface::StepBytesBound; StateBytes may grow by at most that much) and
+// ExportBytesBound after it. Not for a contact list's force
 // targets, whose curved paths take many substeps.
 struct StepBounds {
   std::size_t growth_bytes = 0;

@@ -1,0 +1,106 @@
+// Compact storage of the contacts of an interface (issue #25; docs/interfaces.md, "Memory
+// layout"). A Contact keeps its memory in growable vectors, a config and step scratch: about
+// 2 kB per Hertz asperity once allocated. An interface holds up to 10^7 of them, and each needs
+// only its state: four scalars and a polyline of a handful of vertices. Here each contact is one
+// fixed-size record (the scalars and, inline, its memory encoded without loss); a memory that
+// does not fit lives in a heap block of its own. Work on a contact decodes it into a Contact
+// (ContactCursor, one per worker range, reused), steps or reads it, and encodes it back: the
+// engine is the single contact's, so the results are bit for bit those of a Contact.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "mdr/core/contact.h"
+
+namespace mdr {
+
+class PackedContacts {
+ public:
+  // A record: depth, tangential displacement, the two energies, the config's index, the vertex
+  // count, the encoding's length and the encoding itself inline when it fits kInlineBytes (a
+  // Hertz asperity in Mindlin-Deresiewicz cycling needs 55 to 81 bytes), else a pointer to its
+  // heap block.
+  static constexpr std::size_t kRecordBytes = 128;
+  static constexpr std::size_t kInlineBytes = kRecordBytes - 4 * sizeof(double) - 3 * 4;
+
+  PackedContacts() = default;
+  // n records of contacts out of contact (depth 0, no memory, energies 0) with config 0.
+  explicit PackedContacts(std::size_t n);
+  PackedContacts(const PackedContacts& other);
+  PackedContacts& operator=(const PackedContacts& other);
+  PackedContacts(PackedContacts&& other) noexcept;
+  PackedContacts& operator=(PackedContacts&& other) noexcept;
+  ~PackedContacts();
+
+  std::size_t size() const { return size_; }
+  double depth(std::size_t i) const { return records_[i].depth; }
+  double tangential_displacement(std::size_t i) const { return records_[i].ux; }
+  double dissipated_energy(std::size_t i) const { return records_[i].dissipated; }
+  double last_step_dissipation(std::size_t i) const { return records_[i].last_dissipated; }
+  std::uint32_t config_index(std::size_t i) const { return records_[i].config; }
+  // Vertices of the exact memory (0 for a grid contact).
+  std::size_t vertex_count(std::size_t i) const { return records_[i].vertices; }
+
+  // Encodes `contact` into record i with the given config index (reusing the record's heap
+  // block when the encoding fits it). Safe to call concurrently for distinct i.
+  void Put(std::size_t i, const Contact& contact, std::uint32_t config);
+  // Decodes record i into *contact, whose config must be the record's (ContactCursor sees to it).
+  void Get(std::size_t i, Contact* contact) const;
+
+  // Bytes held: the records and the heap blocks.
+  std::size_t MemoryBytes() const {
+    return size_ * sizeof(Record) + heap_bytes_.load(std::memory_order_relaxed);
+  }
+  // Bytes in heap blocks (memories longer than kInlineBytes).
+  std::size_t heap_bytes() const { return heap_bytes_.load(std::memory_order_relaxed); }
+
+ private:
+  struct Record {
+    double depth = 0, ux = 0, dissipated = 0, last_dissipated = 0;
+    std::uint32_t config = 0;
+    std::uint32_t vertices = 0;
+    std::uint32_t bytes = 0;  // length of the encoding; > kInlineBytes: in a heap block
+    // The encoding, or (bytes > kInlineBytes) the block's pointer and capacity.
+    alignas(4) unsigned char data[kInlineBytes] = {};
+  };
+  static_assert(sizeof(Record) == kRecordBytes);
+
+  // Room for an encoding of `bytes` in record i (inline, its heap block, or a new one); sets
+  // the record's length.
+  unsigned char* Reserve(Record& r, std::size_t bytes);
+  unsigned char* Block(const Record& r) const;
+  std::uint32_t BlockCapacity(const Record& r) const;
+  void FreeBlock(Record& r);
+  void FreeBlocks();
+  void CopyFrom(const PackedContacts& other);
+
+  std::unique_ptr<Record[]> records_;
+  std::size_t size_ = 0;
+  std::atomic<std::size_t> heap_bytes_{0};
+};
+
+// One contact of a PackedContacts decoded for work: one cursor per range of contacts on a
+// worker, reused from contact to contact, so that decoding allocates nothing once its vectors
+// have grown. configs: the store's configs by index (PackedContacts::config_index).
+class ContactCursor {
+ public:
+  explicit ContactCursor(const std::vector<ContactConfig>& configs) : configs_(&configs) {}
+  // Contact i, decoded.
+  Contact& Load(const PackedContacts& store, std::size_t i);
+  // A contact with config `config` out of contact (depth 0, no memory, energies 0).
+  Contact& Fresh(std::uint32_t config);
+
+ private:
+  void Bind(std::uint32_t config);
+
+  const std::vector<ContactConfig>* configs_;
+  std::optional<Contact> contact_;
+  std::uint32_t bound_ = 0;
+};
+
+}  // namespace mdr
