@@ -412,11 +412,15 @@ InterfaceSnapshot Interface::Snapshot() const {
   snapshot.approach = approach_;
   snapshot.tangential_displacement = ux_;
   snapshot.contacts.reserve(contacts_.size());
-  ContactCursor cursor(configs_);
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    snapshot.contacts.push_back(cursor.Load(contacts_, i).Snapshot());
-  }
+  SnapshotEach(
+      [&](std::size_t, const ContactSnapshot& contact) { snapshot.contacts.push_back(contact); });
   return snapshot;
+}
+
+void Interface::SnapshotEach(
+    const std::function<void(std::size_t i, const ContactSnapshot&)>& fn) const {
+  ContactCursor cursor(configs_);
+  for (std::size_t i = 0; i < contacts_.size(); ++i) fn(i, cursor.Load(contacts_, i).Snapshot());
 }
 
 Contact Interface::contact(std::size_t i) const {

@@ -352,13 +352,12 @@ Result<Interface> RestoreInterface(const v1::Scene& scene, const ContactConfig& 
 }
 
 void ToProtoInterfaceSnapshot(const Interface& interface, v1::InterfaceSnapshot* proto) {
-  const InterfaceSnapshot snapshot = interface.Snapshot();
-  proto->set_approach(snapshot.approach);
-  proto->set_tangential_displacement(snapshot.tangential_displacement);
-  proto->mutable_contacts()->Reserve(static_cast<int>(snapshot.contacts.size()));
-  for (const ContactSnapshot& contact : snapshot.contacts) {
+  proto->set_approach(interface.approach());
+  proto->set_tangential_displacement(interface.tangential_displacement());
+  proto->mutable_contacts()->Reserve(static_cast<int>(interface.size()));
+  interface.SnapshotEach([&](std::size_t, const ContactSnapshot& contact) {
     ToProtoSnapshot(contact, proto->add_contacts());
-  }
+  });
 }
 
 Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt,

@@ -131,6 +131,9 @@ class Interface {
   // contact's depth must be delta - h_i and its ux the interface's, exactly.
   static Result<Interface> Restore(InterfaceConfig config, const InterfaceSnapshot& snapshot);
   InterfaceSnapshot Snapshot() const;
+  // Each contact's snapshot in index order, one at a time (an export of millions of contacts
+  // need not hold them all as ContactSnapshots at once).
+  void SnapshotEach(const std::function<void(std::size_t i, const ContactSnapshot&)>& fn) const;
 
   // Shared motion: one step of the rigid motion (contact.h Step; depth = approach delta, normal
   // force = total F_N, tangential force = total F_x). A force target is solved exactly for the
