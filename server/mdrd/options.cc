@@ -102,6 +102,13 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_MAX_STREAMS_PER_CALLER")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--max-inline-vertices", limits.max_inline_vertices,
+                 "A one-step Apply or StreamApply message on a single exact contact of at most "
+                 "this many memory vertices, of a straight step and without a journal, runs on the "
+                 "transport's thread when its session has nothing queued (0: never)")
+      ->envname("MDR_MAX_INLINE_VERTICES")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t{0}, mdr::service::kMaxInlineVertices));
   app.add_option("--contended-stream-share", limits.stream_pacing.contended_share,
                  "While other callers are active, the fraction of one core one caller's "
                  "StreamApply streams may use (application and transport); beyond, its streams "

@@ -12,6 +12,7 @@
 
 #include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
+#include "mdr/service/limits.h"
 #include "mdr/service/operations.h"
 
 namespace {
@@ -95,6 +96,40 @@ void BM_EngineOneStep(benchmark::State& state) {
   state.SetLabel(track_energy ? "energy on" : "energy off");
 }
 BENCHMARK(BM_EngineOneStep)->Arg(0)->Arg(1);
+
+// The costliest message the service runs inline (docs/operations.md, "Inline steps"): one step
+// on an exact contact at the bound of ServiceLimits::max_inline_vertices, made by nested
+// reversals of decreasing amplitude; a tangential force target across the whole memory (its
+// solve walks every breakpoint) or a displacement to the other side, energy on. Each iteration
+// restores the prepared contact first (a copy into the same vectors, included in the time).
+// Arg: 0 displacement, 1 tangential force.
+void BM_InlineBoundStep(benchmark::State& state) {
+  const std::size_t bound = mdr::service::ServiceLimits{}.max_inline_vertices;
+  mdr::Contact prepared = mdr::reference::LoadedH1Contact(true);
+  const double slip = prepared.mu_kappa() * prepared.depth();
+  double amplitude = 0.9 * slip;
+  for (int k = 0; prepared.memory().vertex_count() + 2 < bound && k < 200; ++k) {
+    const mdr::Status status = prepared.MoveTo(prepared.depth(), k % 2 ? -amplitude : amplitude);
+    if (!status.ok()) Fail(status);
+    amplitude *= 0.93;
+  }
+  const bool force = state.range(0) != 0;
+  const mdr::Step step =
+      force ? mdr::Step{mdr::NormalControl::kDepthIncrement, 0, mdr::TangentialControl::kForce,
+                        -0.95 * prepared.friction_limit()}
+            : mdr::Step{mdr::NormalControl::kDepthIncrement, 0,
+                        mdr::TangentialControl::kDisplacement, -0.95 * slip};
+  mdr::Contact trial = prepared;
+  for (auto _ : state) {
+    trial = prepared;
+    const mdr::Status status = trial.Apply(step);
+    if (!status.ok()) Fail(status);
+    benchmark::DoNotOptimize(trial);
+  }
+  state.counters["vertices"] = static_cast<double>(prepared.memory().vertex_count());
+  state.SetLabel(force ? "tangential force" : "displacement");
+}
+BENCHMARK(BM_InlineBoundStep)->Arg(0)->Arg(1);
 
 }  // namespace
 

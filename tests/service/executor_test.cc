@@ -2,6 +2,8 @@
 // strands in turn, a caller's own queue bound, its fair share of a full queue, and a worker kept
 // free for the other active callers. Tasks are held by latches, not sleeps; a wait that would
 // hang without the property under test fails after kPatience instead.
+#include "mdr/service/executor.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -10,10 +12,10 @@
 #include <future>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mdr/service/call_context.h"
-#include "mdr/service/executor.h"
 
 namespace mdr::service {
 namespace {
@@ -180,6 +182,61 @@ TEST(ExecutorTest, StopRunsEveryQueuedTaskAndRefusesNewOnes) {
   executor.Stop();
   EXPECT_EQ(ran.load(), 50);
   EXPECT_EQ(executor.Submit("alice", "", [] {}), Admission::kStopped);
+}
+
+TEST(ExecutorTest, AnIdleStrandRunsInlineOnTheCallingThread) {
+  Executor executor({.workers = 1});
+  std::thread::id ran_on;
+  EXPECT_TRUE(executor.TryRunInline("alice", "s", [&] {
+    ran_on = std::this_thread::get_id();
+    return true;
+  }));
+  EXPECT_EQ(ran_on, std::this_thread::get_id());
+  // A task that declines (its work was beyond the bound) leaves the strand free.
+  EXPECT_FALSE(executor.TryRunInline("alice", "s", [] { return false; }));
+  EXPECT_TRUE(executor.TryRunInline("alice", "s", [] { return true; }));
+  EXPECT_FALSE(executor.TryRunInline("alice", "", [] { return true; })) << "no strand: no order";
+}
+
+TEST(ExecutorTest, ABusyStrandIsNeverRunInline) {
+  Executor executor({.workers = 1});
+  Held running;
+  ASSERT_EQ(executor.Submit("alice", "s", running.Task()), Admission::kQueued);
+  ASSERT_TRUE(running.AwaitStart());
+  bool ran = false;
+  EXPECT_FALSE(executor.TryRunInline("alice", "s", [&] { return ran = true; }));
+  ASSERT_EQ(executor.Submit("alice", "s", [] {}), Admission::kQueued);  // now one is queued too
+  EXPECT_FALSE(executor.TryRunInline("alice", "s", [&] { return ran = true; }));
+  EXPECT_FALSE(ran);
+  EXPECT_TRUE(executor.TryRunInline("alice", "t", [] { return true; })) << "another strand";
+  running.Release();
+  executor.Stop();
+  EXPECT_FALSE(executor.TryRunInline("alice", "s", [&] { return ran = true; }));
+  EXPECT_FALSE(ran);
+}
+
+TEST(ExecutorTest, TasksSubmittedDuringAnInlineTaskRunAfterIt) {
+  Executor executor({.workers = 2});
+  Order order;
+  std::promise<void> inline_started;
+  std::promise<void> submitted;
+  std::thread transport([&] {
+    EXPECT_TRUE(executor.TryRunInline("alice", "s", [&] {
+      inline_started.set_value();
+      submitted.get_future().wait();
+      order.Record("inline")();
+      return true;
+    }));
+  });
+  inline_started.get_future().wait();
+  // Queued behind the claim: no worker takes the strand while the inline task runs, nor does
+  // another inline attempt.
+  ASSERT_EQ(executor.Submit("alice", "s", order.Record("queued")), Admission::kQueued);
+  EXPECT_FALSE(executor.TryRunInline("alice", "s", [] { return true; }));
+  submitted.set_value();
+  transport.join();
+  executor.Stop();
+  EXPECT_THAT(order.ran(), ::testing::ElementsAre("inline", "queued"));
 }
 
 TEST(CallerKeyTest, PeersAreKeyedByHostNotByConnection) {

@@ -166,6 +166,7 @@ TEST_F(MetricsTest, EveryMetricHasHelpAndType) {
       {"mdr_work_queue_depth", "gauge"},
       {"mdr_work_rejected_total", "counter"},
       {"mdr_stream_read_pauses_total", "counter"},
+      {"mdr_inline_batches_total", "counter"},
       {"mdr_journal_write_seconds", "histogram"},
       {"mdr_journal_write_failures_total", "counter"},
       {"mdr_start_time_seconds", "gauge"}};

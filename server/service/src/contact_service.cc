@@ -3,6 +3,7 @@
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -253,11 +254,9 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext*
     call->Complete(status);
     return call;
   }
-  const Executor::Admission admission =
-      executor_.Submit(CallerKeyOf(context, caller), strand,
-                       [call, caller, operation = std::move(operation)] {
-                         call->Run(caller, operation);
-                       });
+  const Executor::Admission admission = executor_.Submit(
+      CallerKeyOf(context, caller), strand,
+      [call, caller, operation = std::move(operation)] { call->Run(caller, operation); });
   if (admission != Executor::Admission::kQueued) {
     call->Complete(RefusalStatus(executor_, admission));
   }
@@ -321,6 +320,25 @@ grpc::ServerUnaryReactor* ContactServiceImpl::ImportSession(grpc::CallbackServer
 grpc::ServerUnaryReactor* ContactServiceImpl::Apply(grpc::CallbackServerContext* context,
                                                     const v1::ApplyRequest* request,
                                                     v1::ApplyResponse* response) {
+  // A batch whose cost is bounded a priori and small, on a session with nothing queued, is
+  // answered here on the transport's thread (docs/operations.md, "Inline steps"); any other goes
+  // to a worker (an unauthenticated call is refused there).
+  const Clock::time_point start = Clock::now();
+  Principal caller;
+  if (CallerOf(context, authenticator_, &caller).ok()) {
+    std::optional<Status> status;
+    if (executor_.TryRunInline(CallerKeyOf(context, caller), request->session(), [&] {
+          status = operations_.ApplyIfBounded(caller, *request, response);
+          return status.has_value();
+        })) {
+      const grpc::Status sent = ToGrpcStatus(*status);
+      LogCall("Apply", request->session(), RequestIdOf(context, request->request_id()), sent,
+              SecondsSince(start));
+      grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+      reactor->Finish(sent);
+      return reactor;
+    }
+  }
   return Queue(context, "Apply", request->session(), request->request_id(),
                [this, request, response](const Principal& caller, const Interrupt& interrupt) {
                  return operations_.Apply(caller, *request, InterruptionOf(interrupt), response,
@@ -371,22 +389,23 @@ grpc::ServerWriteReactor<v1::FitLoopsResponse>* ContactServiceImpl::FitLoops(
     call->Complete(status, {});
     return call;
   }
-  const Executor::Admission admission = executor_.Submit(CallerKeyOf(context, caller), "", [this, call, request] {
-    v1::FitResult result;
-    const Clock::time_point start = Clock::now();
-    Status status = call->interrupt().Check();
-    if (status.ok()) {
-      status = RunFitLoops(
-          *request, operations_.limits(), call->interrupt(),
-          [call](const v1::FitProgress& progress) { call->Progress(progress); }, &result);
-    }
-    if (status.ok()) {
-      result.set_compute_seconds(SecondsSince(start));
-    } else {
-      result.Clear();
-    }
-    call->Complete(status, std::move(result));
-  });
+  const Executor::Admission admission =
+      executor_.Submit(CallerKeyOf(context, caller), "", [this, call, request] {
+        v1::FitResult result;
+        const Clock::time_point start = Clock::now();
+        Status status = call->interrupt().Check();
+        if (status.ok()) {
+          status = RunFitLoops(
+              *request, operations_.limits(), call->interrupt(),
+              [call](const v1::FitProgress& progress) { call->Progress(progress); }, &result);
+        }
+        if (status.ok()) {
+          result.set_compute_seconds(SecondsSince(start));
+        } else {
+          result.Clear();
+        }
+        call->Complete(status, std::move(result));
+      });
   if (admission != Executor::Admission::kQueued) {
     call->Complete(RefusalStatus(executor_, admission), {});
   }

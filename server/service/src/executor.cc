@@ -45,13 +45,14 @@ Executor::~Executor() { Stop(); }
 
 const std::string& Executor::CurrentCaller() { return current_caller; }
 
-Executor::Admission Executor::Submit(std::string_view caller, std::string_view strand,
-                                     Task task) {
+Executor::Admission Executor::Submit(std::string_view caller, std::string_view strand, Task task) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return Admission::kStopped;
     const Clock::time_point now = Clock::now();
-    auto [it, new_caller] = callers_.try_emplace(std::string(caller));
+    auto it = callers_.find(caller);
+    const bool new_caller = it == callers_.end();
+    if (new_caller) it = callers_.try_emplace(std::string(caller)).first;
     CallerQueue& queue = it->second;
     Admission refusal = Admission::kQueued;
     if (queue.queued >= options_.max_queued_per_caller) {
@@ -79,12 +80,58 @@ Executor::Admission Executor::Submit(std::string_view caller, std::string_view s
     ++queued_;
     auto [strand_it, new_strand] = queue.strands.try_emplace(key);
     strand_it->second.push_back(std::move(task));
-    if (!new_strand) return Admission::kQueued;  // it runs after the strand's earlier tasks
+    // It runs after the strand's earlier tasks, or once an inline task on it released it.
+    if (!new_strand || ClaimedLocked(queue, key)) return Admission::kQueued;
     queue.ready.push_back(std::move(key));
     if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
   }
   wakeup_.notify_one();
   return Admission::kQueued;
+}
+
+bool Executor::ClaimedLocked(const CallerQueue& queue, std::string_view strand) {
+  return std::find(queue.claimed.begin(), queue.claimed.begin() + queue.claims, strand) !=
+         queue.claimed.begin() + queue.claims;
+}
+
+bool Executor::TryRunInline(std::string_view caller, std::string_view strand,
+                            const std::function<bool()>& task) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || strand.empty()) return false;
+    auto it = callers_.find(caller);
+    if (it == callers_.end()) it = callers_.try_emplace(std::string(caller)).first;
+    CallerQueue& queue = it->second;
+    // A strand is in the map while it has a task queued or running: then this one waits its
+    // turn, as it does behind another thread's inline task. Otherwise the strand is claimed:
+    // Submit queues behind the claim, and no worker takes the strand until it is released.
+    if (queue.strands.find(strand) != queue.strands.end() || ClaimedLocked(queue, strand)) {
+      return false;
+    }
+    if (queue.claims < queue.claimed.size()) {
+      queue.claimed[queue.claims].assign(strand);
+    } else {
+      queue.claimed.emplace_back(strand);
+    }
+    ++queue.claims;
+    queue.last_active = Clock::now();
+  }
+  const bool ran = task();  // bounded: it spreads nothing over the pool (CurrentCaller unset)
+  {
+    std::lock_guard lock(mutex_);
+    auto it = callers_.find(caller);  // active while it ran: not forgotten
+    CallerQueue& queue = it->second;
+    const auto claim =
+        std::find(queue.claimed.begin(), queue.claimed.begin() + queue.claims, strand);
+    std::swap(*claim, queue.claimed[--queue.claims]);
+    queue.last_active = Clock::now();
+    if (queue.strands.find(strand) == queue.strands.end()) return ran;
+    // Submitted while it ran: the strand's tasks go to the workers now.
+    queue.ready.emplace_back(strand);
+    if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
+  }
+  wakeup_.notify_one();
+  return ran;
 }
 
 void Executor::Stop() {
@@ -106,7 +153,8 @@ std::size_t Executor::queued() const {
 }
 
 bool Executor::ActiveLocked(const CallerQueue& queue, Clock::time_point now) const {
-  return queue.queued > 0 || queue.running > 0 || now - queue.last_active <= options_.recent_window;
+  return queue.queued > 0 || queue.running > 0 || queue.claims > 0 ||
+         now - queue.last_active <= options_.recent_window;
 }
 
 std::chrono::nanoseconds Executor::worker_cpu_time() const {
@@ -143,7 +191,7 @@ void Executor::ForgetIdleCallersLocked(Clock::time_point now) {
 
 std::size_t Executor::RunningCapLocked(std::size_t active) const {
   if (stopping_) return std::numeric_limits<std::size_t>::max();  // drain at full speed
-  const std::size_t reserved = active > 0 ? active - 1 : 0;      // one worker per other caller
+  const std::size_t reserved = active > 0 ? active - 1 : 0;       // one worker per other caller
   return workers_.size() > reserved ? workers_.size() - reserved : 1;
 }
 

@@ -53,6 +53,12 @@ Status ValidateServiceLimits(const ServiceLimits& limits) {
       limits.max_call_duration > std::chrono::hours(24 * 365)) {
     return InvalidArgument("max-call-seconds", "must be in (0, 31536000] seconds");
   }
+  if (limits.max_inline_vertices > kMaxInlineVertices) {
+    return InvalidArgument("max-inline-vertices",
+                           "must be in [0, " + std::to_string(kMaxInlineVertices) +
+                               "] (a bound on the work a transport thread does), got " +
+                               std::to_string(limits.max_inline_vertices));
+  }
   if (limits.max_streams_per_caller < 1) {
     return InvalidArgument("max-streams-per-caller", "must be >= 1, got 0");
   }

@@ -176,6 +176,10 @@ Metrics::Metrics()
                                 "StreamApply streams paused because their caller used more than "
                                 "--contended-stream-share while other callers were active.",
                                 {}),
+      inline_batches_family("mdr_inline_batches_total",
+                            "Apply calls and StreamApply messages applied on the thread that "
+                            "received them, their cost bounded a priori (--max-inline-vertices).",
+                            {}),
       journal_write_seconds_family("mdr_journal_write_seconds",
                                    "Seconds of each journal write transaction (commit included).",
                                    {}, kSecondsBuckets),
@@ -198,6 +202,7 @@ Metrics::Metrics()
       work_queue_depth(work_queue_depth_family.With({})),
       work_rejected(work_rejected_family.With({})),
       stream_read_pauses(stream_read_pauses_family.With({})),
+      inline_batches(inline_batches_family.With({})),
       journal_write_seconds(journal_write_seconds_family.With({})),
       journal_write_failures(journal_write_failures_family.With({})),
       journal_free_bytes(journal_free_bytes_family.With({})),
@@ -214,6 +219,7 @@ std::string Metrics::Render() const {
   work_queue_depth_family.Render(&text);
   work_rejected_family.Render(&text);
   stream_read_pauses_family.Render(&text);
+  inline_batches_family.Render(&text);
   journal_write_seconds_family.Render(&text);
   journal_write_failures_family.Render(&text);
   journal_free_bytes_family.Render(&text);

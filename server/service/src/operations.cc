@@ -13,6 +13,7 @@
 #include "mdr/service/conversion.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/log_value.h"
+#include "mdr/service/metrics.h"
 #include "mdr/service/transform.h"
 
 namespace mdr::service {
@@ -343,11 +344,24 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
     if (hooks_.before_step) hooks_.before_step(step_index);
     return interruption ? interruption() : OkStatus();
   };
-  // Room for the final state and the other fields of the response.
-  constexpr std::size_t kResponseOverheadBytes = 512;
-  const std::size_t max_response_bytes =
-      static_cast<std::size_t>(limits_.max_message_bytes) - kResponseOverheadBytes;
-  return session->Apply(request, *step_outputs, guard, max_response_bytes, response, interrupt);
+  return session->Apply(request, *step_outputs, guard, MaxResponseBytes(), response, interrupt);
+}
+
+std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,
+                                                        const v1::ApplyRequest& request,
+                                                        v1::ApplyResponse* response) {
+  if (limits_.max_inline_vertices == 0 || hooks_.before_step || request.steps_size() != 1) {
+    return std::nullopt;
+  }
+  if (!ValidateRequestId(request.request_id()).ok()) return std::nullopt;
+  Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
+  if (!step_outputs.ok()) return std::nullopt;
+  std::shared_ptr<Session> session;
+  if (!sessions_.Find("session", request.session(), caller, &session).ok()) return std::nullopt;
+  std::optional<Status> applied = session->ApplyIfBounded(
+      request, *step_outputs, limits_.max_inline_vertices, MaxResponseBytes(), response);
+  if (applied) ProcessMetrics().inline_batches.Increment();
+  return applied;
 }
 
 Status ContactOperations::Query(const Principal& caller, const v1::QueryRequest& request,

@@ -124,10 +124,48 @@ Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& st
         "steps", std::to_string(request.steps_size()) + " steps exceed the session's limit of " +
                      std::to_string(limits_.max_steps_per_batch()) + " per batch; split the batch");
   }
-  const bool deduplicated = !request.request_id().empty();
-  const std::uint64_t fingerprint = deduplicated ? Fingerprint(request) : 0;
   if (Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
+  return ApplyLocked(request, step_outputs, guard, max_response_bytes, response, interrupt);
+}
+
+std::optional<Status> Session::ApplyIfBounded(const v1::ApplyRequest& request,
+                                              const OutputSelection& step_outputs,
+                                              std::size_t max_vertices,
+                                              std::size_t max_response_bytes,
+                                              v1::ApplyResponse* response) {
+  if (!available() || interface_ || request.steps_size() != 1) return std::nullopt;
+  // Never waits: the session may be held by a batch of another caller's strand (the executor
+  // orders a caller's calls; two callers may share a session without authentication).
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) return std::nullopt;
+  if (journal_ != nullptr) return std::nullopt;  // a write whose time the disk decides
+  if (contact_->config().method != Method::kExact ||
+      contact_->memory().vertex_count() > max_vertices || !StraightStepLocked(request.steps(0))) {
+    return std::nullopt;
+  }
+  return ApplyLocked(request, step_outputs, {}, max_response_bytes, response, {});
+}
+
+bool Session::StraightStepLocked(const v1::Step& step) const {
+  if (!step.contact_normal_values().empty() || !step.contact_tangential_values().empty()) {
+    return false;
+  }
+  const bool holds_depth =
+      step.normal_case() == v1::Step::NORMAL_NOT_SET ||
+      (step.normal_case() == v1::Step::kDepthIncrement && step.depth_increment() == 0);
+  if (holds_depth) return true;  // a displacement or force target at a held depth
+  const RigCompliance& rig = contact_->config().rig;
+  return step.normal_case() != v1::Step::kNormalForce &&
+         step.tangential_case() != v1::Step::kTangentialForce && !(rig.normal > 0) &&
+         !(rig.tangential > 0);
+}
+
+Status Session::ApplyLocked(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                            const StepGuard& guard, std::size_t max_response_bytes,
+                            v1::ApplyResponse* response, const Interrupt& interrupt) {
+  const bool deduplicated = !request.request_id().empty();
+  const std::uint64_t fingerprint = deduplicated ? Fingerprint(request) : 0;
   const Stopwatch stopwatch;
   if (deduplicated) {
     if (const CompletedRequest* done = completed_.Find(request.request_id())) {
@@ -172,11 +210,23 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
   // accept before it counts, or that may grow the state past its budget: an exact memory) runs
   // on a copy that is committed at the end, so a failing step, an expired deadline, an exceeded
   // budget or a failed journal write leaves the session as it was. A grid never changes size.
-  std::optional<Contact> copy;
-  if (request.steps_size() > 1 || journal_ != nullptr || contact_->grid_memory() == nullptr) {
-    copy.emplace(*contact_);
+  if (request.steps_size() == 1 && journal_ == nullptr && contact_->grid_memory() == nullptr &&
+      StraightStepLocked(request.steps(0))) {
+    bool fall_back = false;
+    Status status = RunStepInPlace(request, step_outputs, guard, response, interrupt, &fall_back);
+    if (!fall_back) return status;
+    response->Clear();
   }
-  Contact& target = copy ? *copy : *contact_;
+  const bool on_copy =
+      request.steps_size() > 1 || journal_ != nullptr || contact_->grid_memory() == nullptr;
+  if (on_copy) {
+    if (batch_copy_) {
+      *batch_copy_ = *contact_;  // into the vectors it already has
+    } else {
+      batch_copy_.emplace(*contact_);
+    }
+  }
+  Contact& target = on_copy ? *batch_copy_ : *contact_;
   std::uint64_t applied = applied_steps_;
   double path_error = 0;
   for (int i = 0; i < request.steps_size(); ++i) {
@@ -199,9 +249,43 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
       request, applied, path_error, max_response_bytes, StateBytes(target),
       ExportBytesBound(target, scene_bytes_),
       [&] {
-        if (copy) *contact_ = std::move(*copy);
+        if (!on_copy) return;
+        // An exact memory is a few vertices: copied into the vectors the state already has
+        // (a swap would leave both contacts without their step scratch). A grid is swapped.
+        if (contact_->grid_memory() != nullptr) {
+          std::swap(*contact_, *batch_copy_);
+        } else {
+          *contact_ = *batch_copy_;
+        }
       },
       response);
+}
+
+Status Session::RunStepInPlace(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                               const StepGuard& guard, v1::ApplyResponse* response,
+                               const Interrupt& interrupt, bool* fall_back) {
+  // A one-step response (one small StepResult) is far below any allowed message limit.
+  if (Status status = CheckNextStep(guard, 0, applied_steps_); !status.ok()) return status;
+  const std::size_t charged = charge_.bytes();
+  const StepBounds bounds = BoundsAfterOneStraightStep(*contact_, scene_bytes_);
+  if (Status status = ChargeStateLocked(charged + bounds.growth_bytes, bounds.export_bytes);
+      !status.ok()) {
+    *fall_back = status.code() == StatusCode::kResourceExhausted;
+    return status;
+  }
+  StepReport report;
+  if (Status status = contact_->Apply(ToCoreStep(request.steps(0)), &report, interrupt);
+      !status.ok()) {
+    charge_.ForceResize(charged);  // a release
+    return status.WithFieldPrefix("steps[0]");
+  }
+  charge_.ForceResize(StateBytes(*contact_));
+  const std::uint64_t applied = applied_steps_ + 1;
+  if (!step_outputs.empty()) {
+    WriteStepResult(*contact_, applied, report, step_outputs, response->add_step_results());
+  }
+  FinishBatchLocked(applied, report.path_error, response);
+  return OkStatus();
 }
 
 Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,

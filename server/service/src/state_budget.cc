@@ -66,6 +66,13 @@ StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_byte
           InterfaceExportBytes(interface.size(), vertices.after_one_move, scene_bytes)};
 }
 
+StepBounds BoundsAfterOneStraightStep(const Contact& contact, std::size_t scene_bytes) {
+  const std::size_t n = contact.memory().vertex_count();
+  const std::size_t after = 3 * n + 1;
+  return {(after - n) * kBytesPerVertex,
+          scene_bytes + kExportAllowance + after * kExportBytesPerVertex};
+}
+
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field) {
   if (export_bytes <= static_cast<std::size_t>(max_message_bytes)) return OkStatus();
   return ResourceExhausted(field, "the session's state would take up to " +
@@ -145,6 +152,7 @@ StateCharge::~StateCharge() {
 }
 
 void StateCharge::ForceResize(std::size_t bytes) {
+  if (bytes == bytes_) return;
   if (budget_ != nullptr) {
     if (bytes > bytes_) {
       budget_->ForceCharge(bytes - bytes_);
@@ -156,6 +164,7 @@ void StateCharge::ForceResize(std::size_t bytes) {
 }
 
 Status StateCharge::Resize(std::size_t bytes) {
+  if (bytes == bytes_) return OkStatus();  // most batches: no shared counter touched
   if (budget_ != nullptr) {
     if (bytes > bytes_) {
       if (Status status = budget_->Charge(bytes - bytes_); !status.ok()) return status;

@@ -13,7 +13,7 @@
 namespace mdr::service {
 
 StreamRegistry::Admission StreamRegistry::Add(StreamApplyReactor* stream,
-                                               const std::string& caller) {
+                                              const std::string& caller) {
   std::lock_guard lock(mutex_);
   if (draining_) return Admission::kDraining;
   std::size_t& open = per_caller_[caller];
@@ -154,8 +154,29 @@ void StreamApplyReactor::SubmitNext() {
     std::lock_guard lock(mutex_);
     next = unapplied_.front().get();  // stays until this owner removes it
   }
+  int inline_run = 0;
   while (next != nullptr) {
     const std::string& session = next->apply().session();
+    // A message whose cost is bounded a priori and small, for a session with nothing queued, is
+    // answered on this thread (docs/operations.md, "Inline steps"): at most kMaxRunLength in a
+    // row, then the rest go to the workers in turn with the other strands.
+    bool stopped = false;
+    {
+      std::lock_guard lock(mutex_);
+      stopped = StoppedLocked();  // then ApplyRun drops what is left, on a worker
+    }
+    if (inline_run < kMaxRunLength && !stopped) {
+      std::optional<v1::StreamApplyResponse> answer;
+      if (executor_.TryRunInline(caller_key_, session, [&] {
+            answer = Answer(next->apply(), /*bounded_only=*/true);
+            return answer.has_value();
+          })) {
+        ++inline_run;
+        bool same_session = false;
+        next = Answered(std::move(*answer), &same_session);
+        continue;
+      }
+    }
     // The strand is copied before the task can run.
     const Executor::Admission admission =
         executor_.Submit(caller_key_, session, [this] { ApplyRun(); });
@@ -187,7 +208,7 @@ void StreamApplyReactor::ApplyRun() {
   }
   for (int applied = 1;; ++applied) {
     bool same_session = false;
-    message = Answered(Answer(message->apply()), &same_session);
+    message = Answered(*Answer(message->apply(), /*bounded_only=*/false), &same_session);
     if (message == nullptr) return;
     if (!same_session || applied == kMaxRunLength) {
       SubmitNext();  // another strand, or a fair turn for the other strands
@@ -255,11 +276,19 @@ void StreamApplyReactor::OnDone() {
   delete this;
 }
 
-v1::StreamApplyResponse StreamApplyReactor::Answer(const v1::ApplyRequest& apply) {
+std::optional<v1::StreamApplyResponse> StreamApplyReactor::Answer(const v1::ApplyRequest& apply,
+                                                                  bool bounded_only) {
   const auto start = std::chrono::steady_clock::now();
   v1::StreamApplyResponse response;
-  const grpc::Status status = ToGrpcStatus(
-      operations_.Apply(caller_, apply, interruption_, response.mutable_result(), interrupt_));
+  std::optional<Status> applied;
+  if (bounded_only) {
+    applied = operations_.ApplyIfBounded(caller_, apply, response.mutable_result());
+    if (!applied) return std::nullopt;
+  } else {
+    applied =
+        operations_.Apply(caller_, apply, interruption_, response.mutable_result(), interrupt_);
+  }
+  const grpc::Status status = ToGrpcStatus(*applied);
   if (status.ok()) {
     response.mutable_status();  // present, code OK
   } else {

@@ -80,6 +80,14 @@ class Executor {
   // Queues task behind the earlier tasks of the caller's strand (empty strand: ordered with
   // nothing). Anything but kQueued: the task is dropped unrun.
   Admission Submit(std::string_view caller, std::string_view strand, Task task);
+  // Runs task on the calling thread at once if the strand (not empty) has no task queued or
+  // running, holding the strand meanwhile, so that tasks submitted to it in between run after
+  // it, in order. For work whose cost is bounded a priori and small (docs/operations.md, "Inline
+  // steps"): it runs on a transport thread and counts as no worker's. task returns whether it
+  // did the work (it may decline, e.g. when the state it finds is beyond the bound). Returns
+  // false, without running task, when the strand is busy or the executor stops.
+  bool TryRunInline(std::string_view caller, std::string_view strand,
+                    const std::function<bool()>& task);
   // Refuses new tasks, runs every queued one, then joins the workers. Idempotent.
   void Stop();
 
@@ -100,19 +108,29 @@ class Executor {
   std::chrono::nanoseconds worker_cpu_time() const;
 
  private:
+  // Lookups by string_view without building a std::string.
+  struct StringHash {
+    using is_transparent = void;
+    std::size_t operator()(std::string_view s) const { return std::hash<std::string_view>{}(s); }
+  };
   struct CallerQueue {
     // The strands with tasks not yet finished; a strand is in ready while it has a task waiting
     // and none running.
-    std::unordered_map<std::string, std::deque<Task>> strands;
+    std::unordered_map<std::string, std::deque<Task>, StringHash, std::equal_to<>> strands;
     std::deque<std::string> ready;
     std::size_t queued = 0;
     std::size_t running = 0;
+    // The strands TryRunInline runs now: claimed[0, claims). The strings are reused (no
+    // allocation per inline task once they have grown).
+    std::vector<std::string> claimed;
+    std::size_t claims = 0;
     Clock::time_point last_active;
     std::uint64_t anonymous_strands = 0;
   };
-  using Callers = std::unordered_map<std::string, CallerQueue>;
+  using Callers = std::unordered_map<std::string, CallerQueue, StringHash, std::equal_to<>>;
 
   void Work();
+  static bool ClaimedLocked(const CallerQueue& queue, std::string_view strand);
   // Whether a caller is active: a task waiting or running, or one submitted or finished within
   // recent_window.
   bool ActiveLocked(const CallerQueue& queue, Clock::time_point now) const;
@@ -128,12 +146,12 @@ class Executor {
   const ExecutorOptions options_;
   mutable std::mutex mutex_;
   std::condition_variable wakeup_;
-  Callers callers_;                          // guarded by mutex_
-  std::deque<std::string> ready_callers_;    // guarded by mutex_; callers with a ready strand
-  std::size_t queued_ = 0;                   // guarded by mutex_
-  std::size_t running_ = 0;                  // guarded by mutex_
-  bool stopping_ = false;                    // guarded by mutex_
-  std::vector<clockid_t> worker_clocks_;     // guarded by mutex_; read while !stopping_
+  Callers callers_;                        // guarded by mutex_
+  std::deque<std::string> ready_callers_;  // guarded by mutex_; callers with a ready strand
+  std::size_t queued_ = 0;                 // guarded by mutex_
+  std::size_t running_ = 0;                // guarded by mutex_
+  bool stopping_ = false;                  // guarded by mutex_
+  std::vector<clockid_t> worker_clocks_;   // guarded by mutex_; read while !stopping_
   mutable std::chrono::nanoseconds stopped_worker_cpu_{0};  // guarded by mutex_; last reading
   std::vector<std::thread> workers_;
 };

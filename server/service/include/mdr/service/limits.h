@@ -15,6 +15,9 @@ namespace mdr::service {
 // of now + timeout stays far inside the clocks' int64 nanoseconds (292 years from their epoch).
 inline constexpr std::int64_t kMaxIdleTimeoutSeconds = 3'155'760'000;
 
+// The largest ServiceLimits::max_inline_vertices: the bound on what a transport thread computes.
+inline constexpr std::size_t kMaxInlineVertices = 256;
+
 struct ServiceLimits {
   // Sessions held at most; CreateSession/ImportSession beyond it fail with RESOURCE_EXHAUSTED.
   std::size_t max_sessions = 10000;
@@ -46,6 +49,11 @@ struct ServiceLimits {
   // authentication) may hold, >= 1: each holds up to StreamApplyReactor::kMaxPendingResponses
   // messages, so this bounds what one caller's streams hold in memory.
   std::size_t max_streams_per_caller = 256;
+  // A one-step Apply (or StreamApply message) on a single exact contact of at most this many
+  // memory vertices, of a step whose path is straight, and without a journal, runs on the
+  // transport's thread when its session has nothing queued: its cost is bounded a priori and
+  // small (docs/operations.md, "Inline steps"). [0, 256]; 0: every batch goes to the workers.
+  std::size_t max_inline_vertices = 32;
   // How one caller's StreamApply streams are paced while other callers are active
   // (stream_pacer.h); contended_share (mdrd --contended-stream-share) in (0, 1024].
   StreamPacing stream_pacing;

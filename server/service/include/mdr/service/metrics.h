@@ -103,6 +103,7 @@ struct Metrics {
   Family<Gauge> work_queue_depth_family;
   Family<Counter> work_rejected_family;
   Family<Counter> stream_read_pauses_family;
+  Family<Counter> inline_batches_family;
   Family<Histogram> journal_write_seconds_family;
   Family<Counter> journal_write_failures_family;
   Family<Gauge> journal_free_bytes_family;
@@ -114,6 +115,7 @@ struct Metrics {
   Gauge& work_queue_depth;
   Counter& work_rejected;
   Counter& stream_read_pauses;
+  Counter& inline_batches;
   Histogram& journal_write_seconds;
   Counter& journal_write_failures;
   Gauge& journal_free_bytes;

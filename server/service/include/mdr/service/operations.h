@@ -75,6 +75,13 @@ class ContactOperations {
   Status Apply(const Principal& caller, const v1::ApplyRequest& request,
                const Interruption& interruption, v1::ApplyResponse* response,
                const Interrupt& interrupt = {});
+  // Apply, if its cost is bounded a priori and small: one step of a straight kind (displacement
+  // channels, or a tangential force at a held depth) on a single exact contact of at most
+  // limits().max_inline_vertices vertices, without a journal or a test hook (docs/operations.md,
+  // "Inline steps"). Otherwise, and for a request that Apply would refuse, nothing happens
+  // (nullopt): the caller queues the request for Apply. For a transport thread.
+  std::optional<Status> ApplyIfBounded(const Principal& caller, const v1::ApplyRequest& request,
+                                       v1::ApplyResponse* response);
   // interrupt is checked before every radius of a traction or pressure profile.
   Status Query(const Principal& caller, const v1::QueryRequest& request,
                v1::QueryResponse* response, const Interrupt& interrupt = {});
@@ -87,6 +94,12 @@ class ContactOperations {
   const ServiceLimits& limits() const { return limits_; }
 
  private:
+  // The largest per-step results of a batch: the message limit less room for the final state
+  // and the other fields of the response.
+  std::size_t MaxResponseBytes() const {
+    constexpr std::size_t kResponseOverheadBytes = 512;
+    return static_cast<std::size_t>(limits_.max_message_bytes) - kResponseOverheadBytes;
+  }
   // The budget a caller's sessions are charged to: its own quota inside the server's
   // (--max-state-bytes-per-token), or the server's for callers without a token or without
   // quotas. Created on first use, kept for the process.

@@ -18,20 +18,19 @@
 #include <string>
 #include <vector>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
-#include "mdr/base/status.h"
 #include "mdr/service/completed_requests.h"
-#include "mdr/service/principal.h"
 #include "mdr/service/interface_session.h"
 #include "mdr/service/outputs.h"
+#include "mdr/service/principal.h"
 #include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
 
 class Journal;
-
 
 // Everything a session starts from (a fresh contact, an imported or a journaled one).
 struct SessionOrigin {
@@ -55,7 +54,7 @@ struct SessionOrigin {
   // The message limit that every export of the session must fit (0: unchecked).
   int max_message_bytes = 0;
   // Set for an interface session (scene.interface).
-  std::optional<Interface> interface{};
+  std::optional<Interface> interface {};
 };
 
 // The bytes a session's state holds and an upper bound of its export message.
@@ -118,6 +117,14 @@ class Session {
                const StepGuard& guard, std::size_t max_response_bytes, v1::ApplyResponse* response,
                const Interrupt& interrupt = {});
 
+  // Apply, if the batch's cost is bounded a priori and small (docs/operations.md, "Inline
+  // steps"): one straight step (StraightStepLocked) on a single exact contact, not journaled, of
+  // at most max_vertices memory vertices; nothing happens otherwise (nullopt).
+  std::optional<Status> ApplyIfBounded(const v1::ApplyRequest& request,
+                                       const OutputSelection& step_outputs,
+                                       std::size_t max_vertices, std::size_t max_response_bytes,
+                                       v1::ApplyResponse* response);
+
   // The selected outputs of the current state; on error (an output this contact does not have)
   // the response is cleared. interface_query: contact_index and histogram bins of an interface
   // session (a single session refuses them).
@@ -159,6 +166,21 @@ class Session {
                                  const Interrupt& interrupt);
   // The guard and the step counter's limit before step i.
   static Status CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied);
+  // Whether `step` is one exact linear step of this session's single exact contact whatever its
+  // state (Contact::Apply): both channels displacements (an unset one holds) without a rig, or
+  // at a held depth a tangential displacement or force (through a rig too). Its memory then
+  // grows from n vertices to at most 3n + 1.
+  bool StraightStepLocked(const v1::Step& step) const;
+  // A one-step batch of a straight step on an exact contact without a journal, made in place
+  // (Contact::Apply is atomic) once the bounds of the state after it are charged; *fall_back
+  // when only those bounds did not fit (the exact state after the step may: RunBatch's copy).
+  Status RunStepInPlace(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                        const StepGuard& guard, v1::ApplyResponse* response,
+                        const Interrupt& interrupt, bool* fall_back);
+  // Apply's work with mutex_ held (the batch size checked).
+  Status ApplyLocked(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+                     const StepGuard& guard, std::size_t max_response_bytes,
+                     v1::ApplyResponse* response, const Interrupt& interrupt);
   // The end of a batch whose steps all succeeded: the response size and state checks, the
   // journal (AdmitBatchLocked), then commit() moves the new state in (FinishBatchLocked).
   Status CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t applied,
@@ -193,7 +215,11 @@ class Session {
   std::atomic<Clock::rep> last_used_;
 
   mutable std::mutex mutex_;
-  std::optional<Contact> contact_;           // guarded by mutex_; unset: unavailable
+  std::optional<Contact> contact_;  // guarded by mutex_; unset: unavailable
+  // The copy a batch of a single contact runs on (RunBatch), kept between batches so that its
+  // vectors keep their capacity: a batch then allocates nothing. Holds the state before the last
+  // committed batch (bounded like the state; not charged: a few vertices of a rig's contact).
+  std::optional<Contact> batch_copy_;        // guarded by mutex_
   std::optional<Interface> interface_;       // guarded by mutex_; set: an interface session
   std::uint64_t applied_steps_;              // guarded by mutex_
   CompletedRequests completed_;              // guarded by mutex_

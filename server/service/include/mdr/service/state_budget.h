@@ -48,6 +48,9 @@ struct StepBounds {
   std::size_t export_bytes = 0;
 };
 StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes);
+// The same for one exact linear step of a single exact contact (n vertices become at most
+// 3n + 1).
+StepBounds BoundsAfterOneStraightStep(const Contact& contact, std::size_t scene_bytes);
 
 // RESOURCE_EXHAUSTED (field: `field`) when a snapshot of export_bytes would not fit
 // max_message_bytes.

@@ -5,9 +5,11 @@
 // instead of growing the server's memory. Reading goes on while a message is applied, so the
 // next ones are at hand when it is done: the messages are applied one at a time and in order on
 // the Executor (strand: the message's session), a run of consecutive messages for one session
-// in one task (at most kMaxRunLength, then the task queues behind the others). A message the
-// full queue refuses is answered with UNAVAILABLE in its response status, unapplied, and the
-// stream goes on. While other callers are active, the caller's streams read at the pace its
+// in one task (at most kMaxRunLength, then the task queues behind the others). A message whose
+// cost is bounded a priori and small, for a session with nothing queued, is applied on the
+// thread that read it instead (Executor::TryRunInline; docs/operations.md, "Inline steps"). A
+// message the full queue refuses is answered with UNAVAILABLE in its response status, unapplied,
+// and the stream goes on. While other callers are active, the caller's streams read at the pace its
 // StreamBudget allows (stream_pacer.h): a paused stream resumes from the pacer's thread.
 #pragma once
 
@@ -106,8 +108,9 @@ class StreamApplyReactor final
  private:
   using Message = v1::StreamApplyRequest;
 
-  // Applies one message's batch and returns its response (errors in response.status).
-  v1::StreamApplyResponse Answer(const v1::ApplyRequest& apply);
+  // Applies one message's batch and returns its response (errors in response.status);
+  // bounded_only: only if its cost is bounded (ContactOperations::ApplyIfBounded), else nothing.
+  std::optional<v1::StreamApplyResponse> Answer(const v1::ApplyRequest& apply, bool bounded_only);
   // On a worker: applies the oldest unapplied messages while they are for the session of the
   // first (the task's strand), at most kMaxRunLength, then hands the rest to SubmitNext.
   void ApplyRun();
