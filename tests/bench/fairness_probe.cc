@@ -47,6 +47,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.h"
 #include "fixtures/reference_scenes.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
 
@@ -58,8 +59,8 @@ using Stub = mdr::v1::ContactService::Stub;
 constexpr char kAliceToken[] = "alice-fairness-probe-0123456789";
 constexpr char kBobToken[] = "bob-fairness-probe-0123456789ab";
 constexpr auto kProbePeriod = std::chrono::milliseconds(2);
-constexpr double kDepth = 3.4829e-6;         // H1 at about 100 N
-constexpr double kBobAmplitude = 2e-8;       // partial slip at that depth
+constexpr double kDepth = 3.4829e-6;    // H1 at about 100 N
+constexpr double kBobAmplitude = 2e-8;  // partial slip at that depth
 constexpr int kAbuseSessions = 30;
 constexpr int kAbuseStepsPerMessage = 100;
 constexpr int kHeavySamples = 20000;
@@ -124,7 +125,8 @@ ProbeFigures Probe(Stub& stub, const std::string& session, double seconds) {
     const Clock::time_point start = Clock::now();
     const grpc::Status status =
         stub.Apply(As(kBobToken, std::chrono::seconds(30)).get(), request, &response);
-    figures.millis.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+    figures.millis.push_back(
+        std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     if (!status.ok()) {
       if (figures.refused++ == 0) figures.first_error = status.error_message();
     }
@@ -151,8 +153,9 @@ class AbandonedStreams {
     for (int i = 0; i < kAbuseSessions; ++i) {
       sessions.push_back(Create(*setup, kAliceToken, mdr::reference::H1Scene<mdr::v1::Scene>()));
       mdr::v1::ApplyResponse response;
-      if (!setup->Apply(As(kAliceToken, std::chrono::seconds(30)).get(),
-                        DepthRequest(sessions.back(), kDepth), &response)
+      if (!setup
+               ->Apply(As(kAliceToken, std::chrono::seconds(30)).get(),
+                       DepthRequest(sessions.back(), kDepth), &response)
                .ok()) {
         Fail("alice's depth step");
       }
@@ -245,7 +248,6 @@ class HeavyCalls {
           stub->DeleteSession(As(kAliceToken, std::chrono::seconds(30)).get(), erase, &empty);
         }
       }
-
     }
   }
 
@@ -262,8 +264,8 @@ struct Settings {
   int heavy_clients = 4;
   std::vector<std::string> mdrd_args;  // passed on to mdrd
   bool alice_competes = false;         // her client at normal priority instead of SCHED_IDLE
-  std::string abuse;    // child mode: "streams" or "heavy"
-  std::string connect;  // child mode: mdrd's address
+  std::string abuse;                   // child mode: "streams" or "heavy"
+  std::string connect;                 // child mode: mdrd's address
 };
 
 Settings Parse(int argc, char** argv) {
@@ -310,27 +312,11 @@ bool Report(const char* phase, const ProbeFigures& figures, double quiet_p99) {
 
 // A child process with its stdout and stderr on a pipe (read end in *output, -1 if none wanted).
 pid_t Spawn(const std::vector<std::string>& command, int* output) {
-  int pipe_fds[2] = {-1, -1};
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  if (output != nullptr) {
-    if (pipe(pipe_fds) != 0) Fail("pipe: " + std::string(std::strerror(errno)));
-    posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
-    posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
-    posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
+  try {
+    return mdr::bench::Spawn(command, output);
+  } catch (const std::runtime_error& error) {
+    Fail(error.what());
   }
-  std::vector<char*> argv;
-  for (const std::string& word : command) argv.push_back(const_cast<char*>(word.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int error = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (error != 0) Fail("cannot start " + command[0] + ": " + std::strerror(error));
-  if (output != nullptr) {
-    close(pipe_fds[1]);
-    *output = pipe_fds[0];
-  }
-  return pid;
 }
 
 // A process's CPU time (user and system, all threads) since construction, in cores.
@@ -467,9 +453,8 @@ int main(int argc, char** argv) {
     const ProbeFigures figures = Probe(*bob, session, settings.seconds);
     const double mdrd_cores = mdrd_cpu.Cores(), alice_cores = alice_cpu.Cores();
     Stop(alice);
-    never_refused &=
-        Report(std::strcmp(kind, "streams") == 0 ? "abandoned streams" : "heavy calls", figures,
-               quiet_p99);
+    never_refused &= Report(std::strcmp(kind, "streams") == 0 ? "abandoned streams" : "heavy calls",
+                            figures, quiet_p99);
     std::printf("  during it: mdrd used %.2f cores, alice's client %.2f\n", mdrd_cores,
                 alice_cores);
   }

@@ -4,7 +4,8 @@
 // figures on a shared machine vary by tens of percent, the ratio much less):
 //   build/release/tests/bench/mdr_load [--seconds S] [--rounds R] [--window W] [--json FILE]
 //                                      [--energy false] [--only "sessions:1/"]
-//   build/release/tests/bench/mdr_load --execution [--execution-seconds S]   (see below)
+//   build/release/tests/bench/mdr_load --execution [--execution-seconds S]
+//                                      [--inline-clients-compete]   (see below)
 //
 // Workload: H1, a steel sphere R = 10 mm on steel (E = 210 GPa, nu = 0.3 for both), mu = 0.3,
 // loaded to F_N = 100 N; then Mindlin-Deresiewicz cycling at constant F_N: the tangential
@@ -41,7 +42,10 @@
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
+#include <sched.h>
 #include <spdlog/spdlog.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -53,6 +57,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <future>
@@ -68,6 +73,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_process.h"
 #include "echo_service.h"
 #include "fixtures/reference_scenes.h"
 #include "mdr/client/contact_client.h"
@@ -561,6 +567,10 @@ struct LoadSettings {
   std::string only;          // run only the scenarios whose name contains it
   bool execution = false;    // run the execution scenarios instead
   double execution_seconds = 5;
+  // mdrd's --max-inline-vertices (docs/operations.md, "Inline steps"); 0: no inline steps.
+  std::size_t max_inline_vertices = mdr::service::ServiceLimits{}.max_inline_vertices;
+  std::vector<int> inline_streams_child;  // PORT COUNT: the child mode of --execution
+  bool inline_clients_compete = false;    // the inline streams' client at normal priority
 };
 
 class LoadRun {
@@ -763,8 +773,10 @@ void PrintPreamble(const Workload& workload, const LoadSettings& settings, int c
 // clients each run heavy calls back to back (a CreateSession with a tabulated profile of
 // kHeavySamples samples, a batch of steps on a grid of kHeavyGridSprings springs, a curved force
 // path bisected to a tight tolerance), one prober measures a health check and a GetSession every
-// kProbePeriod: p50/p99. Then compute-bound throughput: Apply of 1000-step cycling batches with
-// energy tracking on one session by one client against two sessions by two clients.
+// kProbePeriod: p50/p99. Then the same with 8 and 32 streams of inline messages in the mix (their
+// client in a child process at SCHED_IDLE unless --inline-clients-compete). Then compute-bound
+// throughput: Apply of 1000-step cycling batches with energy tracking on one session by one client
+// against two sessions by two clients.
 
 constexpr int kHeavySamples = 20000;
 constexpr std::uint32_t kHeavyGridSprings = 1 << 20;
@@ -859,8 +871,120 @@ int RunHeavyCalls(mdr::v1::ContactService::Stub& stub, int client, const std::at
   return completed;
 }
 
+// One client's StreamApply of one-step cycling messages on its own loaded H1 session, at most
+// kInlineWindow in flight, until `stop`: every message is one the server may apply inline
+// (docs/operations.md, "Inline steps"). Returns the messages answered.
+constexpr int kInlineWindow = 32;
+struct InlineStreamSession {
+  std::string name;
+  double depth = 0;
+};
+// Created before the heavy calls start (they would hold the workers a creation needs).
+InlineStreamSession CreateInlineStreamSession(int port) {
+  mdr::client::ContactClient client(ConnectLoopback(port), kCallTimeout);
+  InlineStreamSession session;
+  session.name = CreateLoadedSession(client, HertzScene(), &session.depth).name;
+  return session;
+}
+long RunInlineStream(int port, const InlineStreamSession& session, const std::atomic<bool>& stop) {
+  const CyclingSteps steps(kCycleAmplitude * kFriction * HertzKappa() * session.depth);
+  auto stub = mdr::v1::ContactService::NewStub(ConnectLoopback(port));
+  grpc::ClientContext context;
+  auto stream = stub->StreamApply(&context);
+  std::counting_semaphore<kInlineWindow> window(kInlineWindow);
+  std::atomic<long> answered{0};
+  std::thread reader([&] {
+    mdr::v1::StreamApplyResponse response;
+    while (stream->Read(&response)) {
+      if (response.status().code() != 0) Fail("inline stream: " + response.status().message());
+      ++answered;
+      window.release();
+    }
+  });
+  mdr::v1::StreamApplyRequest message;
+  message.mutable_apply()->set_session(session.name);
+  for (int phase = 0; !stop; phase = (phase + 1) % kCyclePeriod) {
+    window.acquire();
+    *message.mutable_apply()->mutable_steps() = steps.Batch(1, phase);
+    if (!stream->Write(message)) break;
+  }
+  stream->WritesDone();
+  reader.join();
+  if (const grpc::Status status = stream->Finish(); !status.ok()) {
+    Fail("inline stream: " + status.error_message());
+  }
+  return answered;
+}
+
+// --inline-streams-child PORT COUNT: COUNT streams of inline messages at SCHED_IDLE (a client on
+// its own machine: on this one its threads would otherwise compete with the server for the
+// cores, which is no server's doing). Prints "ready" once the sessions exist and the streams
+// run, streams until its stdin ends, then prints the messages answered.
+int RunInlineStreamsChild(int port, int count, bool compete) {
+  sched_param parameter{};
+  if (!compete && sched_setscheduler(0, SCHED_IDLE, &parameter) != 0) {
+    Fail("sched_setscheduler(SCHED_IDLE)");
+  }
+  std::vector<InlineStreamSession> sessions;
+  for (int i = 0; i < count; ++i) sessions.push_back(CreateInlineStreamSession(port));
+  std::atomic<bool> stop{false};
+  std::atomic<long> answered{0};
+  std::vector<std::thread> streams;
+  for (int i = 0; i < count; ++i) {
+    streams.emplace_back([&, i] { answered += RunInlineStream(port, sessions[i], stop); });
+  }
+  std::printf("ready\n");
+  std::fflush(stdout);
+  char byte = 0;
+  while (read(STDIN_FILENO, &byte, 1) > 0) {
+  }
+  stop = true;
+  for (std::thread& stream : streams) stream.join();
+  std::printf("%ld\n", answered.load());
+  return EXIT_SUCCESS;
+}
+
+// The parent's side of RunInlineStreamsChild.
+class InlineStreamsChild {
+ public:
+  InlineStreamsChild(int port, int count, bool compete) {
+    const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+    std::vector<std::string> command = {self, "--inline-streams-child", std::to_string(port),
+                                        std::to_string(count)};
+    if (compete) command.push_back("--inline-clients-compete");
+    try {
+      pid_ = mdr::bench::Spawn(command, &output_, &input_);
+    } catch (const std::runtime_error& error) {
+      Fail(error.what());
+    }
+    if (ReadLine() != "ready") Fail("the inline streams did not start");
+  }
+  // Ends the streams; the messages they had answered.
+  long Stop() {
+    close(input_);
+    const std::string answered = ReadLine();
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    close(output_);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) Fail("the inline streams failed");
+    return std::stol(answered);
+  }
+
+ private:
+  std::string ReadLine() {
+    std::string line;
+    char c = 0;
+    while (read(output_, &c, 1) == 1 && c != '\n') line += c;
+    return line;
+  }
+
+  pid_t pid_ = 0;
+  int output_ = -1, input_ = -1;
+};
+
 struct ProbeFigures {
   std::vector<double> health_ms, get_session_ms;
+  long inline_messages = 0;  // answered by the inline streams
 };
 
 double ProbeMillis(const std::function<grpc::Status(grpc::ClientContext*)>& call) {
@@ -880,7 +1004,9 @@ grpc::Status HealthCheck(grpc::GenericStub& stub, grpc::ClientContext* context) 
   return done.get_future().get();
 }
 
-ProbeFigures ProbeUnderHeavyLoad(int port, int heavy_clients, double seconds) {
+// heavy_clients clients of heavy calls and inline_streams streams of inline messages at once.
+ProbeFigures ProbeUnderHeavyLoad(int port, int heavy_clients, int inline_streams, bool compete,
+                                 double seconds) {
   std::vector<std::unique_ptr<mdr::v1::ContactService::Stub>> stubs;
   for (int i = 0; i < heavy_clients; ++i) {
     stubs.push_back(mdr::v1::ContactService::NewStub(ConnectLoopback(port)));
@@ -891,6 +1017,8 @@ ProbeFigures ProbeUnderHeavyLoad(int port, int heavy_clients, double seconds) {
   mdr::v1::GetSessionRequest get;
   get.set_name(CreateOrFail(*probe_stub, HertzScene()));
 
+  std::optional<InlineStreamsChild> streams;
+  if (inline_streams > 0) streams.emplace(port, inline_streams, compete);  // sessions created
   std::atomic<bool> stop{false};
   std::vector<std::thread> clients;
   for (int i = 0; i < heavy_clients; ++i) {
@@ -911,14 +1039,18 @@ ProbeFigures ProbeUnderHeavyLoad(int port, int heavy_clients, double seconds) {
   }
   stop = true;
   for (std::thread& client : clients) client.join();
+  if (streams) figures.inline_messages = streams->Stop();
   return figures;
 }
 
-void PrintProbe(int heavy_clients, const char* what, std::vector<double> millis) {
+void PrintProbe(int heavy_clients, int inline_streams, const char* what,
+                std::vector<double> millis) {
   std::sort(millis.begin(), millis.end());
-  std::printf("%2d heavy calls  %-10s  n=%4zu  p50 %8.3f ms  p99 %8.3f ms  max %8.3f ms\n",
-              heavy_clients, what, millis.size(), Percentile(millis, 0.5), Percentile(millis, 0.99),
-              millis.back());
+  std::printf(
+      "%2d heavy calls, %2d inline streams  %-10s  n=%4zu  p50 %8.3f ms  p99 %8.3f ms  max "
+      "%8.3f ms\n",
+      heavy_clients, inline_streams, what, millis.size(), Percentile(millis, 0.5),
+      Percentile(millis, 0.99), millis.back());
 }
 
 // Steps per second of 1000-step cycling batches (energy on), one client per session.
@@ -954,9 +1086,10 @@ double BatchThroughput(int port, int sessions, double seconds, const CyclingStep
   return total_steps / std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-void RunExecutionScenarios(double seconds) {
+void RunExecutionScenarios(double seconds, std::size_t max_inline_vertices, bool clients_compete) {
   mdr::service::ServerOptions options;
   options.listen_address = "127.0.0.1:0";
+  options.limits.max_inline_vertices = max_inline_vertices;
   options.limits.max_message_bytes = 64 << 20;  // grids of 2^20 springs must stay exportable
   grpc::EnableDefaultHealthCheckService(true);
   auto server = mdr::service::ContactServer::Start(options);
@@ -968,10 +1101,19 @@ void RunExecutionScenarios(double seconds) {
       "path; probes every %lld ms for %g s\n",
       std::thread::hardware_concurrency(), kHeavySamples, kHeavyGridSteps, kHeavyGridSprings,
       static_cast<long long>(kProbePeriod.count()), seconds);
-  for (const int heavy_clients : {4, 16}) {
-    ProbeFigures figures = ProbeUnderHeavyLoad(port, heavy_clients, seconds);
-    PrintProbe(heavy_clients, "health", std::move(figures.health_ms));
-    PrintProbe(heavy_clients, "GetSession", std::move(figures.get_session_ms));
+  // Heavy calls alone, then with streams of inline messages in the mix (issue #25: a message
+  // the server applies on the transport's thread must not starve the health checks either).
+  for (const auto [heavy_clients, inline_streams] :
+       std::array<std::pair<int, int>, 4>{{{4, 0}, {16, 0}, {4, 8}, {16, 32}}}) {
+    ProbeFigures figures =
+        ProbeUnderHeavyLoad(port, heavy_clients, inline_streams, clients_compete, seconds);
+    PrintProbe(heavy_clients, inline_streams, "health", std::move(figures.health_ms));
+    PrintProbe(heavy_clients, inline_streams, "GetSession", std::move(figures.get_session_ms));
+    if (inline_streams > 0) {
+      std::printf("%2d heavy calls, %2d inline streams  inline messages answered: %.0f/s\n",
+                  heavy_clients, inline_streams,
+                  static_cast<double>(figures.inline_messages) / seconds);
+    }
   }
   // The cycling amplitude of H1 (as CreateWorkload computes it).
   mdr::client::ContactClient setup(ConnectLoopback(port), kCallTimeout);
@@ -1010,6 +1152,16 @@ LoadSettings ParseSettings(int argc, char** argv) {
   app.add_option("--execution-seconds", settings.execution_seconds,
                  "wall time of each --execution measurement")
       ->check(CLI::Range(0.5, 60.0));
+  app.add_option("--inline-streams-child", settings.inline_streams_child,
+                 "(internal) PORT COUNT: streams of inline messages for --execution")
+      ->expected(2)
+      ->group("");
+  app.add_flag("--inline-clients-compete", settings.inline_clients_compete,
+               "--execution: the client of the inline streams at normal priority, competing for "
+               "this machine's cores with the server (default: SCHED_IDLE, as if on its own)");
+  app.add_option("--max-inline-vertices", settings.max_inline_vertices,
+                 "the server's --max-inline-vertices (0: every batch on the workers)")
+      ->check(CLI::Range(std::size_t{0}, mdr::service::kMaxInlineVertices));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -1044,14 +1196,20 @@ std::vector<ScenarioResult> RunScenarios(LoadRun& run, const std::string& only) 
 int main(int argc, char** argv) {
   const LoadSettings settings = ParseSettings(argc, argv);
   spdlog::set_level(spdlog::level::warn);  // the in-process server logs every session at info
+  if (settings.inline_streams_child.size() == 2) {
+    return RunInlineStreamsChild(settings.inline_streams_child[0], settings.inline_streams_child[1],
+                                 settings.inline_clients_compete);
+  }
   if (settings.execution) {
-    RunExecutionScenarios(settings.execution_seconds);
+    RunExecutionScenarios(settings.execution_seconds, settings.max_inline_vertices,
+                          settings.inline_clients_compete);
     return EXIT_SUCCESS;
   }
   const Clock::time_point begin = Clock::now();
 
   mdr::service::ServerOptions options;
   options.listen_address = "127.0.0.1:0";
+  options.limits.max_inline_vertices = settings.max_inline_vertices;
   auto contact_server = mdr::service::ContactServer::Start(options);
   if (!contact_server.ok()) Fail(contact_server.status().ToString());
   const int contact_port = (*contact_server)->port();
