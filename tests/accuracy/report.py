@@ -166,8 +166,9 @@ def load_markdown(path):
              "- Server compute: `ApplyResponse.compute_seconds` per step.",
              "- `engine inline` (streams): the echo stream that first applies each message's step "
              "to an engine contact of its session on the transport's thread, over the echo: the "
-             "ceiling of any server computing the same steps. mdrd hands every message to a worker "
-             "instead (docs/operations.md, execution model).", "",
+             "ceiling of any server computing the same steps. mdrd applies a message whose cost "
+             "is bounded a priori on the transport's thread too, and hands any other to a worker "
+             "(docs/operations.md, \"Inline steps\").", "",
              "| scenario | sessions | p50 | p99 | p99.9 | throughput | echo throughput | ratio | "
              "server compute | engine inline |", "|---|---|---|---|---|---|---|---|---|---|"]
     for (scenario, sessions), f in rows.items():
@@ -195,8 +196,14 @@ CORE_TARGETS = [
     ("forces query, 66 vertices / plain step", "BM_ForcesQuery/64", 10.0),
     ("tangential-force step / plain step", "BM_TangentialForceStep", 5.0),
 ]
-LOAD_TARGETS = [("apply batch 1000", 1, 0.5), ("stream window 32", 1, 0.9),
-                ("stream window 32", 10, 0.9), ("stream window 32", 100, 0.9)]
+LOAD_TARGETS = [("apply batch 1000", 1, 0.5)]
+# Issue #25's stream target, in each of three runs (load.json and load_streams_{2,3}.json).
+STREAM_TARGETS = [("stream window 32", 1, 0.9), ("stream window 32", 10, 0.9),
+                  ("stream window 32", 100, 0.9)]
+# Issue #25's memory and scaling targets.
+MAX_BYTES_PER_ASPERITY = 200
+MIN_TWO_WORKER_SPEEDUP = 1.8
+MAX_HEALTH_P99_MS = 20
 
 
 # Issue #17's engine target: contact-increments/s of 10^4 asperities cycling with energy on the
@@ -300,6 +307,7 @@ def targets_markdown(core_path, load_path, interface_path=None, interface_load_p
             ceiling = f" (engine inline: {inline:.2f})" if inline is not None else ""
             lines.append(f"| {scenario}, {sessions} session(s) / echo | {value:.2f}{ceiling} | "
                          f">= {bound:g} | {'yes' if value >= bound else 'no'} |")
+        lines += scale_targets(os.path.dirname(load_path))
         # Issue #25's latency target: a one-step unary round trip's p99 against the echo's.
         apply_p99 = found.get(("apply batch 1", 1, "p99_latency"))
         echo_p99 = found.get(("apply batch 1", 1, "echo_p99_latency"))
@@ -308,6 +316,99 @@ def targets_markdown(core_path, load_path, interface_path=None, interface_load_p
             lines.append(f"| apply batch 1, 1 session, p99 / echo p99 | {ratio:.2f} | <= 1.3 | "
                          f"{'yes' if ratio <= 1.3 else 'no'} |")
     return lines + [""]
+
+
+def load_figures(path):
+    """(scenario, sessions, metric) -> value of one mdr_load --json file."""
+    with open(path) as f:
+        figures = json.load(f)["figures"]
+    return {(fig["scenario"], fig["sessions"], fig["metric"]): fig["value"] for fig in figures}
+
+
+def yes_no(met):
+    return "yes" if met else "no"
+
+
+def scale_targets(out):
+    """Issue #25's lines of the Targets table: memory, scaling, the service's 10^6, streams in
+    three runs, health with inline messages."""
+    lines = []
+    million = {}
+    for workers in (1, 2):
+        path = os.path.join(out, f"million_asperities_{workers}.json")
+        if os.path.exists(path):
+            with open(path) as f:
+                million[workers] = json.load(f)["benchmarks"][0]
+    if 1 in million:
+        m = million[1]
+        resident = m["resident_bytes_per_asperity"]
+        lines.append(f"| resident bytes per Hertz asperity, 10^6 in M-D cycling with energy | "
+                     f"{resident:.1f} (held {m['held_bytes_per_asperity']:.0f}, peak during the "
+                     f"run {m['peak_resident_bytes_per_asperity']:.0f}) | <= "
+                     f"{MAX_BYTES_PER_ASPERITY} | {yes_no(resident <= MAX_BYTES_PER_ASPERITY)} |")
+    if 1 in million and 2 in million:
+        one, two = million[1]["step_s"], million[2]["step_s"]
+        lines.append(f"| one step of 10^6 asperities with energy, 2 workers / 1 | "
+                     f"{one / two:.2f}x ({one:.2f} -> {two:.2f} s) | >= {MIN_TWO_WORKER_SPEEDUP}x "
+                     f"| {yes_no(one / two >= MIN_TWO_WORKER_SPEEDUP)} |")
+    interface_path = os.path.join(out, "interface_bench.json")
+    if os.path.exists(interface_path):
+        with open(interface_path) as f:
+            report = json.load(f)
+        one = items_per_second(report, "BM_InterfaceCycling/1/1/real_time")
+        two = items_per_second(report, "BM_InterfaceCycling/1/2/real_time")
+        if one and two:
+            lines.append(f"| 10^4 asperities, M-D cycling with energy, 2 workers / 1 | "
+                         f"{two / one:.2f}x | >= {MIN_TWO_WORKER_SPEEDUP}x | "
+                         f"{yes_no(two / one >= MIN_TWO_WORKER_SPEEDUP)} |")
+    service = os.path.join(out, "million_service.txt")
+    if os.path.exists(service):
+        with open(service) as f:
+            text = f.read()
+        held = re.search(r"held and charged: ([0-9.]+) bytes per asperity \(([0-9.]+) MB; "
+                         r"default budget ([0-9.]+) MB, of a token ([0-9.]+) MB\)", text)
+        exported = re.search(r"export ([0-9.]+) s \(([0-9.]+) MB\), import ([0-9.]+) s; the "
+                             r"imported session continues (bit for bit|DIFFERENTLY)", text)
+        if held and exported:
+            met = float(held.group(2)) <= float(held.group(4)) and exported.group(4) == "bit for bit"
+            lines.append(f"| 10^6 asperities through the service: state held / a token's default "
+                         f"budget; export, import | {held.group(2)} / {held.group(4)} MB; "
+                         f"{exported.group(2)} MB in {exported.group(1)} s, imported in "
+                         f"{exported.group(3)} s, continuing {exported.group(4)} | within the "
+                         f"budget, bit for bit | {yes_no(met)} |")
+    runs = [os.path.join(out, name) for name in
+            ("load.json", "load_streams_2.json", "load_streams_3.json")]
+    runs = [load_figures(path) for path in runs if os.path.exists(path)]
+    for scenario, sessions, bound in STREAM_TARGETS:
+        ratios = [run.get((scenario, sessions, "ratio")) for run in runs]
+        ceilings = [run.get((scenario, sessions, "engine_inline_ratio")) for run in runs]
+        ratios = [r for r in ratios if r is not None]
+        if not ratios:
+            continue
+        ceiling = ", ".join(f"{c:.2f}" for c in ceilings if c is not None)
+        lines.append(f"| {scenario}, {sessions} session(s) / echo, {len(ratios)} runs | "
+                     f"{', '.join(f'{r:.2f}' for r in ratios)} (engine inline: {ceiling}) | "
+                     f">= {bound:g} in each | {yes_no(all(r >= bound for r in ratios))} |")
+    execution = os.path.join(out, "execution.txt")
+    if os.path.exists(execution):
+        with open(execution) as f:
+            text = f.read()
+        idle = True
+        for found in re.finditer(r"^\s*(\d+) heavy calls,\s+(\d+) inline streams\s+health\s.*"
+                                 r"p99\s+([0-9.]+) ms", text, re.M):
+            heavy, streams, p99 = int(found.group(1)), int(found.group(2)), float(found.group(3))
+            if streams == 0:
+                continue
+            label = (f"health p99 under {heavy} heavy calls and {streams} streams of inline "
+                     f"messages" + ("" if idle else ", their client competing for the cores"))
+            if idle:
+                lines.append(f"| {label} | {p99:.1f} ms | <= {MAX_HEALTH_P99_MS} ms | "
+                             f"{yes_no(p99 <= MAX_HEALTH_P99_MS)} |")
+            else:
+                lines.append(f"| {label} (reference) | {p99:.1f} ms | - | - |")
+            if streams == 32 and idle:
+                idle = False  # the lines after are the --inline-clients-compete run's
+    return lines
 
 
 def capi_markdown(path):
@@ -349,6 +450,8 @@ def main():
     for name, reference in (("core_bench.json", PLAIN_STEP),
                             ("operations_bench.json", "BM_EngineOneStep/0"),
                             ("interface_bench.json", "BM_SingleContactCycling/0"),
+                            ("million_asperities_1.json", None),
+                            ("million_asperities_2.json", None),
                             ("analysis_bench.json", None)):
         path = os.path.join(out, name)
         if os.path.exists(path):
@@ -371,6 +474,14 @@ def main():
                      "runs with alice's client at SCHED_IDLE (standing in for a client on its "
                      "own machine), then one with it at normal priority (--alice-competes).", "",
                      "```", f.read().rstrip(), "```", ""]
+    for name, title in (("million_service.txt", "10^6 asperities through the service "
+                                                 "(`mdr_million_asperities`)"),
+                        ("execution.txt", "Execution model under heavy calls and inline streams "
+                                          "(`mdr_load --execution`)")):
+        path = os.path.join(out, name)
+        if os.path.exists(path):
+            with open(path) as f:
+                perf += [f"### {title}", "", "```", f.read().rstrip(), "```", ""]
     load = os.path.join(out, "load.json")
     if os.path.exists(load):
         perf += load_markdown(load)

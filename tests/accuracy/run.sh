@@ -9,7 +9,8 @@ cd "$(dirname "$0")/../.."
 quick=${1:-}
 out=docs/report
 bash deploy/build.sh release --target mdr_accuracy_study mdr_core_bench mdr_load \
-  mdr_interface_bench mdr_interface_load mdr_operations_bench mdr_analysis_bench mdr_fairness mdrd capi_bench
+  mdr_interface_bench mdr_interface_load mdr_operations_bench mdr_analysis_bench mdr_fairness mdrd \
+  capi_bench mdr_million_asperities
 mkdir -p "$out"
 echo "accuracy study -> $out/accuracy.csv"
 build/release/tests/accuracy/mdr_accuracy_study $quick > "$out/accuracy.csv"
@@ -22,9 +23,16 @@ build/release/tests/bench/mdr_operations_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \
   --benchmark_out="$out/operations_bench.json" > /dev/null
 echo "interface benchmarks -> $out/interface_bench.json"
-build/release/tests/bench/mdr_interface_bench --benchmark_repetitions=3 \
-  --benchmark_report_aggregates_only=true --benchmark_out_format=json \
-  --benchmark_out="$out/interface_bench.json" > /dev/null
+build/release/tests/bench/mdr_interface_bench --benchmark_filter=-MillionAsperities \
+  --benchmark_repetitions=3 --benchmark_report_aggregates_only=true \
+  --benchmark_out_format=json --benchmark_out="$out/interface_bench.json" > /dev/null
+echo "10^6 asperities (a process each, for its resident size) -> $out/million_asperities_{1,2}.json"
+for workers in 1 2; do
+  build/release/tests/bench/mdr_interface_bench --benchmark_filter="MillionAsperities/$workers\$" \
+    --benchmark_out_format=json --benchmark_out="$out/million_asperities_$workers.json" > /dev/null
+done
+echo "10^6 asperities through the service -> $out/million_service.txt"
+build/release/tests/bench/mdr_million_asperities > "$out/million_service.txt"
 echo "loop analysis and identification -> $out/analysis_bench.json"
 build/release/tests/bench/mdr_analysis_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \
@@ -41,7 +49,15 @@ echo "fairness between two tokens -> $out/fairness.txt"
   done
   build/release/tests/bench/mdr_fairness --mdrd build/release/server/mdrd/mdrd --seconds 5 \
     --alice-competes; } > "$out/fairness.txt"
-echo "load test -> $out/load.json"
+echo "load test -> $out/load.json, two more stream runs -> $out/load_streams_{2,3}.json"
 build/release/tests/bench/mdr_load --json "$out/load.json" > /dev/null
+for run in 2 3; do
+  build/release/tests/bench/mdr_load --only "stream window" --json "$out/load_streams_$run.json" \
+    > /dev/null
+done
+echo "execution model under heavy calls and inline streams -> $out/execution.txt"
+{ build/release/tests/bench/mdr_load --execution --execution-seconds 4
+  build/release/tests/bench/mdr_load --execution --execution-seconds 4 --inline-clients-compete \
+    | grep inline; } > "$out/execution.txt"
 /usr/bin/python3 tests/accuracy/report.py "$out"
 echo "wrote $(ls "$out" | tr '\n' ' ')"

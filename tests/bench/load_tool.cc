@@ -22,8 +22,9 @@
 //   needs the stream's reader and writer). A third side, "engine inline", is the echo stream
 //   that first applies each step to an engine contact of its session on the transport's thread:
 //   the ceiling of any server computing the same steps (no hand-off to a worker, no service
-//   around the engine). mdrd never computes on the transport's threads; this side only says how
-//   close to the echo the physics alone would allow.
+//   around the engine). mdrd computes on the transport's threads only a message whose cost is
+//   bounded a priori (docs/operations.md, "Inline steps"); this side says how close to the echo
+//   the physics alone would allow.
 // Client threads: min(sessions, 8). Thread t drives sessions t, t + T, t + 2T, ... in turn
 // (round-robin), one call at a time (unary) or over one stream (a writer and a reader thread), on
 // its own channel and TCP connection, like independent test rigs. So at most 8 unary calls are in

@@ -249,13 +249,12 @@ Status GridMemory::Restore(double depth, const std::vector<double>& u, double mu
     const bool anchored_now = anchor.bound != kInside &&
                               anchor == SegmentAnchor{anchor.bound, tangential_displacement, depth};
     const BoundTag on = anchored_now ? anchor.bound : kInside;
-    const std::string field = Indexed("grid_anchors", j);
-    if (Status s = CheckAnchor(anchor, on, mu_kappa, depth, tangential_displacement, field);
-        !s.ok()) {
-      return s;
+    const auto field = [j] { return Indexed("grid_anchors", j); };  // only for an error
+    if (!CheckAnchor(anchor, on, mu_kappa, depth, tangential_displacement, "").ok()) {
+      return CheckAnchor(anchor, on, mu_kappa, depth, tangential_displacement, field());
     }
     if (on != kInside && at_bound != on) {
-      return InvalidArgument(field, "anchors the spring on its bound now, but u is not at it");
+      return InvalidArgument(field(), "anchors the spring on its bound now, but u is not at it");
     }
     tags[j] = on;
   }

@@ -376,25 +376,24 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
     }
   }
   for (std::size_t i = 0; i < restored.size(); ++i) {
-    const std::string prefix = Indexed("contacts", i);
+    const auto prefix = [i] { return Indexed("contacts", i); };  // only for an error
     const std::uint32_t k = restored.contacts_.config_index(i);
     Result<Contact> contact = Contact::Restore(restored.configs_[k], snapshot.contacts[i]);
-    if (!contact.ok()) return contact.status().WithFieldPrefix(prefix);
+    if (!contact.ok()) return contact.status().WithFieldPrefix(prefix());
     const double expected_depth = snapshot.approach - restored.height(i);
     if (shared && contact->depth() != expected_depth) {
-      return InvalidArgument(prefix + ".depth",
+      return InvalidArgument(prefix() + ".depth",
                              "must equal approach - heights[i] = " + FormatNumber(expected_depth) +
                                  " m, got " + FormatNumber(contact->depth()));
     }
     if (shared && contact->tangential_displacement() != snapshot.tangential_displacement) {
-      return InvalidArgument(prefix + ".tangential_displacement",
+      return InvalidArgument(prefix() + ".tangential_displacement",
                              "must equal the interface's " +
                                  FormatNumber(snapshot.tangential_displacement) + " m, got " +
                                  FormatNumber(contact->tangential_displacement()));
     }
-    if (Status s = CheckDepthLimit(prefix + ".depth", contact->depth(), restored.max_depth(i));
-        !s.ok()) {
-      return s;
+    if (!(contact->depth() <= restored.max_depth(i))) {
+      return CheckDepthLimit(prefix() + ".depth", contact->depth(), restored.max_depth(i));
     }
     restored.energy_bound_ = std::max(restored.energy_bound_, contact->dissipated_energy());
     restored.vertex_headroom_ = restored.vertex_headroom_ && HasVertexHeadroom(*contact);

@@ -546,12 +546,13 @@ Result<PiecewiseLinearMemory> PiecewiseLinearMemory::Restore(double depth, std::
     return InvalidArgument("memory", depth <= 0 ? "must be empty out of contact"
                                                 : "needs at least 2 vertices in contact");
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::string at = Indexed("memory", i);
+  for (std::size_t i = 0; i < n; ++i) {  // field names built only for an error
     if (!std::isfinite(z[i]) || !std::isfinite(u[i]) || tags[i] > kOnBoth) {
-      return InvalidArgument(at, "z and u must be finite and the tag in 0..3");
+      return InvalidArgument(Indexed("memory", i), "z and u must be finite and the tag in 0..3");
     }
-    if (i > 0 && !(z[i] > z[i - 1])) return InvalidArgument(at, "z must increase strictly");
+    if (i > 0 && !(z[i] > z[i - 1])) {
+      return InvalidArgument(Indexed("memory", i), "z must increase strictly");
+    }
   }
   if (n > 0 && (z.front() != 0 || z.back() != depth || u.back() != 0)) {
     return InvalidArgument("memory", "must start at z = 0 and end at z = depth with u = 0");
@@ -611,16 +612,16 @@ Status PiecewiseLinearMemory::CheckFrictionCone(double mu_kappa) const {
 Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
   for (std::size_t i = 0; i < z_.size(); ++i) {
     const double bound = CoulombBound(mu_kappa, depth_, z_[i]);
-    const std::string at = Indexed("memory", i);
+    const auto at = [i] { return Indexed("memory", i); };  // only for an error
     if (!(std::abs(u_[i]) <= bound)) {
       return InvalidArgument(
-          at, "|u| = " + FormatNumber(std::abs(u_[i])) +
-                  " exceeds the Coulomb bound mu kappa (depth - z) = " + FormatNumber(bound) +
-                  " by " + FormatNumber(std::abs(u_[i]) - bound));
+          at(), "|u| = " + FormatNumber(std::abs(u_[i])) +
+                    " exceeds the Coulomb bound mu kappa (depth - z) = " + FormatNumber(bound) +
+                    " by " + FormatNumber(std::abs(u_[i]) - bound));
     }
     if (tag_[i] == kOnBoth) {
       if (bound != 0) {
-        return InvalidArgument(at,
+        return InvalidArgument(at(),
                                "tag 3 (on both bounds) needs a zero bound (z = depth or "
                                "mu = 0), got mu kappa (depth - z) = " +
                                    FormatNumber(bound));
@@ -629,11 +630,11 @@ Status PiecewiseLinearMemory::CheckCoulomb(double mu_kappa) const {
     }
     const int sigma = tag_[i] == kOnUpper ? +1 : tag_[i] == kOnLower ? -1 : 0;
     if (sigma != 0 && sigma * u_[i] < bound - BoundTagTolerance(i, mu_kappa)) {
-      return InvalidArgument(at, std::string("is tagged on the ") +
-                                     (sigma > 0 ? "upper" : "lower") +
-                                     " bound but u = " + FormatNumber(u_[i]) +
-                                     " is off it (bound " + FormatNumber(bound) + ", tolerance " +
-                                     FormatNumber(BoundTagTolerance(i, mu_kappa)) + ")");
+      return InvalidArgument(at(), std::string("is tagged on the ") +
+                                       (sigma > 0 ? "upper" : "lower") +
+                                       " bound but u = " + FormatNumber(u_[i]) +
+                                       " is off it (bound " + FormatNumber(bound) + ", tolerance " +
+                                       FormatNumber(BoundTagTolerance(i, mu_kappa)) + ")");
     }
   }
   return OkStatus();
@@ -669,17 +670,16 @@ Status CheckAnchor(const SegmentAnchor& anchor, BoundTag on, double mu_kappa, do
 
 Status PiecewiseLinearMemory::CheckAnchors(double mu_kappa, double tangential_displacement) const {
   for (std::size_t i = 0; i < anchor_.size(); ++i) {
-    const std::string at = Indexed("memory", i) + ".anchor";
+    const auto at = [i] { return Indexed("memory", i) + ".anchor"; };  // only for an error
     if (i + 1 == anchor_.size()) {
       if (anchor_[i] != SegmentAnchor{}) {
-        return InvalidArgument(at, "must be empty on the last vertex (it starts no segment)");
+        return InvalidArgument(at(), "must be empty on the last vertex (it starts no segment)");
       }
       break;
     }
     const auto on = static_cast<BoundTag>(tag_[i] & tag_[i + 1]);
-    if (Status s = CheckAnchor(anchor_[i], on, mu_kappa, depth_, tangential_displacement, at);
-        !s.ok()) {
-      return s;
+    if (!CheckAnchor(anchor_[i], on, mu_kappa, depth_, tangential_displacement, "").ok()) {
+      return CheckAnchor(anchor_[i], on, mu_kappa, depth_, tangential_displacement, at());
     }
   }
   return OkStatus();
