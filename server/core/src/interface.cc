@@ -474,7 +474,7 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
   }
   kept_forces_valid_ = false;
   const std::size_t n = contacts_.size();
-  PackedContacts next = in_place ? PackedContacts() : PackedContacts(n);
+  PackedContacts next = in_place ? PackedContacts() : PackedContacts::Unwritten(n);
   PackedContacts& into = in_place ? contacts_ : next;
   const Interrupt& checked = in_place ? Interrupt{} : interrupt;
   FirstFailure failure(n);
@@ -485,6 +485,9 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
     ContactCursor cursor(configs_);
     bool lost = false;
     double energy = 0;
+    if (!in_place) {  // valid before anything can stop the range (the failure path frees them)
+      for (std::size_t i = begin; i < end; ++i) next.Clear(i);
+    }
     for (std::size_t i = begin; i < end; ++i) {
       if (Status s = checked.CheckEvery(kInterruptPeriod, i - begin); !s.ok()) {
         failure.Add(i, std::move(s));

@@ -179,7 +179,14 @@ constexpr std::size_t kBlockGranule = 64;
 
 }  // namespace
 
-PackedContacts::PackedContacts(std::size_t n) : records_(new Record[n]), size_(n) {}
+PackedContacts::PackedContacts(std::size_t n) : records_(new Record[n]()), size_(n) {}
+
+PackedContacts PackedContacts::Unwritten(std::size_t n) {
+  PackedContacts unwritten;
+  unwritten.records_.reset(new Record[n]);  // trivial: not initialized
+  unwritten.size_ = n;
+  return unwritten;
+}
 
 PackedContacts::PackedContacts(const PackedContacts& other) { CopyFrom(other); }
 
@@ -210,7 +217,7 @@ PackedContacts::~PackedContacts() { FreeBlocks(); }
 
 void PackedContacts::CopyFrom(const PackedContacts& other) {
   size_ = other.size_;
-  records_.reset(new Record[size_]);
+  records_.reset(new Record[size_]);  // every byte copied below
   std::memcpy(static_cast<void*>(records_.get()), other.records_.get(), size_ * sizeof(Record));
   std::size_t heap = 0;
   for (std::size_t i = 0; i < size_; ++i) {
@@ -246,7 +253,8 @@ void PackedContacts::FreeBlock(Record& r) {
 }
 
 void PackedContacts::FreeBlocks() {
-  for (std::size_t i = 0; i < size_; ++i) FreeBlock(records_[i]);
+  // Most interfaces have no block at all: no walk over millions of records then.
+  for (std::size_t i = 0; i < size_ && heap_bytes_.load() > 0; ++i) FreeBlock(records_[i]);
 }
 
 unsigned char* PackedContacts::Reserve(Record& r, std::size_t bytes) {
@@ -392,7 +400,7 @@ Contact& ContactCursor::Load(const PackedContacts& store, std::size_t i) {
 
 Contact& ContactCursor::Fresh(std::uint32_t config) {
   Bind(config);
-  static const PackedContacts kEmpty(1);
+  static const PackedContacts kEmpty(1);  // value-initialized: an empty record
   // A fresh record is out of contact with no memory; its config index is not read by Get.
   kEmpty.Get(0, &*contact_);
   return *contact_;

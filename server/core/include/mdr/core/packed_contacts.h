@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <vector>
 
 #include "mdr/core/contact.h"
@@ -31,6 +32,15 @@ class PackedContacts {
   PackedContacts() = default;
   // n records of contacts out of contact (depth 0, no memory, energies 0) with config 0.
   explicit PackedContacts(std::size_t n);
+  // n records left unwritten (a step's new records: the workers write them in parallel, where
+  // the memory is first touched). Each must be Clear()ed or Put before anything else reads or
+  // destroys it.
+  static PackedContacts Unwritten(std::size_t n);
+  // Makes record i a valid empty one (no heap block), without looking at what it held.
+  void Clear(std::size_t i) {
+    records_[i].bytes = 0;
+    records_[i].vertices = 0;
+  }
   PackedContacts(const PackedContacts& other);
   PackedContacts& operator=(const PackedContacts& other);
   PackedContacts(PackedContacts&& other) noexcept;
@@ -60,15 +70,18 @@ class PackedContacts {
   std::size_t heap_bytes() const { return heap_bytes_.load(std::memory_order_relaxed); }
 
  private:
+  // Trivial, so that an array of them can be left unwritten (Unwritten); value-initialized, all
+  // zero: an empty record.
   struct Record {
-    double depth = 0, ux = 0, dissipated = 0, last_dissipated = 0;
-    std::uint32_t config = 0;
-    std::uint32_t vertices = 0;
-    std::uint32_t bytes = 0;  // length of the encoding; > kInlineBytes: in a heap block
+    double depth, ux, dissipated, last_dissipated;
+    std::uint32_t config;
+    std::uint32_t vertices;
+    std::uint32_t bytes;  // length of the encoding; > kInlineBytes: in a heap block
     // The encoding, or (bytes > kInlineBytes) the block's pointer and capacity.
-    alignas(4) unsigned char data[kInlineBytes] = {};
+    alignas(4) unsigned char data[kInlineBytes];
   };
   static_assert(sizeof(Record) == kRecordBytes);
+  static_assert(std::is_trivial_v<Record>);
 
   // Room for an encoding of `bytes` in record i (inline, its heap block, or a new one); sets
   // the record's length.
