@@ -28,7 +28,7 @@ build/release/tests/bench/mdr_interface_bench --benchmark_filter=-MillionAsperit
   --benchmark_out_format=json --benchmark_out="$out/interface_bench.json" > /dev/null
 echo "10^6 asperities (a process each, for its resident size) -> $out/million_asperities_{1,2}.json"
 for workers in 1 2; do
-  build/release/tests/bench/mdr_interface_bench --benchmark_filter="MillionAsperities/$workers\$" \
+  build/release/tests/bench/mdr_interface_bench --benchmark_filter="MillionAsperities/$workers/" \
     --benchmark_out_format=json --benchmark_out="$out/million_asperities_$workers.json" > /dev/null
 done
 echo "10^6 asperities through the service -> $out/million_service.txt"

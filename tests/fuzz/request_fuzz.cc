@@ -177,6 +177,35 @@ std::string StateBytes(mdr::v1::SessionSnapshot snapshot) {
   return snapshot.SerializeAsString();
 }
 
+// A batch that the transport's thread may apply (docs/operations.md, "Inline steps") must do
+// what the workers' way does, bit for bit. Journaled sessions never run inline, so both ways run
+// on two imports of the state into a service without a journal.
+void CheckInlineMatchesWorkers(const mdr::v1::SessionSnapshot& state,
+                               const mdr::v1::ApplyRequest& request) {
+  static ContactOperations plain(mdr::service::ServiceLimits{}, {});
+  Reset(plain, state, "inline");
+  mdr::v1::ApplyRequest on_inline = request;
+  on_inline.set_session("sessions/inline");
+  mdr::v1::ApplyResponse inline_response;
+  const std::optional<mdr::Status> applied =
+      plain.ApplyIfBounded(std::nullopt, on_inline, &inline_response);
+  if (!applied) return;
+  Check(request.steps_size() == 1, "only one-step batches run inline");
+  Reset(plain, state, "worker");
+  mdr::v1::ApplyRequest on_worker = request;
+  on_worker.set_session("sessions/worker");
+  mdr::v1::ApplyResponse worker_response;
+  const mdr::Status worker = plain.Apply(std::nullopt, on_worker, nullptr, &worker_response);
+  Check(worker.code() == applied->code() && worker.field() == applied->field() &&
+            worker.message() == applied->message(),
+        "an inline batch fails or succeeds as on a worker");
+  Check(worker_response.state().SerializeAsString() ==
+            inline_response.state().SerializeAsString(),
+        "an inline batch answers the state a worker answers");
+  Check(StateBytes(Export(plain, "sessions/inline")) == StateBytes(Export(plain, "sessions/worker")),
+        "an inline batch leaves the state a worker leaves");
+}
+
 // The service with a journal in a temporary directory (removed at exit), as mdrd holds it.
 class JournaledService {
  public:
@@ -370,6 +399,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     mdr::v1::ApplyRequest request;
     if (!request.ParseFromArray(message, message_size)) return 0;
     request.set_session(session);
+    CheckInlineMatchesWorkers(before_state, request);
     mdr::v1::ApplyResponse response;
     const grpc::Status status =
         ToGrpcStatus(operations.Apply(std::nullopt, request, nullptr, &response));
