@@ -152,6 +152,11 @@ std::size_t Executor::queued() const {
   return queued_;
 }
 
+std::size_t Executor::busy() const {
+  std::lock_guard lock(mutex_);
+  return queued_ + running_;
+}
+
 bool Executor::ActiveLocked(const CallerQueue& queue, Clock::time_point now) const {
   return queue.queued > 0 || queue.running > 0 || queue.claims > 0 ||
          now - queue.last_active <= options_.recent_window;

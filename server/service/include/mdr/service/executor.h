@@ -100,6 +100,8 @@ class Executor {
   std::size_t max_queued_per_caller() const { return options_.max_queued_per_caller; }
   // Tasks waiting for a worker now.
   std::size_t queued() const;
+  // Tasks waiting or running now (0: every strand free for an inline task).
+  std::size_t busy() const;
   // The active callers other than `caller` (see above): whether it competes with anyone now.
   std::size_t OtherActiveCallers(std::string_view caller) const;
   // CPU time the worker threads used so far (their tasks and the dispatch between them), read

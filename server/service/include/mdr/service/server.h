@@ -74,6 +74,9 @@ class ContactServer {
   std::size_t open_streams() const { return service_.open_streams(); }
   // Computing calls waiting for a worker now.
   std::size_t queued_calls() const { return executor_.queued(); }
+  // Computing calls waiting or running now. A worker's call answers its client before the
+  // worker lets go of the session: a client's next call may find it busy for a moment.
+  std::size_t busy_calls() const { return executor_.busy(); }
 
   // Graceful stop: open StreamApply streams finish (UNAVAILABLE, after answering the message they
   // are working on), new calls are refused, running and queued calls get until the deadline; then
