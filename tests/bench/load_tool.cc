@@ -1104,7 +1104,7 @@ void RunExecutionScenarios(double seconds, std::size_t max_inline_vertices, bool
       static_cast<long long>(kProbePeriod.count()), seconds);
   // Heavy calls alone, then with streams of inline messages in the mix (issue #25: a message
   // the server applies on the transport's thread must not starve the health checks either).
-  for (const auto [heavy_clients, inline_streams] :
+  for (const auto& [heavy_clients, inline_streams] :
        std::array<std::pair<int, int>, 4>{{{4, 0}, {16, 0}, {4, 8}, {16, 32}}}) {
     ProbeFigures figures =
         ProbeUnderHeavyLoad(port, heavy_clients, inline_streams, clients_compete, seconds);

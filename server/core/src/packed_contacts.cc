@@ -7,6 +7,10 @@
 #include <new>
 #include <utility>
 
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
+
 namespace mdr {
 namespace {
 
@@ -179,11 +183,31 @@ constexpr std::size_t kBlockGranule = 64;
 
 }  // namespace
 
-PackedContacts::PackedContacts(std::size_t n) : records_(new Record[n]()), size_(n) {}
+void PackedContacts::FreeRecords::operator()(Record* records) const { std::free(records); }
+
+std::unique_ptr<PackedContacts::Record[], PackedContacts::FreeRecords>
+PackedContacts::AllocateRecords(std::size_t n) {
+  // A large array (a step of 10^6 contacts writes a new one of 128 MB) on transparent huge pages
+  // where the kernel offers them on request: 512 times fewer page faults when the workers first
+  // touch it. Small arrays on cache lines.
+  constexpr std::size_t kHugePage = std::size_t{2} << 20;
+  const std::size_t bytes = std::max<std::size_t>(n, 1) * sizeof(Record);
+  const std::size_t alignment = bytes >= 4 * kHugePage ? kHugePage : 64;
+  void* memory = std::aligned_alloc(alignment, (bytes + alignment - 1) / alignment * alignment);
+  if (memory == nullptr) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  if (alignment == kHugePage) (void)madvise(memory, bytes / kHugePage * kHugePage, MADV_HUGEPAGE);
+#endif
+  return std::unique_ptr<Record[], FreeRecords>(static_cast<Record*>(memory));  // trivial type
+}
+
+PackedContacts::PackedContacts(std::size_t n) : records_(AllocateRecords(n)), size_(n) {
+  std::memset(static_cast<void*>(records_.get()), 0, n * sizeof(Record));  // empty records
+}
 
 PackedContacts PackedContacts::Unwritten(std::size_t n) {
   PackedContacts unwritten;
-  unwritten.records_.reset(new Record[n]);  // trivial: not initialized
+  unwritten.records_ = AllocateRecords(n);  // trivial: not initialized
   unwritten.size_ = n;
   return unwritten;
 }
@@ -217,7 +241,7 @@ PackedContacts::~PackedContacts() { FreeBlocks(); }
 
 void PackedContacts::CopyFrom(const PackedContacts& other) {
   size_ = other.size_;
-  records_.reset(new Record[size_]);  // every byte copied below
+  records_ = AllocateRecords(size_);  // every byte copied below
   std::memcpy(static_cast<void*>(records_.get()), other.records_.get(), size_ * sizeof(Record));
   std::size_t heap = 0;
   for (std::size_t i = 0; i < size_; ++i) {
@@ -400,7 +424,7 @@ Contact& ContactCursor::Load(const PackedContacts& store, std::size_t i) {
 
 Contact& ContactCursor::Fresh(std::uint32_t config) {
   Bind(config);
-  static const PackedContacts kEmpty(1);  // value-initialized: an empty record
+  static const PackedContacts kEmpty(1);  // zeroed: an empty record
   // A fresh record is out of contact with no memory; its config index is not read by Get.
   kEmpty.Get(0, &*contact_);
   return *contact_;

@@ -92,7 +92,13 @@ class PackedContacts {
   void FreeBlocks();
   void CopyFrom(const PackedContacts& other);
 
-  std::unique_ptr<Record[]> records_;
+  // Record arrays come from AllocateRecords (aligned; std::free releases them).
+  struct FreeRecords {
+    void operator()(Record* records) const;
+  };
+  static std::unique_ptr<Record[], FreeRecords> AllocateRecords(std::size_t n);
+
+  std::unique_ptr<Record[], FreeRecords> records_;
   std::size_t size_ = 0;
   std::atomic<std::size_t> heap_bytes_{0};
 };
