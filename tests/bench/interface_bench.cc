@@ -147,7 +147,11 @@ BENCHMARK(BM_InterfaceCycling)
 // one interface, the same motion), and the speedup is the median of the rounds' ratios. Beside
 // it, the same alternation of a control that has no memory traffic and no shared state (a
 // fixed integer kernel per item, run through the same ThreadParallelFor): the machine's own
-// two-thread speedup at that moment, which bounds what any code can show. Arg: energy.
+// two-thread speedup at that moment, which bounds what any code can show. And, to compare the
+// cost per core across builds on a machine whose speed drifts, each round also steps one
+// asperity of the same kind alone as often as the interface steps its contacts: the interface's
+// 1-worker time over that single contact's is the cost of an asperity inside the interface
+// relative to the engine's own step. Arg: energy.
 std::uint64_t ControlKernel(std::uint64_t seed) {
   std::uint64_t a = seed, b = 2, c = 3, d = 4;
   for (int i = 0; i < 64; ++i) {
@@ -194,19 +198,34 @@ void BM_TwoWorkerSpeedup(benchmark::State& state) {
       }
       return Seconds(start);
     };
+    Contact single = pressed.contact(0);
+    int k_single = 0;
+    auto cycle_single = [&] {
+      const auto start = std::chrono::steady_clock::now();
+      for (int step = 0; step < 2 * kStepsPerHalfCycle; ++step) {
+        const double ux = CycleDisplacement(k_single++, amplitude);
+        for (std::size_t i = 0; i < kAsperities; ++i) {
+          benchmark::DoNotOptimize(single.MoveTo(single.depth(), ux));
+        }
+      }
+      return Seconds(start);
+    };
     (void)cycle(one_worker, k1);  // warm: the memories of one cycle
     (void)cycle(two_workers, k2);
-    std::vector<double> ratios, control_ratios, one_seconds, two_seconds;
+    (void)cycle_single();
+    std::vector<double> ratios, control_ratios, one_seconds, two_seconds, over_single;
     for (int round = 0; round < kRounds; ++round) {
       one_seconds.push_back(cycle(one_worker, k1));
       two_seconds.push_back(cycle(two_workers, k2));
       ratios.push_back(one_seconds.back() / two_seconds.back());
+      over_single.push_back(one_seconds.back() / cycle_single());
       const double control_one = control(nullptr);
       control_ratios.push_back(control_one / control(two.get()));
     }
     benchmark::DoNotOptimize(sinks.data());
     const double steps = 2 * kStepsPerHalfCycle;
     state.counters["speedup"] = Median(ratios);
+    state.counters["interface_over_single_contact"] = Median(over_single);
     state.counters["control_speedup"] = Median(control_ratios);
     state.counters["step_ms_1_worker"] = Median(one_seconds) / steps * 1e3;
     state.counters["step_ms_2_workers"] = Median(two_seconds) / steps * 1e3;
