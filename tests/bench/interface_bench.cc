@@ -3,20 +3,23 @@
 // single-contact step of the same run; force-target steps of the whole interface; memory.
 //   build/release/tests/bench/mdr_interface_bench
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "mdr/core/interface.h"
+#include "process_memory.h"
 
 namespace mdr {
 namespace {
+
+using bench::HeapInUse;
+using bench::PeakResidentBytes;
+using bench::ResidentBytes;
 
 constexpr std::size_t kAsperities = 10000;
 constexpr double kHeightSigma = 1e-6;  // m
@@ -24,19 +27,23 @@ constexpr double kRadius = 1e-4;       // m
 constexpr double kFriction = 0.3;
 constexpr int kStepsPerHalfCycle = 8;
 
-// Steel on steel, R = 0.1 mm summits with Gaussian heights (sigma 1 um), pressed to 3 sigma
-// above the summits' mean plane: nearly all asperities in contact, the lowest barely.
-Interface RoughSteelInterface(bool track_energy) {
+// Steel on steel, `count` R = 0.1 mm summits with Gaussian heights (sigma 1 um), not pressed.
+Interface UnpressedRoughSteel(std::size_t count, bool track_energy) {
   PopulationSpec spec;
-  spec.count = kAsperities;
+  spec.count = count;
   spec.height_scale = kHeightSigma;
   spec.radius = kRadius;
   spec.seed = 2026;
-  Interface interface =
-      std::move(Interface::Create(*HertzInterfaceConfig(*GeneratePopulation(spec),
-                                                        *ElasticPair(210e9, 0.3, 210e9, 0.3),
-                                                        kFriction, track_energy)))
-          .value();
+  return std::move(Interface::Create(*HertzInterfaceConfig(*GeneratePopulation(spec),
+                                                           *ElasticPair(210e9, 0.3, 210e9, 0.3),
+                                                           kFriction, track_energy)))
+      .value();
+}
+
+// kAsperities of them pressed to 3 sigma above the summits' mean plane: nearly all asperities
+// in contact, the lowest barely.
+Interface RoughSteelInterface(bool track_energy) {
+  Interface interface = UnpressedRoughSteel(kAsperities, track_energy);
   (void)interface.Apply({NormalControl::kDepth, 3 * kHeightSigma});
   return interface;
 }
@@ -50,34 +57,6 @@ double CycleDisplacement(int k, double amplitude) {
 
 // The slip distance mu kappa delta of a contact at the mean depth, times 0.4.
 double Amplitude(const Contact& contact) { return 0.4 * contact.mu_kappa() * 3 * kHeightSigma; }
-
-long ResidentBytes() {
-  std::ifstream statm("/proc/self/statm");
-  long pages = 0, resident = 0;
-  statm >> pages >> resident;
-  return resident * 4096;
-}
-
-// The largest resident size of the process so far (VmHWM), in bytes.
-long PeakResidentBytes() {
-  std::ifstream status("/proc/self/status");
-  std::string key;
-  long kib = 0;
-  while (status >> key) {
-    if (key == "VmHWM:") {
-      status >> kib;
-      return kib * 1024;
-    }
-  }
-  return 0;
-}
-
-// Bytes the allocator has handed out and not taken back (small blocks and mapped ones): unlike
-// the resident size, it does not depend on what earlier benchmarks freed into the heap.
-long HeapInUse() {
-  const struct mallinfo2 m = mallinfo2();
-  return static_cast<long>(m.uordblks + m.hblkhd);
-}
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -248,16 +227,7 @@ void BM_MillionAsperities(benchmark::State& state) {
   for (auto _ : state) {
     const long resident0 = ResidentBytes(), heap0 = HeapInUse(), peak0 = PeakResidentBytes();
     auto start = std::chrono::steady_clock::now();
-    PopulationSpec spec;
-    spec.count = kMillion;
-    spec.height_scale = kHeightSigma;
-    spec.radius = kRadius;
-    spec.seed = 2026;
-    Interface interface =
-        std::move(Interface::Create(*HertzInterfaceConfig(*GeneratePopulation(spec),
-                                                          *ElasticPair(210e9, 0.3, 210e9, 0.3),
-                                                          kFriction, /*track_energy=*/true)))
-            .value();
+    Interface interface = UnpressedRoughSteel(kMillion, /*track_energy=*/true);
     const double create = Seconds(start);
     if (workers > 1) interface.set_parallel(*MakeThreadParallelFor(workers));
     if (Status s = interface.Apply({NormalControl::kDepth, 3 * kHeightSigma}); !s.ok()) {

@@ -17,20 +17,23 @@
 #include <grpcpp/security/credentials.h>
 #include <spdlog/spdlog.h>
 
-#include <bit>
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
-#include <fstream>
 #include <memory>
 #include <string>
 
+#include "mdr/core/contact.h"
 #include "mdr/core/material.h"
+#include "mdr/core/population.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/server.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
+#include "process_memory.h"
 
 namespace {
+
+using mdr::bench::ResidentBytes;
 
 constexpr double kHeightSigma = 1e-6;  // m
 constexpr double kRadius = 1e-4;       // m
@@ -46,27 +49,19 @@ struct Options {
 
 Options ParseOptions(int argc, char** argv) {
   Options options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--count" && i + 1 < argc) {
-      options.count = std::stoul(argv[++i]);
-    } else if (arg == "--workers" && i + 1 < argc) {
-      options.workers = std::stoi(argv[++i]);
-    } else if (arg == "--cycles" && i + 1 < argc) {
-      options.cycles = std::stoi(argv[++i]);
-    } else {
-      std::fprintf(stderr, "usage: %s [--count N] [--workers W] [--cycles C]\n", argv[0]);
-      std::exit(2);
-    }
+  CLI::App app{"mdr_million_asperities: an interface of 10^6 Hertz asperities through the service"};
+  app.add_option("--count", options.count, "asperities")
+      ->check(CLI::Range(std::size_t{1}, mdr::kMaxInterfaceContacts));
+  app.add_option("--workers", options.workers, "the server's worker threads")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--cycles", options.cycles, "Mindlin-Deresiewicz cycles")
+      ->check(CLI::Range(1, 1000));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    std::exit(app.exit(e));
   }
   return options;
-}
-
-long ResidentBytes() {
-  std::ifstream statm("/proc/self/statm");
-  long pages = 0, resident = 0;
-  statm >> pages >> resident;
-  return resident * 4096;
 }
 
 using Clock = std::chrono::steady_clock;
@@ -140,10 +135,6 @@ class Client {
  private:
   std::unique_ptr<mdr::v1::ContactService::Stub> stub_;
 };
-
-bool SameBits(double a, double b) {
-  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
-}
 
 }  // namespace
 
@@ -225,9 +216,9 @@ int main(int argc, char** argv) {
   next.set_displacement(CycleDisplacement(steps, amplitude));
   const mdr::v1::ContactState a = client.Step(session.name(), next).state();
   const mdr::v1::ContactState b = client.Step(imported.name(), next).state();
-  const bool same = SameBits(a.normal_force(), b.normal_force()) &&
-                    SameBits(a.tangential_force(), b.tangential_force()) &&
-                    SameBits(a.dissipated_energy(), b.dissipated_energy());
+  const bool same = mdr::SameBits(a.normal_force(), b.normal_force()) &&
+                    mdr::SameBits(a.tangential_force(), b.tangential_force()) &&
+                    mdr::SameBits(a.dissipated_energy(), b.dissipated_energy());
 
   const double n = static_cast<double>(options.count);
   std::printf(

@@ -1,7 +1,6 @@
 #include "mdr/core/contact.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -72,14 +71,6 @@ Status ValidateContactConfig(const ContactConfig& config) {
   }
   return OkStatus();
 }
-
-namespace {
-
-bool SameBits(double a, double b) {
-  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
-}
-
-}  // namespace
 
 bool SameConfig(const ContactConfig& a, const ContactConfig& b) {
   // Every field: a field added to ContactConfig must be compared here.

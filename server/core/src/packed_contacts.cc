@@ -32,10 +32,6 @@ constexpr std::size_t kMaxTable = 15;  // indices are nibbles; 0 is the empty an
 // An encoded anchor of the raw and grid kinds: bound, ux, depth.
 constexpr std::size_t kAnchorBytes = 1 + 2 * sizeof(double);
 
-bool SameBits(double a, double b) {
-  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
-}
-
 bool IsEmptyAnchor(const SegmentAnchor& a) {
   return a.bound == kInside && SameBits(a.tangential_displacement, 0.0) && SameBits(a.depth, 0.0);
 }
@@ -242,7 +238,10 @@ PackedContacts::~PackedContacts() { FreeBlocks(); }
 void PackedContacts::CopyFrom(const PackedContacts& other) {
   size_ = other.size_;
   records_ = AllocateRecords(size_);  // every byte copied below
+  heap_bytes_.store(0);
+  if (size_ == 0) return;  // other may hold no array at all
   std::memcpy(static_cast<void*>(records_.get()), other.records_.get(), size_ * sizeof(Record));
+  if (other.heap_bytes() == 0) return;  // no block to copy: no walk over the records
   std::size_t heap = 0;
   for (std::size_t i = 0; i < size_; ++i) {
     Record& r = records_[i];

@@ -1,6 +1,7 @@
 // One contact's state and the loading steps applied to it (docs/physics.md). No gRPC in here.
 #pragma once
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -59,6 +60,12 @@ struct ContactConfig {
   double grid_max_radius = 0;    // m, > 0 for Method::kGrid
   GridStepRule grid_step_rule = GridStepRule::kExact;
 };
+
+// Bit-identical doubles (0 and -0 differ, a NaN equals itself): what "unchanged" and "the same"
+// mean for the state.
+inline bool SameBits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
 
 // Same config: the same profile object and every other field equal bit for bit (an interface
 // stores each distinct config once; PackedContacts).

@@ -70,8 +70,8 @@ class PackedContacts {
   std::size_t heap_bytes() const { return heap_bytes_.load(std::memory_order_relaxed); }
 
  private:
-  // Trivial, so that an array of them can be left unwritten (Unwritten); value-initialized, all
-  // zero: an empty record.
+  // Trivial, so that an array of them can be left unwritten (Unwritten); all zero bytes: an
+  // empty record.
   struct Record {
     double depth, ux, dissipated, last_dissipated;
     std::uint32_t config;
