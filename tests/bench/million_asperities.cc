@@ -2,9 +2,11 @@
 // created, pressed, cycled, exported and imported by a client on loopback, within the server's
 // default state budget:
 //   build/release/tests/bench/mdr_million_asperities [--count N] [--workers W] [--cycles C]
+//                                                    [--log-sigma S]
 //
-// Workload: steel on steel, mu = 0.3, Hertz summits R = 0.1 mm with Gaussian heights (sigma
-// 1 um, seed 2026) under one shared motion: pressed to an approach of 3 sigma, then
+// Workload: steel on steel, mu = 0.3, Hertz summits R = 0.1 mm (or lognormal radii of that
+// median with --log-sigma > 0: a sphere per summit) with Gaussian heights (sigma 1 um, seed
+// 2026) under one shared motion: pressed to an approach of 3 sigma, then
 // Mindlin-Deresiewicz cycling with energy (a triangle wave of amplitude 0.4 mu kappa 3 sigma, 8
 // steps per half cycle, C cycles), one unary Apply per step. The server runs in this process
 // with the default limits but --max-message-bytes at its largest (1 GiB: the export of 10^6
@@ -45,6 +47,7 @@ struct Options {
   std::size_t count = 1'000'000;
   int workers = 2;
   int cycles = 2;
+  double log_sigma = 0;  // > 0: lognormal radii
 };
 
 Options ParseOptions(int argc, char** argv) {
@@ -56,6 +59,9 @@ Options ParseOptions(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   app.add_option("--cycles", options.cycles, "Mindlin-Deresiewicz cycles")
       ->check(CLI::Range(1, 1000));
+  app.add_option("--log-sigma", options.log_sigma,
+                 "lognormal radii of this log_sigma (0: every summit of radius 0.1 mm)")
+      ->check(CLI::Range(0.0, 3.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -75,7 +81,7 @@ void Require(const grpc::Status& status, const char* what) {
   std::exit(1);
 }
 
-mdr::v1::Scene RoughScene(std::size_t count) {
+mdr::v1::Scene RoughScene(std::size_t count, double log_sigma) {
   mdr::v1::Scene scene;
   scene.mutable_sphere()->set_radius(kRadius);
   auto* pair = scene.mutable_elastic_pair();
@@ -90,6 +96,11 @@ mdr::v1::Scene RoughScene(std::size_t count) {
   interface->mutable_generated()->set_count(count);
   interface->mutable_generated()->set_height_scale(kHeightSigma);
   interface->mutable_generated()->set_seed(2026);
+  if (log_sigma > 0) {
+    interface->mutable_generated()->set_radius_distribution(
+        mdr::v1::GeneratedPopulation::RADIUS_DISTRIBUTION_LOGNORMAL);
+    interface->mutable_generated()->set_log_sigma(log_sigma);
+  }
   return scene;
 }
 
@@ -158,7 +169,7 @@ int main(int argc, char** argv) {
 
   Clock::time_point start = Clock::now();
   mdr::v1::CreateSessionRequest create;
-  *create.mutable_session()->mutable_scene() = RoughScene(options.count);
+  *create.mutable_session()->mutable_scene() = RoughScene(options.count, options.log_sigma);
   mdr::v1::Session session;
   {
     grpc::ClientContext context;

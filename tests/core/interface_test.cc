@@ -8,6 +8,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -25,12 +26,18 @@ using testing::SameSnapshot;
 EffectiveMaterial Steel() { return *ElasticPair(210e9, 0.3, 210e9, 0.3); }
 
 // n Hertz asperities, R = 0.1 mm, Gaussian summit heights of 1 um standard deviation.
-InterfaceConfig RoughInterface(std::size_t n, std::uint64_t seed, double friction = 0.3) {
+// log_sigma > 0: lognormal radii (every summit its own sphere), else all of radius 1e-4 m.
+InterfaceConfig RoughInterface(std::size_t n, std::uint64_t seed, double friction = 0.3,
+                               double log_sigma = 0) {
   PopulationSpec spec;
   spec.count = n;
   spec.height_scale = 1e-6;
   spec.radius = 1e-4;
   spec.seed = seed;
+  if (log_sigma > 0) {
+    spec.radii = RadiusDistribution::kLognormal;
+    spec.log_sigma = log_sigma;
+  }
   return *HertzInterfaceConfig(*GeneratePopulation(spec), Steel(), friction);
 }
 
@@ -216,18 +223,28 @@ TEST(InterfaceTest, OneContactIsBitIdenticalToASingleContact) {
   }
 }
 
+// Contact i on the grid method, which sends every step through a new record array
+// (Interface::StepContacts) instead of in place.
+InterfaceConfig WithGridContact(InterfaceConfig config, std::size_t i) {
+  config.contacts[i].method = Method::kGrid;
+  config.contacts[i].grid_size = 64;
+  config.contacts[i].grid_max_radius = 1e-4;
+  return config;
+}
+
+// Contacts of several settings, and several profiles of each (ConfigTable): lognormal radii,
+// every third contact with another friction and every fifth one without energy.
+InterfaceConfig MixedSettings(std::size_t n, std::uint64_t seed) {
+  InterfaceConfig config = RoughInterface(n, seed, 0.3, /*log_sigma=*/0.4);
+  for (std::size_t i = 0; i < n; i += 3) config.contacts[i].friction = 0.45;
+  for (std::size_t i = 0; i < n; i += 5) config.contacts[i].track_energy = false;
+  return config;
+}
+
 // Totals of an interface equal the in-order sums over independent contacts, bit for bit, with
 // and without worker threads.
-// with_grid: contact 1 uses the grid method, which sends every step through the step buffer
-// (Interface::Move) instead of in place.
-void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = false,
-                                   int steps = 60) {
-  InterfaceConfig config = RoughInterface(n, 21);
-  if (with_grid) {
-    config.contacts[1].method = Method::kGrid;
-    config.contacts[1].grid_size = 64;
-    config.contacts[1].grid_max_radius = 1e-4;
-  }
+void CheckSumOfIndependentContacts(const InterfaceConfig& config, int workers, int steps = 60) {
+  const std::size_t n = config.contacts.size();
   Interface interface = *Interface::Create(config);
   if (workers > 1) interface.set_parallel(*MakeThreadParallelFor(workers));
   std::vector<Contact> singles;
@@ -262,16 +279,33 @@ void CheckSumOfIndependentContacts(std::size_t n, int workers, bool with_grid = 
   }
 }
 
-TEST(InterfaceTest, TotalsAreSumsOfIndependentContacts) { CheckSumOfIndependentContacts(40, 1); }
+TEST(InterfaceTest, TotalsAreSumsOfIndependentContacts) {
+  CheckSumOfIndependentContacts(RoughInterface(40, 21), 1);
+}
 
-TEST(InterfaceTest, TwoWorkersGiveTheSameBits) { CheckSumOfIndependentContacts(5000, 2); }
+TEST(InterfaceTest, TwoWorkersGiveTheSameBits) {
+  CheckSumOfIndependentContacts(RoughInterface(5000, 21), 2);
+}
 
 TEST(InterfaceTest, StepsThroughNewRecordsGiveTheSameBits) {
   // A grid contact, or more contacts than a step makes in place, send every step through a new
   // record array (Interface::StepContacts).
-  CheckSumOfIndependentContacts(40, 1, /*with_grid=*/true);
-  CheckSumOfIndependentContacts(3000, 2, /*with_grid=*/true);
-  CheckSumOfIndependentContacts(Interface::kMaxInPlaceContacts + 1000, 2, false, /*steps=*/8);
+  CheckSumOfIndependentContacts(WithGridContact(RoughInterface(40, 21), 1), 1);
+  CheckSumOfIndependentContacts(WithGridContact(RoughInterface(3000, 21), 1), 2);
+  CheckSumOfIndependentContacts(RoughInterface(Interface::kMaxInPlaceContacts + 1000, 21), 2,
+                                /*steps=*/8);
+}
+
+// A cursor that goes from contact to contact switches profiles and settings (ContactCursor::
+// Bind): the contacts still step as single contacts of their own configs.
+TEST(InterfaceTest, DistinctRadiiAndSettingsGiveTheSameBits) {
+  const InterfaceConfig mixed = MixedSettings(300, 26);
+  const Interface interface = *Interface::Create(mixed);
+  EXPECT_EQ(interface.distinct_profiles(), 300u);
+  EXPECT_EQ(interface.distinct_configs(), 300u);
+  CheckSumOfIndependentContacts(mixed, 1);
+  CheckSumOfIndependentContacts(MixedSettings(3000, 27), 2);
+  CheckSumOfIndependentContacts(WithGridContact(MixedSettings(300, 28), 4), 2);
 }
 
 // A contact that fails in the middle of a step (grid reach, vertex limit): no contact changes.
@@ -545,6 +579,81 @@ TEST(InterfaceTest, MemoryBytesCountRecordsBlocksAndSharedConfigs) {
   EXPECT_LE(per_contact(), kRecordAndHeight + 2);
 }
 
+// Each distinct config once; equal settings once whatever the profile; a config taken out owns
+// its profile, a borrowed pointer does not.
+TEST(ConfigTableTest, KeepsEachConfigAndSettingsOnce) {
+  ContactConfig base;
+  base.material = Steel();
+  base.friction = 0.3;
+  const ProfilePtr one = *MakeSphere(1e-4), two = *MakeSphere(2e-4);
+  const auto with = [&](const ProfilePtr& profile, double friction) {
+    ContactConfig config = base;
+    config.profile = profile;
+    config.friction = friction;
+    return config;
+  };
+  ConfigTable table;
+  bool added = false;
+  EXPECT_EQ(table.Add(with(one, 0.3), &added), 0u);
+  EXPECT_TRUE(added);
+  EXPECT_EQ(table.Add(with(one, 0.3), &added), 0u);
+  EXPECT_FALSE(added);
+  EXPECT_EQ(table.Add(with(two, 0.3), &added), 1u);
+  EXPECT_TRUE(added);
+  EXPECT_EQ(table.Add(with(one, 0.5), &added), 2u);
+  EXPECT_EQ(table.Add(with(two, 0.5), &added), 3u);
+  EXPECT_EQ(table.Add(with(two, 0.5), &added), 3u);
+  EXPECT_FALSE(added);
+  table.FinishAdding();
+  EXPECT_EQ(table.size(), 4u);
+  EXPECT_EQ(table.profiles(), 2u);
+  EXPECT_EQ(table.settings_index(0), table.settings_index(1));
+  EXPECT_EQ(table.settings_index(2), table.settings_index(3));
+  EXPECT_NE(table.settings_index(0), table.settings_index(2));
+  EXPECT_EQ(table.settings(3).profile, nullptr);
+  EXPECT_TRUE(SameConfig(table.Config(3), with(two, 0.5)));
+  EXPECT_TRUE(SameConfig(table.Config(0), with(one, 0.3)));
+  EXPECT_GT(table.Config(1).profile.use_count(), two.use_count() - 1);
+  EXPECT_EQ(table.BorrowedProfile(1).use_count(), 0);
+  EXPECT_EQ(table.BorrowedProfile(1).get(), two.get());
+  EXPECT_EQ(&table.profile(2), one.get());
+  EXPECT_GE(table.MemoryBytes(), 4 * 16 + 2 * sizeof(ContactConfig) + 2 * 32);
+}
+
+// Summits of distinct radii share their settings (ConfigTable): each costs a 16-byte entry, its
+// depth limit and its 32-byte sphere beside its record and height.
+TEST(InterfaceTest, DistinctRadiiCostAnEntryAndASphereEach) {
+  const Interface interface = *Interface::Create(RoughInterface(1000, 14, 0.3, 0.5));
+  EXPECT_EQ(interface.distinct_profiles(), 1000u);
+  const double per_contact =
+      static_cast<double>(interface.MemoryBytes()) / static_cast<double>(interface.size());
+  constexpr double kRecordAndHeight = PackedContacts::kRecordBytes + sizeof(double);
+  constexpr double kEntryLimitAndSphere = 16 + sizeof(double) + 32;
+  EXPECT_GE(per_contact, kRecordAndHeight + kEntryLimitAndSphere);
+  EXPECT_LE(per_contact, kRecordAndHeight + kEntryLimitAndSphere + 2);
+}
+
+// A contact taken out of an interface owns its profile (the interface's cursors only borrow
+// theirs): it outlives the interface and the config it was made from.
+TEST(InterfaceTest, AContactTakenOutOwnsItsProfile) {
+  std::optional<Contact> taken;
+  {
+    InterfaceConfig config = RoughInterface(20, 29, 0.3, 0.5);
+    Interface interface = *Interface::Create(config);
+    ASSERT_TRUE(interface.Apply({NormalControl::kDepthIncrement, 2e-6}).ok());
+    taken = interface.contact(7);
+  }
+  EXPECT_GT(taken->config().profile.use_count(), 0);
+  EXPECT_NE(taken->config().profile->Describe().find("sphere R = "), std::string::npos);
+  Contact single = *Contact::Create(taken->config());
+  ASSERT_TRUE(MoveSingle(single, taken->depth(), 0).ok());
+  ASSERT_TRUE(SameSnapshot(single.Snapshot(), taken->Snapshot()));
+  ASSERT_TRUE(taken
+                  ->Apply({NormalControl::kDepthIncrement, 1e-7,
+                           TangentialControl::kDisplacementIncrement, 1e-8})
+                  .ok());
+}
+
 // The bound of what a step holds while it runs covers what it holds after it, and a new record
 // array besides.
 TEST(InterfaceTest, StepBytesBoundCoversTheStep) {
@@ -648,17 +757,10 @@ TEST(InterfaceTest, KeptStepForcesSumToTheBitsOfFreshOnesAfterEveryKindOfStep) {
 
 // ---------------------------------------------------------------- contact list
 
-// with_grid: contact 2 uses the grid method, which sends every step through the step buffer.
-void CheckListAgainstSingleContacts(bool with_grid) {
-  const std::size_t n = 30;
-  InterfaceConfig config = RoughInterface(n, 15);
+void CheckListAgainstSingleContacts(InterfaceConfig config) {
+  const std::size_t n = config.contacts.size();
   config.kind = InterfaceKind::kContactList;
   config.heights.clear();
-  if (with_grid) {
-    config.contacts[2].method = Method::kGrid;
-    config.contacts[2].grid_size = 64;
-    config.contacts[2].grid_max_radius = 1e-4;
-  }
   Interface list = *Interface::Create(config);
   std::vector<Contact> singles;
   for (const ContactConfig& c : config.contacts) singles.push_back(*Contact::Create(c));
@@ -684,8 +786,9 @@ void CheckListAgainstSingleContacts(bool with_grid) {
 }
 
 TEST(ContactListTest, EachContactIsBitIdenticalToASingleContact) {
-  CheckListAgainstSingleContacts(false);
-  CheckListAgainstSingleContacts(true);
+  CheckListAgainstSingleContacts(RoughInterface(30, 15));
+  CheckListAgainstSingleContacts(WithGridContact(RoughInterface(30, 15), 2));
+  CheckListAgainstSingleContacts(WithGridContact(MixedSettings(30, 15), 2));
 }
 
 TEST(ContactListTest, AFailingContactChangesNoContact) {

@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <numbers>
+#include <vector>
 
+#include "mdr/core/contact.h"
 #include "test_util.h"
 
 namespace mdr {
@@ -19,6 +21,31 @@ TEST(ProfileTest, SphereIsPowerLawTwoWithGEqualsXSquaredOverR) {
   EXPECT_TRUE(RelNear(sphere->RadiusAtDepth(1e-6), std::sqrt(1e-6 * 0.01), 1e-15));
   EXPECT_TRUE(RelNear(sphere->Moment(1, 2e-4), 2e-4 * sphere->G(2e-4) / 3, 1e-15));
   EXPECT_TRUE(RelNear(sphere->Moment(2, 2e-4), 2e-4 * std::pow(sphere->G(2e-4), 2) / 5, 1e-15));
+}
+
+// A rough surface's spheres, made together: each is MakeSphere's bit for bit, 32 bytes, and all
+// share one allocation's ownership.
+TEST(ProfileTest, SpheresMadeTogetherEqualSpheresMadeAlone) {
+  const std::vector<double> radii = {1e-4, 2.5e-5, 0.01, 3e-3};
+  const std::vector<ProfilePtr> spheres = *MakeSpheres(radii);
+  ASSERT_EQ(spheres.size(), radii.size());
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    const ProfilePtr alone = *MakeSphere(radii[i]);
+    EXPECT_EQ(spheres[i]->Describe(), alone->Describe());
+    EXPECT_EQ(spheres[i]->MemoryBytes(), 32u);
+    for (const double x : {0.0, 1e-7, 3.3e-6, 1e-4}) {
+      EXPECT_TRUE(SameBits(spheres[i]->G(x), alone->G(x)));
+      EXPECT_TRUE(SameBits(spheres[i]->RadiusAtDepth(x), alone->RadiusAtDepth(x)));
+      EXPECT_TRUE(SameBits(spheres[i]->NormalForcePerModulus(x), alone->NormalForcePerModulus(x)));
+      EXPECT_TRUE(SameBits(spheres[i]->DepthAtNormalForcePerModulus(x),
+                           alone->DepthAtNormalForcePerModulus(x)));
+    }
+    // One owner for all: neither pointer's control block orders before the other's.
+    EXPECT_FALSE(spheres[i].owner_before(spheres[0]) || spheres[0].owner_before(spheres[i]));
+  }
+  const Status bad = MakeSpheres(std::vector<double>{1e-4, 0.0}).status();
+  EXPECT_EQ(bad.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(bad.field(), "radii[1].radius");
 }
 
 TEST(ProfileTest, ConeScaleIsHalfPiTanTheta) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <sstream>
 
@@ -73,9 +74,14 @@ Status ValidateContactConfig(const ContactConfig& config) {
 }
 
 bool SameConfig(const ContactConfig& a, const ContactConfig& b) {
-  // Every field: a field added to ContactConfig must be compared here.
+  return a.profile == b.profile && SameSettings(a, b);
+}
+
+bool SameSettings(const ContactConfig& a, const ContactConfig& b) {
+  // Every field but the profile: a field added to ContactConfig must be compared here and
+  // hashed in HashSettings.
   static_assert(sizeof(ContactConfig) == 112, "compare the new field of ContactConfig");
-  return a.profile == b.profile && SameBits(a.material.e_star, b.material.e_star) &&
+  return SameBits(a.material.e_star, b.material.e_star) &&
          SameBits(a.material.g_star, b.material.g_star) && SameBits(a.friction, b.friction) &&
          a.track_energy == b.track_energy &&
          SameBits(a.force_path_tolerance, b.force_path_tolerance) &&
@@ -85,12 +91,38 @@ bool SameConfig(const ContactConfig& a, const ContactConfig& b) {
          SameBits(a.grid_max_radius, b.grid_max_radius) && a.grid_step_rule == b.grid_step_rule;
 }
 
+std::size_t HashSettings(const ContactConfig& c) {
+  std::size_t hash = 0;
+  const auto mix = [&hash](std::uint64_t value) {
+    hash ^= std::hash<std::uint64_t>{}(value) + 0x9e3779b97f4a7c15ULL + (hash << 6) + (hash >> 2);
+  };
+  for (double value : {c.material.e_star, c.material.g_star, c.friction, c.force_path_tolerance,
+                       c.rig.tangential, c.rig.normal, c.grid_max_radius}) {
+    mix(std::bit_cast<std::uint64_t>(value));
+  }
+  for (std::uint64_t value : {std::uint64_t{c.track_energy}, std::uint64_t{c.max_memory_vertices},
+                              static_cast<std::uint64_t>(c.method), std::uint64_t{c.grid_size},
+                              static_cast<std::uint64_t>(c.grid_step_rule)}) {
+    mix(value);
+  }
+  return hash;
+}
+
 double NormalForceAtDepth(const ContactConfig& config, double depth) {
-  return config.material.e_star * config.profile->NormalForcePerModulus(depth);
+  return NormalForceAtDepth(*config.profile, config.material, depth);
 }
 
 double DepthAtNormalForce(const ContactConfig& config, double normal_force) {
-  return config.profile->DepthAtNormalForcePerModulus(normal_force / config.material.e_star);
+  return DepthAtNormalForce(*config.profile, config.material, normal_force);
+}
+
+double NormalForceAtDepth(const Profile& profile, const EffectiveMaterial& material, double depth) {
+  return material.e_star * profile.NormalForcePerModulus(depth);
+}
+
+double DepthAtNormalForce(const Profile& profile, const EffectiveMaterial& material,
+                          double normal_force) {
+  return profile.DepthAtNormalForcePerModulus(normal_force / material.e_star);
 }
 
 double ContactRadiusAtDepth(const ContactConfig& config, double depth) {

@@ -10,7 +10,6 @@
 #include <string>
 #include <thread>
 #include <unordered_map>
-#include <unordered_set>
 #include <utility>
 
 #include "mdr/base/validate.h"
@@ -220,19 +219,32 @@ Result<InterfaceConfig> HertzInterfaceConfig(const Population& population,
                                         std::to_string(population.heights.size()) + "), got " +
                                         std::to_string(population.radii.size()));
   }
-  InterfaceConfig config;
-  config.contacts.reserve(population.radii.size());
-  config.heights.reserve(population.radii.size());
-  std::unordered_map<double, ProfilePtr> spheres;  // equal radii share one profile
-  for (std::size_t i = 0; i < population.radii.size(); ++i) {
-    ProfilePtr& sphere = spheres[population.radii[i]];
-    if (!sphere) {
-      Result<ProfilePtr> made = MakeSphere(population.radii[i]);
-      if (!made.ok()) return made.status().WithFieldPrefix(Indexed("radii", i));
-      sphere = *made;
+  // Equal radii share one profile; the distinct ones are made together (32 bytes each).
+  const std::size_t n = population.radii.size();
+  std::unordered_map<double, std::uint32_t> sphere_of_radius;
+  std::vector<double> distinct;
+  std::vector<std::uint32_t> sphere_of(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double radius = population.radii[i];
+    const auto [it, added] =
+        sphere_of_radius.try_emplace(radius, static_cast<std::uint32_t>(distinct.size()));
+    if (added) {
+      if (Status s = RequireSceneScale("radius", radius); !s.ok()) {
+        return s.WithFieldPrefix(Indexed("radii", i));
+      }
+      distinct.push_back(radius);
     }
+    sphere_of[i] = it->second;
+  }
+  sphere_of_radius = {};
+  Result<std::vector<ProfilePtr>> spheres = MakeSpheres(distinct);
+  if (!spheres.ok()) return spheres.status();  // not reached: every radius passed above
+  InterfaceConfig config;
+  config.contacts.reserve(n);
+  config.heights.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
     ContactConfig contact;
-    contact.profile = sphere;
+    contact.profile = (*spheres)[sphere_of[i]];
     contact.material = material;
     contact.friction = friction;
     contact.track_energy = track_energy;
@@ -305,36 +317,27 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
   built.heights_ = std::move(config.heights);
   built.contacts_ = PackedContacts(n);
   built.max_approach_ = std::numeric_limits<double>::infinity();
-  // Each distinct config once (validated once), found through its profile.
-  std::unordered_map<const Profile*, std::vector<std::uint32_t>> by_profile;
+  // Each distinct config once (validated once).
   std::vector<std::uint32_t> config_of(n);
   for (std::size_t i = 0; i < n; ++i) {
-    ContactConfig& c = config.contacts[i];
-    std::vector<std::uint32_t>& candidates = by_profile[c.profile.get()];
-    const auto same = std::find_if(candidates.begin(), candidates.end(), [&](std::uint32_t k) {
-      return SameConfig(built.configs_[k], c);
-    });
-    if (same != candidates.end()) {
-      config_of[i] = *same;
-    } else {
+    const ContactConfig& c = config.contacts[i];
+    bool added = false;
+    config_of[i] = built.configs_.Add(c, &added);
+    if (added) {
       if (Status s = ValidateContactConfig(c); !s.ok()) {
         return s.WithFieldPrefix(Indexed("contacts", i));
       }
-      config_of[i] = static_cast<std::uint32_t>(built.configs_.size());
-      candidates.push_back(config_of[i]);
       built.max_depth_.push_back(MaxDepth(c));
       built.all_exact_ = built.all_exact_ && c.method == Method::kExact;
       built.max_mu_kappa_ = std::max(built.max_mu_kappa_, MuKappa(c));
-      built.configs_.push_back(std::move(c));
     }
     built.max_approach_ =
         std::min(built.max_approach_, built.height(i) + built.max_depth_[config_of[i]]);
   }
+  built.configs_.FinishAdding();
+  built.max_depth_.shrink_to_fit();
   config.contacts.clear();
   config.contacts.shrink_to_fit();
-  std::unordered_set<const Profile*> profiles;
-  for (const ContactConfig& c : built.configs_) profiles.insert(c.profile.get());
-  built.distinct_profiles_ = profiles.size();
   if (shared) {
     // Touching the highest contact: every depth delta - h_i <= 0, so nothing is loaded.
     built.approach_ = built.heights_.empty()
@@ -378,7 +381,7 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
   for (std::size_t i = 0; i < restored.size(); ++i) {
     const auto prefix = [i] { return Indexed("contacts", i); };  // only for an error
     const std::uint32_t k = restored.contacts_.config_index(i);
-    Result<Contact> contact = Contact::Restore(restored.configs_[k], snapshot.contacts[i]);
+    Result<Contact> contact = Contact::Restore(restored.configs_.Config(k), snapshot.contacts[i]);
     if (!contact.ok()) return contact.status().WithFieldPrefix(prefix());
     const double expected_depth = snapshot.approach - restored.height(i);
     if (shared && contact->depth() != expected_depth) {
@@ -424,7 +427,7 @@ void Interface::SnapshotEach(
 
 Contact Interface::contact(std::size_t i) const {
   ContactCursor cursor(configs_);
-  return cursor.Load(contacts_, i);
+  return cursor.Copy(contacts_, i);
 }
 
 Status Interface::ForEach(const std::function<Status(std::size_t)>& fn,
@@ -623,12 +626,12 @@ double Interface::TotalNormalForce(double delta, double* stiffness, const Interr
   std::vector<double> force(contacts_.size()), slope(contacts_.size());
   *status = ForEach(
       [&](std::size_t i) {
-        const ContactConfig& config = contact_config(i);
+        const EffectiveMaterial& material = settings_of(i).material;
+        const Profile& profile = profile_of(i);
         const double depth = delta - height(i);
-        force[i] = NormalForceAtDepth(config, depth);
+        force[i] = NormalForceAtDepth(profile, material, depth);
         // dF_N/d(delta) = 2 E* a (docs/physics.md).
-        slope[i] =
-            depth > 0 ? 2 * config.material.e_star * config.profile->RadiusAtDepth(depth) : 0.0;
+        slope[i] = depth > 0 ? 2 * material.e_star * profile.RadiusAtDepth(depth) : 0.0;
         return OkStatus();
       },
       interrupt);
@@ -655,7 +658,9 @@ Result<double> Interface::SolveApproach(double target, InterfaceStepReport* repo
                              std::min_element(heights_.begin(), heights_.end()) - heights_.begin());
   double lo = height(first);
   if (target == 0) return lo;
-  double hi = std::min(lo + DepthAtNormalForce(contact_config(first), target), max_approach_);
+  double hi =
+      std::min(lo + DepthAtNormalForce(profile_of(first), settings_of(first).material, target),
+               max_approach_);
   if (hi == max_approach_) {
     double unused = 0;
     const double largest = TotalNormalForce(hi, &unused, interrupt, &status);
@@ -870,7 +875,7 @@ Result<bool> Interface::ListStepFitsInPlace(const ContactListStep& step,
         const ContactTarget target = DisplacementTarget(step, i, depth, ux);
         if (Status s = CheckListTarget(i, target); !s.ok()) return s;
         scale[i] = std::abs(target.ux - ux) +
-                   2 * MuKappa(contact_config(i)) * std::max({depth, target.depth, 0.0});
+                   2 * MuKappa(settings_of(i)) * std::max({depth, target.depth, 0.0});
         return OkStatus();
       },
       interrupt);
@@ -925,9 +930,11 @@ Interface::ForceSums Interface::SumForces(bool normal, bool tangential, bool ene
   const bool kept = kept_forces_valid_;
   auto take_scalars = [&](std::size_t i) {
     if (normal) {
+      const ContactConfig& settings = settings_of(i);
       per[i].normal_force =
-          kept ? kept_normal_forces_[i] : NormalForceAtDepth(contact_config(i), contacts_.depth(i));
-      per[i].friction_limit = contact_config(i).friction * per[i].normal_force;
+          kept ? kept_normal_forces_[i]
+               : NormalForceAtDepth(profile_of(i), settings.material, contacts_.depth(i));
+      per[i].friction_limit = settings.friction * per[i].normal_force;
     }
     if (tangential && kept) per[i].tangential_force = kept_tangential_forces_[i];
     if (energy) per[i].dissipated_energy = contacts_.dissipated_energy(i);
@@ -967,7 +974,7 @@ Interface::VertexTotals Interface::CountVertices() const {
     for (std::size_t i = begin; i < end; ++i) {
       const std::size_t vertices = contacts_.vertex_count(i);
       n += vertices;
-      bound += std::min(3 * vertices + 1, contact_config(i).max_memory_vertices);
+      bound += std::min(3 * vertices + 1, settings_of(i).max_memory_vertices);
     }
     now.fetch_add(n, std::memory_order_relaxed);  // integer sums: the split does not matter
     after.fetch_add(bound, std::memory_order_relaxed);
@@ -1000,12 +1007,11 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
 }
 
 std::size_t Interface::MemoryBytes() const {
-  constexpr std::size_t kProfileBytes = 96;  // a profile object and its control block
   return sizeof(Interface) + contacts_.MemoryBytes() +
          (heights_.capacity() + max_depth_.capacity() + kept_normal_forces_.capacity() +
           kept_tangential_forces_.capacity()) *
              sizeof(double) +
-         configs_.capacity() * sizeof(ContactConfig) + distinct_profiles_ * kProfileBytes;
+         configs_.MemoryBytes();
 }
 
 std::size_t Interface::StepBytesBound() const {
@@ -1018,7 +1024,7 @@ std::size_t Interface::StepBytesBound() const {
   RunOverContacts([&](std::size_t begin, std::size_t end) {
     std::size_t bytes = 0;
     for (std::size_t i = begin; i < end; ++i) {
-      const ContactConfig& config = contact_config(i);
+      const ContactConfig& config = settings_of(i);
       if (config.method == Method::kGrid) {
         bytes += config.grid_size * (sizeof(double) + 1 + 1 + 2 * sizeof(double)) + kBlockSlack;
         continue;

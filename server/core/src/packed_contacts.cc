@@ -404,15 +404,86 @@ void PackedContacts::Get(std::size_t i, Contact* contact) const {
   }
 }
 
+std::uint32_t ConfigTable::Add(const ContactConfig& config, bool* added) {
+  std::vector<std::uint32_t>& same_profile = entries_by_profile_[config.profile.get()];
+  for (std::uint32_t k : same_profile) {
+    if (SameSettings(settings_[entries_[k].settings], config)) {
+      *added = false;
+      return k;
+    }
+  }
+  std::vector<std::uint32_t>& same_hash = settings_by_hash_[HashSettings(config)];
+  const auto found = std::find_if(same_hash.begin(), same_hash.end(), [&](std::uint32_t k) {
+    return SameSettings(settings_[k], config);
+  });
+  std::uint32_t settings = 0;
+  if (found != same_hash.end()) {
+    settings = *found;
+  } else {
+    settings = static_cast<std::uint32_t>(settings_.size());
+    settings_.push_back(config);
+    settings_.back().profile = nullptr;
+    same_hash.push_back(settings);
+  }
+  // Consecutive profiles of one allocation (MakeSpheres) share its owning pointer.
+  const bool same_owner = !owners_.empty() && !owners_.back().owner_before(config.profile) &&
+                          !config.profile.owner_before(owners_.back());
+  if (!same_owner) owners_.push_back(config.profile);
+  if (same_profile.empty() && config.profile != nullptr) {
+    ++profile_count_;
+    profile_bytes_ += config.profile->MemoryBytes();
+  }
+  const auto k = static_cast<std::uint32_t>(entries_.size());
+  entries_.push_back(
+      {config.profile.get(), settings, static_cast<std::uint32_t>(owners_.size() - 1)});
+  same_profile.push_back(k);
+  *added = true;
+  return k;
+}
+
+void ConfigTable::FinishAdding() {
+  settings_by_hash_ = {};
+  entries_by_profile_ = {};
+  settings_.shrink_to_fit();
+  entries_.shrink_to_fit();
+  owners_.shrink_to_fit();
+}
+
+ContactConfig ConfigTable::Config(std::uint32_t k) const {
+  ContactConfig config = settings(k);
+  config.profile = ProfilePtr(owners_[entries_[k].owner], entries_[k].profile);
+  return config;
+}
+
+std::size_t ConfigTable::MemoryBytes() const {
+  // An owning pointer's allocation also holds a control block (and the allocator's header).
+  constexpr std::size_t kControlBlockBytes = 32;
+  return entries_.capacity() * sizeof(Entry) + settings_.capacity() * sizeof(ContactConfig) +
+         owners_.capacity() * sizeof(ProfilePtr) + owners_.size() * kControlBlockBytes +
+         profile_bytes_;
+}
+
 void ContactCursor::Bind(std::uint32_t config) {
   if (contact_ && bound_ == config) return;
-  const ContactConfig& c = (*configs_)[config];
-  if (contact_ && contact_->config_.method == Method::kExact && c.method == Method::kExact) {
-    contact_->config_ = c;  // the memory's vectors keep their capacity
+  const ContactConfig& settings = configs_->settings(config);
+  if (contact_ && contact_->config_.method == Method::kExact && settings.method == Method::kExact) {
+    // The memory's vectors keep their capacity; summits of one surface share their settings.
+    if (configs_->settings_index(bound_) != configs_->settings_index(config)) {
+      contact_->config_ = settings;
+    }
+    contact_->config_.profile = configs_->BorrowedProfile(config);
   } else {
-    contact_.emplace(Contact(c));
+    ContactConfig bound = settings;
+    bound.profile = configs_->BorrowedProfile(config);
+    contact_.emplace(Contact(std::move(bound)));
   }
   bound_ = config;
+}
+
+Contact ContactCursor::Copy(const PackedContacts& store, std::size_t i) {
+  Contact copy = Load(store, i);
+  copy.config_ = configs_->Config(store.config_index(i));
+  return copy;
 }
 
 Contact& ContactCursor::Load(const PackedContacts& store, std::size_t i) {

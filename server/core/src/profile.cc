@@ -36,6 +36,11 @@ double IntegratePowerOfHypotenuse(double r, double span, double beta) {
   return total;
 }
 
+// Bytes of a string's buffer outside the object (none within the small-string buffer).
+std::size_t HeapBytes(const std::string& text) {
+  return text.capacity() > std::string().capacity() ? text.capacity() + 1 : 0;
+}
+
 // g = k x^n for any exponent (pow); n = 2 and n = 1 have their own classes below.
 class PowerLawProfile final : public Profile {
  public:
@@ -71,16 +76,31 @@ class PowerLawProfile final : public Profile {
     return G(a);
   }
   std::string Describe() const override { return name_; }
+  std::size_t MemoryBytes() const override { return sizeof(*this) + HeapBytes(name_); }
 
  private:
   double n_, k_;
   std::string name_;
 };
 
+// A sphere's name, from its radius when asked: 8 bytes instead of a string (a rough surface has
+// a sphere per summit).
+struct SphereName {
+  double radius;
+};
+std::string Describe(const SphereName& sphere) {
+  std::ostringstream name;
+  name << "sphere R = " << sphere.radius << " m";
+  return name.str();
+}
+std::string Describe(const std::string& name) { return name; }
+std::size_t HeapBytes(const SphereName&) { return 0; }
+
 // g = k x^2 (sphere, power law n = 2): x = sqrt(z/k), no pow anywhere.
+template <typename Name>
 class ParabolicProfile final : public Profile {
  public:
-  ParabolicProfile(double scale, std::string name)
+  ParabolicProfile(double scale, Name name)
       : k_(scale), inverse_k_(1 / scale), name_(std::move(name)) {}
 
   double G(double x) const override { return k_ * (x * x); }
@@ -117,12 +137,14 @@ class ParabolicProfile final : public Profile {
     // same double as before the parabolic class (8 ulps apart), so recorded histories replay.
     return G(std::pow(f * 3 / (4 * k_), 1.0 / 3));
   }
-  std::string Describe() const override { return name_; }
+  std::string Describe() const override { return mdr::Describe(name_); }
+  std::size_t MemoryBytes() const override { return sizeof(*this) + HeapBytes(name_); }
 
  private:
   double k_, inverse_k_;
-  std::string name_;
+  Name name_;
 };
+using SphereProfile = ParabolicProfile<SphereName>;
 
 // g = k x (cone, power law n = 1): x = z/k.
 class ConicalProfile final : public Profile {
@@ -156,6 +178,7 @@ class ConicalProfile final : public Profile {
     return G(std::sqrt(f / k_));  // F_N/E* = a z with z = k a
   }
   std::string Describe() const override { return name_; }
+  std::size_t MemoryBytes() const override { return sizeof(*this) + HeapBytes(name_); }
 
  private:
   double k_;
@@ -164,7 +187,9 @@ class ConicalProfile final : public Profile {
 
 // g = k x^n by the class that evaluates it most cheaply.
 ProfilePtr MakeScaledPowerLaw(double scale, double exponent, std::string name) {
-  if (exponent == 2) return std::make_shared<ParabolicProfile>(scale, std::move(name));
+  if (exponent == 2) {
+    return std::make_shared<ParabolicProfile<std::string>>(scale, std::move(name));
+  }
   if (exponent == 1) return std::make_shared<ConicalProfile>(scale, std::move(name));
   return std::make_shared<PowerLawProfile>(scale, exponent, std::move(name));
 }
@@ -187,6 +212,7 @@ class FlatPunchProfile final : public Profile {
     out << "flat punch a0 = " << a0_ << " m";
     return out.str();
   }
+  std::size_t MemoryBytes() const override { return sizeof(*this); }
 
  private:
   double a0_;
@@ -246,11 +272,26 @@ Result<ProfilePtr> MakePowerLaw(double coefficient, double exponent) {
                             PowerLawName(coefficient, exponent));
 }
 
+double SphereScale(double radius) { return PowerLawScale(1 / (2 * radius), 2.0); }
+
 Result<ProfilePtr> MakeSphere(double radius) {
   if (Status s = RequireSceneScale("radius", radius); !s.ok()) return s;
-  std::ostringstream name;
-  name << "sphere R = " << radius << " m";
-  return MakeScaledPowerLaw(PowerLawScale(1 / (2 * radius), 2.0), 2.0, name.str());
+  return ProfilePtr(std::make_shared<SphereProfile>(SphereScale(radius), SphereName{radius}));
+}
+
+Result<std::vector<ProfilePtr>> MakeSpheres(std::span<const double> radii) {
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    if (Status s = RequireSceneScale("radius", radii[i]); !s.ok()) {
+      return s.WithFieldPrefix(Indexed("radii", i));
+    }
+  }
+  auto pool = std::make_shared<std::vector<SphereProfile>>();
+  pool->reserve(radii.size());  // never reallocated: the pointers below stay valid
+  for (double radius : radii) pool->emplace_back(SphereScale(radius), SphereName{radius});
+  std::vector<ProfilePtr> spheres;
+  spheres.reserve(radii.size());
+  for (const SphereProfile& sphere : *pool) spheres.emplace_back(pool, &sphere);
+  return spheres;
 }
 
 Result<ProfilePtr> MakeCone(double slope_angle) {

@@ -448,6 +448,15 @@ std::string Description(const std::vector<double>& radii, TabulatedOptions optio
 
 }  // namespace
 
+std::size_t TabulatedProfile::MemoryBytes() const {
+  std::size_t bytes = sizeof(*this) + description_.capacity() + 1;
+  for (const auto* table :
+       {&grid_.x, &grid_.g, &grid_.slope, &grid_.moment1, &grid_.moment2, &grid_.force}) {
+    bytes += table->capacity() * sizeof(double);
+  }
+  return bytes;
+}
+
 TabulatedProfile::TabulatedProfile(Grid grid, double tolerance_estimate, std::string description)
     : grid_(std::move(grid)),
       flat_radius_(0),

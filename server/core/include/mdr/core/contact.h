@@ -68,8 +68,12 @@ inline bool SameBits(double a, double b) {
 }
 
 // Same config: the same profile object and every other field equal bit for bit (an interface
-// stores each distinct config once; PackedContacts).
+// stores each distinct config once; ConfigTable).
 bool SameConfig(const ContactConfig& a, const ContactConfig& b);
+// Every field but the profile equal bit for bit (the settings ConfigTable shares), and a hash
+// of those fields that equal settings share.
+bool SameSettings(const ContactConfig& a, const ContactConfig& b);
+std::size_t HashSettings(const ContactConfig& config);
 
 // What a config alone fixes: mu kappa, F_N(delta) for its profile and material and the inverse
 // (F_N >= 0), and the contact radius at a depth (0 out of contact). Contact's members of these
@@ -79,6 +83,10 @@ inline double MuKappa(const ContactConfig& config) {
 }
 double NormalForceAtDepth(const ContactConfig& config, double depth);
 double DepthAtNormalForce(const ContactConfig& config, double normal_force);
+// The same for a profile and material given apart (an interface's contacts share the material).
+double NormalForceAtDepth(const Profile& profile, const EffectiveMaterial& material, double depth);
+double DepthAtNormalForce(const Profile& profile, const EffectiveMaterial& material,
+                          double normal_force);
 double ContactRadiusAtDepth(const ContactConfig& config, double depth);
 
 // Validates a config: profile present, material moduli > 0, friction >= 0 and finite,

@@ -163,16 +163,18 @@ class Interface {
   // Contact i, decoded into a Contact of its own (a copy: it allocates; passes over all contacts
   // use the accessors below or the interface's own outputs).
   Contact contact(std::size_t i) const;
-  const ContactConfig& contact_config(std::size_t i) const {
-    return configs_[contacts_.config_index(i)];
+  // Contact i's config (a copy that owns its profile).
+  ContactConfig contact_config(std::size_t i) const {
+    return configs_.Config(contacts_.config_index(i));
   }
   double contact_depth(std::size_t i) const { return contacts_.depth(i); }
   double contact_dissipated_energy(std::size_t i) const { return contacts_.dissipated_energy(i); }
   double contact_last_step_dissipation(std::size_t i) const {
     return contacts_.last_step_dissipation(i);
   }
-  // The distinct configs the contacts share.
+  // The distinct configs and profiles the contacts share.
   std::size_t distinct_configs() const { return configs_.size(); }
+  std::size_t distinct_profiles() const { return configs_.profiles(); }
   double height(std::size_t i) const { return heights_.empty() ? 0.0 : heights_[i]; }
   double approach() const { return approach_; }
   double tangential_displacement() const { return ux_; }
@@ -242,6 +244,13 @@ class Interface {
   bool CanStepInPlace(double slide_scale) const;
   // The depth at which contact i's mu F_N reaches the force cap (its config's).
   double max_depth(std::size_t i) const { return max_depth_[contacts_.config_index(i)]; }
+  // Contact i's config but for the profile, and its profile.
+  const ContactConfig& settings_of(std::size_t i) const {
+    return configs_.settings(contacts_.config_index(i));
+  }
+  const Profile& profile_of(std::size_t i) const {
+    return configs_.profile(contacts_.config_index(i));
+  }
   // Where a displacement step takes contact i: its depth and ux after the step.
   struct ContactTarget {
     double depth, ux;
@@ -269,8 +278,8 @@ class Interface {
                           Status* status) const;
 
   InterfaceKind kind_ = InterfaceKind::kSharedMotion;
-  std::vector<ContactConfig> configs_;  // the distinct configs, by PackedContacts::config_index
-  std::vector<double> max_depth_;       // per config: the depth at which mu F_N reaches kForceCap
+  ConfigTable configs_;            // the distinct configs, by PackedContacts::config_index
+  std::vector<double> max_depth_;  // per config: the depth at which mu F_N reaches kForceCap
   PackedContacts contacts_;
   std::vector<double> heights_;  // shared motion; empty: all 0
   double max_approach_ = 0;      // min_i (h_i + max_depth_i)
@@ -288,7 +297,6 @@ class Interface {
   bool keep_step_forces_ = false;
   bool kept_forces_valid_ = false;
   std::vector<double> kept_normal_forces_, kept_tangential_forces_;
-  std::size_t distinct_profiles_ = 0;  // for MemoryBytes (profiles never change after Create)
 };
 
 }  // namespace mdr

@@ -14,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <type_traits>
+#include <unordered_map>
 #include <vector>
 
 #include "mdr/core/contact.h"
@@ -103,21 +104,73 @@ class PackedContacts {
   std::atomic<std::size_t> heap_bytes_{0};
 };
 
+// The configs of a store's contacts, each distinct one once, by index (PackedContacts::
+// config_index). A rough surface gives each summit a radius of its own, so its contacts differ
+// in their profiles only: the rest of a config (its settings, 112 bytes) is kept once per
+// distinct value, and a distinct config costs a 16-byte entry naming its profile and settings.
+class ConfigTable {
+ public:
+  // The index of config's entry: an existing one with the same config (SameConfig), or a new
+  // one (*added). Validation is the caller's.
+  std::uint32_t Add(const ContactConfig& config, bool* added);
+  // Drops what Add needs to find configs (Add may not be called after it) and spare capacity.
+  void FinishAdding();
+
+  std::size_t size() const { return entries_.size(); }
+  // Entry k's config: a copy that owns its profile (for a Contact that may outlive the table).
+  ContactConfig Config(std::uint32_t k) const;
+  // Entry k's config but for its profile, and its settings' index (entries with equal settings
+  // share it).
+  const ContactConfig& settings(std::uint32_t k) const { return settings_[entries_[k].settings]; }
+  std::uint32_t settings_index(std::uint32_t k) const { return entries_[k].settings; }
+  const Profile& profile(std::uint32_t k) const { return *entries_[k].profile; }
+  // A pointer to entry k's profile that does not own it (copies touch no reference count):
+  // valid while the table lives.
+  ProfilePtr BorrowedProfile(std::uint32_t k) const {
+    return ProfilePtr(ProfilePtr(), entries_[k].profile);
+  }
+  // The number of distinct profiles.
+  std::size_t profiles() const { return profile_count_; }
+  // Bytes held: entries, settings, owning pointers and the profiles themselves.
+  std::size_t MemoryBytes() const;
+
+ private:
+  struct Entry {
+    const Profile* profile;
+    std::uint32_t settings;
+    std::uint32_t owner;  // profiles_'s element that owns the profile
+  };
+  static_assert(sizeof(Entry) == 16);
+
+  std::vector<ContactConfig> settings_;  // profile fields null
+  std::vector<Entry> entries_;
+  // One owning pointer per allocation (the spheres of MakeSpheres share one).
+  std::vector<ProfilePtr> owners_;
+  std::size_t profile_count_ = 0, profile_bytes_ = 0;
+  // Add's indexes, until FinishAdding.
+  std::unordered_map<std::size_t, std::vector<std::uint32_t>> settings_by_hash_;
+  std::unordered_map<const Profile*, std::vector<std::uint32_t>> entries_by_profile_;
+};
+
 // One contact of a PackedContacts decoded for work: one cursor per range of contacts on a
 // worker, reused from contact to contact, so that decoding allocates nothing once its vectors
-// have grown. configs: the store's configs by index (PackedContacts::config_index).
+// have grown, and switching to a contact of other settings or another profile copies the
+// settings or a borrowed profile pointer only. The cursor's contact borrows its profile: use it
+// while the table lives (Copy for one that may outlive it).
 class ContactCursor {
  public:
-  explicit ContactCursor(const std::vector<ContactConfig>& configs) : configs_(&configs) {}
+  explicit ContactCursor(const ConfigTable& configs) : configs_(&configs) {}
   // Contact i, decoded.
   Contact& Load(const PackedContacts& store, std::size_t i);
+  // Contact i, decoded into a contact of its own that owns its profile.
+  Contact Copy(const PackedContacts& store, std::size_t i);
   // A contact with config `config` out of contact (depth 0, no memory, energies 0).
   Contact& Fresh(std::uint32_t config);
 
  private:
   void Bind(std::uint32_t config);
 
-  const std::vector<ContactConfig>* configs_;
+  const ConfigTable* configs_;
   std::optional<Contact> contact_;
   std::uint32_t bound_ = 0;
 };

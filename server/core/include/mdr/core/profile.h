@@ -3,8 +3,11 @@
 // update never calls a profile (it works in z = g(x)), only force and profile queries do.
 #pragma once
 
+#include <cstddef>
 #include <memory>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "mdr/base/status.h"
 
@@ -55,6 +58,9 @@ class Profile {
   // Relative tolerance of g against the profile it stands for: 0 for the closed forms, the
   // achieved spline tolerance for a tabulated profile (ErrorEstimate.profile_tolerance).
   virtual double ToleranceEstimate() const { return 0; }
+  // Bytes the object holds: itself and what it owns (a name, a tabulated profile's tables), for
+  // the memory a session is charged; not its allocation's control block.
+  virtual std::size_t MemoryBytes() const = 0;
 };
 
 using ProfilePtr = std::shared_ptr<const Profile>;
@@ -63,6 +69,10 @@ using ProfilePtr = std::shared_ptr<const Profile>;
 Result<ProfilePtr> MakePowerLaw(double coefficient, double exponent);
 // Hertz sphere of radius R: f = r^2/(2R), g = x^2/R.
 Result<ProfilePtr> MakeSphere(double radius);
+// Spheres of the given radii (a rough surface's summits), equal to MakeSphere's bit for bit, in
+// one allocation of 32 bytes per sphere: every pointer shares the ownership of all of them.
+// Fields: radii[i].
+Result<std::vector<ProfilePtr>> MakeSpheres(std::span<const double> radii);
 // Cone of slope angle theta (rad, 0 < theta < pi/2) to the surface: g = (pi/2) tan(theta) x.
 Result<ProfilePtr> MakeCone(double slope_angle);
 // Flat cylindrical punch of radius a0: g = 0 for x < a0; contact radius a0 while delta > 0.

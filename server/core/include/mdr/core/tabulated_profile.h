@@ -68,6 +68,7 @@ class TabulatedProfile final : public Profile {
   // against the direct quadrature (relative to g there; relative to max_depth() in the interval
   // next to a flat centre, where g starts like (x - b)^(3/2)). <= TabulatedOptions::tolerance.
   double ToleranceEstimate() const override { return tolerance_estimate_; }
+  std::size_t MemoryBytes() const override;
   // g at the last sample radius: deeper contacts are extrapolated.
   double max_depth() const { return grid_.g.back(); }
   double max_radius() const { return grid_.x.back(); }
