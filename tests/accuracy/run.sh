@@ -32,7 +32,8 @@ for workers in 1 2; do
     --benchmark_out_format=json --benchmark_out="$out/million_asperities_$workers.json" > /dev/null
 done
 echo "10^6 asperities through the service -> $out/million_service.txt"
-build/release/tests/bench/mdr_million_asperities > "$out/million_service.txt"
+{ build/release/tests/bench/mdr_million_asperities
+  build/release/tests/bench/mdr_million_asperities --log-sigma 0.5; } > "$out/million_service.txt"
 echo "loop analysis and identification -> $out/analysis_bench.json"
 build/release/tests/bench/mdr_analysis_bench --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true --benchmark_out_format=json \

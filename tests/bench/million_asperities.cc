@@ -232,15 +232,22 @@ int main(int argc, char** argv) {
                     mdr::SameBits(a.dissipated_energy(), b.dissipated_energy());
 
   const double n = static_cast<double>(options.count);
+  char radii[64];
+  if (options.log_sigma > 0) {
+    std::snprintf(radii, sizeof radii, "lognormal radii, median 0.1 mm, log_sigma %g",
+                  options.log_sigma);
+  } else {
+    std::snprintf(radii, sizeof radii, "R = 0.1 mm");
+  }
   std::printf(
-      "%zu Hertz asperities, shared motion, energy on, %d worker(s), through the service\n"
+      "%zu Hertz asperities (%s), shared motion, energy on, %d worker(s), through the service\n"
       "  create %.2f s, press %.2f s, %d cycling steps %.3f s each (slowest %.3f s)\n"
       "  state held and charged: %.1f bytes per asperity (%.1f MB; default budget %.0f MB, of a "
       "token %.0f MB)\n"
       "  resident (process, after cycling): %.1f bytes per asperity\n"
       "  export %.2f s (%.1f MB), import %.2f s; the imported session continues %s\n"
       "  last state: F_N %.6g N, F_x %.6g N, W %.6g J\n",
-      options.count, options.workers, create_seconds, press_seconds, steps, cycle_seconds / steps,
+      options.count, radii, options.workers, create_seconds, press_seconds, steps, cycle_seconds / steps,
       slowest, static_cast<double>(held) / n, static_cast<double>(held) / 1e6,
       static_cast<double>(defaults.max_state_bytes) / 1e6,
       static_cast<double>(defaults.max_state_bytes_per_token) / 1e6,
