@@ -247,9 +247,9 @@ int main(int argc, char** argv) {
       "  resident (process, after cycling): %.1f bytes per asperity\n"
       "  export %.2f s (%.1f MB), import %.2f s; the imported session continues %s\n"
       "  last state: F_N %.6g N, F_x %.6g N, W %.6g J\n",
-      options.count, radii, options.workers, create_seconds, press_seconds, steps, cycle_seconds / steps,
-      slowest, static_cast<double>(held) / n, static_cast<double>(held) / 1e6,
-      static_cast<double>(defaults.max_state_bytes) / 1e6,
+      options.count, radii, options.workers, create_seconds, press_seconds, steps,
+      cycle_seconds / steps, slowest, static_cast<double>(held) / n,
+      static_cast<double>(held) / 1e6, static_cast<double>(defaults.max_state_bytes) / 1e6,
       static_cast<double>(defaults.max_state_bytes_per_token) / 1e6,
       static_cast<double>(resident) / n, export_seconds, static_cast<double>(export_bytes) / 1e6,
       import_seconds, same ? "bit for bit" : "DIFFERENTLY", last.state().normal_force(),
