@@ -35,6 +35,7 @@
 
 namespace {
 
+using mdr::bench::PeakResidentBytes;
 using mdr::bench::ResidentBytes;
 
 constexpr double kHeightSigma = 1e-6;  // m
@@ -176,6 +177,7 @@ int main(int argc, char** argv) {
     Require(client.stub().CreateSession(&context, create, &session), "create");
   }
   const double create_seconds = Since(start);
+  const long created_peak = PeakResidentBytes() - resident0;  // the population's transients
   const double amplitude = Amplitude();
 
   mdr::v1::Step press;
@@ -241,14 +243,15 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "%zu Hertz asperities (%s), shared motion, energy on, %d worker(s), through the service\n"
-      "  create %.2f s, press %.2f s, %d cycling steps %.3f s each (slowest %.3f s)\n"
+      "  create %.2f s (peak resident %.1f bytes per asperity), press %.2f s, %d cycling steps "
+      "%.3f s each (slowest %.3f s)\n"
       "  state held and charged: %.1f bytes per asperity (%.1f MB; default budget %.0f MB, of a "
       "token %.0f MB)\n"
       "  resident (process, after cycling): %.1f bytes per asperity\n"
       "  export %.2f s (%.1f MB), import %.2f s; the imported session continues %s\n"
       "  last state: F_N %.6g N, F_x %.6g N, W %.6g J\n",
-      options.count, radii, options.workers, create_seconds, press_seconds, steps,
-      cycle_seconds / steps, slowest, static_cast<double>(held) / n,
+      options.count, radii, options.workers, create_seconds, static_cast<double>(created_peak) / n,
+      press_seconds, steps, cycle_seconds / steps, slowest, static_cast<double>(held) / n,
       static_cast<double>(held) / 1e6, static_cast<double>(defaults.max_state_bytes) / 1e6,
       static_cast<double>(defaults.max_state_bytes_per_token) / 1e6,
       static_cast<double>(resident) / n, export_seconds, static_cast<double>(export_bytes) / 1e6,
