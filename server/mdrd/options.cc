@@ -66,9 +66,9 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->capture_default_str()
       ->check(CLI::Range(1024, 1 << 30));
   app.add_option("--max-state-bytes", limits.max_state_bytes,
-                 "Bytes of session state (grid springs, memory vertices) held at most over all "
-                 "sessions; a create, import or batch beyond fails with RESOURCE_EXHAUSTED (0: "
-                 "unlimited)")
+                 "Bytes of session state (grid springs, memory vertices, profile tables) held at "
+                 "most over all sessions; a create, import or batch beyond fails with "
+                 "RESOURCE_EXHAUSTED (0: unlimited)")
       ->envname("MDR_MAX_STATE_BYTES")
       ->capture_default_str();
   app.add_option("--max-state-bytes-per-token", limits.max_state_bytes_per_token,

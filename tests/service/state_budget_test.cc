@@ -1,5 +1,8 @@
 // Bounded state: the server-wide budget of session state bytes (--max-state-bytes) and the rule
 // that every accepted session can be exported within the message limit (--max-message-bytes).
+#include <vector>
+
+#include "mdr/core/tabulated_profile.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -60,6 +63,30 @@ TEST_F(StateBudgetTest, CreateBeyondTheBudgetFailsUntilASessionIsDeleted) {
   google::protobuf::Empty empty;
   ASSERT_TRUE(stub_->DeleteSession(Context().get(), erase, &empty).ok());
   EXPECT_TRUE(CreateGrid(1024, &third).ok()) << "deleting released its bytes";
+}
+
+// A session's profile is part of its state: a tabulated profile's tables (up to ~12 MB at the
+// grid's node limit) are charged like a grid's springs.
+TEST_F(StateBudgetTest, ATabulatedProfilesTablesAreCharged) {
+  v1::CreateSessionRequest request;
+  v1::Scene& scene = *request.mutable_session()->mutable_scene();
+  scene = SteelSphereOnSteelFlat();
+  std::vector<double> radii, heights;
+  for (int i = 0; i <= 2000; ++i) {
+    radii.push_back(1e-3 * i / 2000);
+    heights.push_back(radii.back() * radii.back() / (2 * 0.01));
+  }
+  scene.mutable_tabulated()->mutable_radii()->Add(radii.begin(), radii.end());
+  scene.mutable_tabulated()->mutable_heights()->Add(heights.begin(), heights.end());
+  const std::size_t table_bytes = (*MakeTabulatedProfile(radii, heights))->MemoryBytes();
+  ASSERT_GT(table_bytes, 100000u);
+  v1::Session session;
+  Start(/*max_state_bytes=*/table_bytes - 1, 4 << 20);
+  const grpc::Status refused = stub_->CreateSession(Context().get(), request, &session);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), testing::HasSubstr("--max-state-bytes"));
+  Start(/*max_state_bytes=*/table_bytes + 4096, 4 << 20);
+  EXPECT_TRUE(stub_->CreateSession(Context().get(), request, &session).ok());
 }
 
 TEST_F(StateBudgetTest, ImportBeyondTheBudgetFails) {
@@ -148,8 +175,10 @@ TEST_F(StateBudgetTest, AnInterfaceIsChargedTheBytesItHolds) {
   };
   Start(/*max_state_bytes=*/0, 4 << 20);
   const std::uint64_t held = run();
-  // The same history under a budget of exactly what it holds plus one grid.
-  Start(held + kSpringBytes * kSprings, 4 << 20);
+  // The same history under a budget of exactly what it holds plus one grid (its springs and its
+  // sphere).
+  const std::size_t sphere_bytes = (*MakeSphere(0.01))->MemoryBytes();
+  Start(held + kSpringBytes * kSprings + sphere_bytes, 4 << 20);
   ASSERT_EQ(run(), held);
   v1::Session grid;
   EXPECT_TRUE(CreateGrid(kSprings, &grid).ok()) << "the interface is charged more than it holds";

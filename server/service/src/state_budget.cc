@@ -41,7 +41,9 @@ std::size_t AnchoredSprings(const Contact& contact) {
 }  // namespace
 
 std::size_t StateBytes(const Contact& contact) {
-  return Springs(contact) * kBytesPerSpring + contact.memory().vertex_count() * kBytesPerVertex;
+  // The session's own profile too: a tabulated one holds its tables (up to ~5 MB).
+  return contact.config().profile->MemoryBytes() + Springs(contact) * kBytesPerSpring +
+         contact.memory().vertex_count() * kBytesPerVertex;
 }
 
 std::size_t ExportedSceneBytes(const v1::Scene& scene, const Contact& contact) {

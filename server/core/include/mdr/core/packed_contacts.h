@@ -138,7 +138,7 @@ class ConfigTable {
   struct Entry {
     const Profile* profile;
     std::uint32_t settings;
-    std::uint32_t owner;  // profiles_'s element that owns the profile
+    std::uint32_t owner;  // the element of owners_ that owns the profile
   };
   static_assert(sizeof(Entry) == 16);
 

@@ -18,8 +18,9 @@
 
 namespace mdr::service {
 
-// Bytes of the contact's state in memory: 41 per grid spring and per memory vertex (z, u, the
-// slip tag and the anchor: GridMemory::kBytesPerSpring, PiecewiseLinearMemory::kBytesPerVertex).
+// Bytes of the contact's state in memory: its profile's (Profile::MemoryBytes: a tabulated
+// profile's tables), and 41 per grid spring and per memory vertex (z, u, the slip tag and the
+// anchor: GridMemory::kBytesPerSpring, PiecewiseLinearMemory::kBytesPerVertex).
 std::size_t StateBytes(const Contact& contact);
 
 // The encoded size of the scene an export writes (with the contact's effective options).
