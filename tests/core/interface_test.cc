@@ -654,6 +654,51 @@ TEST(InterfaceTest, AContactTakenOutOwnsItsProfile) {
                   .ok());
 }
 
+// The commit gate sees what the step holds when it commits: for a step through a new record
+// array the exact bytes of that array and the vertices after it (well below the a-priori bound);
+// for one in place the bounds known before it runs. A refusal by the gate changes nothing.
+TEST(InterfaceTest, TheCommitGateSeesWhatTheStepHolds) {
+  for (const std::size_t n : {std::size_t{300}, Interface::kMaxInPlaceContacts + 100}) {
+    Interface interface = *Interface::Create(RoughInterface(n, 30));
+    // Fresh records hold no heap block: the rest of MemoryBytes is what no step changes.
+    const std::size_t fixed = interface.MemoryBytes() - n * PackedContacts::kRecordBytes;
+    ASSERT_TRUE(interface.Apply({NormalControl::kDepthIncrement, 2e-6}).ok());
+    const double slip = interface.contact(0).mu_kappa() * 1e-6;
+    for (const double dux : {0.4, -0.7, 0.5, -0.3, 0.2}) {
+      const Step step{NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement,
+                      dux * slip};
+      const std::size_t bound = interface.StepBytesBound();
+      const std::size_t after_one_move = interface.CountVertices().after_one_move;
+      const InterfaceSnapshot before = interface.Snapshot();
+      const std::size_t bytes_before = interface.MemoryBytes();
+      const auto refuse = [](const Interface::StepCommit&) {
+        return ResourceExhausted("budget", "refused by the test");
+      };
+      ASSERT_EQ(interface.Apply(step, nullptr, {}, refuse).code(), StatusCode::kResourceExhausted);
+      ASSERT_TRUE(SameInterfaceState(interface.Snapshot(), before));
+      ASSERT_EQ(interface.MemoryBytes(), bytes_before);
+      Interface::StepCommit seen;
+      ASSERT_TRUE(interface
+                      .Apply(step, nullptr, {},
+                             [&](const Interface::StepCommit& commit) {
+                               seen = commit;
+                               return OkStatus();
+                             })
+                      .ok());
+      if (n <= Interface::kMaxInPlaceContacts) {
+        EXPECT_FALSE(seen.exact);
+        EXPECT_EQ(seen.extra_bytes, bound) << dux;
+        EXPECT_EQ(seen.vertices, after_one_move) << dux;
+      } else {
+        EXPECT_TRUE(seen.exact);
+        EXPECT_EQ(seen.extra_bytes, interface.MemoryBytes() - fixed) << dux;
+        EXPECT_EQ(seen.vertices, interface.CountVertices().now) << dux;
+        EXPECT_LT(seen.extra_bytes, bound) << dux;
+      }
+    }
+  }
+}
+
 // The bound of what a step holds while it runs covers what it holds after it, and a new record
 // array besides.
 TEST(InterfaceTest, StepBytesBoundCoversTheStep) {

@@ -34,8 +34,6 @@ constexpr int kMaxSolveIterations = 200;
 constexpr double kMaxInPlaceSlide = 1e40;
 constexpr double kMaxInPlaceEnergy = 1e300;
 
-Status PassGate(const Interface::CommitGate& gate) { return gate ? gate() : OkStatus(); }
-
 // Field names of the interface's normal channel, which is the approach delta (the tangential
 // channel's are a contact's: FieldName).
 const char* NormalField(NormalControl c) {
@@ -471,9 +469,14 @@ void Interface::RunOverContacts(const ParallelFor::Body& body) const {
 Status Interface::StepContacts(const ContactStep& step, bool in_place, const Interrupt& interrupt,
                                const CommitGate& gate) {
   if (in_place) {
-    // Nothing can fail below, so the gate is passed first and the pass is not interrupted.
+    // Nothing can fail below, so the gate is passed first (with the bounds of what the step may
+    // hold) and the pass is not interrupted.
     if (Status s = interrupt.Check(); !s.ok()) return s;
-    if (Status s = PassGate(gate); !s.ok()) return s;
+    if (gate) {
+      if (Status s = gate({StepBytesBound(), CountVertices().after_one_move, false}); !s.ok()) {
+        return s;
+      }
+    }
   }
   kept_forces_valid_ = false;
   const std::size_t n = contacts_.size();
@@ -484,10 +487,12 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
   std::mutex mutex;
   bool headroom_lost = false;
   double max_energy = 0;
+  std::size_t vertices_after = 0;
   RunOverContacts([&](std::size_t begin, std::size_t end) {
     ContactCursor cursor(configs_);
     bool lost = false;
     double energy = 0;
+    std::size_t vertices = 0;
     if (!in_place) {  // valid before anything can stop the range (the failure path frees them)
       for (std::size_t i = begin; i < end; ++i) next.Clear(i);
     }
@@ -508,10 +513,12 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
         kept_tangential_forces_[i] = contact.tangential_force();
       }
       into.Put(i, contact, contacts_.config_index(i));
+      vertices += into.vertex_count(i);
     }
     std::lock_guard lock(mutex);
     headroom_lost = headroom_lost || lost;
     max_energy = std::max(max_energy, energy);
+    vertices_after += vertices;  // an integer sum: the split does not matter
   });
   if (Status s = failure.Take(); !s.ok()) {
     if (!in_place) return s;
@@ -519,7 +526,9 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
                                    s.message() + "); the interface is inconsistent");
   }
   if (!in_place) {
-    if (Status s = PassGate(gate); !s.ok()) return s;
+    if (gate) {
+      if (Status s = gate({next.MemoryBytes(), vertices_after, true}); !s.ok()) return s;
+    }
     contacts_ = std::move(next);
   }
   vertex_headroom_ = !headroom_lost;

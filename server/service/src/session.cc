@@ -312,10 +312,11 @@ Status Session::RunInterfaceStepInPlace(const v1::ApplyRequest& request,
   if (Status status = CheckNextStep(guard, 0, applied_steps_); !status.ok()) return status;
   const std::size_t charged = charge_.bytes();
   Status refused;  // by the gate: the batch's, not the step's, so not under steps[0]
-  const Interface::CommitGate gate = [&] {
-    const StepBounds bounds = BoundsAfterOneMove(*interface_, scene_bytes_);
+  const Interface::CommitGate gate = [&](const Interface::StepCommit& commit) {
+    const StepBounds bounds = BoundsAtCommit(*interface_, commit, scene_bytes_);
     refused = AdmitBatchLocked(request, charged + bounds.growth_bytes, bounds.export_bytes);
-    // Only the bounds failed: the exact state after the step may still fit.
+    // What the step holds while it commits did not fit (or, in place, its bound): the state
+    // after it may still fit, as the batch path on a copy checks.
     *fall_back = refused.code() == StatusCode::kResourceExhausted;
     return refused;
   };

@@ -62,10 +62,9 @@ std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes
   return InterfaceExportBytes(interface.size(), interface.CountVertices().now, scene_bytes);
 }
 
-StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes) {
-  const Interface::VertexTotals vertices = interface.CountVertices();
-  return {interface.StepBytesBound(),
-          InterfaceExportBytes(interface.size(), vertices.after_one_move, scene_bytes)};
+StepBounds BoundsAtCommit(const Interface& interface, const Interface::StepCommit& commit,
+                          std::size_t scene_bytes) {
+  return {commit.extra_bytes, InterfaceExportBytes(interface.size(), commit.vertices, scene_bytes)};
 }
 
 StepBounds BoundsAfterOneStraightStep(const Contact& contact, std::size_t scene_bytes) {

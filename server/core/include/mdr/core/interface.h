@@ -118,11 +118,22 @@ struct InterfaceSnapshot {
 
 class Interface {
  public:
+  // What a step holds when it commits, for a caller that pays for it first: the bytes beyond
+  // MemoryBytes() and the memory vertices of all contacts after it. exact: a step through a new
+  // record array, computed by then (the new array's MemoryBytes, its vertex count); else, for a
+  // step made in place, the bounds known before it runs (StepBytesBound(),
+  // CountVertices().after_one_move).
+  struct StepCommit {
+    std::size_t extra_bytes = 0;
+    std::size_t vertices = 0;
+    bool exact = false;
+  };
   // Called by Apply and ApplyEach once every check of the step has passed, just before the step
-  // changes the interface (in place, or by swapping the step buffer in): an error from it abandons
-  // the step, which then changes nothing; after it returned OK the step cannot fail. A caller
-  // that must record or pay for a step before it happens (a journal, a budget) does it here.
-  using CommitGate = std::function<Status()>;
+  // changes the interface (in place, or by swapping the new record array in): an error from it
+  // abandons the step, which then changes nothing; after it returned OK the step cannot fail. A
+  // caller that must record or pay for a step before it happens (a journal, a budget) does it
+  // here.
+  using CommitGate = std::function<Status(const StepCommit&)>;
 
   // Validates the config (fields contacts[i].*, heights[i], heights). A shared-motion interface
   // starts touching its highest contact: delta = min h_i, ux = 0, every depth <= 0.

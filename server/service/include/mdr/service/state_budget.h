@@ -38,17 +38,18 @@ std::size_t StateBytes(const Interface& interface);
 // as for a single contact, beside the scene.
 std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes);
 
-// Bounds of what one step that moves every contact once (Interface::Apply of any kind, a contact
-// list's displacement step) can make of an interface, from its state before the step, so that a
-// step run in place can be checked before it happens: the bytes it may hold beyond StateBytes
-// while it runs (Interface::StepBytesBound; StateBytes may grow by at most that much) and
-// ExportBytesBound after it. Not for a contact list's force
-// targets, whose curved paths take many substeps.
+// What one step that moves every contact once (Interface::Apply of any kind, a contact list's
+// displacement step) holds when it commits (Interface::StepCommit, handed to the commit gate):
+// the bytes beyond StateBytes while it runs and ExportBytesBound after it. Exact for a step
+// through a new record array; bounds from the state before the step for one made in place
+// (Interface::StepBytesBound: StateBytes may grow by at most that much). Not for a contact list's
+// force targets, whose curved paths take many substeps.
 struct StepBounds {
   std::size_t growth_bytes = 0;
   std::size_t export_bytes = 0;
 };
-StepBounds BoundsAfterOneMove(const Interface& interface, std::size_t scene_bytes);
+StepBounds BoundsAtCommit(const Interface& interface, const Interface::StepCommit& commit,
+                          std::size_t scene_bytes);
 // The same for one exact linear step of a single exact contact (n vertices become at most
 // 3n + 1).
 StepBounds BoundsAfterOneStraightStep(const Contact& contact, std::size_t scene_bytes);
