@@ -268,6 +268,7 @@ void CheckSumOfIndependentContacts(const InterfaceConfig& config, int workers, i
       energy += singles[i].dissipated_energy();
       limit += singles[i].friction_limit();
     }
+    ASSERT_EQ(interface.vertex_count(), interface.CountVertices().now) << k;
     const InterfaceTotals totals = *interface.Totals();
     ASSERT_TRUE(SameBits(totals.normal_force, fn)) << k;
     ASSERT_TRUE(SameBits(totals.tangential_force, fx)) << k;
@@ -337,6 +338,7 @@ TEST(InterfaceTest, AContactFailingMidStepChangesNoContact) {
   EXPECT_EQ(failed.code(), StatusCode::kResourceExhausted);
   EXPECT_NE(failed.field().find(".max_memory_vertices"), std::string::npos) << failed.field();
   EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), last_good));
+  EXPECT_EQ(interface.vertex_count(), interface.CountVertices().now);  // kept through a failure
 }
 
 TEST(InterfaceTest, NormalForceTargetIsReached) {
@@ -450,6 +452,8 @@ TEST(InterfaceTest, SnapshotRestoreContinuesBitIdentically) {
           .ok());
   Interface b = *Interface::Restore(config, a.Snapshot());
   ASSERT_TRUE(SameInterfaceState(a.Snapshot(), b.Snapshot()));
+  ASSERT_EQ(b.vertex_count(), a.vertex_count());
+  ASSERT_EQ(b.vertex_count(), b.CountVertices().now);
   const double d0 = 1e-6;
   RandomHistory history{std::mt19937_64(13), d0, 1e-6};
   for (int k = 0; k < 50; ++k) {
@@ -823,6 +827,7 @@ void CheckListAgainstSingleContacts(InterfaceConfig config) {
         NormalControl::kDepthIncrement, dn,
         force ? TangentialControl::kForce : TangentialControl::kDisplacementIncrement, dt};
     ASSERT_TRUE(list.ApplyEach(step).ok()) << k;
+    ASSERT_EQ(list.vertex_count(), list.CountVertices().now) << k;
     for (std::size_t i = 0; i < n; ++i) {
       ASSERT_TRUE(singles[i].Apply({step.normal, dn[i], step.tangential, dt[i]}).ok());
       ASSERT_TRUE(SameSnapshot(list.contact(i).Snapshot(), singles[i].Snapshot())) << k << " " << i;

@@ -351,6 +351,7 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
       if (!s.ok()) return s.WithFieldPrefix(Indexed("contacts", i));
     }
     built.contacts_.Put(i, contact, config_of[i]);
+    built.vertex_count_ += built.contacts_.vertex_count(i);
   }
   return built;
 }
@@ -400,6 +401,7 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
     restored.vertex_headroom_ = restored.vertex_headroom_ && HasVertexHeadroom(*contact);
     restored.contacts_.Put(i, *contact, k);
   }
+  restored.vertex_count_ = restored.CountVertices().now;
   if (shared) {
     restored.approach_ = snapshot.approach;
     restored.ux_ = snapshot.tangential_displacement;
@@ -533,6 +535,7 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
   }
   vertex_headroom_ = !headroom_lost;
   energy_bound_ = max_energy;  // every contact was stepped: the exact largest energy
+  vertex_count_ = vertices_after;
   kept_forces_valid_ = keep_step_forces_;
   return OkStatus();
 }

@@ -416,7 +416,7 @@ void WriteInterfaceState(const Interface& interface, std::uint64_t applied_steps
   }
   if (selection.has(Output::kAppliedSteps)) state->set_applied_steps(applied_steps);
   if (selection.has(Output::kMemoryVertices)) {
-    state->set_memory_vertices(interface.CountVertices().now);
+    state->set_memory_vertices(interface.vertex_count());
   }
 }
 

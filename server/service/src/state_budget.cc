@@ -59,7 +59,7 @@ std::size_t ExportBytesBound(const Contact& contact, std::size_t scene_bytes) {
 std::size_t StateBytes(const Interface& interface) { return interface.MemoryBytes(); }
 
 std::size_t ExportBytesBound(const Interface& interface, std::size_t scene_bytes) {
-  return InterfaceExportBytes(interface.size(), interface.CountVertices().now, scene_bytes);
+  return InterfaceExportBytes(interface.size(), interface.vertex_count(), scene_bytes);
 }
 
 StepBounds BoundsAtCommit(const Interface& interface, const Interface::StepCommit& commit,

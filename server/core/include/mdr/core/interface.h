@@ -206,6 +206,8 @@ class Interface {
     std::size_t now = 0, after_one_move = 0;
   };
   VertexTotals CountVertices() const;
+  // Memory vertices over all contacts now (CountVertices().now), kept by every step: no pass.
+  std::size_t vertex_count() const { return vertex_count_; }
   // Contacts in contact by slip fraction (slipping radius / contact radius) in `bins` equal bins
   // of [0, 1] (the last one closed); bins in [1, 1000].
   Result<std::vector<std::size_t>> SlipHistogram(int bins, const Interrupt& interrupt = {}) const;
@@ -297,11 +299,12 @@ class Interface {
   double approach_ = 0;
   double ux_ = 0;
   // What decides whether a step can run in place (Move).
-  bool all_exact_ = true;        // no grid-method contact (whose reach a step may exceed)
-  double max_mu_kappa_ = 0;      // over all contacts
-  double min_height_ = 0;        // min h_i
-  bool vertex_headroom_ = true;  // every contact has room for one more step's vertices
-  double energy_bound_ = 0;      // >= every contact's dissipated energy
+  bool all_exact_ = true;         // no grid-method contact (whose reach a step may exceed)
+  double max_mu_kappa_ = 0;       // over all contacts
+  double min_height_ = 0;         // min h_i
+  bool vertex_headroom_ = true;   // every contact has room for one more step's vertices
+  double energy_bound_ = 0;       // >= every contact's dissipated energy
+  std::size_t vertex_count_ = 0;  // over all contacts (vertex_count())
   std::shared_ptr<ParallelFor> parallel_;
   // set_keep_step_forces: F_N and F_x per contact as the last step left them, valid
   // (kept_forces_valid_) until anything else changes the contacts.
