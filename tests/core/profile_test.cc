@@ -43,6 +43,10 @@ TEST(ProfileTest, SpheresMadeTogetherEqualSpheresMadeAlone) {
     // One owner for all: neither pointer's control block orders before the other's.
     EXPECT_FALSE(spheres[i].owner_before(spheres[0]) || spheres[0].owner_before(spheres[i]));
   }
+  // Equal radii share one sphere.
+  const std::vector<ProfilePtr> repeated = *MakeSpheres(std::vector<double>{1e-4, 2e-4, 1e-4});
+  EXPECT_EQ(repeated[0].get(), repeated[2].get());
+  EXPECT_NE(repeated[0].get(), repeated[1].get());
   const Status bad = MakeSpheres(std::vector<double>{1e-4, 0.0}).status();
   EXPECT_EQ(bad.code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(bad.field(), "radii[1].radius");

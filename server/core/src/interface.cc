@@ -9,7 +9,6 @@
 #include <optional>
 #include <string>
 #include <thread>
-#include <unordered_map>
 #include <utility>
 
 #include "mdr/base/validate.h"
@@ -217,32 +216,15 @@ Result<InterfaceConfig> HertzInterfaceConfig(const Population& population,
                                         std::to_string(population.heights.size()) + "), got " +
                                         std::to_string(population.radii.size()));
   }
-  // Equal radii share one profile; the distinct ones are made together (32 bytes each).
   const std::size_t n = population.radii.size();
-  std::unordered_map<double, std::uint32_t> sphere_of_radius;
-  std::vector<double> distinct;
-  std::vector<std::uint32_t> sphere_of(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double radius = population.radii[i];
-    const auto [it, added] =
-        sphere_of_radius.try_emplace(radius, static_cast<std::uint32_t>(distinct.size()));
-    if (added) {
-      if (Status s = RequireSceneScale("radius", radius); !s.ok()) {
-        return s.WithFieldPrefix(Indexed("radii", i));
-      }
-      distinct.push_back(radius);
-    }
-    sphere_of[i] = it->second;
-  }
-  sphere_of_radius = {};
-  Result<std::vector<ProfilePtr>> spheres = MakeSpheres(distinct);
-  if (!spheres.ok()) return spheres.status();  // not reached: every radius passed above
+  Result<std::vector<ProfilePtr>> spheres = MakeSpheres(population.radii);  // equal radii: one
+  if (!spheres.ok()) return spheres.status();
   InterfaceConfig config;
   config.contacts.reserve(n);
   config.heights.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     ContactConfig contact;
-    contact.profile = (*spheres)[sphere_of[i]];
+    contact.profile = std::move((*spheres)[i]);
     contact.material = material;
     contact.friction = friction;
     contact.track_energy = track_energy;
@@ -377,6 +359,7 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
       return s;
     }
   }
+  restored.vertex_count_ = 0;  // counted again as the snapshot's contacts replace the fresh ones
   for (std::size_t i = 0; i < restored.size(); ++i) {
     const auto prefix = [i] { return Indexed("contacts", i); };  // only for an error
     const std::uint32_t k = restored.contacts_.config_index(i);
@@ -400,8 +383,8 @@ Result<Interface> Interface::Restore(InterfaceConfig config, const InterfaceSnap
     restored.energy_bound_ = std::max(restored.energy_bound_, contact->dissipated_energy());
     restored.vertex_headroom_ = restored.vertex_headroom_ && HasVertexHeadroom(*contact);
     restored.contacts_.Put(i, *contact, k);
+    restored.vertex_count_ += restored.contacts_.vertex_count(i);
   }
-  restored.vertex_count_ = restored.CountVertices().now;
   if (shared) {
     restored.approach_ = snapshot.approach;
     restored.ux_ = snapshot.tangential_displacement;

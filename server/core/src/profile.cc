@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 #include <sstream>
+#include <unordered_map>
 
 #include "mdr/base/validate.h"
 #include "numerics.h"
@@ -280,17 +281,25 @@ Result<ProfilePtr> MakeSphere(double radius) {
 }
 
 Result<std::vector<ProfilePtr>> MakeSpheres(std::span<const double> radii) {
+  std::unordered_map<double, std::size_t> sphere_of_radius;  // index into the distinct radii
+  std::vector<double> distinct;
+  std::vector<std::size_t> sphere_of(radii.size());
   for (std::size_t i = 0; i < radii.size(); ++i) {
-    if (Status s = RequireSceneScale("radius", radii[i]); !s.ok()) {
-      return s.WithFieldPrefix(Indexed("radii", i));
+    const auto [it, added] = sphere_of_radius.try_emplace(radii[i], distinct.size());
+    if (added) {
+      if (Status s = RequireSceneScale("radius", radii[i]); !s.ok()) {
+        return s.WithFieldPrefix(Indexed("radii", i));
+      }
+      distinct.push_back(radii[i]);
     }
+    sphere_of[i] = it->second;
   }
   auto pool = std::make_shared<std::vector<SphereProfile>>();
-  pool->reserve(radii.size());  // never reallocated: the pointers below stay valid
-  for (double radius : radii) pool->emplace_back(SphereScale(radius), SphereName{radius});
+  pool->reserve(distinct.size());  // never reallocated: the pointers below stay valid
+  for (double radius : distinct) pool->emplace_back(SphereScale(radius), SphereName{radius});
   std::vector<ProfilePtr> spheres;
   spheres.reserve(radii.size());
-  for (const SphereProfile& sphere : *pool) spheres.emplace_back(pool, &sphere);
+  for (std::size_t k : sphere_of) spheres.emplace_back(pool, &(*pool)[k]);
   return spheres;
 }
 

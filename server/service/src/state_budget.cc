@@ -41,7 +41,7 @@ std::size_t AnchoredSprings(const Contact& contact) {
 }  // namespace
 
 std::size_t StateBytes(const Contact& contact) {
-  // The session's own profile too: a tabulated one holds its tables (up to ~5 MB).
+  // The session's own profile too: a tabulated one holds its tables (up to ~12 MB).
   return contact.config().profile->MemoryBytes() + Springs(contact) * kBytesPerSpring +
          contact.memory().vertex_count() * kBytesPerVertex;
 }

@@ -69,9 +69,10 @@ using ProfilePtr = std::shared_ptr<const Profile>;
 Result<ProfilePtr> MakePowerLaw(double coefficient, double exponent);
 // Hertz sphere of radius R: f = r^2/(2R), g = x^2/R.
 Result<ProfilePtr> MakeSphere(double radius);
-// Spheres of the given radii (a rough surface's summits), equal to MakeSphere's bit for bit, in
-// one allocation of 32 bytes per sphere: every pointer shares the ownership of all of them.
-// Fields: radii[i].
+// The spheres of the given radii (a rough surface's summits), one pointer per radius, each
+// sphere equal to MakeSphere's bit for bit. Equal radii share one sphere; the distinct ones are
+// made in one allocation of 32 bytes per sphere, whose ownership every pointer shares. Fields:
+// radii[i].
 Result<std::vector<ProfilePtr>> MakeSpheres(std::span<const double> radii);
 // Cone of slope angle theta (rad, 0 < theta < pi/2) to the surface: g = (pi/2) tan(theta) x.
 Result<ProfilePtr> MakeCone(double slope_angle);
