@@ -162,6 +162,8 @@ void RunHistory(Stress& stress, InterfaceKind kind, int history, int steps, Coun
     const InterfaceSnapshot before = original.Snapshot();
     const Status status = apply(original);
     const InterfaceSnapshot after = original.Snapshot();
+    ASSERT_EQ(original.vertex_count(), original.CountVertices().now)
+        << "history " << history << " step " << step;
     for (Interface& copy : restored) {
       ASSERT_EQ(apply(copy).code(), status.code()) << "history " << history << " step " << step;
       ASSERT_TRUE(SameInterfaceState(copy.Snapshot(), after))
@@ -179,6 +181,7 @@ void RunHistory(Stress& stress, InterfaceKind kind, int history, int steps, Coun
     ASSERT_TRUE(copy.ok()) << copy.status().ToString() << " history " << history << " step "
                            << step;
     ASSERT_TRUE(SameInterfaceState(copy->Snapshot(), after));
+    ASSERT_EQ(copy->vertex_count(), original.vertex_count());
     restored.push_back(std::move(copy).value());
     ++counts->states;
     counts->list_states += !shared;

@@ -417,6 +417,8 @@ void FuzzInterface(ByteReader& in) {
     mdr::InterfaceStepReport report;
     const mdr::Status status = apply(interface, &report);
     const mdr::InterfaceSnapshot after = interface.Snapshot();
+    Check(interface.vertex_count() == interface.CountVertices().now,
+          "the interface's kept vertex count is its contacts' after every step");
     if (twin) {
       const mdr::Status twin_status = apply(*twin, nullptr);
       Check(twin_status.code() == status.code() && SameInterfaceState(twin->Snapshot(), after),
@@ -443,6 +445,8 @@ void FuzzInterface(ByteReader& in) {
     if (!restored.ok()) std::fprintf(stderr, "%s\n", restored.status().ToString().c_str());
     Check(restored.ok(), "the interface restores from its snapshot");
     Check(SameInterfaceState(restored->Snapshot(), after), "the restored interface is the same");
+    Check(restored->vertex_count() == interface.vertex_count(),
+          "the restored interface counts the same vertices");
     twin = std::move(restored).value();
   }
 }
