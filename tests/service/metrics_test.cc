@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <map>
 #include <sstream>
+#include <thread>
 
 #include "service_test_util.h"
 // After Eigen (through the test utilities): a macro of its OpenSSL headers breaks Eigen's.
@@ -216,6 +217,62 @@ TEST(MetricsRegistryTest, RendersLabelledCounterAndHistogram) {
             "t_seconds_bucket{le=\"0.1\"} 1\nt_seconds_bucket{le=\"1\"} 2\n"
             "t_seconds_bucket{le=\"+Inf\"} 3\nt_seconds_sum 5.55\n"
             "t_seconds_count 3\n");
+}
+
+// Counters and histograms are striped per thread (metrics.h); reading sums every stripe, so
+// recordings from more threads than stripes all count, and each bucket keeps its own count.
+TEST(MetricsRegistryTest, StripedSeriesSumEveryThreadsRecordings) {
+  constexpr int kThreads = 2 * static_cast<int>(service::kMetricStripes) + 3;
+  constexpr int kPerThread = 1000;
+  service::Counter counter;
+  const std::vector<double> bounds = {0.1, 1};
+  service::Histogram histogram(&bounds);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      for (int i = 0; i < kPerThread; ++i) {
+        counter.Increment(t + 1);
+        histogram.Observe(i % 2 == 0 ? 0.5 : 4);  // exact in binary, so the sum is exact
+      }
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  EXPECT_EQ(counter.value(),
+            static_cast<std::uint64_t>(kPerThread) * kThreads * (kThreads + 1) / 2);
+  EXPECT_EQ(histogram.bucket(0), 0u);
+  EXPECT_EQ(histogram.bucket(1), static_cast<std::uint64_t>(kThreads * kPerThread / 2));
+  EXPECT_EQ(histogram.bucket(2), static_cast<std::uint64_t>(kThreads * kPerThread / 2));
+  EXPECT_EQ(histogram.sum(), kThreads * kPerThread / 2 * 4.5);
+}
+
+// RecordCall keeps the series of the last few (method, code) pairs per thread; more pairs than
+// it keeps, in turn, still count each call in its own series.
+TEST(MetricsRegistryTest, RecordCallCountsEveryPairInItsOwnSeries) {
+  static const char* const kMethods[] = {"TestA", "TestB", "TestC", "TestD", "TestE", "TestF"};
+  static const char* const kCodes[] = {"OK", "NOT_FOUND"};
+  service::Metrics& metrics = service::ProcessMetrics();
+  auto calls = [&](const char* method, const char* code) {
+    return metrics.rpc_calls.With({method, code}).value();
+  };
+  auto count = [&](const char* method) {
+    const service::Histogram& histogram = metrics.rpc_duration_seconds.With({method});
+    std::uint64_t total = 0;
+    for (std::size_t i = 0; i <= histogram.bounds().size(); ++i) total += histogram.bucket(i);
+    return total;
+  };
+  const std::uint64_t recorded = service::RecordedCalls();
+  for (int round = 0; round < 3; ++round) {
+    for (const char* method : kMethods) {
+      for (const char* code : kCodes) service::RecordCall(method, code, 0.001);
+      service::RecordCall(method, "OK", 0.001);
+    }
+  }
+  for (const char* method : kMethods) {
+    EXPECT_EQ(calls(method, "OK"), 6u) << method;
+    EXPECT_EQ(calls(method, "NOT_FOUND"), 3u) << method;
+    EXPECT_EQ(count(method), 9u) << method;
+  }
+  EXPECT_EQ(service::RecordedCalls() - recorded, 3u * 6 * 3);
 }
 
 }  // namespace

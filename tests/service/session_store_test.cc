@@ -21,8 +21,8 @@ using service::SessionStore;
 SessionOrigin FreshState(std::chrono::nanoseconds idle_timeout = std::chrono::hours(1)) {
   const v1::Scene scene = SteelSphereOnSteelFlat();
   SessionOrigin state{.scene = scene,
-                     .limits = {},
-                     .contact = *Contact::Create(*service::ToContactConfig(scene, 1 << 16))};
+                      .limits = {},
+                      .contact = *Contact::Create(*service::ToContactConfig(scene, 1 << 16))};
   state.limits.set_max_steps_per_batch(100);
   state.limits.mutable_idle_timeout()->set_seconds(
       std::chrono::duration_cast<std::chrono::seconds>(idle_timeout).count());
@@ -121,6 +121,59 @@ TEST(SessionStoreTest, AnExpiredSessionIsGoneAndErased) {
   EXPECT_EQ(store.size(), 1u);
   // Its name is free again.
   CreateOrDie(store, "short");
+}
+
+// FindAgain (a stream's lookup) reuses the session an earlier lookup found only while the store
+// holds it under that name, for that caller; everything else is decided as by Find.
+TEST(SessionStoreTest, FindAgainReusesOnlyASessionTheStoreStillHolds) {
+  SessionStore store(100, 0);
+  const Principal alice("alice");
+  const std::string name = CreateOrDie(store, "kept", alice);
+  std::weak_ptr<Session> last;
+  std::shared_ptr<Session> first, again;
+  ASSERT_TRUE(store.FindAgain("session", name, alice, &last, &first).ok());
+  EXPECT_EQ(last.lock(), first);
+  ASSERT_TRUE(store.FindAgain("session", name, alice, &last, &again).ok());
+  EXPECT_EQ(again, first);
+
+  // Someone else's lookup with it kept: not found, as by Find.
+  std::shared_ptr<Session> found;
+  EXPECT_EQ(store.FindAgain("session", name, Principal("bob"), &last, &found).code(),
+            StatusCode::kNotFound);
+  // Another name: that session, which is kept from now on.
+  const std::string other = CreateOrDie(store, "other", alice);
+  ASSERT_TRUE(store.FindAgain("session", other, alice, &last, &found).ok());
+  EXPECT_EQ(found->name(), other);
+  EXPECT_EQ(last.lock(), found);
+  // A malformed name is refused as by Find, naming the field.
+  EXPECT_EQ(store.FindAgain("session", "not-a-name", alice, &last, &found).field(), "session");
+
+  // Deleted while a reference is still held (a call in flight): the kept one is not found.
+  ASSERT_TRUE(store.FindAgain("session", name, alice, &last, &found).ok());
+  const std::shared_ptr<Session> in_flight = found;
+  ASSERT_TRUE(store.Erase("name", name, alice).ok());
+  EXPECT_TRUE(in_flight->removed());
+  EXPECT_EQ(store.FindAgain("session", name, alice, &last, &found).code(), StatusCode::kNotFound);
+  // Created again under the same name: the new session, not the kept one.
+  CreateOrDie(store, "kept", alice);
+  ASSERT_TRUE(store.FindAgain("session", name, alice, &last, &found).ok());
+  EXPECT_NE(found, in_flight);
+  EXPECT_FALSE(found->removed());
+}
+
+TEST(SessionStoreTest, FindAgainDoesNotReuseAnExpiredSession) {
+  SessionStore store(100, 0);
+  std::shared_ptr<Session> session;
+  ASSERT_TRUE(
+      store.Create("session_id", "short", {}, FreshState(std::chrono::nanoseconds(1)), &session)
+          .ok());
+  std::weak_ptr<Session> last = session;
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::shared_ptr<Session> found;
+  EXPECT_EQ(store.FindAgain("session", "sessions/short", {}, &last, &found).code(),
+            StatusCode::kNotFound);
+  EXPECT_EQ(store.size(), 0u);  // erased, as Find erases it
+  EXPECT_TRUE(session->removed());
 }
 
 }  // namespace

@@ -102,6 +102,38 @@ TEST_F(StreamApplyTest, ReportsErrorsPerMessageAndStaysOpen) {
   EXPECT_TRUE(stream->Finish().ok());
 }
 
+// A stream keeps the session its last message found (SessionStore::FindAgain); a session
+// deleted between two messages is not found by the next one, and one created again under the
+// same name is the one the next message applies to.
+TEST_F(StreamApplyTest, FollowsASessionDeletedAndCreatedAgainBetweenMessages) {
+  const std::string session = CreateOrDie("rig-1");
+  auto context = Context();
+  std::unique_ptr<Stream> stream = stub_->StreamApply(context.get());
+  v1::StreamApplyResponse answer;
+  for (int i = 1; i <= 2; ++i) {
+    ASSERT_TRUE(stream->Write(Message(session, {DepthStep(kDepth)})));
+    ASSERT_TRUE(stream->Read(&answer));
+    ASSERT_EQ(answer.status().code(), 0) << answer.status().message();
+    EXPECT_EQ(answer.result().state().applied_steps(), static_cast<std::uint64_t>(i));
+  }
+  v1::DeleteSessionRequest request;
+  request.set_name(session);
+  google::protobuf::Empty empty;
+  ASSERT_TRUE(stub_->DeleteSession(Context().get(), request, &empty).ok());
+  ASSERT_TRUE(stream->Write(Message(session, {DepthStep(kDepth)})));
+  ASSERT_TRUE(stream->Read(&answer));
+  EXPECT_EQ(answer.status().code(), grpc::StatusCode::NOT_FOUND);
+
+  ASSERT_EQ(CreateOrDie("rig-1"), session);
+  ASSERT_TRUE(stream->Write(Message(session, {DepthStep(kDepth)})));
+  ASSERT_TRUE(stream->Read(&answer));
+  ASSERT_EQ(answer.status().code(), 0) << answer.status().message();
+  EXPECT_EQ(answer.result().state().applied_steps(), 1u);
+  EXPECT_EQ(StateOf(session).applied_steps(), 1u);
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
 TEST_F(StreamApplyTest, RequestIdsDeduplicateAcrossStreamAndUnaryCalls) {
   const std::string session = CreateOrDie();
   v1::ApplyResponse unary;

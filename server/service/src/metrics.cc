@@ -1,6 +1,7 @@
 #include "mdr/service/metrics.h"
 
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -72,20 +73,67 @@ const char* TypeName() {
   return "histogram";
 }
 
+constexpr std::size_t kCountersPerLine = kCacheLineBytes / sizeof(std::uint64_t);
+
+// Buckets and sum of one stripe, then a full line of padding: whatever the array's alignment,
+// the last counter of a stripe and the first of the next are a line apart.
+std::size_t StripeStride(std::size_t buckets) {
+  const std::size_t used = buckets + 1;
+  return (used + kCountersPerLine - 1) / kCountersPerLine * kCountersPerLine + kCountersPerLine;
+}
+
+std::atomic<std::size_t> next_stripe{0};
+
 }  // namespace
 
+std::size_t MetricStripe() {
+  thread_local const std::size_t stripe =
+      next_stripe.fetch_add(1, std::memory_order_relaxed) % kMetricStripes;
+  return stripe;
+}
+
+std::uint64_t Counter::value() const {
+  std::uint64_t total = 0;
+  for (const Stripe& stripe : stripes_) total += stripe.value.load(std::memory_order_relaxed);
+  return total;
+}
+
 Histogram::Histogram(const std::vector<double>* bounds)
-    : bounds_(bounds), buckets_(new std::atomic<std::uint64_t>[bounds->size() + 1]) {
-  for (std::size_t i = 0; i <= bounds->size(); ++i) buckets_[i].store(0);
+    : bounds_(bounds),
+      stride_(StripeStride(bounds->size() + 1)),
+      counters_(new std::atomic<std::uint64_t>[kMetricStripes * stride_]) {
+  for (std::size_t i = 0; i < kMetricStripes * stride_; ++i) {
+    counters_[i].store(i % stride_ == bounds->size() + 1 ? std::bit_cast<std::uint64_t>(0.0) : 0);
+  }
 }
 
 void Histogram::Observe(double value) {
   std::size_t i = 0;
   while (i < bounds_->size() && value > (*bounds_)[i]) ++i;
-  buckets_[i].fetch_add(1, std::memory_order_relaxed);
-  double sum = sum_.load(std::memory_order_relaxed);
-  while (!sum_.compare_exchange_weak(sum, sum + value, std::memory_order_relaxed)) {
+  std::atomic<std::uint64_t>* stripe = Stripe(MetricStripe());
+  stripe[i].fetch_add(1, std::memory_order_relaxed);
+  std::atomic<std::uint64_t>& sum = stripe[bounds_->size() + 1];
+  std::uint64_t bits = sum.load(std::memory_order_relaxed);
+  while (!sum.compare_exchange_weak(
+      bits, std::bit_cast<std::uint64_t>(std::bit_cast<double>(bits) + value),
+      std::memory_order_relaxed)) {
   }
+}
+
+std::uint64_t Histogram::bucket(std::size_t i) const {
+  std::uint64_t total = 0;
+  for (std::size_t s = 0; s < kMetricStripes; ++s) {
+    total += Stripe(s)[i].load(std::memory_order_relaxed);
+  }
+  return total;
+}
+
+double Histogram::sum() const {
+  double total = 0;
+  for (std::size_t s = 0; s < kMetricStripes; ++s) {
+    total += std::bit_cast<double>(Stripe(s)[bounds_->size() + 1].load(std::memory_order_relaxed));
+  }
+  return total;
 }
 
 template <typename Series>
@@ -234,16 +282,42 @@ Metrics& ProcessMetrics() {
 }
 
 namespace {
-std::atomic<std::uint64_t> recorded_calls{0};
+
+Counter recorded_calls;
+
+// The series of one (method, code) pair, found once per thread.
+struct CallSeries {
+  const char* method = nullptr;
+  const char* code = nullptr;
+  Counter* calls = nullptr;
+  Histogram* duration = nullptr;
+};
+
+const CallSeries& CallSeriesOf(const char* method, const char* code) {
+  // A few pairs per thread (a thread mostly answers one method with OK); replaced in turn.
+  constexpr std::size_t kKept = 8;
+  thread_local std::array<CallSeries, kKept> kept;
+  thread_local std::size_t next = 0;
+  for (const CallSeries& series : kept) {
+    if (series.method == method && series.code == code) return series;
+  }
+  // Series are never removed, so the pointers stay valid for the process's life.
+  Metrics& metrics = ProcessMetrics();
+  CallSeries& series = kept[next++ % kKept];
+  series = {method, code, &metrics.rpc_calls.With({method, code}),
+            &metrics.rpc_duration_seconds.With({method})};
+  return series;
+}
+
 }  // namespace
 
-std::uint64_t RecordedCalls() { return recorded_calls.load(std::memory_order_relaxed); }
+std::uint64_t RecordedCalls() { return recorded_calls.value(); }
 
 void RecordCall(const char* method, const char* code, double seconds) {
-  recorded_calls.fetch_add(1, std::memory_order_relaxed);
-  Metrics& metrics = ProcessMetrics();
-  metrics.rpc_calls.With({method, code}).Increment();
-  metrics.rpc_duration_seconds.With({method}).Observe(seconds);
+  recorded_calls.Increment();
+  const CallSeries& series = CallSeriesOf(method, code);
+  series.calls->Increment();
+  series.duration->Observe(seconds);
 }
 
 JournalWriteTimer::JournalWriteTimer() : start_nanoseconds_(SteadyNanoseconds()) {}

@@ -328,7 +328,7 @@ Status ContactOperations::ImportSession(const Principal& caller,
 
 Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
                                 const Interruption& interruption, v1::ApplyResponse* response,
-                                const Interrupt& interrupt) {
+                                const Interrupt& interrupt, std::weak_ptr<Session>* last_found) {
   if (request.steps().empty()) {
     return InvalidArgument("steps", "must contain at least one step");
   }
@@ -336,8 +336,7 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
   if (!step_outputs.ok()) return step_outputs.status();
   std::shared_ptr<Session> session;
-  if (Status status = sessions_.Find("session", request.session(), caller, &session);
-      !status.ok()) {
+  if (Status status = FindSession(caller, request.session(), last_found, &session); !status.ok()) {
     return status;
   }
   const Session::StepGuard guard = [&](int step_index) {
@@ -347,9 +346,17 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
   return session->Apply(request, *step_outputs, guard, MaxResponseBytes(), response, interrupt);
 }
 
+Status ContactOperations::FindSession(const Principal& caller, const std::string& name,
+                                      std::weak_ptr<Session>* last_found,
+                                      std::shared_ptr<Session>* session) {
+  return last_found == nullptr ? sessions_.Find("session", name, caller, session)
+                               : sessions_.FindAgain("session", name, caller, last_found, session);
+}
+
 std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,
                                                         const v1::ApplyRequest& request,
-                                                        v1::ApplyResponse* response) {
+                                                        v1::ApplyResponse* response,
+                                                        std::weak_ptr<Session>* last_found) {
   if (limits_.max_inline_vertices == 0 || hooks_.before_step || request.steps_size() != 1) {
     return std::nullopt;
   }
@@ -357,7 +364,7 @@ std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
   if (!step_outputs.ok()) return std::nullopt;
   std::shared_ptr<Session> session;
-  if (!sessions_.Find("session", request.session(), caller, &session).ok()) return std::nullopt;
+  if (!FindSession(caller, request.session(), last_found, &session).ok()) return std::nullopt;
   std::optional<Status> applied = session->ApplyIfBounded(
       request, *step_outputs, limits_.max_inline_vertices, MaxResponseBytes(), response);
   if (applied) ProcessMetrics().inline_batches.Increment();

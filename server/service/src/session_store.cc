@@ -70,7 +70,7 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
       }
     }
     erased.push_back(it->first);
-    it = sessions_.erase(it);
+    it = EraseLocked(it);
   }
   return erased;
 }
@@ -120,7 +120,7 @@ Status SessionStore::Create(const std::string& id_field, const std::string& sess
     if (!it->second->IsExpired(Session::Clock::now())) {
       return AlreadyExists(id_field, name + " already exists");
     }
-    sessions_.erase(it);  // the journal entry is replaced below
+    EraseLocked(it);  // the journal entry is replaced below
   }
   auto created = std::make_shared<Session>(name, std::move(state));
   if (journal_ != nullptr) {
@@ -158,6 +158,24 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
   return NotFound(field, name);
 }
 
+Status SessionStore::FindAgain(const std::string& field, const std::string& name,
+                               const Principal& caller, std::weak_ptr<Session>* last_found,
+                               std::shared_ptr<Session>* session) {
+  // Removal is marked under the store's exclusive lock before the erase, so a session seen here
+  // as not removed was in the store at this moment: as if Find had run now.
+  if (std::shared_ptr<Session> kept = last_found->lock();
+      kept != nullptr && !kept->removed() && kept->name() == name && kept->VisibleTo(caller)) {
+    if (const auto now = Session::Clock::now(); !kept->IsExpired(now)) {
+      kept->Touch(now);
+      *session = std::move(kept);
+      return OkStatus();
+    }
+  }
+  Status status = Find(field, name, caller, session);
+  if (status.ok()) *last_found = *session;
+  return status;
+}
+
 Status SessionStore::Erase(const std::string& field, const std::string& name,
                            const Principal& caller) {
   std::shared_ptr<Session> session;
@@ -169,8 +187,13 @@ Status SessionStore::Erase(const std::string& field, const std::string& name,
   if (journal_ != nullptr) {
     if (Status status = journal_->RemoveSession(name); !status.ok()) return status;
   }
-  sessions_.erase(it);
+  EraseLocked(it);
   return OkStatus();
+}
+
+SessionStore::Map::iterator SessionStore::EraseLocked(Map::iterator it) {
+  it->second->MarkRemoved();
+  return sessions_.erase(it);
 }
 
 std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string& after,

@@ -2,9 +2,14 @@
 // with fixed label names, rendered in the text exposition format 0.0.4. Recording is lock-free
 // (atomics); a labelled series is found under a shared lock and created once under an exclusive
 // one. Label values come from fixed sets (method names, status code names), never from clients.
+// Counters and histograms are recorded on every call (StreamApply: every message) by whichever
+// thread answers it, so each is striped: a thread records into its own stripe (a cache line of
+// its own), and reading sums the stripes; threads recording the same series then do not pass one
+// cache line between cores on every call.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <initializer_list>
@@ -18,14 +23,26 @@
 
 namespace mdr::service {
 
+// Stripes per series; threads take them in turn, so up to this many threads record without
+// sharing a cache line.
+inline constexpr std::size_t kMetricStripes = 8;
+inline constexpr std::size_t kCacheLineBytes = 64;
+// The calling thread's stripe, in [0, kMetricStripes).
+std::size_t MetricStripe();
+
 // A value that only goes up (events, seconds).
 class Counter {
  public:
-  void Increment(std::uint64_t by = 1) { value_.fetch_add(by, std::memory_order_relaxed); }
-  std::uint64_t value() const { return value_.load(std::memory_order_relaxed); }
+  void Increment(std::uint64_t by = 1) {
+    stripes_[MetricStripe()].value.fetch_add(by, std::memory_order_relaxed);
+  }
+  std::uint64_t value() const;
 
  private:
-  std::atomic<std::uint64_t> value_{0};
+  struct alignas(kCacheLineBytes) Stripe {
+    std::atomic<std::uint64_t> value{0};
+  };
+  std::array<Stripe, kMetricStripes> stripes_;
 };
 
 // A value that goes up and down (queue depth) or is set when scraped (sessions held).
@@ -46,13 +63,19 @@ class Histogram {
   void Observe(double value);
   const std::vector<double>& bounds() const { return *bounds_; }
   // Observations <= bounds()[i] alone (not cumulative); index bounds().size(): above every bound.
-  std::uint64_t bucket(std::size_t i) const { return buckets_[i].load(std::memory_order_relaxed); }
-  double sum() const { return sum_.load(std::memory_order_relaxed); }
+  std::uint64_t bucket(std::size_t i) const;
+  double sum() const;
 
  private:
+  // A stripe's counters: the buckets, then the sum (as a double's bits, added by compare and
+  // exchange), then padding, so that no two stripes share a cache line.
+  std::atomic<std::uint64_t>* Stripe(std::size_t stripe) const {
+    return &counters_[stripe * stride_];
+  }
+
   const std::vector<double>* const bounds_;
-  std::unique_ptr<std::atomic<std::uint64_t>[]> buckets_;
-  std::atomic<double> sum_{0};
+  const std::size_t stride_;
+  std::unique_ptr<std::atomic<std::uint64_t>[]> counters_;
 };
 
 // Orders label value lists; transparent, so that a series is found from string views without
@@ -125,7 +148,9 @@ struct Metrics {
 // The process-wide instance that the hooks record to.
 Metrics& ProcessMetrics();
 
-// Records one finished call (or StreamApply message): method is a fixed handler name.
+// Records one finished call (or StreamApply message): method is a fixed handler name and code a
+// status code name, both with static storage (each thread keeps the series of the last few
+// (method, code) pairs by address, so a repeated call takes no lock).
 void RecordCall(const char* method, const char* code, double seconds);
 // The calls and stream messages recorded so far (what gRPC's threads carried; stream_pacer.h).
 std::uint64_t RecordedCalls();

@@ -143,6 +143,11 @@ class Session {
   void Touch(Clock::time_point now = Clock::now());
   bool IsExpired(Clock::time_point now) const;
 
+  // Set by the SessionStore when it lets go of the session (deleted, expired, replaced), before
+  // it does; a reference kept from an earlier lookup is then no longer the session of its name.
+  void MarkRemoved() { removed_.store(true, std::memory_order_release); }
+  bool removed() const { return removed_.load(std::memory_order_acquire); }
+
  private:
   Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                   const StepGuard& guard, std::size_t max_response_bytes,
@@ -213,6 +218,7 @@ class Session {
   const int max_message_bytes_;
   const std::size_t scene_bytes_;
   std::atomic<Clock::rep> last_used_;
+  std::atomic<bool> removed_{false};
 
   mutable std::mutex mutex_;
   std::optional<Contact> contact_;  // guarded by mutex_; unset: unavailable

@@ -34,6 +34,12 @@ class SessionStore {
   // "sessions/{id}"; field names the request field.
   Status Find(const std::string& field, const std::string& name, const Principal& caller,
               std::shared_ptr<Session>* session);
+  // As Find, but first tries *last_found, the session an earlier lookup of this caller found (a
+  // stream keeps it for its next message): while the store still holds it under `name`, it is
+  // found without the store's lock, which every call of every caller shares. Otherwise as Find,
+  // and *last_found is replaced by what it finds.
+  Status FindAgain(const std::string& field, const std::string& name, const Principal& caller,
+                   std::weak_ptr<Session>* last_found, std::shared_ptr<Session>* session);
   // As Find, then deletes it (UNAVAILABLE if the journal fails: then it is kept).
   Status Erase(const std::string& field, const std::string& name, const Principal& caller);
 
@@ -70,6 +76,8 @@ class SessionStore {
   // Erases expired sessions matching `which` (and journals it); returns their names.
   template <typename Predicate>
   std::vector<std::string> EraseExpiredLocked(Predicate which);
+  // Every session leaves the map here (Session::MarkRemoved first); the next entry.
+  Map::iterator EraseLocked(Map::iterator it);
 
   const std::size_t max_sessions_;
   const std::size_t max_sessions_per_owner_;
