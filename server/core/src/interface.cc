@@ -295,7 +295,6 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
   Interface built;
   built.kind_ = config.kind;
   built.heights_ = std::move(config.heights);
-  built.contacts_ = PackedContacts(n);
   built.max_approach_ = std::numeric_limits<double>::infinity();
   // Each distinct config once (validated once).
   std::vector<std::uint32_t> config_of(n);
@@ -316,8 +315,11 @@ Result<Interface> Interface::Create(InterfaceConfig config) {
   }
   built.configs_.FinishAdding();
   built.max_depth_.shrink_to_fit();
+  // Every config is in the table now: the list (a ContactConfig per contact) is freed before the
+  // record array is written, so that the two never take memory at once (the creation's peak).
   config.contacts.clear();
   config.contacts.shrink_to_fit();
+  built.contacts_ = PackedContacts(n);
   if (shared) {
     // Touching the highest contact: every depth delta - h_i <= 0, so nothing is loaded.
     built.approach_ = built.heights_.empty()
