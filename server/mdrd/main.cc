@@ -54,6 +54,7 @@ void SetServing(grpc::HealthCheckServiceInterface* health, bool serving) {
 int main(int argc, char** argv) {
   mdrd::Options options;
   if (auto exit_code = mdrd::ParseOptions(argc, argv, &options)) return *exit_code;
+  mdr::service::ReturnLargeFreesToTheSystem();
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   spdlog::set_pattern("ts=%Y-%m-%dT%H:%M:%S.%e%z level=%l %v");
   mdrd::LogEffectiveOptions(options);

@@ -2,7 +2,7 @@
 // created, pressed, cycled, exported and imported by a client on loopback, within the server's
 // default state budget:
 //   build/release/tests/bench/mdr_million_asperities [--count N] [--workers W] [--cycles C]
-//                                                    [--log-sigma S]
+//                                                    [--log-sigma S] [--default-allocator]
 //
 // Workload: steel on steel, mu = 0.3, Hertz summits R = 0.1 mm (or lognormal radii of that
 // median with --log-sigma > 0: a sphere per summit) with Gaussian heights (sigma 1 um, seed
@@ -10,11 +10,13 @@
 // Mindlin-Deresiewicz cycling with energy (a triangle wave of amplitude 0.4 mu kappa 3 sigma, 8
 // steps per half cycle, C cycles), one unary Apply per step. The server runs in this process
 // with the default limits but --max-message-bytes at its largest (1 GiB: the export of 10^6
-// contacts is about 200 MB, above the 4 MiB default). The export is imported as a second
-// session, and one more step on both must give the same forces bit for bit. Prints the time of
-// each phase, the state the server holds and charges (memory_bytes) per asperity, the process's
-// resident size per asperity after the cycling, and the export's size; exits 1 if anything
-// fails or differs, or if the state exceeds the default budget of one token (1 GiB).
+// contacts is about 200 MB, above the 4 MiB default), and the allocator set as mdrd sets it
+// (ReturnLargeFreesToTheSystem; --default-allocator keeps glibc's dynamic thresholds). The
+// export is imported as a second session, and one more step on both must give the same forces
+// bit for bit. Prints the time of each phase, the state the server holds and charges
+// (memory_bytes) per asperity, the process's resident size per asperity after the cycling, and
+// the export's size; exits 1 if anything fails or differs, or if the state exceeds the default
+// budget of one token (1 GiB).
 #include <grpcpp/create_channel.h>
 #include <grpcpp/security/credentials.h>
 #include <spdlog/spdlog.h>
@@ -48,7 +50,8 @@ struct Options {
   std::size_t count = 1'000'000;
   int workers = 2;
   int cycles = 2;
-  double log_sigma = 0;  // > 0: lognormal radii
+  double log_sigma = 0;            // > 0: lognormal radii
+  bool default_allocator = false;  // glibc's dynamic thresholds, not mdrd's setting
 };
 
 Options ParseOptions(int argc, char** argv) {
@@ -63,6 +66,8 @@ Options ParseOptions(int argc, char** argv) {
   app.add_option("--log-sigma", options.log_sigma,
                  "lognormal radii of this log_sigma (0: every summit of radius 0.1 mm)")
       ->check(CLI::Range(0.0, 3.0));
+  app.add_flag("--default-allocator", options.default_allocator,
+               "keep glibc's dynamic mmap threshold (mdrd fixes it: ReturnLargeFreesToTheSystem)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -152,6 +157,7 @@ class Client {
 
 int main(int argc, char** argv) {
   const Options options = ParseOptions(argc, argv);
+  if (!options.default_allocator) mdr::service::ReturnLargeFreesToTheSystem();  // as mdrd does
   spdlog::set_level(spdlog::level::warn);
   const long resident0 = ResidentBytes();
   mdr::service::ServerOptions server_options;

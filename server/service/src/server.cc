@@ -2,6 +2,7 @@
 
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
+#include <malloc.h>
 #include <openssl/bio.h>
 #include <openssl/err.h>
 #include <openssl/evp.h>
@@ -21,6 +22,13 @@
 #include "mdr/service/request_parse_errors.h"
 
 namespace mdr::service {
+
+void ReturnLargeFreesToTheSystem() {
+  // Setting the threshold fixes it (and the trim threshold, 128 KiB by default): glibc then
+  // maps every allocation of this size or more and unmaps it when it is freed.
+  constexpr int kMmapThreshold = 128 * 1024;
+  (void)mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+}
 namespace {
 
 Result<std::string> ReadPemFile(const std::string& flag, const std::string& path) {

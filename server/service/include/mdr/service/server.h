@@ -53,6 +53,14 @@ struct ServerOptions {
   TestHooks test_hooks;
 };
 
+// Process-wide, once at the start of a serving process (mdrd; the tools that measure its memory):
+// every freed allocation of 128 KiB or more goes back to the system at once. By default glibc
+// raises its mmap and trim thresholds after the first large frees (up to 32 and 64 MB), and the
+// buffers of several MB that an interface's creation and steps free then stay resident in the
+// workers' arenas: about 70 bytes per asperity beyond what a session of 10^6 asperities holds
+// (docs/interfaces.md, "Memory layout").
+void ReturnLargeFreesToTheSystem();
+
 class ContactServer {
  public:
   // Health checking and reflection are process-wide switches
