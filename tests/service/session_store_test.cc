@@ -31,6 +31,16 @@ SessionOrigin FreshState(std::chrono::nanoseconds idle_timeout = std::chrono::ho
   return state;
 }
 
+// "sessions/{id}" with an idle timeout of 1 ns, expired once the test has slept 2 ms.
+std::shared_ptr<Session> CreateExpiredOrDie(SessionStore& store, const std::string& id) {
+  std::shared_ptr<Session> session;
+  const Status status =
+      store.Create("session_id", id, {}, FreshState(std::chrono::nanoseconds(1)), &session);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  return session;
+}
+
 std::string CreateOrDie(SessionStore& store, const std::string& id, const Principal& caller = {}) {
   std::shared_ptr<Session> session;
   const Status status = store.Create("session_id", id, caller, FreshState(), &session);
@@ -109,12 +119,8 @@ TEST(SessionStoreTest, ListsInNameOrderByPages) {
 
 TEST(SessionStoreTest, AnExpiredSessionIsGoneAndErased) {
   SessionStore store(100, 0);
-  std::shared_ptr<Session> session;
-  ASSERT_TRUE(
-      store.Create("session_id", "short", {}, FreshState(std::chrono::nanoseconds(1)), &session)
-          .ok());
+  ASSERT_NE(CreateExpiredOrDie(store, "short"), nullptr);
   CreateOrDie(store, "long");
-  std::this_thread::sleep_for(std::chrono::milliseconds(2));
   std::shared_ptr<Session> found;
   EXPECT_EQ(store.Find("name", "sessions/short", {}, &found).code(), StatusCode::kNotFound);
   EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{});  // Find erased it already
@@ -163,12 +169,9 @@ TEST(SessionStoreTest, FindAgainReusesOnlyASessionTheStoreStillHolds) {
 
 TEST(SessionStoreTest, FindAgainDoesNotReuseAnExpiredSession) {
   SessionStore store(100, 0);
-  std::shared_ptr<Session> session;
-  ASSERT_TRUE(
-      store.Create("session_id", "short", {}, FreshState(std::chrono::nanoseconds(1)), &session)
-          .ok());
+  const std::shared_ptr<Session> session = CreateExpiredOrDie(store, "short");
+  ASSERT_NE(session, nullptr);
   std::weak_ptr<Session> last = session;
-  std::this_thread::sleep_for(std::chrono::milliseconds(2));
   std::shared_ptr<Session> found;
   EXPECT_EQ(store.FindAgain("session", "sessions/short", {}, &last, &found).code(),
             StatusCode::kNotFound);

@@ -102,9 +102,8 @@ Histogram::Histogram(const std::vector<double>* bounds)
     : bounds_(bounds),
       stride_(StripeStride(bounds->size() + 1)),
       counters_(new std::atomic<std::uint64_t>[kMetricStripes * stride_]) {
-  for (std::size_t i = 0; i < kMetricStripes * stride_; ++i) {
-    counters_[i].store(i % stride_ == bounds->size() + 1 ? std::bit_cast<std::uint64_t>(0.0) : 0);
-  }
+  // All zero bits: counts of 0, and sums of 0.0.
+  for (std::size_t i = 0; i < kMetricStripes * stride_; ++i) counters_[i].store(0);
 }
 
 void Histogram::Observe(double value) {

@@ -29,6 +29,7 @@ void ReturnLargeFreesToTheSystem() {
   constexpr int kMmapThreshold = 128 * 1024;
   (void)mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
 }
+
 namespace {
 
 Result<std::string> ReadPemFile(const std::string& flag, const std::string& path) {

@@ -34,6 +34,15 @@ Status NotFound(const std::string& field, const std::string& name) {
   return mdr::NotFound(field, name + " does not exist (or expired)");
 }
 
+// Hands out a session found for a lookup unless its idle timeout ran out, and restarts its timer.
+bool TakeIfUnexpired(std::shared_ptr<Session> found, std::shared_ptr<Session>* session) {
+  const auto now = Session::Clock::now();
+  if (found->IsExpired(now)) return false;
+  found->Touch(now);
+  *session = std::move(found);
+  return true;
+}
+
 }  // namespace
 
 Status SessionStore::CheckSessionId(const std::string& field, const std::string& session_id) {
@@ -147,11 +156,7 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
     std::shared_lock lock(mutex_);
     auto it = sessions_.find(name);
     if (it == sessions_.end() || !it->second->VisibleTo(caller)) return NotFound(field, name);
-    if (const auto now = Session::Clock::now(); !it->second->IsExpired(now)) {
-      it->second->Touch(now);
-      *session = it->second;
-      return OkStatus();
-    }
+    if (TakeIfUnexpired(it->second, session)) return OkStatus();
   }
   std::unique_lock lock(mutex_);
   EraseExpiredLocked([&](const Session& expired) { return expired.name() == name; });
@@ -164,12 +169,9 @@ Status SessionStore::FindAgain(const std::string& field, const std::string& name
   // Removal is marked under the store's exclusive lock before the erase, so a session seen here
   // as not removed was in the store at this moment: as if Find had run now.
   if (std::shared_ptr<Session> kept = last_found->lock();
-      kept != nullptr && !kept->removed() && kept->name() == name && kept->VisibleTo(caller)) {
-    if (const auto now = Session::Clock::now(); !kept->IsExpired(now)) {
-      kept->Touch(now);
-      *session = std::move(kept);
-      return OkStatus();
-    }
+      kept != nullptr && !kept->removed() && kept->name() == name && kept->VisibleTo(caller) &&
+      TakeIfUnexpired(std::move(kept), session)) {
+    return OkStatus();
   }
   Status status = Find(field, name, caller, session);
   if (status.ok()) *last_found = *session;
