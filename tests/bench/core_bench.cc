@@ -78,6 +78,32 @@ void BM_TangentialForceStep(benchmark::State& state) {
 }
 BENCHMARK(BM_TangentialForceStep);
 
+// One displacement step on a grid of 2^16 springs (H1 over 1 mm, energy on), Mindlin-Deresiewicz
+// cycling: Arg 0 keeps the contact unchanged on failure (Contact::Apply copies the springs to
+// undo the step), Arg 1 leaves it to be discarded (what a batch on a copy uses).
+void BM_GridStep(benchmark::State& state) {
+  const auto on_failure =
+      state.range(0) != 0 ? Contact::OnFailure::kDiscarded : Contact::OnFailure::kUnchanged;
+  ContactConfig config = reference::H1Config(true);
+  config.method = Method::kGrid;
+  config.grid_size = 1 << 16;
+  config.grid_max_radius = 1e-3;
+  Contact contact = std::move(Contact::Create(config)).value();
+  Step load{NormalControl::kForce, reference::H1::kNormalForce,
+            TangentialControl::kDisplacementIncrement, 0};
+  if (!contact.Apply(load).ok()) state.SkipWithError("load");
+  const double amplitude = 0.4 * contact.mu_kappa() * contact.depth();
+  int k = 0;
+  for (auto _ : state) {
+    Step step{NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement,
+              reference::TriangleWave(amplitude, k++, 8)};
+    benchmark::DoNotOptimize(contact.Apply(step, nullptr, {}, on_failure));
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["springs"] = static_cast<double>(config.grid_size);
+}
+BENCHMARK(BM_GridStep)->Arg(0)->Arg(1);
+
 }  // namespace
 }  // namespace mdr
 

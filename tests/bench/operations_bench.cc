@@ -2,11 +2,13 @@
 // one-step batch on an H1 session (Mindlin-Deresiewicz cycling at 0.6 of the slip limit, partial
 // slip, as mdr_load), beside the engine's Contact::MoveTo of the same steps. The difference is
 // what the service adds per message of a stream or per call (validation, session lookup, the
-// batch's atomicity, budget, response):
+// batch's atomicity, budget, response). Beside them, batches of 1000 steps (exact) and 20 steps
+// (a grid of 2^16 springs), where the per-step part of that cost shows:
 //   build/release/tests/bench/mdr_operations_bench [--benchmark_repetitions=3]
 #include <benchmark/benchmark.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <vector>
 
@@ -36,11 +38,19 @@ std::vector<double> CycleDisplacements(const mdr::Contact& loaded) {
   return displacements;
 }
 
-// A service with one H1 session loaded to F_N; returns the session's name.
-std::string LoadedSession(mdr::service::ContactOperations& operations, bool track_energy) {
+// A service with one H1 session loaded to F_N (exact, or on a grid of grid_springs springs over
+// 1 mm); returns the session's name.
+std::string LoadedSession(mdr::service::ContactOperations& operations, bool track_energy,
+                          std::uint32_t grid_springs = 0) {
   mdr::v1::CreateSessionRequest create;
-  *create.mutable_session()->mutable_scene() = mdr::reference::H1Scene<mdr::v1::Scene>();
-  create.mutable_session()->mutable_scene()->mutable_options()->set_track_energy(track_energy);
+  mdr::v1::Scene& scene = *create.mutable_session()->mutable_scene();
+  scene = mdr::reference::H1Scene<mdr::v1::Scene>();
+  scene.mutable_options()->set_track_energy(track_energy);
+  if (grid_springs > 0) {
+    scene.set_method(mdr::v1::METHOD_GRID);
+    scene.mutable_grid()->set_size(grid_springs);
+    scene.mutable_grid()->set_max_radius(1e-3);
+  }
   mdr::v1::Session session;
   if (auto status = operations.CreateSession(std::nullopt, create, &session); !status.ok()) {
     Fail(status);
@@ -81,6 +91,44 @@ void BM_ServiceApplyOneStep(benchmark::State& state) {
 }
 BENCHMARK(BM_ServiceApplyOneStep)->Arg(0)->Arg(1);
 
+// Applies a batch of `steps` steps of the cycle (energy on or off) to a loaded H1 session, exact
+// or on a grid of grid_springs springs, once per iteration.
+void RunCyclingBatches(benchmark::State& state, int steps, bool track_energy,
+                       std::uint32_t grid_springs = 0) {
+  mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
+  mdr::v1::ApplyRequest request;
+  request.set_session(LoadedSession(operations, track_energy, grid_springs));
+  const std::vector<double> cycle =
+      CycleDisplacements(mdr::reference::LoadedH1Contact(track_energy));
+  for (int i = 0; i < steps; ++i) request.add_steps()->set_displacement(cycle[i % cycle.size()]);
+  const auto no_interruption = [] { return mdr::OkStatus(); };
+  mdr::v1::ApplyResponse response;
+  for (auto _ : state) {
+    response.Clear();
+    const mdr::Status status = operations.Apply(std::nullopt, request, no_interruption, &response);
+    if (!status.ok()) Fail(status);
+    benchmark::DoNotOptimize(response);
+  }
+  state.SetItemsProcessed(state.iterations() * steps);
+  state.SetLabel(track_energy ? "energy on" : "energy off");
+}
+
+// A batch of 1000 of the same steps in one call (mdr_load's "apply batch 1000"): what the
+// service adds per step of a long batch (the batch runs on a copy committed at its end).
+void BM_ServiceApplyBatch(benchmark::State& state) {
+  RunCyclingBatches(state, 1000, state.range(0) != 0);
+}
+BENCHMARK(BM_ServiceApplyBatch)->Arg(0)->Arg(1);
+
+// A batch of 20 steps on a grid of 2^16 springs, energy on: a grid's batch runs on a copy too,
+// so its steps need no undo copy of their own (Contact::OnFailure::kDiscarded).
+void BM_ServiceApplyGridBatch(benchmark::State& state) {
+  constexpr std::uint32_t kSprings = 1 << 16;
+  RunCyclingBatches(state, 20, true, kSprings);
+  state.counters["springs"] = kSprings;
+}
+BENCHMARK(BM_ServiceApplyGridBatch);
+
 // The reference: the same steps on the engine's contact, no service around it.
 void BM_EngineOneStep(benchmark::State& state) {
   const bool track_energy = state.range(0) != 0;
@@ -93,6 +141,7 @@ void BM_EngineOneStep(benchmark::State& state) {
     if (!status.ok()) Fail(status);
     benchmark::DoNotOptimize(contact);
   }
+  state.SetItemsProcessed(state.iterations());
   state.SetLabel(track_energy ? "energy on" : "energy off");
 }
 BENCHMARK(BM_EngineOneStep)->Arg(0)->Arg(1);

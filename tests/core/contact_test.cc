@@ -500,3 +500,115 @@ TEST(ContactTest, AZeroStepKeepsTheSlipZone) {
 
 }  // namespace
 }  // namespace mdr
+
+namespace mdr {
+namespace {
+
+::testing::AssertionResult SameState(const Contact& a, const Contact& b) {
+  const bool same_memory = a.grid_memory() != nullptr
+                               ? b.grid_memory() != nullptr && *a.grid_memory() == *b.grid_memory()
+                               : a.memory() == b.memory();
+  if (!same_memory) return ::testing::AssertionFailure() << "memories differ";
+  if (a.depth() != b.depth() || a.tangential_displacement() != b.tangential_displacement() ||
+      a.dissipated_energy() != b.dissipated_energy() ||
+      a.last_step_dissipation() != b.last_step_dissipation()) {
+    return ::testing::AssertionFailure() << "depth, displacement or energies differ";
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// A random step of any kind: targets in and beyond reach, curved force paths, invalid values and
+// increments that overflow only after the step moved the contact.
+Step RandomStep(std::mt19937_64& rng, const Contact& c, double depth0) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  const double slip = c.mu_kappa() * depth0, limit = c.config().friction * 100;
+  Step step;
+  switch (rng() % 9) {
+    case 0:
+      step.normal = NormalControl::kDepth;
+      step.normal_value = unit(rng) < 0.1 ? 0 : depth0 * (0.5 + unit(rng));
+      break;
+    case 1:
+      step.normal = NormalControl::kForce;
+      step.normal_value = unit(rng) < 0.05 ? -1 : 200 * unit(rng);
+      break;
+    case 2:
+      step.tangential = TangentialControl::kDisplacement;
+      step.tangential_value = slip * (3 * unit(rng) - 1.5);
+      break;
+    case 3:
+      step.tangential_value = slip * (unit(rng) - 0.5);
+      break;
+    case 4:
+      step.tangential = TangentialControl::kForce;
+      step.tangential_value = limit * (2.4 * unit(rng) - 1.2);
+      break;
+    case 5:  // curved: both forces
+      step.normal = NormalControl::kForce;
+      step.normal_value = 50 + 100 * unit(rng);
+      step.tangential = TangentialControl::kForce;
+      step.tangential_value = 0.5 * limit * (2 * unit(rng) - 1);
+      break;
+    case 6:  // curved: a depth with a tangential force
+      step.normal = NormalControl::kDepth;
+      step.normal_value = depth0 * (0.8 + 0.4 * unit(rng));
+      step.tangential = TangentialControl::kForce;
+      step.tangential_value = 0.3 * limit * (2 * unit(rng) - 1);
+      break;
+    case 7:  // overflows once the displacement is already past half the largest double
+      step.tangential_value = unit(rng) < 0.5 ? 1e308 : -1e308;
+      break;
+    default:
+      step.tangential = TangentialControl::kDisplacement;
+      step.tangential_value = std::numeric_limits<double>::quiet_NaN();
+  }
+  return step;
+}
+
+// OnFailure::kDiscarded (a batch on a copy) only saves the undo copy: every step reports the same
+// status and leaves bit for bit the same state as with kUnchanged, exact and on a grid, straight
+// and curved. After a failure the discarded contact is overwritten, as a batch's copy is.
+TEST(ContactTest, ADiscardedFailureChangesNoStepThatSucceeds) {
+  std::mt19937_64 rng(25);
+  long failures = 0, curved = 0;
+  for (bool grid : {false, true}) {
+    Contact kept = SphereWithTolerance(1e-6);
+    if (grid) {
+      ContactConfig config = kept.config();
+      config.method = Method::kGrid;
+      config.grid_size = 256;
+      config.grid_max_radius = 1e-3;
+      kept = std::move(Contact::Create(config)).value();
+    }
+    ASSERT_TRUE(kept.Apply(testing::NormalForceStep(100)).ok());
+    const double depth0 = kept.depth();
+    Contact discarded = kept;
+    for (int i = 0; i < 600; ++i) {
+      const Step step = RandomStep(rng, kept, depth0);
+      const Contact before = kept;
+      StepReport kept_report, discarded_report;
+      const Status kept_status = kept.Apply(step, &kept_report);
+      const Status discarded_status =
+          discarded.Apply(step, &discarded_report, {}, Contact::OnFailure::kDiscarded);
+      ASSERT_EQ(kept_status.ToString(), discarded_status.ToString()) << "step " << i;
+      ASSERT_EQ(kept_status.code(), discarded_status.code());
+      if (!kept_status.ok()) {
+        ++failures;
+        ASSERT_TRUE(SameState(kept, before)) << "step " << i << ": " << kept_status.ToString();
+        discarded = kept;
+        continue;
+      }
+      curved += kept_report.substeps > 1;
+      ASSERT_EQ(kept_report.substeps, discarded_report.substeps);
+      ASSERT_EQ(kept_report.path_error, discarded_report.path_error);
+      ASSERT_EQ(kept_report.dissipated, discarded_report.dissipated);
+      ASSERT_TRUE(SameState(kept, discarded)) << "step " << i;
+    }
+  }
+  std::printf("[ discarded ] %ld failed steps, %ld curved\n", failures, curved);
+  EXPECT_GT(failures, 100);
+  EXPECT_GT(curved, 40);
+}
+
+}  // namespace
+}  // namespace mdr

@@ -296,6 +296,44 @@ TEST_F(ContactServiceTest, FailingBatchLeavesSessionUnchanged) {
   EXPECT_EQ(before.SerializeAsString(), after.SerializeAsString());
 }
 
+// A step can fail after it moved the contact (here an increment of 1e308 m makes the dissipated
+// energy overflow, found after the step). Alone, it is undone in place (a grid's step too); in a
+// longer batch it leaves the batch's copy moved, and the copy is dropped. Either way the session
+// is unchanged, and the next batch gives bit for bit what a twin session that never saw the
+// failure gives.
+TEST_F(ContactServiceTest, AStepFailingAfterItMovedLeavesNoTrace) {
+  v1::Scene grid = SteelSphereOnSteelFlat();
+  grid.set_method(v1::METHOD_GRID);
+  grid.mutable_grid()->set_size(256);
+  grid.mutable_grid()->set_max_radius(1e-3);
+  for (const v1::Scene& scene : {SteelSphereOnSteelFlat(), grid}) {
+    for (const bool batched : {false, true}) {
+      SCOPED_TRACE(std::string(scene.method() == v1::METHOD_GRID ? "grid" : "exact") +
+                   (batched ? ", batched" : ", alone"));
+      const std::string session = CreateScene(scene), twin = CreateScene(scene);
+      v1::ApplyResponse response, twin_response;
+      for (const std::string& name : {session, twin}) {
+        ASSERT_TRUE(Apply(name, {DepthStep(kDepth), DisplacementStep(1e-7)}, &response).ok());
+      }
+      const v1::SessionSnapshot before = ExportOrDie(session);
+      std::vector<v1::Step> failing = {DisplacementIncrementStep(1e308)};
+      if (batched) failing.insert(failing.begin(), DisplacementStep(2e-7));
+      const grpc::Status status = Apply(session, failing, &response);
+      ExpectInvalidArgument(
+          status, batched ? "steps[1].displacement_increment" : "steps[0].displacement_increment");
+      EXPECT_THAT(status.error_message(), HasSubstr("overflows a double"));
+      EXPECT_EQ(before.SerializeAsString(), ExportOrDie(session).SerializeAsString());
+
+      const std::vector<v1::Step> next = {DisplacementStep(-2e-7), DisplacementIncrementStep(3e-7)};
+      ASSERT_TRUE(Apply(session, next, &response).ok());
+      ASSERT_TRUE(Apply(twin, next, &twin_response).ok());
+      EXPECT_EQ(response.state().SerializeAsString(), twin_response.state().SerializeAsString());
+      EXPECT_EQ(ExportOrDie(session).contact().SerializeAsString(),
+                ExportOrDie(twin).contact().SerializeAsString());
+    }
+  }
+}
+
 TEST_F(ContactServiceTest, ApplyRejectsEmptyBatchOversizedBatchAndBadRequestId) {
   const std::string session = CreateOrDie();
   v1::ApplyResponse response;

@@ -199,7 +199,10 @@ class Problem {
     for (std::size_t k = 0; k < prepared.path.size(); ++k) {
       if (Status s = interrupt_.CheckEvery(kInterruptPeriod, k); !s.ok()) return s;
       move.tangential_value = prepared.path[k];
-      if (Status s = c.Apply(move); !s.ok()) return s;
+      // A failure ends the replay (c is dropped): no undo copy per sample.
+      if (Status s = c.Apply(move, nullptr, {}, Contact::OnFailure::kDiscarded); !s.ok()) {
+        return s;
+      }
       if (k >= prepared.first_residual) {
         *r++ = c.tangential_force() - samples.tangential_force[k];
       }

@@ -20,8 +20,7 @@ std::string FormatNumber(double value) {
   return out.str();
 }
 
-Status RequireFinite(std::string_view field, double value) {
-  if (std::isfinite(value)) return OkStatus();
+Status NotFinite(std::string_view field, double value) {
   return InvalidArgument(std::string(field), "must be a finite number, got " + FormatNumber(value));
 }
 

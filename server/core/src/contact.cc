@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "mdr/base/validate.h"
@@ -350,7 +351,8 @@ Status Contact::MoveTo(double depth, double tangential_displacement, StepReport*
   return OkStatus();
 }
 
-Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& interrupt) {
+Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& interrupt,
+                      OnFailure on_failure) {
   const char* normal_field = FieldName(step.normal);
   const char* tangential_field = FieldName(step.tangential);
   if (Status s = RequireFinite(normal_field, step.normal_value); !s.ok()) return s;
@@ -423,21 +425,28 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
       ux_end = LandOnTurningPoint(depth1, ux_ + dux);
     }
     // One exact step in place, undone if its result fails the checks.
-    undo_.memory = memory_;
+    const bool undo = on_failure == OnFailure::kUnchanged;
+    if (undo) undo_.memory = memory_;
     const double ux0 = ux_, dissipated0 = dissipated_;
     local = {1, 0, LinearStep(depth1, ux_end, dux)};
     if (Status s = CheckStepResult(tangential_field); !s.ok()) {
-      std::swap(memory_, undo_.memory);
-      ux_ = ux0;
-      dissipated_ = dissipated0;
+      if (undo) {
+        std::swap(memory_, undo_.memory);
+        ux_ = ux0;
+        dissipated_ = dissipated0;
+      }
       return s;
     }
   } else {
-    Contact trial = *this;
+    // Sub-steps on a trial contact that replaces this one at the end, unless this one is dropped
+    // on failure anyway.
+    std::optional<Contact> trial;
+    if (on_failure == OnFailure::kUnchanged) trial.emplace(*this);
+    Contact& stepped = trial ? *trial : *this;
     const StepTargets targets{depth1, actuator_depth1, actuator_displacement1};
-    if (Status s = trial.ApplyCurvedPath(step, targets, &local, interrupt); !s.ok()) return s;
-    if (Status s = trial.CheckStepResult(tangential_field); !s.ok()) return s;
-    *this = std::move(trial);
+    if (Status s = stepped.ApplyCurvedPath(step, targets, &local, interrupt); !s.ok()) return s;
+    if (Status s = stepped.CheckStepResult(tangential_field); !s.ok()) return s;
+    if (trial) *this = std::move(*trial);
   }
   last_dissipated_ = local.dissipated;
   if (report) *report = local;

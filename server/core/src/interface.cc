@@ -832,9 +832,10 @@ Status Interface::ApplyEach(const ContactListStep& step, const Interrupt& interr
           status = contact.MoveTo(target.depth, target.ux);
           if (status.ok()) status = CheckSteppedContact(contact);
         } else {
+          // A failed step's decoded contact is dropped: the record is written only after it.
           status = contact.Apply(
               {step.normal, step.normal_values[i], step.tangential, step.tangential_values[i]},
-              nullptr, interrupt);
+              nullptr, interrupt, Contact::OnFailure::kDiscarded);
         }
         if (!status.ok()) return status.WithFieldPrefix(Indexed("contacts", i));
         if (contact.depth() <= max_depth(i)) return OkStatus();

@@ -235,7 +235,10 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
       return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }
     StepReport report;
-    if (Status status = target.Apply(ToCoreStep(request.steps(i)), &report, interrupt);
+    // A failed batch drops its copy (the next one overwrites it).
+    if (Status status =
+            target.Apply(ToCoreStep(request.steps(i)), &report, interrupt,
+                         on_copy ? Contact::OnFailure::kDiscarded : Contact::OnFailure::kUnchanged);
         !status.ok()) {
       return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }

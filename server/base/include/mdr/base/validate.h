@@ -1,6 +1,7 @@
 // The validation rules for scalar inputs, in one place for the core, the service and the CLI.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <string>
 #include <string_view>
@@ -22,8 +23,15 @@ std::string Indexed(const std::string& name, std::size_t i);
 Status RequirePositive(std::string_view field, double value);
 // Finite and >= 0 (friction coefficient, forces that cannot be negative).
 Status RequireNonNegative(std::string_view field, double value);
-// Finite (displacements, tangential forces).
-Status RequireFinite(std::string_view field, double value);
+// The error of RequireFinite, out of line.
+Status NotFinite(std::string_view field, double value);
+// Finite (displacements, tangential forces). Inline, since every step checks its inputs with it.
+inline Status RequireFinite(std::string_view field, double value) {
+  if (!std::isfinite(value)) [[unlikely]] {
+    return NotFinite(field, value);
+  }
+  return OkStatus();
+}
 // The range of a scale that defines a scene (a radius in m, a modulus in Pa, a power-law
 // coefficient): beyond it the quantities derived from it (1/R, E* and G*, depths at a force,
 // pressures) overflow or lose all precision, so it is refused at the scene, not at a later step.

@@ -162,9 +162,18 @@ class Contact {
   static Result<Contact> Restore(ContactConfig config, const ContactSnapshot& snapshot);
   ContactSnapshot Snapshot() const;
 
-  // Applies a step atomically: on error the contact is unchanged. interrupt is checked at every
-  // bisection of a curved force path (DeadlineExceeded / Cancelled abandon the step).
-  Status Apply(const Step& step, StepReport* report = nullptr, const Interrupt& interrupt = {});
+  // What a failed Apply leaves.
+  enum class OnFailure {
+    kUnchanged,  // the contact as it was (the step keeps what it needs to undo itself)
+    // Unspecified, only to be assigned to or destroyed: for a caller that drops the contact when
+    // a step fails (a batch on a copy), which saves the step that undo copy.
+    kDiscarded,
+  };
+  // Applies a step atomically: on error the contact is unchanged (or, with kDiscarded, to be
+  // dropped). interrupt is checked at every bisection of a curved force path (DeadlineExceeded /
+  // Cancelled abandon the step).
+  Status Apply(const Step& step, StepReport* report = nullptr, const Interrupt& interrupt = {},
+               OnFailure on_failure = OnFailure::kUnchanged);
   // The exact linear step to (delta, ux) without validation of targets beyond finiteness (and,
   // for the grid method, the grid's reach).
   Status MoveTo(double depth, double tangential_displacement, StepReport* report = nullptr);
