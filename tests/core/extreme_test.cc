@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "fixtures/slip_state_check.h"
 #include "mdr/core/contact.h"
 #include "test_util.h"
 
@@ -220,9 +221,11 @@ TEST(ExtremeTest, SubnormalDepthsGiveFiniteForces) {
           ASSERT_TRUE(c.MoveTo(4e-6, 5e-8).ok());  // partly slipping memory
         }
         for (const double ux : {0.0, 1e-309, 1e-7}) {
+          const Contact before = c;
           ASSERT_TRUE(c.MoveTo(depth, ux).ok());
           SCOPED_TRACE(profile->Describe() + " depth " + std::to_string(depth / tiny) +
                        " subnormals, ux " + std::to_string(ux));
+          EXPECT_EQ(testing::SlipStateViolation(before, c, true), "");
           EXPECT_TRUE(std::isfinite(c.normal_force()));
           EXPECT_TRUE(std::isfinite(c.tangential_force()));
           EXPECT_LE(std::abs(c.tangential_force()), c.friction_limit() * (1 + 1e-9) + 1e-300);

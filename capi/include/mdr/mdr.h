@@ -172,7 +172,7 @@ MDR_API int mdr_contact_slip_intervals(const mdr_contact* contact, double* r_beg
 /* The Jäger weights of the state (the service's jager_weights output): interval i has weight[i]
  * on (r_begin[i], r_end[i]) in m; *edge_weight is the flat punch's edge weight (0 otherwise; may
  * be NULL). Arrays and count as for mdr_contact_slip_intervals. FAILED_PRECONDITION for the grid
- * method or mu = 0. */
+ * method, mu = 0, or a depth where mu kappa delta rounds to 0. */
 MDR_API int mdr_contact_jager_weights(const mdr_contact* contact, double* r_begin, double* r_end,
                                       double* weight, size_t capacity, size_t* count,
                                       double* edge_weight);

@@ -187,6 +187,25 @@ Status CheckMuKappa(const std::string& field, double mu_kappa) {
 
 }  // namespace internal
 
+namespace {
+
+// CheckMuKappa, and the same for a state whose friction band mu kappa delta rounds to 0 (a depth
+// of a few subnormals): decided by the bound the step clamps against, so exactly where every
+// spring is on both bounds (tagged kOnBoth), as for mu = 0.
+Status CheckFrictionBand(const std::string& field, const PiecewiseLinearMemory& memory,
+                         double mu_kappa) {
+  if (Status s = internal::CheckMuKappa(field, mu_kappa); !s.ok()) return s;
+  if (memory.in_contact() && CoulombBound(mu_kappa, memory.depth(), 0) == 0) {
+    return FailedPrecondition(field, "weights are undefined at the depth " +
+                                         FormatNumber(memory.depth()) +
+                                         " m, where the friction band mu kappa delta rounds to 0: "
+                                         "every spring is at both bounds");
+  }
+  return OkStatus();
+}
+
+}  // namespace
+
 double JagerWeights::At(double r) const {
   for (const WeightInterval& interval : intervals) {
     if (r >= interval.r_begin && r < interval.r_end) return interval.weight;
@@ -196,13 +215,15 @@ double JagerWeights::At(double r) const {
 
 Result<JagerWeights> ComputeJagerWeights(const PiecewiseLinearMemory& memory,
                                          const Profile& profile, double mu_kappa) {
-  if (Status s = CheckMuKappa("mu_kappa", mu_kappa); !s.ok()) return s;
+  if (Status s = CheckFrictionBand("mu_kappa", memory, mu_kappa); !s.ok()) return s;
   return WeightsOf(memory, profile, mu_kappa);
 }
 
 Result<JagerWeights> ComputeJagerWeights(const Contact& contact) {
   if (Status s = RequireExactMethod(contact, "method"); !s.ok()) return s;
-  if (Status s = CheckMuKappa("friction", contact.mu_kappa()); !s.ok()) return s;
+  if (Status s = CheckFrictionBand("friction", contact.memory(), contact.mu_kappa()); !s.ok()) {
+    return s;
+  }
   return WeightsOf(contact.memory(), *contact.config().profile, contact.mu_kappa());
 }
 
@@ -232,13 +253,15 @@ Result<CattaneoMindlinTerm> CattaneoMindlinTermFromRadii(double weight, double a
 
 Result<std::vector<CattaneoMindlinTerm>> DecomposeMemory(const PiecewiseLinearMemory& memory,
                                                          const Profile& profile, double mu_kappa) {
-  if (Status s = CheckMuKappa("mu_kappa", mu_kappa); !s.ok()) return s;
+  if (Status s = CheckFrictionBand("mu_kappa", memory, mu_kappa); !s.ok()) return s;
   return TermsOf(memory, profile, mu_kappa);
 }
 
 Result<std::vector<CattaneoMindlinTerm>> DecomposeMemory(const Contact& contact) {
   if (Status s = RequireExactMethod(contact, "method"); !s.ok()) return s;
-  if (Status s = CheckMuKappa("friction", contact.mu_kappa()); !s.ok()) return s;
+  if (Status s = CheckFrictionBand("friction", contact.memory(), contact.mu_kappa()); !s.ok()) {
+    return s;
+  }
   return TermsOf(contact.memory(), *contact.config().profile, contact.mu_kappa());
 }
 
