@@ -189,13 +189,13 @@ Status CheckMuKappa(const std::string& field, double mu_kappa) {
 
 namespace {
 
-// CheckMuKappa, and the same for a state whose friction band mu kappa delta rounds to 0 (a depth
-// of a few subnormals): decided by the bound the step clamps against, so exactly where every
-// spring is on both bounds (tagged kOnBoth), as for mu = 0.
+// CheckMuKappa, and the same for a state in contact without a friction band (a depth of a few
+// subnormals): decided by the bound the step clamps against, so exactly where every spring is on
+// both bounds, as for mu = 0.
 Status CheckFrictionBand(const std::string& field, const PiecewiseLinearMemory& memory,
                          double mu_kappa) {
   if (Status s = internal::CheckMuKappa(field, mu_kappa); !s.ok()) return s;
-  if (memory.in_contact() && CoulombBound(mu_kappa, memory.depth(), 0) == 0) {
+  if (memory.in_contact() && FrictionBandVanishes(mu_kappa, memory.depth())) {
     return FailedPrecondition(field, "weights are undefined at the depth " +
                                          FormatNumber(memory.depth()) +
                                          " m, where the friction band mu kappa delta rounds to 0: "

@@ -32,6 +32,12 @@ inline double CoulombBound(double mu_kappa, double depth, double z) {
   return mu_kappa * (depth - z);
 }
 
+// No friction band: mu = 0, or a depth of a few subnormals where mu kappa delta rounds to 0. Every
+// spring then lies on both bounds (kOnBoth), slip has no direction and Jäger's weights are 0/0.
+inline bool FrictionBandVanishes(double mu_kappa, double depth) {
+  return CoulombBound(mu_kappa, depth, 0) == 0;
+}
+
 // The friction cone: no part of the memory is steeper than the bound lines, |du/dz| <= mu_kappa,
 // so that every Jäger weight lies in [-1, 1] (docs/engine.md, "Restorable states"). The steps keep
 // this exactly but for round-off: a sticking segment is an earlier one moved by dux, which rounds
