@@ -39,14 +39,17 @@ std::string_view Trim(std::string_view text) {
   return text;
 }
 
-// A header name without its surrounding whitespace and double quotes.
-std::string HeaderName(std::string_view cell) {
+// A cell without its surrounding whitespace and double quotes (spreadsheets and pandas may quote
+// every cell).
+std::string_view Unquoted(std::string_view cell) {
   cell = Trim(cell);
   if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') {
-    cell = cell.substr(1, cell.size() - 2);
+    cell = Trim(cell.substr(1, cell.size() - 2));
   }
-  return std::string(Trim(cell));
+  return cell;
 }
+
+std::string HeaderName(std::string_view cell) { return std::string(Unquoted(cell)); }
 
 std::vector<std::string_view> Split(std::string_view line, char delimiter) {
   std::vector<std::string_view> cells;
@@ -128,21 +131,36 @@ mdr::Status FindColumns(const std::vector<std::string>& header, const std::strin
   return mdr::OkStatus();
 }
 
-// A cell as a finite number (C locale; a leading '+' is allowed).
-mdr::Result<double> ParseCell(std::string_view cell, const std::string& where,
+// A cell as a finite number: C locale, a leading '+' allowed, optionally quoted. With
+// decimal_comma (a file separated by ';' or tab, as spreadsheets write where the comma is the
+// decimal separator) one ',' stands for the '.', in a cell without '.': "1,5e-6" is 1.5e-6, while
+// "1.234,5" is refused (a thousands separator cannot be told from a decimal one).
+mdr::Result<double> ParseCell(std::string_view cell, bool decimal_comma, const std::string& where,
                               const std::string& column) {
-  const std::string_view trimmed = Trim(cell);
-  std::string_view digits = trimmed;
+  const std::string_view text = Unquoted(cell);
+  if (text.empty()) {
+    return mdr::InvalidArgument(where, "column " + Printable(column) + ": the cell is empty");
+  }
+  std::string with_point;
+  std::string_view digits = text;
+  const std::size_t comma = text.find(',');
+  const bool comma_is_point = decimal_comma && comma != std::string_view::npos &&
+                              text.find(',', comma + 1) == std::string_view::npos &&
+                              text.find('.') == std::string_view::npos;
+  if (comma_is_point) {
+    with_point = std::string(text);
+    with_point[comma] = '.';
+    digits = with_point;
+  }
   if (digits.starts_with('+')) digits.remove_prefix(1);
   double value = 0;
   const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
-  const bool whole = error == std::errc() && end == digits.data() + digits.size();
-  if (trimmed.empty()) {
-    return mdr::InvalidArgument(where, "column " + Printable(column) + ": the cell is empty");
-  }
-  if (!whole || !std::isfinite(value)) {
-    return mdr::InvalidArgument(where, "column " + Printable(column) + ": " + Printable(trimmed) +
-                                           " is not a finite number");
+  if (error != std::errc() || end != digits.data() + digits.size() || !std::isfinite(value)) {
+    const bool both = decimal_comma && comma != std::string_view::npos && !comma_is_point;
+    return mdr::InvalidArgument(
+        where,
+        "column " + Printable(column) + ": " + Printable(text) + " is not a finite number" +
+            (both ? " (a decimal comma is read only in a cell with one ',' and no '.')" : ""));
   }
   return value;
 }
@@ -234,7 +252,7 @@ mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout)
                                                 std::to_string(header.size()) + detail);
     }
     for (const Selected& column : selected) {
-      auto value = ParseCell(cells[column.cell], where(i), column.name);
+      auto value = ParseCell(cells[column.cell], *delimiter != ',', where(i), column.name);
       if (!value.ok()) return value.status();
       column.values->Add(*value * column.factor);
     }

@@ -3,8 +3,9 @@
 report"), one case per CTest test:
 
   csv_errors          the rig CSV reader's errors: file, line and column named, text from the
-                      file bounded and escaped; separators and units
-  loops_figures       mdrctl loops on a noise-free synthetic run against the closed forms
+                      file bounded and escaped; separators, decimal commas and units
+  loops_figures       mdrctl loops on a noise-free synthetic run against the closed forms; the
+                      same file in other units, separators, decimal commas and quoting
   fit_recovers        mdrctl fit on a noise-free synthetic campaign recovers mu, E* and C_t to
                       1e-6; the report files and report.json
   fit_without_gnuplot --report without gnuplot writes report.md/json and says plots were skipped
@@ -117,6 +118,13 @@ def case_csv_errors(args, tmp):
         ("time.csv", b"displacement,tangential_force,time\n0,0,0\n1e-6,1,0.1\n2e-6,2,0.1\n",
          ["--time-column", "time"], r'^mdrctl: \S*time\.csv:4: column "time": ',
          "a service error restated at the CSV line"),
+        ("thousands.csv", b"displacement;tangential_force\n0;0\n1.000,5;1\n", [],
+         r'^mdrctl: \S*thousands\.csv:3: column "displacement": "1\.000,5" is not a finite '
+         r"number \(a decimal comma is read only in a cell with one ',' and no '\.'\)\n$",
+         "a cell with both a point and a comma"),
+        ("comma_in_comma_file.csv", b'displacement,tangential_force\n0,0\n"1,5",1\n', [],
+         r'comma_in_comma_file\.csv:3: the row has 3 cells, the header \(line 1\) has 2\n$',
+         "a decimal comma where ',' separates the cells"),
         ("good.csv", good.encode(), ["--force-unit", "lb"],
          r'^mdrctl: --force-unit: must be one of N, kN, mN, got "lb"\n$', "an unknown unit"),
     ]
@@ -219,6 +227,25 @@ def case_loops_figures(args, tmp):
         for key in ("force_amplitude", "dissipated_energy", "displacement_amplitude"):
             close(float(b[key]), float(a[key]), 1e-9, f"{key} in mm and kN")
     print("ok ';' separators, mm and kN")
+    # A spreadsheet's export where the comma is the decimal separator (';' or tab between cells,
+    # "1,5e-06" in them), and one that quotes every cell, give the same bits as the plain file.
+    samples = [line.split(",") for line in lines if not line.startswith(("#", "time"))]
+    variants = {
+        "decimal_comma.csv": "time;displacement;tangential_force\n" + "".join(
+            ";".join(cell.replace(".", ",") for cell in row) + "\n" for row in samples),
+        "decimal_comma_tab.csv": "time\tdisplacement\ttangential_force\n" + "".join(
+            "\t".join(cell.replace(".", ",") for cell in row) + "\n" for row in samples),
+        "quoted.csv": '"time","displacement","tangential_force"\n' + "".join(
+            ",".join(f' "{cell}" ' for cell in row) + "\n" for row in samples),
+    }
+    plain = expect_success(m, ["loops", gross, "--normal-force", "100", "--time-column", "time",
+                               "--format", "csv"], "loops, plain").stdout
+    for name, text in variants.items():
+        check(text.count(",") >= len(samples), f"{name}: no decimal commas or quotes")
+        out = expect_success(m, ["loops", write(os.path.join(tmp, name), text), "--normal-force",
+                                 "100", "--time-column", "time", "--format", "csv"], name).stdout
+        check(out == plain, f"{name} gives other figures than the plain file:\n{out}\n{plain}")
+    print("ok decimal commas (';' and tab) and quoted cells read as the plain file")
     report = os.path.join(tmp, "report")
     expect_success(m, ["loops", gross, "--normal-force", "100", "--report", report], "report")
     document = json.load(open(os.path.join(report, "report.json")))
