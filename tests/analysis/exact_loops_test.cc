@@ -141,6 +141,7 @@ TEST(ExactLoopsTest, FrettingMapSeparatesTheRegimesAtTheOnset) {
         const LoopFigures& loop = load.loops[k];
         CycleMetrics cycle;
         cycle.half_opening = loop.half_opening;
+        cycle.dissipated_energy = loop.dissipated_energy;
         cycle.system_free_ratio = loop.system_free_ratio;
         cycle.force_amplitude = loop.force_amplitude;
         EXPECT_EQ(ClassifyCycle(cycle, load.onset, 0), load.regimes[k])

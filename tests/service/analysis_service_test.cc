@@ -5,7 +5,9 @@
 #include <grpcpp/client_context.h>
 
 #include <atomic>
+#include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "mdr/analysis/exact_loops.h"
 #include "mdr/analysis/identify.h"
@@ -163,6 +165,42 @@ TEST_F(AnalysisServiceTest, TheScenesOwnOnsetClassifiesEachCycle) {
           *analysis::GrossSlipOnset(CoreOf(RigScene()), cycle.normal_force());
       EXPECT_EQ(cycle.regime(), regime) << amplitude;
       EXPECT_EQ(cycle.onset_system_free_ratio(), onset.system_free_ratio);
+    }
+  }
+}
+
+// Loops no sensor could tell from an elastic line F = k u: the line itself (the branches the
+// same samples to the last bit), the line with the way back 2 ulps to the right (a positive area;
+// an opening of ~1e-37 m, far below what the numbers resolve), and a loop 1 nm wide that runs the
+// wrong way round (Ed < 0: noise, not dissipation). All stick. Before the round-off floor of the
+// resolution (OpeningRoundOff) and the Ed > 0 rule, the second was gross slip (C ~ 1e15) and the
+// third partial slip (C < 0).
+TEST_F(AnalysisServiceTest, LoopsWithoutResolvedDissipationStick) {
+  constexpr double kAmplitude = 1e-6, kStiffness = 2e7;
+  enum Shape { kLine, kRoundOffWide, kBackwards };
+  for (const Shape shape : {kLine, kRoundOffWide, kBackwards}) {
+    v1::AnalyzeLoopsRequest request;
+    *request.mutable_scene() = RigScene();
+    request.mutable_options()->set_normal_force(100);
+    v1::LoopSamples& samples = *request.mutable_samples();
+    for (int k = 0; k <= 600; ++k) {
+      const double phase = 2 * std::numbers::pi * (k * 1e-3) * 5;
+      const double u = kAmplitude * std::sin(phase);
+      double measured = u;
+      if (std::cos(phase) < 0) {  // the way back
+        if (shape == kRoundOffWide) measured = std::nextafter(std::nextafter(u, 1.0), 1.0);
+        if (shape == kBackwards) measured = u - 1e-9;
+      }
+      samples.add_displacement(measured);
+      samples.add_tangential_force(kStiffness * u);
+    }
+    v1::AnalyzeLoopsResponse response;
+    ASSERT_TRUE(stub_->AnalyzeLoops(Context().get(), request, &response).ok());
+    ASSERT_GE(response.cycles_size(), 2);
+    for (const v1::CycleFigures& cycle : response.cycles()) {
+      EXPECT_EQ(cycle.regime(), v1::REGIME_STICKING)
+          << "shape " << shape << ": delta_0 " << cycle.half_opening() << ", Ed "
+          << cycle.dissipated_energy() << ", C " << cycle.system_free_ratio();
     }
   }
 }

@@ -120,7 +120,9 @@ const char* RegimeName(Regime regime) {
 
 Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset,
                      double displacement_resolution) {
-  if (!(cycle.half_opening > displacement_resolution)) return Regime::kSticking;
+  if (!(cycle.half_opening > displacement_resolution) || !(cycle.dissipated_energy > 0)) {
+    return Regime::kSticking;
+  }
   if (onset.system_free_ratio > 0) {
     return cycle.system_free_ratio >= onset.system_free_ratio ? Regime::kGrossSlip
                                                               : Regime::kPartialSlip;

@@ -417,4 +417,10 @@ Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions&
   return out;
 }
 
+double OpeningRoundOff(const LoopSamples& samples) {
+  double largest = 0;
+  for (double u : samples.displacement) largest = std::max(largest, std::abs(u));
+  return 16 * std::numeric_limits<double>::epsilon() * largest;
+}
+
 }  // namespace mdr::analysis

@@ -58,10 +58,12 @@ Result<LoopFigures> GrossSlipOnset(const ContactConfig& scene, double normal_for
 enum class Regime { kSticking, kPartialSlip, kGrossSlip };
 const char* RegimeName(Regime regime);  // "sticking", "partial slip", "gross slip"
 
-// A measured cycle's regime against the scene's onset: gross slip if its rig-free ratio C
-// reaches the onset's C (for a profile without a partial-slip loop, if Q* reaches the onset's),
-// sticking if its half-opening is below `displacement_resolution` (m, the sensor's resolution:
-// a loop that narrow cannot be told from an elastic line), partial slip otherwise.
+// A measured cycle's regime against the scene's onset: sticking if its half-opening is not above
+// `displacement_resolution` (m, the sensor's resolution, at least OpeningRoundOff of the samples:
+// a loop that narrow cannot be told from an elastic line) or it dissipates nothing (Ed <= 0:
+// slip always dissipates, and a loop running the wrong way round is noise); else gross slip if
+// its rig-free ratio C reaches the onset's C (for a profile without a partial-slip loop, if it
+// has width at all), partial slip otherwise.
 Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset,
                      double displacement_resolution);
 

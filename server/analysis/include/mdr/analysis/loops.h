@@ -140,4 +140,10 @@ Status ValidateLoopOptions(const LoopOptions& options);
 Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions& options,
                                   const Interrupt& interrupt = {});
 
+// The narrowest half-opening the displacement samples can show at all: each of its two crossings
+// is interpolated between samples and carries a round-off of a few ulps of |u| there, so 16 eps
+// max |u| bounds what an opening of zero can come out as. A regime takes at least this as the
+// sensor's resolution (ClassifyCycle), so that round-off never decides one.
+double OpeningRoundOff(const LoopSamples& samples);
+
 }  // namespace mdr::analysis
