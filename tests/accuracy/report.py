@@ -213,9 +213,9 @@ STREAM_TARGETS = [("stream window 32", 1, 0.9), ("stream window 32", 10, 0.9),
 MAX_BYTES_PER_ASPERITY = 200
 MIN_TWO_WORKER_SPEEDUP = 1.8
 # Issue #25's "interface throughput per core at least what it is today", as a ratio within one
-# run: BM_TwoWorkerSpeedup's interface_over_single_contact of 77a2453 (before #25), best of the
-# three runs measured beside this build's (2.79-3.18x).
-MAX_INTERFACE_OVER_SINGLE = 2.79
+# run: BM_TwoWorkerSpeedup's interface_over_single_contact of 77a2453 (before #25), the median of
+# three quiet runs alternated with this build's (1.63-1.76x; the lone asperity taking real steps).
+MAX_INTERFACE_OVER_SINGLE = 1.64
 MAX_HEALTH_P99_MS = 20
 
 
@@ -378,10 +378,11 @@ def scale_targets(out):
                          f"{control:.2f}x) | >= {MIN_TWO_WORKER_SPEEDUP}x | "
                          f"{yes_no(ratio >= MIN_TWO_WORKER_SPEEDUP)} |")
             over = speedup["interface_over_single_contact"]
-            lines.append(f"| 10^4 asperities, 1 worker: time per step over one asperity stepped "
-                         f"alone as often (alternating rounds) | {over:.2f}x | <= "
-                         f"{MAX_INTERFACE_OVER_SINGLE}x (the same measurement of 77a2453, before "
-                         f"#25: 2.79-3.18x) | {yes_no(over <= MAX_INTERFACE_OVER_SINGLE)} |")
+            lines.append(f"| 10^4 asperities, 1 worker: time per step over one asperity alone "
+                         f"taking as many steps of the same size (alternating rounds) | "
+                         f"{over:.2f}x | <= {MAX_INTERFACE_OVER_SINGLE}x (the same measurement of "
+                         f"77a2453, before #25: 1.63-1.76x) | "
+                         f"{yes_no(over <= MAX_INTERFACE_OVER_SINGLE)} |")
     service = os.path.join(out, "million_service.txt")
     if os.path.exists(service):
         with open(service) as f:

@@ -127,10 +127,11 @@ BENCHMARK(BM_InterfaceCycling)
 // it, the same alternation of a control that has no memory traffic and no shared state (a
 // fixed integer kernel per item, run through the same ThreadParallelFor): the machine's own
 // two-thread speedup at that moment, which bounds what any code can show. And, to compare the
-// cost per core across builds on a machine whose speed drifts, each round also steps one
-// asperity of the same kind alone as often as the interface steps its contacts: the interface's
-// 1-worker time over that single contact's is the cost of an asperity inside the interface
-// relative to the engine's own step. Arg: energy.
+// cost per core across builds on a machine whose speed drifts, each round also takes one
+// asperity of the same kind alone through as many steps as the interface steps contacts, each a
+// step of the same size along the same cycle: the interface's 1-worker time over that single
+// contact's is the cost of an asperity inside the interface relative to the engine's own step.
+// Arg: energy.
 std::uint64_t ControlKernel(std::uint64_t seed) {
   std::uint64_t a = seed, b = 2, c = 3, d = 4;
   for (int i = 0; i < 64; ++i) {
@@ -181,10 +182,12 @@ void BM_TwoWorkerSpeedup(benchmark::State& state) {
     int k_single = 0;
     auto cycle_single = [&] {
       const auto start = std::chrono::steady_clock::now();
+      // As many real steps as the interface takes (each of the same cycle's size: the contact
+      // runs the cycle kAsperities times faster), not one step and then held ones.
       for (int step = 0; step < 2 * kStepsPerHalfCycle; ++step) {
-        const double ux = CycleDisplacement(k_single++, amplitude);
         for (std::size_t i = 0; i < kAsperities; ++i) {
-          benchmark::DoNotOptimize(single.MoveTo(single.depth(), ux));
+          benchmark::DoNotOptimize(
+              single.MoveTo(single.depth(), CycleDisplacement(k_single++, amplitude)));
         }
       }
       return Seconds(start);
