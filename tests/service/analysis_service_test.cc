@@ -173,8 +173,8 @@ TEST_F(AnalysisServiceTest, TheScenesOwnOnsetClassifiesEachCycle) {
 // same samples to the last bit), the line with the way back 2 ulps to the right (a positive area;
 // an opening of ~1e-37 m, far below what the numbers resolve), and a loop 1 nm wide that runs the
 // wrong way round (Ed < 0: noise, not dissipation). All stick. Before the round-off floor of the
-// resolution (OpeningRoundOff) and the Ed > 0 rule, the second was gross slip (C ~ 1e15) and the
-// third partial slip (C < 0).
+// resolution (CycleMetrics::half_opening_round_off) and the Ed > 0 rule, the second was gross slip
+// (C ~ 1e15) and the third partial slip (C < 0).
 TEST_F(AnalysisServiceTest, LoopsWithoutResolvedDissipationStick) {
   constexpr double kAmplitude = 1e-6, kStiffness = 2e7;
   enum Shape { kLine, kRoundOffWide, kBackwards };

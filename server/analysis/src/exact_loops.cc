@@ -1,5 +1,6 @@
 #include "mdr/analysis/exact_loops.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -120,7 +121,8 @@ const char* RegimeName(Regime regime) {
 
 Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset,
                      double displacement_resolution) {
-  if (!(cycle.half_opening > displacement_resolution) || !(cycle.dissipated_energy > 0)) {
+  const double resolution = std::max(displacement_resolution, cycle.half_opening_round_off);
+  if (!(cycle.half_opening > resolution) || !(cycle.dissipated_energy > 0)) {
     return Regime::kSticking;
   }
   if (onset.system_free_ratio > 0) {

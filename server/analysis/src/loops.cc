@@ -330,6 +330,8 @@ CycleMetrics MeasureCycle(const LoopSamples& samples, std::size_t a, std::size_t
 
   const Extremes u = DisplacementExtremes(s, a, b, 0);
   m.displacement_amplitude = 0.5 * (u.max - u.min);
+  m.half_opening_round_off =
+      16 * std::numeric_limits<double>::epsilon() * std::max(std::abs(u.min), std::abs(u.max));
   m.energy_ratio = m.dissipated_energy / (4 * m.displacement_amplitude * m.force_amplitude);
   m.sliding_ratio = m.half_opening / m.displacement_amplitude;
   m.secant_stiffness = m.force_amplitude / m.displacement_amplitude;
@@ -415,12 +417,6 @@ Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions&
   out.friction_drift = FrictionDrift(out.cycles, normal_force_known);
   out.friction_drifts = std::abs(out.friction_drift) > options.drift_tolerance;
   return out;
-}
-
-double OpeningRoundOff(const LoopSamples& samples) {
-  double largest = 0;
-  for (double u : samples.displacement) largest = std::max(largest, std::abs(u));
-  return 16 * std::numeric_limits<double>::epsilon() * largest;
 }
 
 }  // namespace mdr::analysis

@@ -1,6 +1,5 @@
 #include "mdr/service/analysis_ops.h"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -249,14 +248,12 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
   if (Status s = analysis::ValidateLoopOptions(options); !s.ok()) {
     return s.WithFieldPrefix("options");
   }
-  const analysis::LoopSamples measured = ToCore(request.samples());
-  Result<analysis::LoopAnalysis> loops = analysis::AnalyzeLoops(measured, options, interrupt);
+  Result<analysis::LoopAnalysis> loops =
+      analysis::AnalyzeLoops(ToCore(request.samples()), options, interrupt);
   if (!loops.ok()) {
     const Status& s = loops.status();  // the options passed: a field here is the samples'
     return s.field().empty() ? s : s.WithFieldPrefix("samples");
   }
-  const double resolution =
-      std::max(request.options().displacement_resolution(), analysis::OpeningRoundOff(measured));
   response->set_reversal_threshold(loops->reversal_threshold);
   response->mutable_reversals()->Add(loops->reversals.begin(), loops->reversals.end());
   response->set_friction_drift(loops->friction_drift);
@@ -272,7 +269,8 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
     }
     Result<LoopFigures> onset = analysis::GrossSlipOnset(*scene, cycle.normal_force, interrupt);
     if (!onset.ok()) return ToSceneStatus(onset.status());
-    figures->set_regime(ToProto(analysis::ClassifyCycle(cycle, *onset, resolution)));
+    figures->set_regime(ToProto(
+        analysis::ClassifyCycle(cycle, *onset, request.options().displacement_resolution())));
     figures->set_onset_system_free_ratio(onset->system_free_ratio);
   }
   FillMeasures(response);

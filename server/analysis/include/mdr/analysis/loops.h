@@ -91,6 +91,10 @@ struct CycleMetrics {
   double force_offset = 0;       // (F_max + F_min) / 2, N
   double dissipated_energy = 0;  // Ed, J: the loop's area, the integral of F_x du over the cycle
   double half_opening = 0;       // delta_0, m: half the loop's width at F_x = force_offset
+  // What an opening of zero can come out as: each crossing is interpolated between samples and
+  // carries a round-off of a few ulps of |u| there; 16 eps max |u| over the cycle bounds it.
+  // ClassifyCycle takes at least this as the resolution, so that round-off never decides a regime.
+  double half_opening_round_off = 0;
   double system_free_ratio = 0;  // C = Ed / (4 delta_0 Q*)
   double normal_force = 0;       // P, N: the cycle's mean F_N (or LoopOptions::normal_force; NaN)
   double friction_coefficient = 0;         // Q* / P (NaN without P)
@@ -139,11 +143,5 @@ Status ValidateLoopOptions(const LoopOptions& options);
 // reversals with a lower one between them). The interrupt is checked every 65536 samples.
 Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions& options,
                                   const Interrupt& interrupt = {});
-
-// The narrowest half-opening the displacement samples can show at all: each of its two crossings
-// is interpolated between samples and carries a round-off of a few ulps of |u| there, so 16 eps
-// max |u| bounds what an opening of zero can come out as. A regime takes at least this as the
-// sensor's resolution (ClassifyCycle), so that round-off never decides one.
-double OpeningRoundOff(const LoopSamples& samples);
 
 }  // namespace mdr::analysis
