@@ -533,6 +533,30 @@ TEST(InterfaceTest, BadInputsNameTheFieldAndChangeNothing) {
             "contacts[0].material.e_star");
 }
 
+// The thread pool's runs: every index of [0, n) exactly once, in non-empty ranges, over many
+// runs back to back (the workers then find the next run while they still spin), for more workers
+// than indices and sizes that split unevenly, and with more threads than the machine has cores.
+TEST(InterfaceTest, ThreadParallelForRunsEveryIndexOnce) {
+  for (int workers : {1, 2, 3, 5, 64}) {
+    std::shared_ptr<ParallelFor> parallel = *MakeThreadParallelFor(workers);
+    EXPECT_EQ(parallel->workers(), workers);
+    for (std::size_t n : {0, 1, 2, 31, 33, 100, 4097}) {
+      std::vector<std::atomic<int>> visits(n);
+      std::atomic<int> empty_ranges{0};
+      const ParallelFor::Body body = [&](std::size_t begin, std::size_t end) {
+        if (begin >= end || end > n) ++empty_ranges;
+        for (std::size_t i = begin; i < end && i < n; ++i) ++visits[i];
+      };
+      constexpr int kRuns = 40;
+      for (int run = 0; run < kRuns; ++run) parallel->Run(n, body);
+      EXPECT_EQ(empty_ranges.load(), 0) << workers << " workers, n = " << n;
+      for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(visits[i].load(), kRuns) << workers << " workers, n = " << n << ", index " << i;
+      }
+    }
+  }
+}
+
 TEST(InterfaceTest, ACancelledStepChangesNothing) {
   Interface interface = *Interface::Create(RoughInterface(3 * Interface::kInterruptPeriod, 12));
   interface.set_parallel(*MakeThreadParallelFor(2));
