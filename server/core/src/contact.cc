@@ -453,11 +453,15 @@ Status Contact::Apply(const Step& step, StepReport* report, const Interrupt& int
   return OkStatus();
 }
 
+double Contact::TurningPointResolution(double depth1, double ux1) const {
+  constexpr double kResolution = 16 * std::numeric_limits<double>::epsilon();
+  return kResolution * (mu_kappa() * depth1 + std::abs(ux1));
+}
+
 double Contact::LandOnTurningPoint(double depth1, double ux1) const {
   // The force solve finds the increment to about 1e-15 of mu kappa delta (monotone_solve.h), and
   // ux = ux0 + dux rounds to eps |ux|: a turning point that close is the intended return.
-  constexpr double kResolution = 16 * std::numeric_limits<double>::epsilon();
-  const double tolerance = kResolution * (mu_kappa() * depth1 + std::abs(ux1));
+  const double tolerance = TurningPointResolution(depth1, ux1);
   const GridMemory* grid = grid_memory();
   return NearestReturn(grid ? grid->anchors() : memory().anchors(), depth1, ux1, tolerance)
       .value_or(ux1);

@@ -189,6 +189,12 @@ class Contact {
   double actuator_displacement() const;
   double actuator_depth() const;
   double mu_kappa() const { return MuKappa(config_); }
+  // How far a force-controlled step's end ux may be moved onto a turning point (its anchor's ux)
+  // that it lands that close to, m: the force solve finds the increment to about 1e-15 of
+  // mu kappa delta and ux0 + dux rounds to eps |ux|, so a turning point within 16 eps of both is
+  // the intended return. The memory then moves by the solved increment, so its values and ux
+  // differ by up to this much.
+  double TurningPointResolution(double depth1, double ux1) const;
   double contact_radius() const;
   double normal_force() const;
   double tangential_force() const;
