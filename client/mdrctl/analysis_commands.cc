@@ -650,7 +650,7 @@ Campaign schema (docs/analysis.md, "From a rig's CSV files to a report"):
   burn_in_reversals: residuals count from this reversal of each set on (default 2)
   reversal_threshold: hysteresis of the reversal detection in m (default 0: automatic)
   max_iterations: of the fit, 0 to 1000 (default 0: the service's 200)
-  displacement_resolution: m; narrower loops are classified as sticking (default 0)
+  displacement_resolution: m; narrower loops are classified as sticking, C as nan (default 0)
   fretting_map: {normal_forces (default: the sets' loads), relative_amplitudes}
   truth: {parameter: value}: only for synthetic data, the values they were made with
 Here the scene is the truth with every free parameter at its initial value, and `truth`

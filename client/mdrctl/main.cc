@@ -151,7 +151,8 @@ int main(int argc, char** argv) {
   loops->add_option("--reversal-threshold", loops_args.reversal_threshold,
                     "Hysteresis of the reversal detection in m (0: 5 % of the typical stroke)");
   loops->add_option("--displacement-resolution", loops_args.displacement_resolution,
-                    "The sensor's resolution in m: narrower loops count as sticking");
+                    "The sensor's resolution in m: narrower loops count as sticking, their C and "
+                    "mu_e as nan");
   loops->add_option("--scene", loops_args.scene,
                     "Scene file (YAML/JSON) whose scene classifies each cycle's regime");
   loops->add_option("--report", loops_args.report_dir,

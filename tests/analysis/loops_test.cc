@@ -320,6 +320,45 @@ TEST(LoopsTest, HertzLoopsMatchTheClosedForms) {
   }
 }
 
+// An opening not above the sensor's resolution identifies no C and no mu_e (NaN, never a ratio over
+// noise); everything that does not divide by delta_0 is the same, and the opening itself is still
+// reported. Just above the resolution the figures are the plain ones, bit for bit.
+TEST(LoopsTest, OpeningBelowTheResolutionIdentifiesNoRatioOverIt) {
+  LoopOptions o;
+  o.normal_force = kNormalForce;
+  const Hertz hz = Hertz::AtRatio(0.3);
+  const LoopSamples samples = Sample(HertzLoop(hz, true), 2);
+  const LoopAnalysis plain = Analyze(samples, o);
+  ASSERT_EQ(plain.cycles.size(), 2u);
+  const double delta_0 = plain.cycles[0].half_opening;
+  for (const CycleMetrics& c : plain.cycles) {
+    EXPECT_TRUE(c.opening_resolved);
+    EXPECT_GT(c.half_opening, 1e6 * c.half_opening_round_off);
+  }
+  for (double resolution : {delta_0, 2 * delta_0, std::nextafter(delta_0, 0.0)}) {
+    SCOPED_TRACE("resolution " + std::to_string(resolution / delta_0) + " delta_0");
+    o.displacement_resolution = resolution;
+    const LoopAnalysis a = Analyze(samples, o);
+    ASSERT_EQ(a.cycles.size(), 2u);
+    for (std::size_t k = 0; k < a.cycles.size(); ++k) {
+      const CycleMetrics &c = a.cycles[k], &p = plain.cycles[k];
+      const bool resolved = p.half_opening > resolution;
+      EXPECT_EQ(c.opening_resolved, resolved);
+      EXPECT_EQ(c.half_opening, p.half_opening);
+      EXPECT_EQ(c.dissipated_energy, p.dissipated_energy);
+      EXPECT_EQ(c.sliding_ratio, p.sliding_ratio);
+      EXPECT_EQ(c.friction_coefficient, p.friction_coefficient);
+      if (resolved) {
+        EXPECT_EQ(c.system_free_ratio, p.system_free_ratio);
+        EXPECT_EQ(c.energy_friction_coefficient, p.energy_friction_coefficient);
+      } else {
+        EXPECT_TRUE(std::isnan(c.system_free_ratio)) << c.system_free_ratio;
+        EXPECT_TRUE(std::isnan(c.energy_friction_coefficient)) << c.energy_friction_coefficient;
+      }
+    }
+  }
+}
+
 // The engine's exact energy per cycle, and its loops against the closed forms.
 TEST(LoopsTest, EngineLoopsMatchItsEnergyAndTheClosedForms) {
   const int per_cycle = 400;
@@ -774,6 +813,9 @@ TEST(LoopsTest, RefusesInvalidOptions) {
       {[&](LoopOptions& o) { o.asymmetry_tolerance = -0.1; }, "asymmetry_tolerance", "> 0"},
       {[&](LoopOptions& o) { o.hook_tolerance = nan; }, "hook_tolerance", "> 0"},
       {[&](LoopOptions& o) { o.drift_tolerance = inf; }, "drift_tolerance", "> 0"},
+      {[&](LoopOptions& o) { o.displacement_resolution = -1e-9; }, "displacement_resolution",
+       ">= 0"},
+      {[&](LoopOptions& o) { o.displacement_resolution = inf; }, "displacement_resolution", ">= 0"},
   };
   for (const Case& c : cases) {
     LoopOptions o;

@@ -174,7 +174,9 @@ TEST_F(AnalysisServiceTest, TheScenesOwnOnsetClassifiesEachCycle) {
 // an opening of ~1e-37 m, far below what the numbers resolve), and a loop 1 nm wide that runs the
 // wrong way round (Ed < 0: noise, not dissipation). All stick. Before the round-off floor of the
 // resolution (CycleMetrics::half_opening_round_off) and the Ed > 0 rule, the second was gross slip
-// (C ~ 1e15) and the third partial slip (C < 0).
+// (C ~ 1e15) and the third partial slip (C < 0). The first two have no resolved opening, so C and
+// mu_e, ratios over it, are not identified (NaN, not 1e15 or inf); the third's opening is resolved
+// and its C is the (negative) formula's value.
 TEST_F(AnalysisServiceTest, LoopsWithoutResolvedDissipationStick) {
   constexpr double kAmplitude = 1e-6, kStiffness = 2e7;
   enum Shape { kLine, kRoundOffWide, kBackwards };
@@ -201,6 +203,10 @@ TEST_F(AnalysisServiceTest, LoopsWithoutResolvedDissipationStick) {
       EXPECT_EQ(cycle.regime(), v1::REGIME_STICKING)
           << "shape " << shape << ": delta_0 " << cycle.half_opening() << ", Ed "
           << cycle.dissipated_energy() << ", C " << cycle.system_free_ratio();
+      EXPECT_EQ(std::isnan(cycle.system_free_ratio()), shape != kBackwards)
+          << "shape " << shape << ": C " << cycle.system_free_ratio();
+      EXPECT_EQ(std::isnan(cycle.energy_friction_coefficient()), shape != kBackwards)
+          << "shape " << shape << ": mu_e " << cycle.energy_friction_coefficient();
     }
   }
 }

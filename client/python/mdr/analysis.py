@@ -327,9 +327,11 @@ class LoopAnalysisResult:
     figures: every figure of CycleFigures (docs/analysis.md), also read as attributes:
     first_sample, lower_reversal, last_sample (sample indices), start_time (s, NaN without
     time), force_amplitude Q* (N), force_offset (N), dissipated_energy Ed (J), half_opening
-    delta_0 (m), system_free_ratio C, normal_force P (N, NaN if unknown), friction_coefficient,
-    energy_friction_coefficient, displacement_amplitude delta* (m), energy_ratio A,
-    sliding_ratio B, secant_stiffness, stiffness_increasing, stiffness_decreasing (N/m).
+    delta_0 (m), system_free_ratio C (NaN when delta_0 is not above displacement_resolution or
+    the cycle's round-off), normal_force P (N, NaN if unknown), friction_coefficient,
+    energy_friction_coefficient (NaN as C, or without P), displacement_amplitude delta* (m),
+    energy_ratio A, sliding_ratio B, secant_stiffness, stiffness_increasing,
+    stiffness_decreasing (N/m).
     contact: the contact's own figures from u - C_t F_x (displacement_amplitude, energy_ratio,
     sliding_ratio, secant_stiffness, stiffness_increasing, stiffness_decreasing), or None without
     rig_compliance. flags: closure_error, not_closed, asymmetry, asymmetric, hook_ratio, hooked.

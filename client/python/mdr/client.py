@@ -244,8 +244,8 @@ class Client:
         dict or scene file): classifies each cycle against the scene's onset of gross slip at
         the cycle's normal force (which must then be given). rig_compliance C_t (m/N): adds the
         contact's own figures. reversal_threshold (m; 0: 5 % of the median peak-to-peak
-        displacement), displacement_resolution (m: narrower loops stick), the flag tolerances
-        (None: the server's defaults). The server checks lengths and values and names them
+        displacement), displacement_resolution (m: narrower loops stick, their C is NaN), the
+        flag tolerances (None: the server's defaults). The server checks lengths and values and names them
         (MdrError, field "samples.displacement[12]")."""
         request = analysis.analyze_request(
             displacement, tangential_force, normal_force, time, scene=scene,

@@ -119,12 +119,8 @@ const char* RegimeName(Regime regime) {
   return "unknown";
 }
 
-Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset,
-                     double displacement_resolution) {
-  const double resolution = std::max(displacement_resolution, cycle.half_opening_round_off);
-  if (!(cycle.half_opening > resolution) || !(cycle.dissipated_energy > 0)) {
-    return Regime::kSticking;
-  }
+Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset) {
+  if (!cycle.opening_resolved || !(cycle.dissipated_energy > 0)) return Regime::kSticking;
   if (onset.system_free_ratio > 0) {
     return cycle.system_free_ratio >= onset.system_free_ratio ? Regime::kGrossSlip
                                                               : Regime::kPartialSlip;

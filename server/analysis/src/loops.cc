@@ -37,6 +37,10 @@ struct Columns {
 
 Status ValidateLoopOptions(const LoopOptions& o) {
   if (Status s = RequireNonNegative("reversal_threshold", o.reversal_threshold); !s.ok()) return s;
+  if (Status s = RequireNonNegative("displacement_resolution", o.displacement_resolution);
+      !s.ok()) {
+    return s;
+  }
   if (o.rig_compliance) {
     if (Status s = RequireNonNegative("rig_compliance", *o.rig_compliance); !s.ok()) return s;
   }
@@ -316,7 +320,14 @@ CycleMetrics MeasureCycle(const LoopSamples& samples, std::size_t a, std::size_t
   // same force, so the spring shifts both alike and the opening is the contact's.
   m.half_opening =
       0.5 * std::abs(Crossing(s, a, low, m.force_offset) - Crossing(s, low, b, m.force_offset));
-  m.system_free_ratio = m.dissipated_energy / (4 * m.half_opening * m.force_amplitude);
+  const Extremes u = DisplacementExtremes(s, a, b, 0);
+  m.half_opening_round_off =
+      16 * std::numeric_limits<double>::epsilon() * std::max(std::abs(u.min), std::abs(u.max));
+  m.opening_resolved =
+      m.half_opening > std::max(o.displacement_resolution, m.half_opening_round_off);
+  // Below the resolution delta_0 is noise or round-off, and a ratio over it any number.
+  const double resolved_opening = m.opening_resolved ? m.half_opening : kNaN;
+  m.system_free_ratio = m.dissipated_energy / (4 * resolved_opening * m.force_amplitude);
 
   if (!samples.normal_force.empty()) {
     double sum = 0;  // over [a, b): the closing sample is the next cycle's first
@@ -326,12 +337,9 @@ CycleMetrics MeasureCycle(const LoopSamples& samples, std::size_t a, std::size_t
     m.normal_force = o.normal_force.value_or(kNaN);
   }
   m.friction_coefficient = m.force_amplitude / m.normal_force;
-  m.energy_friction_coefficient = m.dissipated_energy / (4 * m.normal_force * m.half_opening);
+  m.energy_friction_coefficient = m.dissipated_energy / (4 * m.normal_force * resolved_opening);
 
-  const Extremes u = DisplacementExtremes(s, a, b, 0);
   m.displacement_amplitude = 0.5 * (u.max - u.min);
-  m.half_opening_round_off =
-      16 * std::numeric_limits<double>::epsilon() * std::max(std::abs(u.min), std::abs(u.max));
   m.energy_ratio = m.dissipated_energy / (4 * m.displacement_amplitude * m.force_amplitude);
   m.sliding_ratio = m.half_opening / m.displacement_amplitude;
   m.secant_stiffness = m.force_amplitude / m.displacement_amplitude;

@@ -39,6 +39,7 @@ analysis::LoopSamples ToCore(const v1::LoopSamples& s) {
 analysis::LoopOptions ToCore(const v1::LoopAnalysisOptions& o) {
   analysis::LoopOptions core;
   core.reversal_threshold = o.reversal_threshold();
+  core.displacement_resolution = o.displacement_resolution();
   if (o.has_rig_compliance()) core.rig_compliance = o.rig_compliance();
   if (o.has_normal_force()) core.normal_force = o.normal_force();
   if (o.has_closure_tolerance()) core.closure_tolerance = o.closure_tolerance();
@@ -233,11 +234,6 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
                                                          " samples exceed the limit of " +
                                                          std::to_string(kMaxAnalyzedSamples));
   }
-  if (Status s = RequireNonNegative("options.displacement_resolution",
-                                    request.options().displacement_resolution());
-      !s.ok()) {
-    return s;
-  }
   std::optional<ContactConfig> scene;
   if (request.has_scene()) {
     Result<ContactConfig> config = AnalysisScene(request.scene(), limits, interrupt);
@@ -269,8 +265,7 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
     }
     Result<LoopFigures> onset = analysis::GrossSlipOnset(*scene, cycle.normal_force, interrupt);
     if (!onset.ok()) return ToSceneStatus(onset.status());
-    figures->set_regime(ToProto(
-        analysis::ClassifyCycle(cycle, *onset, request.options().displacement_resolution())));
+    figures->set_regime(ToProto(analysis::ClassifyCycle(cycle, *onset)));
     figures->set_onset_system_free_ratio(onset->system_free_ratio);
   }
   FillMeasures(response);

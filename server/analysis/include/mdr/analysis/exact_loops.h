@@ -58,14 +58,13 @@ Result<LoopFigures> GrossSlipOnset(const ContactConfig& scene, double normal_for
 enum class Regime { kSticking, kPartialSlip, kGrossSlip };
 const char* RegimeName(Regime regime);  // "sticking", "partial slip", "gross slip"
 
-// A measured cycle's regime against the scene's onset: sticking if its half-opening is not above
-// `displacement_resolution` (m, the sensor's resolution; at least the cycle's
-// half_opening_round_off: a loop that narrow cannot be told from an elastic line) or it dissipates
-// nothing (Ed <= 0: slip always dissipates, and a loop running the wrong way round is noise); else
-// gross slip if its rig-free ratio C reaches the onset's C (for a profile without a partial-slip
-// loop, if it has width at all), partial slip otherwise.
-Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset,
-                     double displacement_resolution);
+// A measured cycle's regime against the scene's onset: sticking if its opening is not resolved
+// (CycleMetrics::opening_resolved: not above the sensor's resolution nor the cycle's round-off, so
+// the loop cannot be told from an elastic line) or it dissipates nothing (Ed <= 0: slip always
+// dissipates, and a loop running the wrong way round is noise); else gross slip if its rig-free
+// ratio C reaches the onset's C (for a profile without a partial-slip loop, if it has width at
+// all), partial slip otherwise.
+Regime ClassifyCycle(const CycleMetrics& cycle, const LoopFigures& onset);
 
 // The fretting map of a scene: at each normal force, the exact loops along actuator amplitudes
 // `relative_amplitudes` times the onset's actuator amplitude (each in (0, 100]), with the onset

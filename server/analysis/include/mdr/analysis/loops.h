@@ -50,6 +50,10 @@ struct LoopOptions {
   double asymmetry_tolerance = 0.1;  // asymmetry above this: left/right asymmetric
   double hook_tolerance = 0.1;       // hook_ratio above this (in gross slip): hooked
   double drift_tolerance = 0.1;      // |friction_drift| above this: friction drifts
+  // The displacement sensor's resolution, m: a cycle whose half-opening is not above it (nor
+  // above its own round-off, CycleMetrics::half_opening_round_off) has no resolved opening.
+  // Finite, >= 0.
+  double displacement_resolution = 0;
 };
 
 // The contact's own figures, from u_contact = u - C_t F_x (with LoopOptions::rig_compliance).
@@ -93,12 +97,16 @@ struct CycleMetrics {
   double half_opening = 0;       // delta_0, m: half the loop's width at F_x = force_offset
   // What an opening of zero can come out as: each crossing is interpolated between samples and
   // carries a round-off of a few ulps of |u| there; 16 eps max |u| over the cycle bounds it.
-  // ClassifyCycle takes at least this as the resolution, so that round-off never decides a regime.
   double half_opening_round_off = 0;
-  double system_free_ratio = 0;  // C = Ed / (4 delta_0 Q*)
+  // delta_0 > max(LoopOptions::displacement_resolution, half_opening_round_off): the loop can be
+  // told from an elastic line. Without it the figures that divide by delta_0 are not identified
+  // (NaN) and ClassifyCycle calls the cycle sticking, so that round-off never decides either.
+  bool opening_resolved = false;
+  double system_free_ratio = 0;  // C = Ed / (4 delta_0 Q*) (NaN without a resolved opening)
   double normal_force = 0;       // P, N: the cycle's mean F_N (or LoopOptions::normal_force; NaN)
-  double friction_coefficient = 0;         // Q* / P (NaN without P)
-  double energy_friction_coefficient = 0;  // mu_e = Ed / (4 P delta_0) (NaN without P)
+  double friction_coefficient = 0;  // Q* / P (NaN without P)
+  // mu_e = Ed / (4 P delta_0) (NaN without P or without a resolved opening)
+  double energy_friction_coefficient = 0;
 
   // Measures::kContactAndRig (the measured displacement):
   double displacement_amplitude = 0;  // delta* = (u_max - u_min) / 2, m
