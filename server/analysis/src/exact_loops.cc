@@ -1,6 +1,5 @@
 #include "mdr/analysis/exact_loops.h"
 
-#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
