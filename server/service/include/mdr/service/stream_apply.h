@@ -2,12 +2,14 @@
 // (contract in contact_service.proto). Back-pressure: one write in flight and at most
 // kMaxPendingResponses messages read and not yet written (applied or waiting to be); reading
 // pauses while that many are held, so a client that stops reading stalls in HTTP/2 flow control
-// instead of growing the server's memory. Reading goes on while a message is applied, so the
-// next ones are at hand when it is done: the messages are applied one at a time and in order on
+// instead of growing the server's memory. Reading goes on while a message is applied on a worker,
+// so the next ones are at hand when it is done: the messages are applied one at a time and in
+// order on
 // the Executor (strand: the message's session), a run of consecutive messages for one session
 // in one task (at most kMaxRunLength, then the task queues behind the others). A message whose
 // cost is bounded a priori and small, for a session with nothing queued, is applied on the
-// thread that read it instead (Executor::TryRunInline; docs/operations.md, "Inline steps"). A
+// thread that read it instead (Executor::TryRunInline; docs/operations.md, "Inline steps"), which
+// starts the answer's write before the next read, as an echo does. A
 // message the full queue refuses is answered with UNAVAILABLE in its response status, unapplied,
 // and the stream goes on. While other callers are active, the caller's streams read at the pace its
 // StreamBudget allows (stream_pacer.h): a paused stream resumes from the pacer's thread.
@@ -129,7 +131,12 @@ class StreamApplyReactor final
     std::optional<StreamBudget::Clock::time_point> resume_at;  // paused until then
     std::optional<grpc::Status> finish;
   };
-  Actions NextActionsLocked();
+  // kHeld: no read is booked now (the caller applies the message just read and books the next
+  // read once its answer is being written, or StartHeldRead does before queueing it).
+  enum class ReadBooking { kAllowed, kHeld };
+  Actions NextActionsLocked(ReadBooking reads = ReadBooking::kAllowed);
+  // Books the read that OnReadDone held, if it is still due (the owner of applying_ only).
+  void StartHeldRead();
   void Start(const Actions& actions);
   // Once draining, the client gone or the stream finished: no message is applied any more.
   bool StoppedLocked() const { return draining_ || write_failed_ || finished_; }
