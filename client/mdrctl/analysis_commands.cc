@@ -1,5 +1,5 @@
-// mdrctl loops, fit and synthesize: from a rig's CSV files to a report (docs/analysis.md, "From a
-// rig's CSV files to a report").
+// mdrctl loops, fit and synthesize: from a rig's CSV or MATLAB files to a report (docs/analysis.md,
+// "From a rig's CSV or MATLAB files to a report").
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -53,14 +53,15 @@ mdr::Status WriteText(const fs::path& file, const std::string& text) {
   return mdr::OkStatus();
 }
 
-// A service error about one sample of this CSV restated at its line and column.
-mdr::Status SampleError(const grpc::Status& status, const RigCsv& csv, const CsvLayout& layout) {
+// A service error about one sample of this file restated at its line and column (MAT: element
+// and variable).
+mdr::Status SampleError(const grpc::Status& status, const RigData& csv, const CsvLayout& layout) {
   const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
   if (details.field.empty()) return mdr::InvalidArgument(csv.path, status.error_message());
   return LocateSampleError(details.field, details.description, csv, layout);
 }
 
-mdr::v1::AnalyzeLoopsRequest AnalysisRequest(const RigCsv& csv,
+mdr::v1::AnalyzeLoopsRequest AnalysisRequest(const RigData& csv,
                                              const mdr::v1::LoopAnalysisOptions& options,
                                              const mdr::v1::Scene* scene) {
   mdr::v1::AnalyzeLoopsRequest request;
@@ -106,7 +107,7 @@ mdr::Status WriteReport(const std::string& dir, const std::string& markdown,
 
 // An AnalyzeLoops error in the command line's terms: a sample or column at its CSV line, an
 // option by its flag, the scene at its file's line.
-mdr::Status LoopsError(const grpc::Status& status, const RigCsv& csv, const CsvLayout& layout,
+mdr::Status LoopsError(const grpc::Status& status, const RigData& csv, const CsvLayout& layout,
                        const mdr::client::SceneDocument* scene) {
   const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
   const std::string& field = details.field;
@@ -158,7 +159,7 @@ mdr::v1::LoopAnalysisOptions LoopsOptions(const LoopsArgs& args, const mdr::v1::
 int LoopsCommand(const Common& common, const LoopsArgs& args) {
   auto layout = LayoutFromArgs(args);
   if (!layout.ok()) return Fail(layout.status());
-  auto csv = ReadRigCsv(args.file, *layout);
+  auto csv = ReadRigFile(args.file, *layout);
   if (!csv.ok()) return Fail(csv.status());
   std::optional<mdr::client::SceneDocument> document;
   std::optional<mdr::v1::Scene> scene;
@@ -208,7 +209,7 @@ namespace {
 mdr::Result<std::vector<ReportSet>> ReadSets(const Campaign& campaign) {
   std::vector<ReportSet> sets;
   for (const CampaignSet& set : campaign.sets) {
-    auto csv = ReadRigCsv(set.path, set.layout);
+    auto csv = ReadRigFile(set.path, set.layout);
     if (!csv.ok()) return csv.status();
     ReportSet& read = sets.emplace_back();
     read.label = set.file;

@@ -17,7 +17,7 @@ namespace mdrctl {
 // One CSV file and what was computed from it.
 struct ReportSet {
   std::string label;  // the file as given
-  RigCsv csv;
+  RigData csv;
   CsvLayout layout;
   double normal_force = 0;  // N; NaN when unknown (mdrctl loops without a load)
   mdr::v1::AnalyzeLoopsResponse analysis;

@@ -1,7 +1,7 @@
 // mdrctl: the command-line client of the mdr contact service. `run SCENE` applies a scene file's
 // loading path (YAML or JSON of mdr.v1.SceneFile) and prints one row per step; `loops`, `fit`
-// and `synthesize` take a rig's CSV files to a report; the other subcommands wrap one RPC each.
-// Without --server an in-process server is used.
+// and `synthesize` take a rig's CSV (or MATLAB) files to a report; the other subcommands wrap one
+// RPC each. Without --server an in-process server is used.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -123,19 +123,25 @@ int main(int argc, char** argv) {
   transform->callback([&] { exit_code = mdrctl::TransformCommand(common, request_file); });
 
   CLI::App* loops = app.add_subcommand(
-      "loops", "Analyse a rig's CSV file: the figures of every cycle (AnalyzeLoops)");
+      "loops", "Analyse a rig's CSV or MATLAB file: the figures of every cycle (AnalyzeLoops)");
   mdrctl::LoopsArgs loops_args;
-  loops->add_option("file", loops_args.file, "CSV file with a header line")->required();
+  loops
+      ->add_option("file", loops_args.file,
+                   "CSV file with a header line, or MATLAB file (*.mat) whose variables are the "
+                   "columns")
+      ->required();
   loops
       ->add_option("--displacement-column", loops_args.displacement_column,
-                   "Header name of the displacement")
+                   "Header name (MAT file: variable name) of the displacement")
       ->capture_default_str();
   loops
-      ->add_option("--force-column", loops_args.force_column, "Header name of the tangential force")
+      ->add_option("--force-column", loops_args.force_column,
+                   "Header name (MAT: variable) of the tangential force")
       ->capture_default_str();
   loops->add_option("--normal-force-column", loops_args.normal_force_column,
-                    "Header name of the normal force (optional)");
-  loops->add_option("--time-column", loops_args.time_column, "Header name of the time (optional)");
+                    "Header name (MAT: variable) of the normal force (optional)");
+  loops->add_option("--time-column", loops_args.time_column,
+                    "Header name (MAT: variable) of the time (optional)");
   loops->add_option("--displacement-unit", loops_args.displacement_unit, "m, mm, um or nm")
       ->capture_default_str();
   loops->add_option("--force-unit", loops_args.force_unit, "N, kN or mN (also the normal force's)")
@@ -160,7 +166,7 @@ int main(int argc, char** argv) {
   loops->callback([&] { exit_code = mdrctl::LoopsCommand(common, loops_args); });
 
   CLI::App* fit = app.add_subcommand(
-      "fit", "Fit a scene to a campaign of rig CSV files, replay it and map its regimes");
+      "fit", "Fit a scene to a campaign of rig CSV or MATLAB files, replay it and map its regimes");
   mdrctl::FitArgs fit_args;
   fit->add_option("campaign", fit_args.campaign, "Campaign file (YAML)")->required();
   fit->add_option("--report", fit_args.report_dir,

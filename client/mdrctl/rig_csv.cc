@@ -1,9 +1,12 @@
 #include "rig_csv.h"
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -98,9 +101,7 @@ mdr::Result<char> Delimiter(std::string_view header, const std::string& where) {
 }
 
 struct Selected {
-  std::string name;
-  double factor;
-  google::protobuf::RepeatedField<double>* values;
+  SelectedColumn column;
   std::size_t cell = 0;
 };
 
@@ -110,23 +111,23 @@ mdr::Status FindColumns(const std::vector<std::string>& header, const std::strin
   for (Selected& column : *selected) {
     std::vector<std::size_t> at;
     for (std::size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == column.name) at.push_back(i);
+      if (header[i] == column.column.name) at.push_back(i);
     }
     if (at.size() == 1) {
       column.cell = at.front();
       continue;
     }
     if (at.size() > 1) {
-      return mdr::InvalidArgument(
-          where, "column " + Printable(column.name) + " appears more than once in the header");
+      return mdr::InvalidArgument(where, "column " + Printable(column.column.name) +
+                                             " appears more than once in the header");
     }
     std::string names;
     for (std::size_t i = 0; i < header.size() && i < 32; ++i) {
       names += (i ? ", " : "") + Printable(header[i]);
     }
     if (header.size() > 32) names += ", ...";
-    return mdr::InvalidArgument(
-        where, "no column " + Printable(column.name) + " in the header; its columns are " + names);
+    return mdr::InvalidArgument(where, "no column " + Printable(column.column.name) +
+                                           " in the header; its columns are " + names);
   }
   return mdr::OkStatus();
 }
@@ -198,14 +199,35 @@ mdr::Result<double> UnitFactor(Quantity quantity, const std::string& unit,
   return Lookup(kTimeUnits, unit, field);
 }
 
-mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout) {
+std::vector<SelectedColumn> SelectColumns(const CsvLayout& layout, mdr::v1::LoopSamples* samples) {
+  std::vector<SelectedColumn> columns{
+      {layout.displacement_column, layout.displacement_unit, samples->mutable_displacement()},
+      {layout.force_column, layout.force_unit, samples->mutable_tangential_force()}};
+  if (!layout.normal_force_column.empty()) {
+    columns.push_back(
+        {layout.normal_force_column, layout.force_unit, samples->mutable_normal_force()});
+  }
+  if (!layout.time_column.empty()) {
+    columns.push_back({layout.time_column, layout.time_unit, samples->mutable_time()});
+  }
+  return columns;
+}
+
+mdr::Result<RigData> ReadRigFile(const std::string& path, const CsvLayout& layout) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return extension == ".mat" ? ReadRigMat(path, layout) : ReadRigCsv(path, layout);
+}
+
+mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return mdr::InvalidArgument(path, "cannot open the CSV file");
   std::stringstream buffer;
   buffer << in.rdbuf();
   const std::string text = buffer.str();
   const std::vector<std::string_view> lines = Lines(text);
-  RigCsv csv;
+  RigData csv;
   csv.path = path;
   const auto where = [&](std::size_t index) { return path + ":" + std::to_string(index + 1); };
 
@@ -222,15 +244,9 @@ mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout)
   for (std::string_view cell : Split(lines[header_line], *delimiter)) {
     header.push_back(HeaderName(cell));
   }
-  std::vector<Selected> selected{
-      {layout.displacement_column, layout.displacement_unit, csv.samples.mutable_displacement()},
-      {layout.force_column, layout.force_unit, csv.samples.mutable_tangential_force()}};
-  if (!layout.normal_force_column.empty()) {
-    selected.push_back(
-        {layout.normal_force_column, layout.force_unit, csv.samples.mutable_normal_force()});
-  }
-  if (!layout.time_column.empty()) {
-    selected.push_back({layout.time_column, layout.time_unit, csv.samples.mutable_time()});
+  std::vector<Selected> selected;
+  for (const SelectedColumn& column : SelectColumns(layout, &csv.samples)) {
+    selected.push_back({column});
   }
   if (auto s = FindColumns(header, where(header_line), &selected); !s.ok()) return s;
 
@@ -251,8 +267,8 @@ mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout)
                                                 std::to_string(header_line + 1) + ") has " +
                                                 std::to_string(header.size()) + detail);
     }
-    for (const Selected& column : selected) {
-      auto value = ParseCell(cells[column.cell], *delimiter != ',', where(i), column.name);
+    for (const auto& [column, cell] : selected) {
+      auto value = ParseCell(cells[cell], *delimiter != ',', where(i), column.name);
       if (!value.ok()) return value.status();
       column.values->Add(*value * column.factor);
     }
@@ -266,7 +282,7 @@ mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout)
 }
 
 mdr::Status LocateSampleError(const std::string& field, const std::string& message,
-                              const RigCsv& csv, const CsvLayout& layout) {
+                              const RigData& csv, const CsvLayout& layout) {
   static const std::regex kSample(
       R"((?:^|\.)samples\.(displacement|tangential_force|normal_force|time)(?:\[([0-9]+)\])?$)");
   std::smatch match;
@@ -278,11 +294,17 @@ mdr::Status LocateSampleError(const std::string& field, const std::string& messa
                              : which == "tangential_force" ? layout.force_column
                              : which == "normal_force"     ? layout.normal_force_column
                                                            : layout.time_column;
-  std::string where = csv.path;
+  std::optional<std::size_t> at;  // the sample's line (CSV) or element (MAT)
   if (match[2].matched) {
     const std::size_t index = std::stoull(match[2]);
-    if (index < csv.lines.size()) where += ":" + std::to_string(csv.lines[index]);
+    if (index < csv.lines.size()) at = csv.lines[index];
   }
+  if (csv.format == RigFormat::kMat) {
+    return mdr::InvalidArgument(csv.path, "variable " + Printable(column) +
+                                              (at ? ", element " + std::to_string(*at) : "") +
+                                              ": " + message);
+  }
+  const std::string where = at ? csv.path + ":" + std::to_string(*at) : csv.path;
   return mdr::InvalidArgument(where, "column " + Printable(column) + ": " + message);
 }
 

@@ -1,8 +1,13 @@
-// A test rig's CSV file: one sample per row, columns chosen by their header names, values in
-// stated units converted to SI. '#' comment lines and blank lines are skipped anywhere; the first
-// other line is the header. Cells are separated by ',' (or ';' or a tab, when the header uses
-// exactly one of the three). Every error names the file, the line (1-based, counting every line
-// of the file) and the column; text taken from the file is quoted bounded and escaped (Printable).
+// A test rig's samples file, read by ReadRigFile: a CSV file, or a MATLAB file (*.mat).
+//
+// CSV: one sample per row, columns chosen by their header names, values in stated units converted
+// to SI. '#' comment lines and blank lines are skipped anywhere; the first other line is the
+// header. Cells are separated by ',' (or ';' or a tab, when the header uses exactly one of the
+// three). Every error names the file, the line (1-based, counting every line of the file) and the
+// column; text taken from the file is quoted bounded and escaped (Printable).
+//
+// MATLAB (rig_mat.cc): a "column" is a variable of that name, a real numeric vector, or a field
+// of a 1x1 struct ("run.force"); every error names the file, the variable and the element.
 #pragma once
 
 #include <cstddef>
@@ -32,22 +37,45 @@ struct CsvLayout {
   double displacement_unit = 1, force_unit = 1, time_unit = 1;
 };
 
-struct RigCsv {
+enum class RigFormat { kCsv, kMat };
+
+struct RigData {
   std::string path;
-  mdr::v1::LoopSamples samples;    // SI
-  std::vector<std::size_t> lines;  // the file line of every sample
+  RigFormat format = RigFormat::kCsv;
+  mdr::v1::LoopSamples samples;  // SI
+  // The file line of every sample (a MAT file: its 1-based element in the variables).
+  std::vector<std::size_t> lines;
   // The text of a "# SYNTHETIC ..." comment (bounded, escaped), if the file has one.
   std::optional<std::string> synthetic;
 };
 
+// A column the layout selects: its name, its factor to SI and the samples' field it fills (the
+// displacement and the tangential force, then the normal force and the time if named).
+struct SelectedColumn {
+  std::string name;
+  double factor;
+  google::protobuf::RepeatedField<double>* values;
+};
+std::vector<SelectedColumn> SelectColumns(const CsvLayout& layout, mdr::v1::LoopSamples* samples);
+
+// Reads and converts a MAT file (a name ending in ".mat", any case) or else a CSV file.
+mdr::Result<RigData> ReadRigFile(const std::string& path, const CsvLayout& layout);
+
 // Reads and converts the file; errors are INVALID_ARGUMENT with the field "path:line".
-mdr::Result<RigCsv> ReadRigCsv(const std::string& path, const CsvLayout& layout);
+mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout);
+
+// Reads and converts a MATLAB file of version 4, 5 (compressed or not) or 7.3 (HDF5): every
+// selected variable a real numeric vector (double, single or integer; not logical, complex or
+// sparse) of at most kMaxMatSamples finite elements, all of the same length. Errors are
+// INVALID_ARGUMENT with the field "path" and name the variable (and element).
+inline constexpr std::size_t kMaxMatSamples = std::size_t{1} << 25;
+mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout);
 
 // An error of the service about a sample ("samples.time[12]", "sets[2].samples.time[12]") or a
 // column ("samples.displacement") restated at the file's line and column; other errors are
 // prefixed with the file.
 mdr::Status LocateSampleError(const std::string& field, const std::string& message,
-                              const RigCsv& csv, const CsvLayout& layout);
+                              const RigData& csv, const CsvLayout& layout);
 
 // `text` in double quotes, cut after `limit` bytes ("..." marks the cut), with '"', '\' and every
 // byte outside printable ASCII escaped (\xNN): safe to put in any message.

@@ -22,6 +22,7 @@ import math
 import os
 import re
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -76,6 +77,26 @@ def write(path, data):
     with open(path, "wb") as f:
         f.write(data if isinstance(data, bytes) else data.encode())
     return path
+
+
+def write_mat5(path, columns):
+    """A MATLAB level-5 MAT file of column vectors of doubles, uncompressed (the format's
+    published layout: a 128-byte header, then one miMATRIX element per variable)."""
+    def element(data_type, payload):
+        padding = (-len(payload)) % 8
+        return struct.pack("<II", data_type, len(payload)) + payload + b"\0" * padding
+
+    mi_int8, mi_int32, mi_uint32, mi_double, mi_matrix, mx_double = 1, 5, 6, 9, 14, 6
+    body = b""
+    for name, values in columns.items():
+        matrix = (element(mi_uint32, struct.pack("<II", mx_double, 0))
+                  + element(mi_int32, struct.pack("<ii", len(values), 1))
+                  + element(mi_int8, name.encode("latin-1"))
+                  + element(mi_double, struct.pack(f"<{len(values)}d", *values)))
+        body += struct.pack("<II", mi_matrix, len(matrix)) + matrix
+    text = b"MATLAB 5.0 MAT-file, written by rig_analysis_test.py".ljust(116, b" ")
+    with open(path, "wb") as f:
+        f.write(text + b"\0" * 8 + struct.pack("<H", 0x0100) + b"IM" + body)
 
 
 def csv_rows(text):
@@ -146,6 +167,24 @@ def case_csv_errors(args, tmp):
                          r'its columns are "displacement", "tang\\x1Bential\\xFF"',
                          "header names escaped")
     check("\x1b" not in err, "an escape byte reached the terminal")
+    # MATLAB files: a missing variable (the file's names escaped), a service error restated at
+    # the variable's element, a file that is not one.
+    mat = os.path.join(tmp, "names.mat")
+    write_mat5(mat, {"displacement": [0.0, 1e-6], "tang\x1bential": [0.0, 1.0]})
+    err = expect_failure(m, ["loops", mat],
+                         r'^mdrctl: \S*names\.mat: no variable "tangential_force" in the file; '
+                         r'its variables are "displacement", "tang\\x1Bential"\n$',
+                         "a missing MAT variable")
+    check("\x1b" not in err, "an escape byte of a MAT name reached the terminal")
+    mat = os.path.join(tmp, "time.mat")
+    write_mat5(mat, {"displacement": [0.0, 1e-6, 2e-6], "tangential_force": [0.0, 1.0, 2.0],
+                     "time": [0.0, 0.1, 0.1]})
+    expect_failure(m, ["loops", mat, "--time-column", "time"],
+                   r'^mdrctl: \S*time\.mat: variable "time", element 3: ',
+                   "a service error restated at the MAT element")
+    expect_failure(m, ["loops", write(os.path.join(tmp, "text.MAT"), good.encode())],
+                   r'^mdrctl: \S*text\.MAT: cannot open as a MATLAB file \(version 4, 5 or 7\.3\)',
+                   "a CSV named .MAT")
 
 
 # ---- loops_figures ----
@@ -246,6 +285,15 @@ def case_loops_figures(args, tmp):
                                  "100", "--time-column", "time", "--format", "csv"], name).stdout
         check(out == plain, f"{name} gives other figures than the plain file:\n{out}\n{plain}")
     print("ok decimal commas (';' and tab) and quoted cells read as the plain file")
+    # The same samples in a MATLAB file (written here, not by matio): the same figures.
+    columns = {name: [float(row[i]) for row in samples]
+               for i, name in enumerate(("time", "displacement", "tangential_force"))}
+    mat = os.path.join(tmp, "samples.mat")
+    write_mat5(mat, columns)
+    out = expect_success(m, ["loops", mat, "--normal-force", "100", "--time-column", "time",
+                             "--format", "csv"], "loops, MAT file").stdout
+    check(out == plain, f"the MAT file gives other figures than the CSV file:\n{out}\n{plain}")
+    print("ok a MATLAB (v5) file of the samples reads as the CSV file")
     report = os.path.join(tmp, "report")
     expect_success(m, ["loops", gross, "--normal-force", "100", "--report", report], "report")
     document = json.load(open(os.path.join(report, "report.json")))

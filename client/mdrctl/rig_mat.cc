@@ -1,0 +1,289 @@
+// A test rig's MATLAB file (rig_csv.h): the selected variables through matio, checked before
+// their data is read (class, shape, size), converted to SI.
+#include <matio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rig_csv.h"
+
+namespace mdrctl {
+namespace {
+
+// matio reports through a log function; its default one aborts the process on errors. This one
+// keeps the last message for the error mdrctl prints (matio is used from one thread here).
+std::string& LastMatioMessage() {
+  static std::string message;
+  return message;
+}
+
+void KeepMatioMessage(int /*log_level*/, char* message) {
+  LastMatioMessage() = message == nullptr ? "" : message;
+}
+
+std::string MatioDetail() {
+  const std::string& message = LastMatioMessage();
+  return message.empty() ? "" : " (matio: " + Printable(message, 160) + ")";
+}
+
+struct MatCloser {
+  void operator()(mat_t* mat) const { Mat_Close(mat); }
+};
+struct VarFreer {
+  void operator()(matvar_t* var) const { Mat_VarFree(var); }
+};
+using MatFile = std::unique_ptr<mat_t, MatCloser>;
+using MatVar = std::unique_ptr<matvar_t, VarFreer>;
+
+std::string NameOf(const matvar_t* var) { return var->name == nullptr ? "" : var->name; }
+
+// The names of the file's variables (at most 32, then "..."), for an error.
+std::string VariableNames(mat_t* mat) {
+  std::string names;
+  Mat_Rewind(mat);
+  int count = 0;
+  while (MatVar var{Mat_VarReadNextInfo(mat)}) {
+    if (count++ == 32) {
+      names += ", ...";
+      break;
+    }
+    names += (names.empty() ? "" : ", ") + Printable(NameOf(var.get()));
+  }
+  return names.empty() ? "none" : names;
+}
+
+std::string FieldNames(matvar_t* structure) {
+  const unsigned fields = Mat_VarGetNumberOfFields(structure);
+  char* const* names = Mat_VarGetStructFieldnames(structure);
+  std::string listed;
+  for (unsigned i = 0; i < fields && i < 32; ++i) {
+    listed += (i ? ", " : "") + Printable(names[i] == nullptr ? "" : names[i]);
+  }
+  if (fields > 32) listed += ", ...";
+  return listed.empty() ? "none" : listed;
+}
+
+bool Numeric(matio_classes type) {
+  switch (type) {
+    case MAT_C_DOUBLE:
+    case MAT_C_SINGLE:
+    case MAT_C_INT8:
+    case MAT_C_UINT8:
+    case MAT_C_INT16:
+    case MAT_C_UINT16:
+    case MAT_C_INT32:
+    case MAT_C_UINT32:
+    case MAT_C_INT64:
+    case MAT_C_UINT64:
+      return true;
+    default:
+      return false;
+  }
+}
+
+const char* ClassName(matio_classes type) {
+  switch (type) {
+    case MAT_C_CELL:
+      return "a cell array";
+    case MAT_C_STRUCT:
+      return "a struct";
+    case MAT_C_OBJECT:
+      return "an object";
+    case MAT_C_CHAR:
+      return "a char array";
+    case MAT_C_SPARSE:
+      return "a sparse matrix";
+    case MAT_C_FUNCTION:
+      return "a function handle";
+    default:
+      return Numeric(type) ? "a numeric array" : "of a class mdrctl does not read";
+  }
+}
+
+// Splits "run.force" into the variable and the field ("" when there is none).
+std::pair<std::string, std::string> SplitName(const std::string& name) {
+  const std::size_t dot = name.find('.');
+  if (dot == std::string::npos) return {name, ""};
+  return {name.substr(0, dot), name.substr(dot + 1)};
+}
+
+// The selected vector inside `top` (itself, or its field), or an error naming it.
+mdr::Result<matvar_t*> Leaf(matvar_t* top, const std::string& name, const std::string& field,
+                            const std::string& path) {
+  if (field.empty()) return top;
+  if (top->class_type != MAT_C_STRUCT || Mat_VarGetNumberOfFields(top) == 0) {
+    return mdr::InvalidArgument(path,
+                                Printable(name) + " names a field of a struct, but variable " +
+                                    Printable(NameOf(top)) + " is " + ClassName(top->class_type));
+  }
+  std::size_t elements = 1;
+  for (int d = 0; d < top->rank; ++d) elements *= top->dims[d];
+  if (elements != 1) {
+    return mdr::InvalidArgument(path, "variable " + Printable(NameOf(top)) +
+                                          " is a struct array; " + Printable(name) +
+                                          " needs a 1x1 struct");
+  }
+  matvar_t* leaf = Mat_VarGetStructFieldByName(top, field.c_str(), 0);
+  if (leaf == nullptr) {
+    return mdr::InvalidArgument(path, "struct " + Printable(NameOf(top)) + " has no field " +
+                                          Printable(field) + "; its fields are " + FieldNames(top));
+  }
+  return leaf;
+}
+
+// The length of a real numeric vector, or an error saying why the variable is not one.
+mdr::Result<std::size_t> VectorLength(const matvar_t* var, const std::string& name,
+                                      const std::string& path) {
+  const std::string what = "variable " + Printable(name);
+  if (var->isLogical) return mdr::InvalidArgument(path, what + " is logical, not numeric");
+  if (!Numeric(var->class_type)) {
+    return mdr::InvalidArgument(
+        path, what + " is " + ClassName(var->class_type) + ", not a real numeric vector");
+  }
+  if (var->isComplex) return mdr::InvalidArgument(path, what + " is complex, not real");
+  std::size_t length = 1, longest = 1;
+  std::string shape;
+  for (int d = 0; d < var->rank; ++d) {
+    length *= var->dims[d];
+    longest = std::max(longest, var->dims[d]);
+    if (d > 0) shape += 'x';
+    shape += std::to_string(var->dims[d]);
+  }
+  if (var->rank < 1 || length == 0) return mdr::InvalidArgument(path, what + " is empty");
+  if (length != longest) {
+    return mdr::InvalidArgument(
+        path, what + " is a " + shape + " array, not a vector (one row or one column)");
+  }
+  if (length > kMaxMatSamples) {
+    return mdr::InvalidArgument(path, what + " has " + std::to_string(length) +
+                                          " elements, more than the " +
+                                          std::to_string(kMaxMatSamples) + " mdrctl reads");
+  }
+  return length;
+}
+
+template <typename T>
+void Append(const void* data, std::size_t length, std::vector<double>* values) {
+  const T* typed = static_cast<const T*>(data);
+  for (std::size_t i = 0; i < length; ++i) values->push_back(static_cast<double>(typed[i]));
+}
+
+// The vector's data as doubles (matio stores a numeric array in its class's type).
+mdr::Result<std::vector<double>> Values(const matvar_t* var, std::size_t length,
+                                        const std::string& name, const std::string& path) {
+  std::vector<double> values;
+  values.reserve(length);
+  const std::size_t bytes = var->data_size * length;
+  if (var->data == nullptr || var->data_size == 0 || var->nbytes < bytes) {
+    return mdr::InvalidArgument(
+        path, "variable " + Printable(name) + ": its data could not be read" + MatioDetail());
+  }
+  switch (var->data_type) {
+    case MAT_T_DOUBLE:
+      Append<double>(var->data, length, &values);
+      break;
+    case MAT_T_SINGLE:
+      Append<float>(var->data, length, &values);
+      break;
+    case MAT_T_INT8:
+      Append<std::int8_t>(var->data, length, &values);
+      break;
+    case MAT_T_UINT8:
+      Append<std::uint8_t>(var->data, length, &values);
+      break;
+    case MAT_T_INT16:
+      Append<std::int16_t>(var->data, length, &values);
+      break;
+    case MAT_T_UINT16:
+      Append<std::uint16_t>(var->data, length, &values);
+      break;
+    case MAT_T_INT32:
+      Append<std::int32_t>(var->data, length, &values);
+      break;
+    case MAT_T_UINT32:
+      Append<std::uint32_t>(var->data, length, &values);
+      break;
+    case MAT_T_INT64:
+      Append<std::int64_t>(var->data, length, &values);
+      break;
+    case MAT_T_UINT64:
+      Append<std::uint64_t>(var->data, length, &values);
+      break;
+    default:
+      return mdr::InvalidArgument(
+          path, "variable " + Printable(name) + " is stored in a type mdrctl does not read");
+  }
+  return values;
+}
+
+// One selected column: checked from the variable's header (its length against `first`'s, when
+// that was read before), then read and converted.
+mdr::Status ReadColumn(mat_t* mat, const SelectedColumn& column, const SelectedColumn* first,
+                       const std::string& path, std::size_t* length) {
+  const auto [variable, field] = SplitName(column.name);
+  LastMatioMessage().clear();
+  MatVar info{Mat_VarReadInfo(mat, variable.c_str())};
+  if (info == nullptr) {
+    return mdr::InvalidArgument(path, "no variable " + Printable(variable) +
+                                          " in the file; its variables are " + VariableNames(mat));
+  }
+  auto leaf = Leaf(info.get(), column.name, field, path);
+  if (!leaf.ok()) return leaf.status();
+  auto count = VectorLength(*leaf, column.name, path);
+  if (!count.ok()) return count.status();
+  if (first != nullptr && *count != *length) {
+    return mdr::InvalidArgument(path, "variable " + Printable(column.name) + " has " +
+                                          std::to_string(*count) + " elements, " +
+                                          Printable(first->name) + " has " +
+                                          std::to_string(*length) + ": each needs one per sample");
+  }
+  *length = *count;
+  MatVar read{Mat_VarRead(mat, variable.c_str())};
+  if (read == nullptr) {
+    return mdr::InvalidArgument(
+        path, "variable " + Printable(variable) + " could not be read" + MatioDetail());
+  }
+  auto read_leaf = Leaf(read.get(), column.name, field, path);
+  if (!read_leaf.ok()) return read_leaf.status();
+  auto values = Values(*read_leaf, *count, column.name, path);
+  if (!values.ok()) return values.status();
+  for (std::size_t i = 0; i < values->size(); ++i) {
+    if (!std::isfinite((*values)[i])) {
+      return mdr::InvalidArgument(
+          path, "variable " + Printable(column.name) + ", element " + std::to_string(i + 1) + ": " +
+                    std::to_string((*values)[i]) + " is not a finite number");
+    }
+    column.values->Add((*values)[i] * column.factor);
+  }
+  return mdr::OkStatus();
+}
+
+}  // namespace
+
+mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout) {
+  Mat_LogInitFunc("mdrctl", KeepMatioMessage);
+  LastMatioMessage().clear();
+  MatFile mat{Mat_Open(path.c_str(), MAT_ACC_RDONLY)};
+  if (mat == nullptr) {
+    return mdr::InvalidArgument(
+        path, "cannot open as a MATLAB file (version 4, 5 or 7.3)" + MatioDetail());
+  }
+  RigData data;
+  data.path = path;
+  data.format = RigFormat::kMat;
+  const std::vector<SelectedColumn> columns = SelectColumns(layout, &data.samples);
+  std::size_t length = 0;
+  for (const SelectedColumn& column : columns) {
+    const SelectedColumn* first = &column == &columns.front() ? nullptr : &columns.front();
+    if (auto s = ReadColumn(mat.get(), column, first, path, &length); !s.ok()) return s;
+  }
+  data.lines.resize(length);
+  for (std::size_t i = 0; i < length; ++i) data.lines[i] = i + 1;
+  return data;
+}
+
+}  // namespace mdrctl

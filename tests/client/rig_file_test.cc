@@ -1,0 +1,273 @@
+// A rig's samples from MATLAB files (ReadRigFile, rig_mat.cc): the same numbers as the CSV
+// reader from the same samples, bit for bit, in every MAT version matio writes; struct fields and
+// integer classes; and every refused variable named, with nothing read.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <matio.h>
+
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "rig_csv.h"
+
+namespace mdrctl {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+// The samples of the checks below: awkward doubles (no short decimal form) and a negative zero.
+const std::vector<double> kDisplacement{1.0 / 3, -2.5e-7, 0.1 + 0.2, -0.0, 7e-310, 12.75};
+const std::vector<double> kForce{3.0, -1.0 / 7, 1e3, 2.2250738585072014e-308, -4.5, 0.0};
+const std::vector<double> kTime{0, 0.001, 0.002, 0.003, 0.004, 0.005};
+
+class MatWriter {
+ public:
+  MatWriter(const fs::path& path, mat_ft version)
+      : mat_(Mat_CreateVer(path.c_str(), nullptr, version)) {}
+  ~MatWriter() {
+    if (mat_ != nullptr) Mat_Close(mat_);
+  }
+  bool ok() const { return mat_ != nullptr; }
+
+  // A variable of `rows` x `cols` (matio copies the data).
+  template <typename T>
+  void Add(const char* name, matio_classes type, matio_types storage, std::vector<T> values,
+           std::size_t rows, std::size_t cols, int flags = 0,
+           matio_compression compression = MAT_COMPRESSION_NONE) {
+    std::size_t dims[2] = {rows, cols};
+    // For a complex variable, values holds one mat_complex_split_t: its address is the data.
+    matvar_t* var = Mat_VarCreate(name, type, storage, 2, dims, values.data(), flags);
+    ASSERT_NE(var, nullptr) << name;
+    ASSERT_EQ(Mat_VarWrite(mat_, var, compression), 0) << name;
+    Mat_VarFree(var);
+  }
+  void AddDoubles(const char* name, const std::vector<double>& values, bool row = false,
+                  matio_compression compression = MAT_COMPRESSION_NONE) {
+    Add(name, MAT_C_DOUBLE, MAT_T_DOUBLE, values, row ? 1 : values.size(), row ? values.size() : 1,
+        0, compression);
+  }
+  // A 1x1 struct whose fields are column vectors of doubles.
+  void AddStruct(const char* name,
+                 const std::vector<std::pair<const char*, std::vector<double>>>& fields) {
+    std::vector<const char*> names;
+    for (const auto& field : fields) names.push_back(field.first);
+    names.push_back(nullptr);
+    std::size_t one[2] = {1, 1};
+    matvar_t* structure = Mat_VarCreateStruct2(name, 2, one, names.data());
+    ASSERT_NE(structure, nullptr);
+    for (const auto& [field, values] : fields) {
+      std::size_t dims[2] = {values.size(), 1};
+      std::vector<double> copy = values;
+      matvar_t* var = Mat_VarCreate(field, MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, copy.data(), 0);
+      Mat_VarSetStructFieldByName(structure, field, 0, var);
+    }
+    ASSERT_EQ(Mat_VarWrite(mat_, structure, MAT_COMPRESSION_NONE), 0);
+    Mat_VarFree(structure);
+  }
+
+ private:
+  mat_t* mat_;
+};
+
+CsvLayout Layout() {
+  CsvLayout layout;
+  layout.displacement_column = "x";
+  layout.force_column = "fx";
+  layout.normal_force_column = "fn";
+  layout.time_column = "t";
+  layout.displacement_unit = 1e-6;  // um
+  layout.force_unit = 1e3;          // kN
+  layout.time_unit = 1e-3;          // ms
+  return layout;
+}
+
+class RigFileTest : public ::testing::Test {
+ protected:
+  fs::path Path(const std::string& name) const { return dir_ / name; }
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("mdr_rig_file_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // The samples as a CSV file, every value with 17 significant digits.
+  fs::path WriteCsv() const {
+    const fs::path path = Path("samples.csv");
+    std::ofstream out(path);
+    out << "t,x,fx,fn\n";
+    out.precision(17);
+    for (std::size_t i = 0; i < kDisplacement.size(); ++i) {
+      out << kTime[i] << ',' << kDisplacement[i] << ',' << kForce[i] << ',' << 0.1 * (i + 1)
+          << '\n';
+    }
+    return path;
+  }
+  std::vector<double> NormalForce() const {
+    std::vector<double> values;
+    for (std::size_t i = 0; i < kDisplacement.size(); ++i) values.push_back(0.1 * (i + 1));
+    return values;
+  }
+  void WriteColumns(MatWriter& mat, matio_compression compression = MAT_COMPRESSION_NONE) const {
+    mat.AddDoubles("t", kTime, false, compression);
+    mat.AddDoubles("x", kDisplacement, true, compression);  // a row vector
+    mat.AddDoubles("fx", kForce, false, compression);
+    mat.AddDoubles("fn", NormalForce(), false, compression);
+  }
+  mdr::Status ReadError(const std::string& name, const CsvLayout& layout = Layout()) const {
+    auto read = ReadRigFile(Path(name).string(), layout);
+    EXPECT_FALSE(read.ok());
+    return read.ok() ? mdr::OkStatus() : read.status();
+  }
+
+  fs::path dir_;
+};
+
+void ExpectSameBits(const google::protobuf::RepeatedField<double>& actual,
+                    const google::protobuf::RepeatedField<double>& expected, const char* what) {
+  ASSERT_EQ(actual.size(), expected.size()) << what;
+  for (int i = 0; i < actual.size(); ++i) {
+    EXPECT_EQ(std::signbit(actual[i]), std::signbit(expected[i])) << what << "[" << i << "]";
+    EXPECT_EQ(actual[i], expected[i]) << what << "[" << i << "]";
+  }
+}
+
+TEST_F(RigFileTest, EveryMatVersionGivesTheCsvReadersNumbersBitForBit) {
+  auto csv = ReadRigFile(WriteCsv().string(), Layout());
+  ASSERT_TRUE(csv.ok()) << csv.status().ToString();
+  ASSERT_EQ(csv->format, RigFormat::kCsv);
+  struct Version {
+    const char* file;
+    mat_ft version;
+    matio_compression compression;
+  };
+  for (const Version& v : {Version{"v5.mat", MAT_FT_MAT5, MAT_COMPRESSION_NONE},
+                           Version{"v5_zlib.MAT", MAT_FT_MAT5, MAT_COMPRESSION_ZLIB},
+                           Version{"v73.mat", MAT_FT_MAT73, MAT_COMPRESSION_NONE},
+                           Version{"v4.mat", MAT_FT_MAT4, MAT_COMPRESSION_NONE}}) {
+    SCOPED_TRACE(v.file);
+    {
+      MatWriter mat(Path(v.file), v.version);
+      ASSERT_TRUE(mat.ok());
+      WriteColumns(mat, v.compression);
+    }
+    auto read = ReadRigFile(Path(v.file).string(), Layout());
+    ASSERT_TRUE(read.ok()) << read.status().ToString();
+    EXPECT_EQ(read->format, RigFormat::kMat);
+    ExpectSameBits(read->samples.displacement(), csv->samples.displacement(), "displacement");
+    ExpectSameBits(read->samples.tangential_force(), csv->samples.tangential_force(), "force");
+    ExpectSameBits(read->samples.normal_force(), csv->samples.normal_force(), "normal force");
+    ExpectSameBits(read->samples.time(), csv->samples.time(), "time");
+    EXPECT_EQ(read->lines, (std::vector<std::size_t>{1, 2, 3, 4, 5, 6}));
+  }
+}
+
+TEST_F(RigFileTest, StructFieldsAndIntegerClassesAreRead) {
+  {
+    MatWriter mat(Path("run.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    mat.AddStruct("run", {{"x", kDisplacement}, {"fx", kForce}});
+    mat.Add("counts", MAT_C_INT16, MAT_T_INT16, std::vector<std::int16_t>{-3, 0, 7, 32767, 1, 2}, 6,
+            1);
+    mat.Add("single", MAT_C_SINGLE, MAT_T_SINGLE, std::vector<float>{0.1f, 2, 3, 4, 5, 6}, 6, 1);
+  }
+  CsvLayout layout;
+  layout.displacement_column = "run.x";
+  layout.force_column = "run.fx";
+  layout.normal_force_column = "counts";
+  layout.time_column = "single";
+  auto read = ReadRigFile(Path("run.mat").string(), layout);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->samples.displacement_size(), 6);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(read->samples.displacement(i), kDisplacement[i]);
+    EXPECT_EQ(read->samples.tangential_force(i), kForce[i]);
+  }
+  EXPECT_EQ(read->samples.normal_force(0), -3);
+  EXPECT_EQ(read->samples.normal_force(3), 32767);
+  EXPECT_EQ(read->samples.time(0), static_cast<double>(0.1f));  // the stored float, exactly
+}
+
+TEST_F(RigFileTest, RefusedVariablesAreNamedWithTheirReason) {
+  {
+    MatWriter mat(Path("bad.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    mat.AddDoubles("x", kDisplacement);
+    mat.AddDoubles("short", {1, 2, 3});
+    mat.Add("matrix", MAT_C_DOUBLE, MAT_T_DOUBLE, std::vector<double>(6, 1.0), 2, 3);
+    mat.AddDoubles("with_nan", {1, 2, NAN, 4, 5, 6});
+    mat.AddDoubles("with_inf", {1, 2, 3, 4, 5, -INFINITY});
+    mat.Add("flags", MAT_C_UINT8, MAT_T_UINT8, std::vector<std::uint8_t>(6, 1), 6, 1,
+            MAT_F_LOGICAL);
+    mat.Add("label", MAT_C_CHAR, MAT_T_UINT8, std::vector<char>{'a', 'b', 'c'}, 1, 3);
+    mat.AddDoubles("empty", {});
+    mat.AddStruct("run", {{"x", kDisplacement}});
+  }
+  {
+    MatWriter mat(Path("complex.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    std::vector<double> re(6, 1.0), im(6, 2.0);
+    mat_complex_split_t split{re.data(), im.data()};
+    mat.Add("x", MAT_C_DOUBLE, MAT_T_DOUBLE, std::vector<mat_complex_split_t>{split}, 6, 1,
+            MAT_F_COMPLEX);
+  }
+  const auto refused = [&](const std::string& force_column, const std::string& expected,
+                           const char* file = "bad.mat") {
+    SCOPED_TRACE(force_column);
+    CsvLayout layout;
+    layout.displacement_column = "x";
+    layout.force_column = force_column;
+    const mdr::Status status = ReadError(file, layout);
+    EXPECT_EQ(status.code(), mdr::StatusCode::kInvalidArgument);
+    EXPECT_EQ(status.field(), Path(file).string());
+    EXPECT_THAT(status.message(), HasSubstr(expected));
+  };
+  refused("fx", R"(no variable "fx" in the file; its variables are "x", "short", "matrix")");
+  refused("short", R"(variable "short" has 3 elements, "x" has 6: each needs one per sample)");
+  refused("matrix", R"(variable "matrix" is a 2x3 array, not a vector)");
+  refused("with_nan", R"(variable "with_nan", element 3: nan is not a finite number)");
+  refused("with_inf", R"(variable "with_inf", element 6: -inf is not a finite number)");
+  refused("flags", R"(variable "flags" is logical, not numeric)");
+  refused("label", R"(variable "label" is a char array, not a real numeric vector)");
+  refused("empty", R"(variable "empty" is empty)");
+  refused("run", R"(variable "run" is a struct, not a real numeric vector)");
+  refused("run.fx", R"(struct "run" has no field "fx"; its fields are "x")");
+  refused("x.y", R"("x.y" names a field of a struct, but variable "x" is a numeric array)");
+  refused("bad\x01name", R"(no variable "bad\x01name")");
+  refused("x", R"(variable "x" is complex, not real)", "complex.mat");
+}
+
+TEST_F(RigFileTest, AFileThatIsNotMatlabIsRefused) {
+  std::ofstream(Path("text.mat")) << "t,x,fx\n0,1,2\n";
+  const mdr::Status status = ReadError("text.mat");
+  EXPECT_EQ(status.field(), Path("text.mat").string());
+  EXPECT_THAT(status.message(), HasSubstr("cannot open as a MATLAB file (version 4, 5 or 7.3)"));
+  EXPECT_THAT(ReadError("missing.mat").message(), HasSubstr("cannot open as a MATLAB file"));
+}
+
+TEST_F(RigFileTest, ServiceErrorsAboutASampleNameTheVariableAndElement) {
+  RigData data;
+  data.path = "run.mat";
+  data.format = RigFormat::kMat;
+  data.lines = {1, 2, 3};
+  const mdr::Status status =
+      LocateSampleError("samples.tangential_force[2]", "must be finite", data, Layout());
+  EXPECT_EQ(status.field(), "run.mat");
+  EXPECT_EQ(status.message(), R"(variable "fx", element 3: must be finite)");
+  data.format = RigFormat::kCsv;
+  data.lines = {5, 6, 9};
+  const mdr::Status csv =
+      LocateSampleError("samples.tangential_force[2]", "must be finite", data, Layout());
+  EXPECT_EQ(csv.field(), "run.mat:9");
+  EXPECT_EQ(csv.message(), R"(column "fx": must be finite)");
+}
+
+}  // namespace
+}  // namespace mdrctl
