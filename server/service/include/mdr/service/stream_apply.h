@@ -4,15 +4,14 @@
 // pauses while that many are held, so a client that stops reading stalls in HTTP/2 flow control
 // instead of growing the server's memory. Reading goes on while a message is applied on a worker,
 // so the next ones are at hand when it is done: the messages are applied one at a time and in
-// order on
-// the Executor (strand: the message's session), a run of consecutive messages for one session
-// in one task (at most kMaxRunLength, then the task queues behind the others). A message whose
-// cost is bounded a priori and small, for a session with nothing queued, is applied on the
+// order on the Executor (strand: the message's session), a run of consecutive messages for one
+// session in one task (at most kMaxRunLength, then the task queues behind the others). A message
+// whose cost is bounded a priori and small, for a session with nothing queued, is applied on the
 // thread that read it instead (Executor::TryRunInline; docs/operations.md, "Inline steps"), which
-// starts the answer's write before the next read, as an echo does. A
-// message the full queue refuses is answered with UNAVAILABLE in its response status, unapplied,
-// and the stream goes on. While other callers are active, the caller's streams read at the pace its
-// StreamBudget allows (stream_pacer.h): a paused stream resumes from the pacer's thread.
+// starts the answer's write before the next read, as an echo does. A message the full queue
+// refuses is answered with UNAVAILABLE in its response status, unapplied, and the stream goes on.
+// While other callers are active, the caller's streams read at the pace its StreamBudget allows
+// (stream_pacer.h): a paused stream resumes from the pacer's thread.
 #pragma once
 
 #include <grpcpp/server_context.h>
