@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -262,6 +264,47 @@ mdr::Status ReadColumn(mat_t* mat, const SelectedColumn& column, const SelectedC
   return mdr::OkStatus();
 }
 
+// A MAT v5 file is a 128-byte header and then one element per variable, each a tag (its type and
+// its byte count) and that many bytes, padded to 8 unless compressed. matio reads a file whose
+// last variable was cut short (a rig stopped while writing) without an error, the missing
+// elements filled with whatever its buffer held; so every element must end inside the file.
+mdr::Status CheckMat5Complete(const std::string& path) {
+  constexpr std::uint32_t kCompressed = 15;  // miCOMPRESSED
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  const std::streamoff size = in.tellg();
+  char header[128];
+  if (!in || size < 128 || !in.seekg(0) || !in.read(header, sizeof header)) {
+    return mdr::InvalidArgument(path, "cannot read the MAT v5 header");
+  }
+  std::uint16_t endian;
+  std::memcpy(&endian, header + 126, sizeof endian);
+  const bool swapped = endian != ('M' << 8 | 'I');  // matio opened it: "MI" either way round
+  std::streamoff at = 128;
+  for (int element = 1; at < size; ++element) {
+    std::uint32_t tag[2] = {0, 0};
+    const bool whole_tag =
+        size - at >= 8 && in.seekg(at) && in.read(reinterpret_cast<char*>(tag), 8);
+    if (swapped) {
+      tag[0] = __builtin_bswap32(tag[0]);
+      tag[1] = __builtin_bswap32(tag[1]);
+    }
+    // A small element (a byte count in the type's upper half) is its 8-byte tag alone.
+    const std::streamoff bytes = (tag[0] >> 16) != 0 ? 0 : tag[1];
+    if (!whole_tag || at + 8 + bytes > size) {
+      return mdr::InvalidArgument(
+          path, "the file is truncated: it ends at byte " + std::to_string(size) +
+                    ", inside its variable number " + std::to_string(element) + ", which " +
+                    (whole_tag ? "declares " + std::to_string(8 + bytes) + " bytes from byte " +
+                                     std::to_string(at)
+                               : "starts at byte " + std::to_string(at)) +
+                    "; was it still being written?");
+    }
+    at += 8 + bytes;
+    if (tag[0] != kCompressed) at = (at + 7) / 8 * 8;
+  }
+  return mdr::OkStatus();
+}
+
 }  // namespace
 
 mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout) {
@@ -271,6 +314,9 @@ mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout
   if (mat == nullptr) {
     return mdr::InvalidArgument(
         path, "cannot open as a MATLAB file (version 4, 5 or 7.3)" + MatioDetail());
+  }
+  if (Mat_GetVersion(mat.get()) == MAT_FT_MAT5) {
+    if (mdr::Status complete = CheckMat5Complete(path); !complete.ok()) return complete;
   }
   RigData data;
   data.path = path;

@@ -5,12 +5,15 @@
 #include <gtest/gtest.h>
 #include <matio.h>
 
+#include <bit>
 #include <cmath>
 #include <complex>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rig_csv.h"
@@ -74,6 +77,39 @@ class MatWriter {
  private:
   mat_t* mat_;
 };
+
+// A MAT v5 file written byte by byte in either byte order (matio writes the machine's only):
+// one column vector of doubles per variable, uncompressed.
+std::string Mat5Bytes(bool big_endian,
+                      const std::vector<std::pair<std::string, std::vector<double>>>& variables) {
+  std::string bytes;
+  const auto put = [&](const void* data, std::size_t size) {
+    const char* p = static_cast<const char*>(data);
+    const bool reverse = big_endian == (std::endian::native == std::endian::little);
+    for (std::size_t i = 0; i < size; ++i) bytes += p[reverse ? size - 1 - i : i];
+  };
+  const auto u32 = [&](std::uint32_t value) { put(&value, 4); };
+  const auto pad = [&] { bytes.resize((bytes.size() + 7) / 8 * 8, '\0'); };
+  std::string text = "MATLAB 5.0 MAT-file, written by mdr's tests";
+  text.resize(124, ' ');
+  bytes = text;
+  const std::uint16_t version = 0x0100, endian = 'M' << 8 | 'I';
+  put(&version, 2);
+  put(&endian, 2);
+  for (const auto& [name, values] : variables) {
+    const std::size_t padded_name = (name.size() + 7) / 8 * 8;
+    u32(14);  // miMATRIX
+    u32(static_cast<std::uint32_t>(16 + 16 + 8 + padded_name + 8 + 8 * values.size()));
+    u32(6), u32(8), u32(6), u32(0);  // array flags: mxDOUBLE_CLASS
+    u32(5), u32(8), u32(static_cast<std::uint32_t>(values.size())), u32(1);  // dims n x 1
+    u32(1), u32(static_cast<std::uint32_t>(name.size()));                    // miINT8 name
+    bytes += name;
+    pad();
+    u32(9), u32(static_cast<std::uint32_t>(8 * values.size()));  // miDOUBLE
+    for (double value : values) put(&value, 8);
+  }
+  return bytes;
+}
 
 CsvLayout Layout() {
   CsvLayout layout;
@@ -242,6 +278,52 @@ TEST_F(RigFileTest, RefusedVariablesAreNamedWithTheirReason) {
   refused("x.y", R"("x.y" names a field of a struct, but variable "x" is a numeric array)");
   refused("bad\x01name", R"(no variable "bad\x01name")");
   refused("x", R"(variable "x" is complex, not real)", "complex.mat");
+}
+
+// A rig that stops while writing leaves a file cut short. matio reads a MAT v5 file whose last
+// variable is incomplete without an error (its missing elements whatever its buffer held): the
+// reader refuses every truncation, at every byte, in every version and in both byte orders.
+TEST_F(RigFileTest, ATruncatedFileIsRefusedAtEveryByte) {
+  struct Version {
+    const char* file;
+    mat_ft version;
+    matio_compression compression;
+  };
+  std::vector<std::pair<std::string, std::string>> files;  // name, bytes
+  for (const Version& v : {Version{"v5.mat", MAT_FT_MAT5, MAT_COMPRESSION_NONE},
+                           Version{"v5z.mat", MAT_FT_MAT5, MAT_COMPRESSION_ZLIB},
+                           Version{"v73.mat", MAT_FT_MAT73, MAT_COMPRESSION_NONE},
+                           Version{"v4.mat", MAT_FT_MAT4, MAT_COMPRESSION_NONE}}) {
+    {
+      MatWriter mat(Path(v.file), v.version);
+      ASSERT_TRUE(mat.ok()) << v.file;
+      WriteColumns(mat, v.compression);
+    }
+    std::ifstream in(Path(v.file), std::ios::binary);
+    files.emplace_back(v.file, std::string(std::istreambuf_iterator<char>(in), {}));
+  }
+  const std::vector<std::pair<std::string, std::vector<double>>> columns{
+      {"x", kDisplacement}, {"fx", kForce}, {"fn", NormalForce()}, {"t", kTime}};
+  files.emplace_back("big_endian.mat", Mat5Bytes(true, columns));
+  files.emplace_back("little_endian.mat", Mat5Bytes(false, columns));
+  for (const auto& [file, bytes] : files) {
+    SCOPED_TRACE(file);
+    std::ofstream(Path(file), std::ios::binary) << bytes;  // the hand-written ones
+    auto whole = ReadRigFile(Path(file).string(), Layout());
+    ASSERT_TRUE(whole.ok()) << whole.status().ToString();
+    EXPECT_EQ(whole->samples.tangential_force(1), kForce[1] * 1e3);
+    for (std::size_t length = 0; length < bytes.size(); ++length) {
+      std::ofstream(Path("cut.mat"), std::ios::binary | std::ios::trunc) << bytes.substr(0, length);
+      auto cut = ReadRigFile(Path("cut.mat").string(), Layout());
+      ASSERT_FALSE(cut.ok()) << "cut at byte " << length << " of " << bytes.size();
+    }
+  }
+  // The message says where, for a v5 file cut inside the data of its last variable.
+  const std::string& v5 = files[0].second;
+  std::ofstream(Path("cut.mat"), std::ios::binary | std::ios::trunc) << v5.substr(0, v5.size() - 3);
+  EXPECT_THAT(ReadError("cut.mat").message(),
+              HasSubstr("the file is truncated: it ends at byte " + std::to_string(v5.size() - 3) +
+                        ", inside its variable number 4, which declares"));
 }
 
 TEST_F(RigFileTest, AFileThatIsNotMatlabIsRefused) {
