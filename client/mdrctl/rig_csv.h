@@ -66,8 +66,9 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
 
 // Reads and converts a MATLAB file of version 4, 5 (compressed or not) or 7.3 (HDF5): every
 // selected variable a real numeric vector (double, single or integer; not logical, complex or
-// sparse) of at most kMaxMatSamples finite elements, all of the same length; a file cut short is
-// refused. Errors are INVALID_ARGUMENT with the field "path" and name the variable (and element).
+// sparse) of at most kMaxMatSamples finite elements, all of the same length; a file cut short, or
+// whose byte counts or dimensions disagree with its contents, is refused. Errors are
+// INVALID_ARGUMENT with the field "path" and name the variable (and element).
 inline constexpr std::size_t kMaxMatSamples = std::size_t{1} << 25;
 mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout);
 

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -265,45 +266,161 @@ mdr::Status ReadColumn(mat_t* mat, const SelectedColumn& column, const SelectedC
 }
 
 // A MAT v5 file is a 128-byte header and then one element per variable, each a tag (its type and
-// its byte count) and that many bytes, padded to 8 unless compressed. matio reads a file whose
-// last variable was cut short (a rig stopped while writing) without an error, the missing
-// elements filled with whatever its buffer held; so every element must end inside the file.
-mdr::Status CheckMat5Complete(const std::string& path) {
-  constexpr std::uint32_t kCompressed = 15;  // miCOMPRESSED
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  const std::streamoff size = in.tellg();
-  char header[128];
-  if (!in || size < 128 || !in.seekg(0) || !in.read(header, sizeof header)) {
-    return mdr::InvalidArgument(path, "cannot read the MAT v5 header");
-  }
-  std::uint16_t endian;
-  std::memcpy(&endian, header + 126, sizeof endian);
-  const bool swapped = endian != ('M' << 8 | 'I');  // matio opened it: "MI" either way round
-  std::streamoff at = 128;
-  for (int element = 1; at < size; ++element) {
-    std::uint32_t tag[2] = {0, 0};
-    const bool whole_tag =
-        size - at >= 8 && in.seekg(at) && in.read(reinterpret_cast<char*>(tag), 8);
-    if (swapped) {
-      tag[0] = __builtin_bswap32(tag[0]);
-      tag[1] = __builtin_bswap32(tag[1]);
+// its byte count) and that many bytes, padded to 8 unless compressed. An array's element holds
+// its parts the same way (flags, dimensions, name, data; a struct's fields and a cell's elements
+// are arrays in turn). matio trusts these counts: it reads a file whose last variable was cut
+// short (a rig stopped while writing) without an error, the missing elements filled with whatever
+// its buffer held, allocates what a corrupt count declares (a name of gigabytes), and reads as
+// many numbers as an array's dimensions declare whatever its data holds. So before matio reads
+// anything, every element must end inside the file, every part inside its array, and a numeric
+// array's data must hold what its dimensions declare.
+class Mat5Elements {
+ public:
+  explicit Mat5Elements(const std::string& path)
+      : path_(path), in_(path, std::ios::binary | std::ios::ate) {}
+
+  mdr::Status Check() {
+    size_ = in_.tellg();
+    char header[128];
+    if (!in_ || size_ < 128 || !in_.seekg(0) || !in_.read(header, sizeof header)) {
+      return mdr::InvalidArgument(path_, "cannot read the MAT v5 header");
     }
-    // A small element (a byte count in the type's upper half) is its 8-byte tag alone.
-    const std::streamoff bytes = (tag[0] >> 16) != 0 ? 0 : tag[1];
-    if (!whole_tag || at + 8 + bytes > size) {
-      return mdr::InvalidArgument(
-          path, "the file is truncated: it ends at byte " + std::to_string(size) +
-                    ", inside its variable number " + std::to_string(element) + ", which " +
-                    (whole_tag ? "declares " + std::to_string(8 + bytes) + " bytes from byte " +
-                                     std::to_string(at)
-                               : "starts at byte " + std::to_string(at)) +
-                    "; was it still being written?");
+    std::uint16_t endian;
+    std::memcpy(&endian, header + 126, sizeof endian);
+    swapped_ = endian != ('M' << 8 | 'I');  // matio opened it: "MI" either way round
+    std::streamoff at = 128;
+    for (int variable = 1; at < size_; ++variable) {
+      const std::optional<Tag> tag = Read(at, size_);
+      if (!tag || tag->end > size_) {
+        return mdr::InvalidArgument(
+            path_, "the file is truncated: it ends at byte " + std::to_string(size_) +
+                       ", inside its variable number " + std::to_string(variable) + ", which " +
+                       (tag ? "declares " + std::to_string(tag->end - at) + " bytes from byte " +
+                                  std::to_string(at)
+                            : "starts at byte " + std::to_string(at)) +
+                       "; was it still being written?");
+      }
+      if (tag->type == kMatrix) {
+        if (mdr::Status parts = CheckParts(at + 8, tag->end, variable, 1); !parts.ok()) {
+          return parts;
+        }
+      }
+      at = tag->type == kCompressed ? tag->end : Padded(tag->end);
     }
-    at += 8 + bytes;
-    if (tag[0] != kCompressed) at = (at + 7) / 8 * 8;
+    return mdr::OkStatus();
   }
-  return mdr::OkStatus();
-}
+
+ private:
+  static constexpr std::uint32_t kMatrix = 14;      // miMATRIX
+  static constexpr std::uint32_t kCompressed = 15;  // miCOMPRESSED (its parts are zlib's)
+  static constexpr int kMaxNesting = 32;
+
+  struct Tag {
+    std::uint32_t type;
+    std::streamoff data;   // where its bytes start
+    std::streamoff bytes;  // how many
+    std::streamoff end;    // of the element, before its padding
+  };
+  static std::streamoff Padded(std::streamoff at) { return (at + 7) / 8 * 8; }
+
+  std::optional<std::uint32_t> Word(std::streamoff at) {
+    std::uint32_t word;
+    if (!in_.seekg(at) || !in_.read(reinterpret_cast<char*>(&word), 4)) {
+      in_.clear();
+      return std::nullopt;
+    }
+    return swapped_ ? __builtin_bswap32(word) : word;
+  }
+
+  // The tag at `at`, if the 8 bytes before `limit` hold one.
+  std::optional<Tag> Read(std::streamoff at, std::streamoff limit) {
+    if (limit - at < 8) return std::nullopt;
+    const std::optional<std::uint32_t> type = Word(at), bytes = Word(at + 4);
+    if (!type || !bytes) return std::nullopt;
+    // A small element (its byte count in the type's upper half) is its 8-byte tag alone.
+    if ((*type >> 16) != 0) return Tag{*type & 0xffff, at + 4, *type >> 16, at + 8};
+    return Tag{*type, at + 8, *bytes, at + 8 + *bytes};
+  }
+
+  // The bytes of one element of a stored numeric type (0: not one).
+  static std::streamoff TypeSize(std::uint32_t type) {
+    switch (type) {
+      case 1:  // miINT8
+      case 2:  // miUINT8
+        return 1;
+      case 3:  // miINT16
+      case 4:  // miUINT16
+        return 2;
+      case 5:  // miINT32
+      case 6:  // miUINT32
+      case 7:  // miSINGLE
+        return 4;
+      case 9:   // miDOUBLE
+      case 12:  // miINT64
+      case 13:  // miUINT64
+        return 8;
+      default:
+        return 0;
+    }
+  }
+
+  // A numeric array's real part (its parts: flags, dimensions, name, real part) holds exactly
+  // what its dimensions declare: matio reads that many elements, from past the part if it holds
+  // fewer. Other arrays, and parts matio would refuse anyway, are left to matio.
+  mdr::Status CheckNumericData(const std::vector<Tag>& parts, int variable) {
+    if (parts.size() < 4 || parts[0].bytes < 4) return mdr::OkStatus();
+    const std::optional<std::uint32_t> flags = Word(parts[0].data);
+    const std::uint32_t array_class = flags ? *flags & 0xff : 0;
+    const std::streamoff size = TypeSize(parts[3].type);
+    if (array_class < 6 || array_class > 15 || size == 0) return mdr::OkStatus();  // mxDOUBLE..
+    std::uint64_t elements = 1;
+    for (std::streamoff at = parts[1].data; at + 4 <= parts[1].data + parts[1].bytes; at += 4) {
+      const std::optional<std::uint32_t> dim = Word(at);
+      if (!dim) return mdr::OkStatus();
+      elements = std::min<std::uint64_t>(elements * *dim, std::uint64_t{1} << 40);
+    }
+    if (elements * size == static_cast<std::uint64_t>(parts[3].bytes)) return mdr::OkStatus();
+    return mdr::InvalidArgument(path_, "the file is corrupt: its variable number " +
+                                           std::to_string(variable) + " has an array of " +
+                                           std::to_string(elements) + " elements of " +
+                                           std::to_string(size) + " bytes, but its data holds " +
+                                           std::to_string(parts[3].bytes) + " bytes");
+  }
+
+  // The parts of the array whose data spans [begin, end), and theirs, to kMaxNesting levels.
+  mdr::Status CheckParts(std::streamoff begin, std::streamoff end, int variable, int depth) {
+    const auto corrupt = [&](const std::string& what) {
+      return mdr::InvalidArgument(path_, "the file is corrupt: its variable number " +
+                                             std::to_string(variable) + " " + what);
+    };
+    if (depth > kMaxNesting) {
+      return corrupt("nests arrays deeper than " + std::to_string(kMaxNesting) + " levels");
+    }
+    std::vector<Tag> parts;  // the first four
+    for (std::streamoff at = begin; at < end; at = Padded(at)) {
+      const std::optional<Tag> part = Read(at, end);
+      if (!part || part->end > end) {
+        return corrupt("has a part at byte " + std::to_string(at) + " that " +
+                       (part ? "declares " + std::to_string(part->end - at) + " bytes"
+                             : "has no room for its tag") +
+                       ", past the end of its array at byte " + std::to_string(end));
+      }
+      if (part->type == kMatrix) {
+        if (mdr::Status parts = CheckParts(at + 8, part->end, variable, depth + 1); !parts.ok()) {
+          return parts;
+        }
+      }
+      if (parts.size() < 4) parts.push_back(*part);
+      at = part->end;
+    }
+    return CheckNumericData(parts, variable);
+  }
+
+  const std::string& path_;
+  std::ifstream in_;
+  std::streamoff size_ = 0;
+  bool swapped_ = false;
+};
 
 }  // namespace
 
@@ -316,7 +433,7 @@ mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout
         path, "cannot open as a MATLAB file (version 4, 5 or 7.3)" + MatioDetail());
   }
   if (Mat_GetVersion(mat.get()) == MAT_FT_MAT5) {
-    if (mdr::Status complete = CheckMat5Complete(path); !complete.ok()) return complete;
+    if (mdr::Status whole = Mat5Elements(path).Check(); !whole.ok()) return whole;
   }
   RigData data;
   data.path = path;

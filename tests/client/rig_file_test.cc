@@ -326,6 +326,46 @@ TEST_F(RigFileTest, ATruncatedFileIsRefusedAtEveryByte) {
                         ", inside its variable number 4, which declares"));
 }
 
+// matio allocates what a file's byte counts declare: a corrupt name length of 2.6 GB would be
+// allocated and cleared before the variable is found wanting. Every part of a v5 array must end
+// inside its array, which the file's size bounds. And matio reads as many numbers as the
+// dimensions declare, past the data when it holds fewer: a numeric array's data must match them.
+TEST_F(RigFileTest, ACorruptByteCountOrDimensionIsRefusedBeforeMatioReadsIt) {
+  const std::vector<std::pair<std::string, std::vector<double>>> columns{{"x", kDisplacement},
+                                                                         {"fx", kForce}};
+  for (const bool big_endian : {false, true}) {
+    SCOPED_TRACE(big_endian ? "big-endian" : "little-endian");
+    std::string bytes = Mat5Bytes(big_endian, columns);
+    // Variable 1's name tag: after the header, its own tag, the flags and the dimensions.
+    constexpr std::size_t kNameTag = 128 + 8 + 16 + 16;
+    constexpr std::uint32_t kHugeCount = 0x9a000010;
+    for (int i = 0; i < 4; ++i) {
+      bytes[kNameTag + 4 + i] = static_cast<char>(kHugeCount >> (big_endian ? 24 - 8 * i : 8 * i));
+    }
+    std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << bytes;
+    const std::size_t array_end = 128 + 8 + 16 + 16 + 8 + 8 + 8 + 8 * kDisplacement.size();
+    EXPECT_THAT(
+        ReadError("corrupt.mat").message(),
+        HasSubstr("the file is corrupt: its variable number 1 has a part at byte " +
+                  std::to_string(kNameTag) + " that declares " +
+                  std::to_string(8 + std::uint64_t{kHugeCount}) +
+                  " bytes, past the end of its array at byte " + std::to_string(array_end)));
+    // Variable 1's first dimension (6 rows): more rows than its data holds, then fewer.
+    constexpr std::size_t kRows = 128 + 8 + 16 + 8;
+    for (const std::uint32_t rows : {std::uint32_t{16318664}, std::uint32_t{3}}) {
+      std::string rows_corrupt = Mat5Bytes(big_endian, columns);
+      for (int i = 0; i < 4; ++i) {
+        rows_corrupt[kRows + i] = static_cast<char>(rows >> (big_endian ? 24 - 8 * i : 8 * i));
+      }
+      std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << rows_corrupt;
+      EXPECT_THAT(ReadError("corrupt.mat").message(),
+                  HasSubstr("the file is corrupt: its variable number 1 has an array of " +
+                            std::to_string(rows) + " elements of 8 bytes, but its data holds " +
+                            std::to_string(8 * kDisplacement.size()) + " bytes"));
+    }
+  }
+}
+
 TEST_F(RigFileTest, AFileThatIsNotMatlabIsRefused) {
   std::ofstream(Path("text.mat")) << "t,x,fx\n0,1,2\n";
   const mdr::Status status = ReadError("text.mat");
