@@ -35,8 +35,7 @@ class YamlDoc {
     } catch (const YAML::BadFile&) {
       return mdr::InvalidArgument(path, "cannot open");
     } catch (const YAML::Exception& e) {
-      return mdr::InvalidArgument(path, "line " + std::to_string(e.mark.line + 1) + ", column " +
-                                            std::to_string(e.mark.column + 1) + ": " + e.msg);
+      return mdr::InvalidArgument(path, mdr::client::DescribeYamlError(e));
     }
     if (!doc.root_.IsMap()) return mdr::InvalidArgument(path, "must be a YAML mapping of fields");
     doc.RecordLines(doc.root_, "");

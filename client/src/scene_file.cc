@@ -1,6 +1,7 @@
 #include "mdr/client/scene_file.h"
 
 #include <google/protobuf/util/json_util.h>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cctype>
@@ -24,7 +25,6 @@ std::string SnakeCase(const std::string& key) {
   }
   return snake;
 }
-
 
 // A plain (unquoted) YAML scalar as a JSON value: numbers, booleans and null as such, YAML's
 // .inf/.nan as proto3 JSON's "Infinity"/"NaN", anything else (enum names) as a string.
@@ -119,13 +119,21 @@ Status ParseJson(const std::string& json, google::protobuf::Message* message) {
 
 }  // namespace
 
+std::string DescribeYamlError(const YAML::Exception& error) {
+  const auto* deep = dynamic_cast<const YAML::DeepRecursion*>(&error);
+  return "line " + std::to_string(error.mark.line + 1) + ", column " +
+         std::to_string(error.mark.column + 1) + ": " +
+         (deep != nullptr ? "nested too deep for the YAML parser (it stops at depth " +
+                                std::to_string(deep->depth()) + ")"
+                          : error.msg);
+}
+
 Result<std::string> YamlToJson(const std::string& text, std::map<std::string, int>* lines) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    return InvalidArgument("", "line " + std::to_string(e.mark.line + 1) + ", column " +
-                                   std::to_string(e.mark.column + 1) + ": " + e.msg);
+    return InvalidArgument("", DescribeYamlError(e));
   }
   if (!root.IsMap())
     return InvalidArgument("", "must be a mapping of fields (YAML or a JSON object)");

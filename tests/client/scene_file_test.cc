@@ -84,6 +84,12 @@ TEST(SceneFileTest, ErrorsNameFieldAndLine) {
   EXPECT_THAT(syntax.status().ToString(), HasSubstr("f.yaml: line "));
   auto scalar = SceneDocument::Parse("just text", "f.yaml");
   EXPECT_THAT(scalar.status().ToString(), HasSubstr("must be a mapping"));
+  // yaml-cpp stops at its nesting limit with the message "bad file", as if it could not open it.
+  const std::string deep = "scene: " + std::string(1000, '[') + std::string(1000, ']') + "\n";
+  auto nested = SceneDocument::Parse(deep, "f.yaml");
+  ASSERT_FALSE(nested.ok());
+  EXPECT_THAT(nested.status().ToString(),
+              HasSubstr("nested too deep for the YAML parser (it stops at depth 500)"));
 }
 
 // A state as the server reports it without a rig: the actuator where the contact is.

@@ -11,6 +11,10 @@
 #include "mdr/base/status.h"
 #include "mdr/v1/scene_file.pb.h"
 
+namespace YAML {
+class Exception;
+}  // namespace YAML
+
 namespace mdr::client {
 
 // A JSON string literal of `text` (UTF-8 passes; '"', '\\' and control characters are escaped).
@@ -38,6 +42,10 @@ class SceneDocument {
   // Field path (snake_case names, [i] for list items) -> 1-based line.
   std::map<std::string, int> lines_;
 };
+
+// "line N, column M: what" for an error of yaml-cpp's parser, which names its nesting limit (a
+// file nested deeper than it parses) "bad file", as if the file could not be opened.
+std::string DescribeYamlError(const YAML::Exception& error);
 
 // Converts YAML (or JSON) text to proto3 JSON, recording the line of every field in *lines.
 // Errors are INVALID_ARGUMENT with field "" and a message "line N, column M: ...".
