@@ -218,6 +218,12 @@ class PackageTest(unittest.TestCase):
         self.assertEqual(scene_file.scene.friction, 0.3)
         with self.assertRaises(ValueError):
             mdr.to_scene({"sphere": {"radius": 0.01}, "no_such_field": 1})
+        for name in ("deep.yaml", "deep.json"):  # deeper than the parsers recurse
+            deep = os.path.join(ARGS.out_dir, name)
+            with open(deep, "w", encoding="utf-8") as out:
+                out.write('{"scene": ' + "[" * 100000 + "]" * 100000 + "}")
+            with self.assertRaisesRegex(ValueError, "nested too deep to parse"):
+                mdr.load_scene_file(deep)
 
     def test_embedded_server_stops_on_close(self):
         client = mdr.Client.embedded(ARGS.mdrd)

@@ -49,14 +49,17 @@ def load_scene_file(path: Union[str, os.PathLike]) -> scene_file_pb2.SceneFile:
     """A YAML or JSON scene file, the format mdrctl reads (mdr.v1.SceneFile)."""
     with open(path, encoding="utf-8") as stream:
         text = stream.read()
-    if str(path).endswith((".yaml", ".yml")):
-        import yaml  # python3-yaml
+    try:
+        if str(path).endswith((".yaml", ".yml")):
+            import yaml  # python3-yaml
 
-        # YAML 1.1 reads "210e9" (no dot) as a string; proto3 JSON accepts numeric strings.
-        data = yaml.safe_load(text) or {}
-    else:
-        data = json.loads(text)
-    return _parse(data, scene_file_pb2.SceneFile())
+            # YAML 1.1 reads "210e9" (no dot) as a string; proto3 JSON accepts numeric strings.
+            data = yaml.safe_load(text) or {}
+        else:
+            data = json.loads(text)
+        return _parse(data, scene_file_pb2.SceneFile())
+    except RecursionError:  # the parsers recurse per level: a ValueError, as for mdrctl
+        raise ValueError(f"{os.fspath(path)}: nested too deep to parse") from None
 
 
 def to_scene(scene: SceneLike) -> scene_pb2.Scene:
