@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <regex>
-#include <sstream>
+#include <system_error>
 #include <utility>
+#include <vector>
 
 namespace mdrctl {
 namespace {
@@ -71,21 +73,70 @@ bool Skipped(std::string_view line) {
   return trimmed.empty() || trimmed.front() == '#';
 }
 
-// The file's lines without their line ends (and without a UTF-8 byte order mark).
-std::vector<std::string_view> Lines(std::string_view text) {
-  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
-  std::vector<std::string_view> lines;
-  std::size_t start = 0;
-  while (start < text.size()) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view line = text.substr(start, end - start);
-    if (line.ends_with('\r')) line.remove_suffix(1);
-    lines.push_back(line);
-    start = end + 1;
+// A file's lines, one at a time, without their line ends (and the first without a UTF-8 byte
+// order mark): holds one line and one block of the file, so that a line past max_line_bytes is
+// refused having read no more than that.
+class LineReader {
+ public:
+  LineReader(std::istream& in, std::size_t max_line_bytes)
+      : in_(in), max_line_bytes_(max_line_bytes) {}
+
+  enum class Read { kLine, kEnd, kTooLong, kFailed };
+
+  // The next line into *line; number() is then its 1-based number in the file.
+  Read Next(std::string* line) {
+    line->clear();
+    bool any = false;  // a last line without a line end counts, even one that is only '\r'
+    while (true) {
+      if (at_ == filled_) {
+        if (!Fill()) {
+          if (in_.bad()) return Read::kFailed;
+          if (!any) return Read::kEnd;
+          return Finish(line);
+        }
+      }
+      any = true;
+      const char* begin = block_.data() + at_;
+      const char* end = block_.data() + filled_;
+      const char* newline = std::find(begin, end, '\n');
+      const std::size_t take = static_cast<std::size_t>(newline - begin);
+      if (line->size() + take > max_line_bytes_ + 1) {  // + 1: a '\r' before the '\n'
+        ++number_;
+        return Read::kTooLong;
+      }
+      line->append(begin, take);
+      at_ += take;
+      if (newline != end) {
+        ++at_;
+        return Finish(line);
+      }
+    }
   }
-  return lines;
-}
+  std::size_t number() const { return number_; }
+
+ private:
+  bool Fill() {
+    if (!in_) return false;
+    in_.read(block_.data(), static_cast<std::streamsize>(block_.size()));
+    filled_ = static_cast<std::size_t>(in_.gcount());
+    at_ = 0;
+    return filled_ > 0;
+  }
+  Read Finish(std::string* line) {
+    if (line->ends_with('\r')) line->pop_back();
+    if (line->size() > max_line_bytes_) {
+      ++number_;
+      return Read::kTooLong;
+    }
+    if (number_++ == 0 && line->starts_with("\xEF\xBB\xBF")) line->erase(0, 3);
+    return Read::kLine;
+  }
+
+  std::istream& in_;
+  std::size_t max_line_bytes_;
+  std::vector<char> block_ = std::vector<char>(std::size_t{1} << 16);
+  std::size_t at_ = 0, filled_ = 0, number_ = 0;
+};
 
 // The separator the header uses: the only one of ',', ';' and tab it holds (',' for none).
 mdr::Result<char> Delimiter(std::string_view header, const std::string& where) {
@@ -213,72 +264,94 @@ std::vector<SelectedColumn> SelectColumns(const CsvLayout& layout, mdr::v1::Loop
   return columns;
 }
 
-mdr::Result<RigData> ReadRigFile(const std::string& path, const CsvLayout& layout) {
+mdr::Result<RigData> ReadRigFile(const std::string& path, const CsvLayout& layout,
+                                 const RigFileLimits& limits) {
   std::string extension = std::filesystem::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return std::tolower(c); });
-  return extension == ".mat" ? ReadRigMat(path, layout) : ReadRigCsv(path, layout);
+  return extension == ".mat" ? ReadRigMat(path, layout, limits) : ReadRigCsv(path, layout, limits);
 }
 
-mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout) {
+mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout,
+                                const RigFileLimits& limits) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) {
+    return mdr::InvalidArgument(path, "is a directory, not a CSV file");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) return mdr::InvalidArgument(path, "cannot open the CSV file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  const std::vector<std::string_view> lines = Lines(text);
+  LineReader reader(in, limits.max_line_bytes);
   RigData csv;
   csv.path = path;
-  const auto where = [&](std::size_t index) { return path + ":" + std::to_string(index + 1); };
+  const auto where = [&] { return path + ":" + std::to_string(reader.number()); };
 
-  std::size_t header_line = 0;
-  while (header_line < lines.size() && Skipped(lines[header_line])) ++header_line;
-  if (header_line == lines.size()) {
-    return mdr::InvalidArgument(path,
-                                "the file is empty: no header line (only comments or "
-                                "blank lines)");
-  }
-  auto delimiter = Delimiter(lines[header_line], where(header_line));
-  if (!delimiter.ok()) return delimiter.status();
+  std::optional<std::size_t> header_line;
+  char delimiter = ',';
   std::vector<std::string> header;
-  for (std::string_view cell : Split(lines[header_line], *delimiter)) {
-    header.push_back(HeaderName(cell));
-  }
   std::vector<Selected> selected;
-  for (const SelectedColumn& column : SelectColumns(layout, &csv.samples)) {
-    selected.push_back({column});
-  }
-  if (auto s = FindColumns(header, where(header_line), &selected); !s.ok()) return s;
-
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    const std::string_view trimmed = Trim(lines[i]);
+  std::string line;
+  while (true) {
+    switch (reader.Next(&line)) {
+      case LineReader::Read::kLine:
+        break;
+      case LineReader::Read::kTooLong:
+        return mdr::InvalidArgument(where(), "the line is longer than " +
+                                                 std::to_string(limits.max_line_bytes) +
+                                                 " bytes, the most mdrctl reads in one line");
+      case LineReader::Read::kFailed:
+        return mdr::InvalidArgument(
+            path, "cannot read the CSV file after line " + std::to_string(reader.number()));
+      case LineReader::Read::kEnd:
+        if (!header_line) {
+          return mdr::InvalidArgument(
+              path, "the file is empty: no header line (only comments or blank lines)");
+        }
+        if (csv.lines.empty()) {
+          return mdr::InvalidArgument(
+              path, "no data rows after the header (line " + std::to_string(*header_line) + ")");
+        }
+        return csv;
+    }
+    const std::string_view trimmed = Trim(line);
     if (trimmed.starts_with("# SYNTHETIC") && !csv.synthetic) {
       csv.synthetic = Printable(trimmed.substr(2), 240);
     }
-    if (i <= header_line || Skipped(lines[i])) continue;
-    const std::vector<std::string_view> cells = Split(lines[i], *delimiter);
+    if (Skipped(line)) continue;
+    if (!header_line) {
+      header_line = reader.number();
+      auto found = Delimiter(line, where());
+      if (!found.ok()) return found.status();
+      delimiter = *found;
+      for (std::string_view cell : Split(line, delimiter)) header.push_back(HeaderName(cell));
+      for (const SelectedColumn& column : SelectColumns(layout, &csv.samples)) {
+        selected.push_back({column});
+      }
+      if (auto s = FindColumns(header, where(), &selected); !s.ok()) return s;
+      continue;
+    }
+    if (csv.lines.size() == limits.max_samples) {
+      return mdr::InvalidArgument(where(), "the file has more than " +
+                                               std::to_string(limits.max_samples) +
+                                               " data rows (samples), the most mdrctl reads");
+    }
+    const std::vector<std::string_view> cells = Split(line, delimiter);
     if (cells.size() != header.size()) {
       const std::string detail =
           cells.size() < header.size()
               ? "; column " + Printable(header[cells.size()]) + " has no cell"
               : "";
-      return mdr::InvalidArgument(where(i), "the row has " + std::to_string(cells.size()) +
-                                                " cells, the header (line " +
-                                                std::to_string(header_line + 1) + ") has " +
-                                                std::to_string(header.size()) + detail);
+      return mdr::InvalidArgument(where(), "the row has " + std::to_string(cells.size()) +
+                                               " cells, the header (line " +
+                                               std::to_string(*header_line) + ") has " +
+                                               std::to_string(header.size()) + detail);
     }
     for (const auto& [column, cell] : selected) {
-      auto value = ParseCell(cells[cell], *delimiter != ',', where(i), column.name);
+      auto value = ParseCell(cells[cell], delimiter != ',', where(), column.name);
       if (!value.ok()) return value.status();
       column.values->Add(*value * column.factor);
     }
-    csv.lines.push_back(i + 1);
+    csv.lines.push_back(reader.number());
   }
-  if (csv.lines.empty()) {
-    return mdr::InvalidArgument(
-        path, "no data rows after the header (line " + std::to_string(header_line + 1) + ")");
-  }
-  return csv;
 }
 
 mdr::Status LocateSampleError(const std::string& field, const std::string& message,

@@ -4,7 +4,8 @@
 // to SI. '#' comment lines and blank lines are skipped anywhere; the first other line is the
 // header. Cells are separated by ',' (or ';' or a tab, when the header uses exactly one of the
 // three). Every error names the file, the line (1-based, counting every line of the file) and the
-// column; text taken from the file is quoted bounded and escaped (Printable).
+// column; text taken from the file is quoted bounded and escaped (Printable). The file is read a
+// line at a time, so that any file (a log still growing, /dev/zero) costs bounded memory.
 //
 // MATLAB (rig_mat.cc): a "column" is a variable of that name, a real numeric vector, or a field
 // of a 1x1 struct ("run.force"); every error names the file, the variable and the element.
@@ -39,6 +40,15 @@ struct CsvLayout {
 
 enum class RigFormat { kCsv, kMat };
 
+// What a reader holds at most: a file past a bound is refused when the reader reaches it, having
+// held no more than the bound (the tests lower the bounds to reach them).
+struct RigFileLimits {
+  // Samples: data rows of a CSV file, elements of a MAT file's variable.
+  std::size_t max_samples = std::size_t{1} << 25;
+  // Bytes of one CSV line, its line end not counted.
+  std::size_t max_line_bytes = std::size_t{1} << 20;
+};
+
 struct RigData {
   std::string path;
   RigFormat format = RigFormat::kCsv;
@@ -59,18 +69,21 @@ struct SelectedColumn {
 std::vector<SelectedColumn> SelectColumns(const CsvLayout& layout, mdr::v1::LoopSamples* samples);
 
 // Reads and converts a MAT file (a name ending in ".mat", any case) or else a CSV file.
-mdr::Result<RigData> ReadRigFile(const std::string& path, const CsvLayout& layout);
+mdr::Result<RigData> ReadRigFile(const std::string& path, const CsvLayout& layout,
+                                 const RigFileLimits& limits = {});
 
-// Reads and converts the file; errors are INVALID_ARGUMENT with the field "path:line".
-mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout);
+// Reads and converts the file; errors are INVALID_ARGUMENT with the field "path:line" (or "path"
+// for the file as a whole).
+mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout,
+                                const RigFileLimits& limits = {});
 
 // Reads and converts a MATLAB file of version 4, 5 (compressed or not) or 7.3 (HDF5): every
 // selected variable a real numeric vector (double, single or integer; not logical, complex or
-// sparse) of at most kMaxMatSamples finite elements, all of the same length; a file cut short, or
-// whose byte counts or dimensions disagree with its contents, is refused. Errors are
+// sparse) of at most limits.max_samples finite elements, all of the same length; a file cut short,
+// or whose byte counts or dimensions disagree with its contents, is refused. Errors are
 // INVALID_ARGUMENT with the field "path" and name the variable (and element).
-inline constexpr std::size_t kMaxMatSamples = std::size_t{1} << 25;
-mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout);
+mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout,
+                                const RigFileLimits& limits = {});
 
 // An error of the service about a sample ("samples.time[12]", "sets[2].samples.time[12]") or a
 // column ("samples.displacement") restated at the file's line and column; other errors are

@@ -138,9 +138,10 @@ mdr::Result<matvar_t*> Leaf(matvar_t* top, const std::string& name, const std::s
   return leaf;
 }
 
-// The length of a real numeric vector, or an error saying why the variable is not one.
+// The length of a real numeric vector of at most max_samples elements, or an error saying why the
+// variable is not one.
 mdr::Result<std::size_t> VectorLength(const matvar_t* var, const std::string& name,
-                                      const std::string& path) {
+                                      const std::string& path, std::size_t max_samples) {
   const std::string what = "variable " + Printable(name);
   if (var->isLogical) return mdr::InvalidArgument(path, what + " is logical, not numeric");
   if (!Numeric(var->class_type)) {
@@ -161,10 +162,10 @@ mdr::Result<std::size_t> VectorLength(const matvar_t* var, const std::string& na
     return mdr::InvalidArgument(
         path, what + " is a " + shape + " array, not a vector (one row or one column)");
   }
-  if (length > kMaxMatSamples) {
+  if (length > max_samples) {
     return mdr::InvalidArgument(path, what + " has " + std::to_string(length) +
                                           " elements, more than the " +
-                                          std::to_string(kMaxMatSamples) + " mdrctl reads");
+                                          std::to_string(max_samples) + " mdrctl reads");
   }
   return length;
 }
@@ -226,7 +227,7 @@ mdr::Result<std::vector<double>> Values(const matvar_t* var, std::size_t length,
 // One selected column: checked from the variable's header (its length against `first`'s, when
 // that was read before), then read and converted.
 mdr::Status ReadColumn(mat_t* mat, const SelectedColumn& column, const SelectedColumn* first,
-                       const std::string& path, std::size_t* length) {
+                       const std::string& path, std::size_t max_samples, std::size_t* length) {
   const auto [variable, field] = SplitName(column.name);
   LastMatioMessage().clear();
   MatVar info{Mat_VarReadInfo(mat, variable.c_str())};
@@ -236,7 +237,7 @@ mdr::Status ReadColumn(mat_t* mat, const SelectedColumn& column, const SelectedC
   }
   auto leaf = Leaf(info.get(), column.name, field, path);
   if (!leaf.ok()) return leaf.status();
-  auto count = VectorLength(*leaf, column.name, path);
+  auto count = VectorLength(*leaf, column.name, path, max_samples);
   if (!count.ok()) return count.status();
   if (first != nullptr && *count != *length) {
     return mdr::InvalidArgument(path, "variable " + Printable(column.name) + " has " +
@@ -424,7 +425,8 @@ class Mat5Elements {
 
 }  // namespace
 
-mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout) {
+mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout,
+                                const RigFileLimits& limits) {
   Mat_LogInitFunc("mdrctl", KeepMatioMessage);
   LastMatioMessage().clear();
   MatFile mat{Mat_Open(path.c_str(), MAT_ACC_RDONLY)};
@@ -442,7 +444,9 @@ mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout
   std::size_t length = 0;
   for (const SelectedColumn& column : columns) {
     const SelectedColumn* first = &column == &columns.front() ? nullptr : &columns.front();
-    if (auto s = ReadColumn(mat.get(), column, first, path, &length); !s.ok()) return s;
+    if (auto s = ReadColumn(mat.get(), column, first, path, limits.max_samples, &length); !s.ok()) {
+      return s;
+    }
   }
   data.lines.resize(length);
   for (std::size_t i = 0; i < length; ++i) data.lines[i] = i + 1;

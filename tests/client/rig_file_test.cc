@@ -1,6 +1,8 @@
 // A rig's samples from MATLAB files (ReadRigFile, rig_mat.cc): the same numbers as the CSV
 // reader from the same samples, bit for bit, in every MAT version matio writes; struct fields and
-// integer classes; and every refused variable named, with nothing read.
+// integer classes; and every refused variable named, with nothing read. The CSV reader's own
+// bounds (lines read one at a time, samples and line length capped); its other errors are checked
+// end to end through mdrctl (rig_analysis_test.py).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <matio.h>
@@ -364,6 +366,86 @@ TEST_F(RigFileTest, ACorruptByteCountOrDimensionIsRefusedBeforeMatioReadsIt) {
                             std::to_string(8 * kDisplacement.size()) + " bytes"));
     }
   }
+}
+
+// The same rows with LF or CRLF line ends, a byte order mark, no line end after the last row, and
+// cells long enough that rows straddle the reader's 64 KiB blocks: the same samples and lines.
+TEST_F(RigFileTest, CsvRowsAcrossBlocksAndLineEndsReadTheSame) {
+  const std::string filler(100000, 'a');  // an unselected column
+  const auto write = [&](const std::string& name, const std::string& end, bool bom, bool last_end) {
+    std::ofstream out(Path(name), std::ios::binary);
+    out << (bom ? "\xEF\xBB\xBF" : "") << "# a comment" << end << "t,x,note,fx,fn" << end << end;
+    out.precision(17);
+    for (std::size_t i = 0; i < kDisplacement.size(); ++i) {
+      out << kTime[i] << ',' << kDisplacement[i] << ',' << filler << ',' << kForce[i] << ','
+          << NormalForce()[i];
+      if (i + 1 < kDisplacement.size() || last_end) out << end;
+    }
+  };
+  write("lf.csv", "\n", false, true);
+  write("crlf.csv", "\r\n", true, false);
+  auto plain = ReadRigFile(WriteCsv().string(), Layout());
+  ASSERT_TRUE(plain.ok()) << plain.status().ToString();
+  for (const char* name : {"lf.csv", "crlf.csv"}) {
+    SCOPED_TRACE(name);
+    auto read = ReadRigFile(Path(name).string(), Layout());
+    ASSERT_TRUE(read.ok()) << read.status().ToString();
+    ExpectSameBits(read->samples.displacement(), plain->samples.displacement(), "displacement");
+    ExpectSameBits(read->samples.tangential_force(), plain->samples.tangential_force(), "force");
+    ExpectSameBits(read->samples.time(), plain->samples.time(), "time");
+    EXPECT_EQ(read->lines, (std::vector<std::size_t>{4, 5, 6, 7, 8, 9}));
+  }
+}
+
+TEST_F(RigFileTest, CsvPastItsBoundsIsRefusedAtTheLineThatCrossesThem) {
+  {
+    std::ofstream out(Path("rows.csv"));
+    out << "t,x,fx,fn\n0,1,2,3\n# a comment\n1,1,2,3\n2,1,2,3\n\n3,1,2,3\n";
+  }
+  RigFileLimits limits;
+  limits.max_samples = 4;
+  EXPECT_TRUE(ReadRigFile(Path("rows.csv").string(), Layout(), limits).ok());
+  limits.max_samples = 3;
+  auto rows = ReadRigFile(Path("rows.csv").string(), Layout(), limits);
+  ASSERT_FALSE(rows.ok());
+  EXPECT_EQ(rows.status().field(), Path("rows.csv").string() + ":7");
+  EXPECT_EQ(rows.status().message(),
+            "the file has more than 3 data rows (samples), the most mdrctl reads");
+
+  // A line of exactly the bound is read (with CRLF too); one byte more is refused.
+  limits = RigFileLimits{};
+  limits.max_line_bytes = 12;
+  {
+    std::ofstream out(Path("lines.csv"), std::ios::binary);
+    out << "t,x,fx,fn\r\n0,1,2,3.0000\r\n1,1,2,3.00000\r\n";  // 12 and 13 bytes
+  }
+  auto lines = ReadRigFile(Path("lines.csv").string(), Layout(), limits);
+  ASSERT_FALSE(lines.ok());
+  EXPECT_EQ(lines.status().field(), Path("lines.csv").string() + ":3");
+  EXPECT_EQ(lines.status().message(),
+            "the line is longer than 12 bytes, the most mdrctl reads in one line");
+  limits.max_line_bytes = 13;
+  EXPECT_TRUE(ReadRigFile(Path("lines.csv").string(), Layout(), limits).ok());
+
+  // A file with no line end at all is refused after the bound, not read to its end.
+  auto zeros = ReadRigFile("/dev/zero", Layout());
+  ASSERT_FALSE(zeros.ok());
+  EXPECT_EQ(zeros.status().field(), "/dev/zero:1");
+  EXPECT_THAT(zeros.status().message(), HasSubstr("longer than 1048576 bytes"));
+
+  const mdr::Status directory = ReadError("");
+  EXPECT_THAT(directory.message(), HasSubstr("is a directory, not a CSV file"));
+
+  // The samples' bound holds for a MAT file's variables too.
+  {
+    MatWriter mat(Path("six.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    WriteColumns(mat);
+  }
+  limits.max_samples = 5;
+  auto mat = ReadRigFile(Path("six.mat").string(), Layout(), limits);
+  ASSERT_FALSE(mat.ok());
+  EXPECT_THAT(mat.status().message(), HasSubstr("has 6 elements, more than the 5 mdrctl reads"));
 }
 
 TEST_F(RigFileTest, AFileThatIsNotMatlabIsRefused) {
