@@ -175,10 +175,13 @@ int LoopsCommand(const Common& common, const LoopsArgs& args) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status());
   const mdr::v1::LoopAnalysisOptions options = LoopsOptions(args, scene ? &*scene : nullptr);
-  auto analysis = (*connection)
-                      ->client()
-                      .AnalyzeLoops(AnalysisRequest(*csv, options, scene ? &*scene : nullptr));
+  const mdr::v1::AnalyzeLoopsRequest request =
+      AnalysisRequest(*csv, options, scene ? &*scene : nullptr);
+  auto analysis = (*connection)->client().AnalyzeLoops(request);
   if (!analysis.ok()) {
+    if (auto large = RequestTooLarge(analysis.status(), args.file, request.ByteSizeLong())) {
+      return Fail(*large);
+    }
     return Fail(LoopsError(analysis.status(), *csv, *layout, document ? &*document : nullptr));
   }
   PrintLoopAnalysis(*analysis, common.format, stdout);
@@ -261,9 +264,13 @@ mdr::Status AnalyzeSets(ContactClient& client, const Campaign& campaign,
                         const mdr::v1::Scene& scene, std::vector<ReportSet>* sets) {
   for (std::size_t i = 0; i < sets->size(); ++i) {
     ReportSet& set = (*sets)[i];
-    auto analysis =
-        client.AnalyzeLoops(AnalysisRequest(set.csv, SetOptions(campaign, set, scene), &scene));
+    const mdr::v1::AnalyzeLoopsRequest request =
+        AnalysisRequest(set.csv, SetOptions(campaign, set, scene), &scene);
+    auto analysis = client.AnalyzeLoops(request);
     if (!analysis.ok()) {
+      if (auto large = RequestTooLarge(analysis.status(), set.csv.path, request.ByteSizeLong())) {
+        return *large;
+      }
       return CampaignError(analysis.status(), campaign, *sets, static_cast<int>(i));
     }
     set.analysis = std::move(analysis).value();
@@ -398,7 +405,13 @@ mdr::Status RunCampaign(ContactClient& client, FitReport* report) {
   const mdr::v1::FitLoopsRequest request = FitRequest(campaign, report->sets, true);
   auto fit = client.FitLoops(
       request, [&](const mdr::v1::FitProgress& progress) { PrintProgress(request, progress); });
-  if (!fit.ok()) return CampaignError(fit.status(), campaign, report->sets);
+  if (!fit.ok()) {
+    if (auto large =
+            RequestTooLarge(fit.status(), "the fit of " + campaign.path, request.ByteSizeLong())) {
+      return *large;
+    }
+    return CampaignError(fit.status(), campaign, report->sets);
+  }
   report->fit = std::move(fit).value();
   report->request = FitRequest(campaign, report->sets, false);
   const mdr::v1::Scene& fitted = report->fit.fitted_scene();

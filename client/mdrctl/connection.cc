@@ -17,11 +17,25 @@ int Fail(const std::string& message) {
 int Fail(const grpc::Status& status) { return Fail(status.error_message()); }
 int Fail(const mdr::Status& status) { return Fail(status.ToString()); }
 
+std::optional<mdr::Status> RequestTooLarge(const grpc::Status& status, const std::string& what,
+                                           std::size_t request_bytes) {
+  if (status.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED ||
+      !status.error_message().starts_with("Received message larger than max")) {
+    return std::nullopt;
+  }
+  return mdr::InvalidArgument(
+      what, "the request of " + std::to_string(request_bytes) +
+                " bytes is larger than the server takes (" + status.error_message() +
+                "): start mdrd with --max-message-bytes above it, or run mdrctl without --server");
+}
+
 mdr::Result<std::unique_ptr<Connection>> Connection::Open(const Common& common) {
   auto connection = std::unique_ptr<Connection>(new Connection());
   std::shared_ptr<grpc::Channel> channel;
   if (common.server.empty()) {
-    auto started = mdr::service::ContactServer::Start({});
+    mdr::service::ServerOptions options;
+    options.limits.max_message_bytes = kEmbeddedMaxMessageBytes;
+    auto started = mdr::service::ContactServer::Start(options);
     if (!started.ok()) return started.status();
     connection->embedded_ = std::move(started).value();
     channel = connection->embedded_->InProcessChannel();

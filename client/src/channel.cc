@@ -81,7 +81,11 @@ RpcResult<std::shared_ptr<grpc::Channel>> MakeChannel(const ChannelOptions& opti
   if (options.address.empty()) return InvalidOption("address", "must not be empty");
   auto credentials = MakeCredentials(options);
   if (!credentials.ok()) return credentials.status();
-  return grpc::CreateChannel(options.address, *credentials);
+  // The server's --max-message-bytes bounds what it sends; gRPC's client default (4 MiB) would
+  // refuse an export or a traction profile the server was configured to send.
+  grpc::ChannelArguments arguments;
+  arguments.SetMaxReceiveMessageSize(-1);
+  return grpc::CreateCustomChannel(options.address, *credentials, arguments);
 }
 
 }  // namespace mdr::client

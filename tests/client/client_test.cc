@@ -180,6 +180,38 @@ TEST(ChannelTest, TlsChannelSendsTheBearerToken) {
   server->Shutdown();
 }
 
+// A service whose one session's name is as long as asked: a response larger than gRPC's default
+// client limit (4 MiB).
+class LargeResponseService final : public mdr::v1::ContactService::Service {
+ public:
+  explicit LargeResponseService(std::size_t bytes) : bytes_(bytes) {}
+  grpc::Status GetSession(grpc::ServerContext*, const mdr::v1::GetSessionRequest*,
+                          mdr::v1::Session* response) override {
+    response->set_name(std::string(bytes_, 'n'));
+    return grpc::Status::OK;
+  }
+
+ private:
+  std::size_t bytes_;
+};
+
+TEST(ChannelTest, TakesResponsesAsLargeAsTheServerSends) {
+  LargeResponseService service(std::size_t{6} << 20);
+  int port = 0;
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort("localhost:0", grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&service);
+  auto server = builder.BuildAndStart();
+  ASSERT_NE(port, 0);
+  auto channel = mdr::client::MakeChannel({.address = "localhost:" + std::to_string(port)});
+  ASSERT_TRUE(channel.ok()) << channel.status().error_message();
+  ContactClient client(*channel, std::chrono::seconds(10));
+  auto session = client.GetSession("sessions/a");
+  ASSERT_TRUE(session.ok()) << session.status().error_message();
+  EXPECT_EQ(session->name().size(), std::size_t{6} << 20);
+  server->Shutdown();
+}
+
 TEST(ChannelTest, OptionErrorsAreValuesNamingTheOption) {
   auto token = mdr::client::MakeChannel({.address = "localhost:1", .bearer_token = "t"});
   EXPECT_EQ(token.status().error_code(), grpc::StatusCode::INVALID_ARGUMENT);

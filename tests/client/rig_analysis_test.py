@@ -12,8 +12,11 @@ report"), one case per CTest test:
   campaign_errors     campaign and synthesis files: unknown keys (escaped), bad values, service
                       errors at their line, a bad cell in a set's CSV
   example_reproduces  examples/rig_campaign/run.sh re-run reproduces the committed report.json
+  long_run            a file of 10^6 samples: analysed on mdrctl's own server (past mdrd's
+                      default message limit), and through --server to an mdrd with that default
+                      refused naming the file, the request's size and --max-message-bytes
 
-Usage: rig_analysis_test.py --mdrctl PATH --source-dir DIR CASE
+Usage: rig_analysis_test.py --mdrctl PATH --mdrd PATH --source-dir DIR CASE
 """
 import argparse
 import csv
@@ -472,7 +475,42 @@ def case_example_reproduces(args, tmp):
               f"(truth {e.get('truth')}, inside the 95 % interval: {e.get('truth_inside_95')})")
 
 
+def case_long_run(args, tmp):
+    per_cycle, cycles = 500, 2000
+    path = os.path.join(tmp, "long.csv")
+    with open(path, "w") as f:
+        f.write("displacement,tangential_force\n")
+        for k in range(per_cycle * cycles + 1):
+            phase = 2 * math.pi * k / per_cycle
+            f.write(f"{1e-6 * math.sin(phase)!r},{15 * math.tanh(math.sin(phase - 0.3))!r}\n")
+    rows = csv_rows(expect_success(args.mdrctl, ["loops", path, "--normal-force", "100",
+                                                 "--format", "csv"], "loops, 10^6 samples").stdout)
+    check(len(rows) == cycles - 1, f"expected {cycles - 1} cycles, got {len(rows)}")
+    print(f"ok {per_cycle * cycles + 1} samples analysed on mdrctl's own server")
+    server = subprocess.Popen([args.mdrd, "--listen", "127.0.0.1:0", "--no-journal"],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        port = None
+        for line in server.stdout:
+            found = re.search(r"event=serving .*port=(\d+)", line)
+            if found:
+                port = found.group(1)
+                break
+        check(port is not None, "mdrd did not say where it listens")
+        expect_failure(args.mdrctl, ["loops", "--server", f"127.0.0.1:{port}", path,
+                                     "--normal-force", "100"],
+                       r"^mdrctl: \S*long\.csv: the request of 160000\d\d bytes is larger than "
+                       r"the server takes \(Received message larger than max \(160000\d\d vs\. "
+                       r"4194304\)\): start mdrd with --max-message-bytes above it, or run mdrctl "
+                       r"without --server\n$", "a request past mdrd's message limit")
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    print("ok past mdrd's message limit: the file, its size and --max-message-bytes named")
+
+
 CASES = {
+    "long_run": case_long_run,
     "csv_errors": case_csv_errors,
     "loops_figures": case_loops_figures,
     "fit_recovers": case_fit_recovers,
@@ -485,6 +523,7 @@ CASES = {
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--mdrctl", required=True)
+    parser.add_argument("--mdrd", required=True)
     parser.add_argument("--source-dir", required=True)
     parser.add_argument("case", choices=sorted(CASES))
     args = parser.parse_args()

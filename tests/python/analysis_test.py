@@ -126,6 +126,16 @@ class AnalysisTest(unittest.TestCase):
         self.assertFalse(r.friction_drifts)
         self.assertEqual(len(r.raw.cycles), 3)
 
+    def test_a_run_of_a_million_samples_fits_the_embedded_servers_message_limit(self):
+        # 24 MB of samples: past mdrd's default limit (4 MiB), within the embedded server's.
+        per_cycle, cycles = 500, 2000
+        k = np.arange(per_cycle * cycles + 1)
+        u = AMPLITUDE * np.sin(2 * np.pi * k / per_cycle)
+        f = 15.0 * np.tanh(np.sin(2 * np.pi * k / per_cycle - 0.3))
+        r = self.client.analyze_loops(u, f, 100.0, 1e-4 * k)
+        self.assertEqual(len(r), cycles - 1)
+        self.assertRelative(r.displacement_amplitude, AMPLITUDE, 1e-9)
+
     def test_figures_labelled_contact_are_the_rig_free_ones(self):
         loops = self.loops
         through = self.client.analyze_loops(loops.actuator, loops.force, 100.0,

@@ -21,7 +21,6 @@ from .messages import ApplyResult, QueryResult, SceneLike, StepLike, to_scene, t
 
 _ROUTES = {"both": api.TRACTION_ROUTE_BOTH, "abel": api.TRACTION_ROUTE_ABEL,
                    "jager": api.TRACTION_ROUTE_JAGER}
-_MAX_MESSAGE_BYTES = 64 << 20
 # Metadata key carrying the id of the session a call names, so that a router pins every call on a
 # session, its creation included, to one server (consistent hashing; deploy/haproxy).
 SESSION_ROUTING_KEY = "x-session-id"
@@ -71,8 +70,10 @@ class Client:
             raise ValueError(f"max_attempts must be >= 1, got {max_attempts}")
         if not timeout > 0:
             raise ValueError(f"timeout must be > 0 seconds, got {timeout}")
-        options = [("grpc.max_receive_message_length", _MAX_MESSAGE_BYTES),
-                   ("grpc.max_send_message_length", _MAX_MESSAGE_BYTES)]
+        # Messages of any size both ways, as the C++ client: the server's --max-message-bytes
+        # bounds them (gRPC's client default, 4 MiB received, would refuse what it sends).
+        options = [("grpc.max_receive_message_length", -1),
+                   ("grpc.max_send_message_length", -1)]
         if tls:
             files = tls if isinstance(tls, dict) else {}
             credentials = grpc.ssl_channel_credentials(

@@ -33,7 +33,8 @@ std::shared_ptr<grpc::CallCredentials> BearerTokenCredentials(const std::string&
 // unreadable file, a certificate without its key, or a token without TLS.
 RpcResult<std::shared_ptr<grpc::ChannelCredentials>> MakeCredentials(const ChannelOptions& options);
 
-// A channel to options.address with MakeCredentials(options).
+// A channel to options.address with MakeCredentials(options), taking responses of any size (the
+// server's --max-message-bytes bounds them).
 RpcResult<std::shared_ptr<grpc::Channel>> MakeChannel(const ChannelOptions& options);
 
 }  // namespace mdr::client
