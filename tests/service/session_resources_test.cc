@@ -56,6 +56,45 @@ TEST_F(SessionResourcesTest, ListSessionsPaginatesInNameOrder) {
   ExpectInvalidArgument(stub_->ListSessions(Context().get(), request, &page), "page_token");
 }
 
+// Sessions with tabulated profiles of 20001 points (about 320 kB each) under a message limit of
+// 1 MiB: the default page would be 1.6 MB, so pages end early, each within the limit, and
+// together list every session once, in order.
+TEST_F(SessionResourcesTest, ListSessionsPagesStayWithinTheMessageLimit) {
+  service::ServerOptions options = LocalServerOptions();
+  options.limits.max_message_bytes = 1 << 20;
+  Restart(options);
+  v1::CreateSessionRequest create;
+  v1::Scene& scene = *create.mutable_session()->mutable_scene();
+  scene = SteelSphereOnSteelFlat();
+  for (int i = 0; i <= 20000; ++i) {
+    const double r = 1e-3 * i / 20000;
+    scene.mutable_tabulated()->add_radii(r);
+    scene.mutable_tabulated()->add_heights(r * r / (2 * 0.01));
+  }
+  std::vector<std::string> created;
+  for (const char* id : {"a", "b", "c", "d", "e"}) {
+    create.set_session_id(id);
+    v1::Session session;
+    ASSERT_TRUE(stub_->CreateSession(Context().get(), create, &session).ok());
+    created.push_back(session.name());
+  }
+  std::vector<std::string> listed;
+  v1::ListSessionsRequest request;
+  int pages = 0;
+  do {
+    v1::ListSessionsResponse page;
+    const grpc::Status status = stub_->ListSessions(Context().get(), request, &page);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_LE(page.ByteSizeLong(), std::size_t{1} << 20);
+    EXPECT_GE(page.sessions_size(), 1);
+    for (const std::string& name : NamesOf(page)) listed.push_back(name);
+    request.set_page_token(page.next_page_token());
+    ASSERT_LT(++pages, 10);
+  } while (!request.page_token().empty());
+  EXPECT_EQ(listed, created);
+  EXPECT_GE(pages, 2);
+}
+
 // A reproducible random loading history of the H1 contact: depth, displacement and force
 // control, increments, curved force paths, lift-off and re-contact, load reversals.
 class RandomHistory {
