@@ -1,12 +1,13 @@
 // The contact handle of the C interface: the service's scene conversion, validation and snapshot
 // code around one mdr::Contact, so that the library and the service answer the same, bit for bit.
+#include "mdr/core/contact.h"
+
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "boundary.h"
 #include "inputs.h"
-#include "mdr/core/contact.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/traction.h"
 #include "mdr/mdr.h"

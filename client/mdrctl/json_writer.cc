@@ -8,7 +8,6 @@
 
 namespace mdrctl {
 
-
 void JsonWriter::BeforeValue() {
   if (after_key_) {
     after_key_ = false;

@@ -63,8 +63,8 @@ int main(int argc, char** argv) {
   const grpc::ByteBuffer request = CheckRequest(service);
   grpc::ByteBuffer response;
   std::promise<grpc::Status> done;
-  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
-                 &response, [&done](grpc::Status status) { done.set_value(status); });
+  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response,
+                 [&done](grpc::Status status) { done.set_value(status); });
   const grpc::Status status = done.get_future().get();
   if (!status.ok()) {
     std::fprintf(stderr, "mdr-health-probe: %s: %s\n", address.c_str(),
@@ -73,8 +73,8 @@ int main(int argc, char** argv) {
   }
   const int serving = StatusOf(response);
   if (serving != kServing) {
-    std::fprintf(stderr, "mdr-health-probe: %s: %s is not serving (status %d)\n",
-                 address.c_str(), service.c_str(), serving);
+    std::fprintf(stderr, "mdr-health-probe: %s: %s is not serving (status %d)\n", address.c_str(),
+                 service.c_str(), serving);
     return 1;
   }
   return 0;

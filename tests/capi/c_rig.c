@@ -211,8 +211,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (mdr_version() != MDR_C_API_VERSION) {
-    fprintf(stderr, "c_rig: built for interface %d, loaded %d\n", MDR_C_API_VERSION,
-            mdr_version());
+    fprintf(stderr, "c_rig: built for interface %d, loaded %d\n", MDR_C_API_VERSION, mdr_version());
     return 1;
   }
   static history_step steps[kMaxSteps];
@@ -235,7 +234,7 @@ int main(int argc, char** argv) {
   mdr_contact_destroy(contact);
   free(scene);
   free(snapshot);
-  fprintf(stderr, "c_rig: %d steps at 1 kHz, %d deadlines missed\n",
-          count + count - kRestoreAt, missed);
+  fprintf(stderr, "c_rig: %d steps at 1 kHz, %d deadlines missed\n", count + count - kRestoreAt,
+          missed);
   return 0;
 }

@@ -210,14 +210,14 @@ TEST(CapiInterface, ContactListMatchesSingleContacts) {
               MDR_OK);
   }
   for (const auto& step : forces) {
-    ASSERT_EQ(mdr_interface_step(list, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 0, nullptr, step,
-                                 3),
-              MDR_OK)
+    ASSERT_EQ(
+        mdr_interface_step(list, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 0, nullptr, step, 3),
+        MDR_OK)
         << mdr_last_error_message();
     for (int i = 0; i < 3; ++i) {
-      ASSERT_EQ(mdr_contact_step(single[i], MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, step[i],
-                                 nullptr),
-                MDR_OK);
+      ASSERT_EQ(
+          mdr_contact_step(single[i], MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, step[i], nullptr),
+          MDR_OK);
     }
   }
   mdr_state states[3], total{};

@@ -371,10 +371,9 @@ std::vector<std::pair<ProfilePtr, ClosedForm>> SphereAndConeWithClosedForms() {
   const double theta = 0.2;
   std::vector<std::pair<ProfilePtr, ClosedForm>> scenes;
   scenes.emplace_back(*MakeSphere(0.005), ClosedForm{false, 0.005L, 0});
-  scenes.emplace_back(*MakeCone(theta),
-                      ClosedForm{true, 0,
-                                 std::numbers::pi_v<long double> / 2 *
-                                     std::tan(static_cast<long double>(theta))});
+  scenes.emplace_back(*MakeCone(theta), ClosedForm{true, 0,
+                                                   std::numbers::pi_v<long double> / 2 *
+                                                       std::tan(static_cast<long double>(theta))});
   return scenes;
 }
 

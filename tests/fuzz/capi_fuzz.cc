@@ -1,11 +1,12 @@
 // libFuzzer target for libmdr_c's contact functions (capi/include/mdr/mdr.h), through the header
 // alone: a scene from fuzzed bytes, or H1 from a scene file's text, or H1's snapshot with fuzzed
 // bytes written over it; then fuzzed steps (any control number, any double, NaN and infinities
-// included; no curved force paths, see Step) and queries with fuzzed sizes and null arrays. Checks: nothing crashes (ASan +
-// UBSan); every error has a message, and INVALID_ARGUMENT and OUT_OF_RANGE name their field; a
-// refused step leaves the state unchanged, bit for bit; an accepted step leaves finite forces; a
-// too-small array is refused with the size needed; and every state reached round-trips through
-// its snapshot (restore, snapshot again: the same bytes). Build and run: tests/fuzz/run.sh.
+// included; no curved force paths, see Step) and queries with fuzzed sizes and null arrays. Checks:
+// nothing crashes (ASan + UBSan); every error has a message, and INVALID_ARGUMENT and OUT_OF_RANGE
+// name their field; a refused step leaves the state unchanged, bit for bit; an accepted step leaves
+// finite forces; a too-small array is refused with the size needed; and every state reached
+// round-trips through its snapshot (restore, snapshot again: the same bytes). Build and run:
+// tests/fuzz/run.sh.
 //
 // Input: byte 0 chooses the contact's origin (mod 3: scene bytes, H1 text, H1 snapshot
 // overwritten); for scene bytes the next two bytes give the scene's length; the rest drives
@@ -129,10 +130,11 @@ void Step(mdr_contact* contact, FuzzedDataProvider& input) {
   static constexpr int kNormal[] = {MDR_NORMAL_HOLD, MDR_NORMAL_DEPTH, MDR_NORMAL_DEPTH_INCREMENT,
                                     MDR_NORMAL_FORCE, 42};
   static constexpr int kTangential[] = {MDR_TANGENTIAL_HOLD, MDR_TANGENTIAL_DISPLACEMENT,
-                                        MDR_TANGENTIAL_DISPLACEMENT_INCREMENT,
-                                        MDR_TANGENTIAL_FORCE, -1};
+                                        MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, MDR_TANGENTIAL_FORCE,
+                                        -1};
   const int normal = input.PickValueInArray(kNormal);
-  const double normal_value = normal == MDR_NORMAL_HOLD && input.ConsumeBool() ? 0 : AnyDouble(input);
+  const double normal_value =
+      normal == MDR_NORMAL_HOLD && input.ConsumeBool() ? 0 : AnyDouble(input);
   int tangential = input.PickValueInArray(kTangential);
   // A force target with the other channel moving is a curved path of adaptive sub-steps, whose
   // cost grows with the path's curvature (minutes under ASan for extreme values); the engine and
@@ -173,8 +175,8 @@ void Query(const mdr_contact* contact, FuzzedDataProvider& input) {
   double* first = null_arrays ? nullptr : a.data();
   switch (input.ConsumeIntegral<std::uint8_t>() % 4) {
     case 0: {
-      const int status = mdr_contact_slip_intervals(contact, first, b.data(), direction.data(),
-                                                    capacity, &count);
+      const int status =
+          mdr_contact_slip_intervals(contact, first, b.data(), direction.data(), capacity, &count);
       CheckError(status);
       if (status == MDR_OUT_OF_RANGE && count <= capacity) Fail("refused though it fitted");
       break;

@@ -199,11 +199,11 @@ void CheckInlineMatchesWorkers(const mdr::v1::SessionSnapshot& state,
   Check(worker.code() == applied->code() && worker.field() == applied->field() &&
             worker.message() == applied->message(),
         "an inline batch fails or succeeds as on a worker");
-  Check(worker_response.state().SerializeAsString() ==
-            inline_response.state().SerializeAsString(),
+  Check(worker_response.state().SerializeAsString() == inline_response.state().SerializeAsString(),
         "an inline batch answers the state a worker answers");
-  Check(StateBytes(Export(plain, "sessions/inline")) == StateBytes(Export(plain, "sessions/worker")),
-        "an inline batch leaves the state a worker leaves");
+  Check(
+      StateBytes(Export(plain, "sessions/inline")) == StateBytes(Export(plain, "sessions/worker")),
+      "an inline batch leaves the state a worker leaves");
 }
 
 // The service with a journal in a temporary directory (removed at exit), as mdrd holds it.

@@ -284,8 +284,8 @@ TEST_F(ServiceTest, IdleTimeoutsBeyondTheClocksAreRefused) {
   google::protobuf::Duration* timeout =
       request.mutable_session()->mutable_limits()->mutable_idle_timeout();
   v1::Session session;
-  for (std::int64_t seconds : {std::int64_t{18446744074}, std::int64_t{9223372037},
-                               service::kMaxIdleTimeoutSeconds + 1}) {
+  for (std::int64_t seconds :
+       {std::int64_t{18446744074}, std::int64_t{9223372037}, service::kMaxIdleTimeoutSeconds + 1}) {
     timeout->set_seconds(seconds);
     const grpc::Status status = stub_->CreateSession(Context().get(), request, &session);
     ExpectInvalidArgument(status, "session.limits.idle_timeout.seconds");

@@ -36,7 +36,8 @@ TEST(OutputsTest, MasksSelectLeavesAndSubtrees) {
   EXPECT_TRUE(step.has(Output::kStepResultDissipatedEnergy));
   EXPECT_FALSE(step.has(Output::kNormalForce));
   const OutputSelection energy = *service::SelectQueryOutputs(Mask({"energy"}));
-  EXPECT_TRUE(energy.has(Output::kEnergyDissipatedEnergy) && energy.has(Output::kEnergyLastStepDissipatedEnergy));
+  EXPECT_TRUE(energy.has(Output::kEnergyDissipatedEnergy) &&
+              energy.has(Output::kEnergyLastStepDissipatedEnergy));
   EXPECT_FALSE(energy.any_state());
 }
 

@@ -48,7 +48,7 @@ extern "C" {
 typedef enum mdr_status {
   MDR_OK = 0,
   MDR_CANCELLED = 1,
-  MDR_INVALID_ARGUMENT = 3,   /* an argument or a scene field is out of its range */
+  MDR_INVALID_ARGUMENT = 3, /* an argument or a scene field is out of its range */
   MDR_DEADLINE_EXCEEDED = 4,
   MDR_NOT_FOUND = 5,
   MDR_FAILED_PRECONDITION = 9, /* valid, but not from this state (|F_x| > mu F_N, grid method) */
@@ -77,9 +77,9 @@ typedef enum mdr_tangential_control {
 
 /* Routes of the surface tractions (the proto's TractionRoute). */
 typedef enum mdr_traction_route {
-  MDR_ROUTE_BOTH = 1,  /* both; the value is the Jäger one, the error their difference */
-  MDR_ROUTE_ABEL = 2,  /* inverse MDR transform by quadrature */
-  MDR_ROUTE_JAGER = 3  /* superposition of frictionless pressures (closed form) */
+  MDR_ROUTE_BOTH = 1, /* both; the value is the Jäger one, the error their difference */
+  MDR_ROUTE_ABEL = 2, /* inverse MDR transform by quadrature */
+  MDR_ROUTE_JAGER = 3 /* superposition of frictionless pressures (closed form) */
 } mdr_traction_route;
 
 /* The state after the last step: the proto's ContactState. Stable layout: 10 doubles then 2
@@ -103,10 +103,10 @@ typedef struct mdr_state {
 /* What the last step did: the proto's StepReport. Stable layout: int32, 4 bytes padding
  * (explicit), 2 doubles; 24 bytes. */
 typedef struct mdr_step_report {
-  int32_t substeps;   /* exact linear sub-steps used (1 for a straight step) */
-  int32_t reserved;   /* 0 */
-  double path_error;  /* estimated max |u error| / (mu kappa delta) of a curved path */
-  double dissipated;  /* J dissipated by the step (0 when energy is not tracked) */
+  int32_t substeps;  /* exact linear sub-steps used (1 for a straight step) */
+  int32_t reserved;  /* 0 */
+  double path_error; /* estimated max |u error| / (mu kappa delta) of a curved path */
+  double dissipated; /* J dissipated by the step (0 when energy is not tracked) */
 } mdr_step_report;
 
 /* An opaque contact: its scene's configuration and its state. */
@@ -204,8 +204,7 @@ typedef struct mdr_interface mdr_interface;
  * naming scene.interface for a scene of one contact). The service's CreateSession and
  * ImportSession checks apply, its size check included. */
 MDR_API int mdr_interface_create(const void* scene, size_t size, mdr_interface** out);
-MDR_API int mdr_interface_create_from_text(const char* text, const char* name,
-                                           mdr_interface** out);
+MDR_API int mdr_interface_create_from_text(const char* text, const char* name, mdr_interface** out);
 MDR_API int mdr_interface_restore(const void* snapshot, size_t size, mdr_interface** out);
 MDR_API void mdr_interface_destroy(mdr_interface* interface);
 

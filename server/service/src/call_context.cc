@@ -81,11 +81,10 @@ Status RefusalStatus(const Executor& executor, Executor::Admission admission) {
     case Executor::Admission::kBusy:
       break;
   }
-  return Unavailable("",
-                     "the server is busy: " + std::to_string(executor.max_queued()) +
-                         " calls already wait for its " + std::to_string(executor.workers()) +
-                         " workers (mdrd --max-queued-calls) and this caller has its share of "
-                         "them; nothing was run: retry with backoff");
+  return Unavailable("", "the server is busy: " + std::to_string(executor.max_queued()) +
+                             " calls already wait for its " + std::to_string(executor.workers()) +
+                             " workers (mdrd --max-queued-calls) and this caller has its share of "
+                             "them; nothing was run: retry with backoff");
 }
 
 std::string RequestIdOf(const grpc::CallbackServerContext* context,

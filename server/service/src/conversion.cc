@@ -418,8 +418,8 @@ Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t 
   return OkStatus();
 }
 
-Result<Contact> ToCoreContact(const v1::SessionSnapshot& snapshot,
-                              std::size_t max_memory_vertices, const Interrupt& interrupt) {
+Result<Contact> ToCoreContact(const v1::SessionSnapshot& snapshot, std::size_t max_memory_vertices,
+                              const Interrupt& interrupt) {
   Result<ContactConfig> config = ToContactConfig(snapshot.scene(), max_memory_vertices, interrupt);
   if (!config.ok()) return config.status().WithFieldPrefix("snapshot");
   if (Status s = CheckSnapshotKind(snapshot); !s.ok()) return s;

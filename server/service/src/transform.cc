@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "mdr/core/jager.h"
-#include "mdr/core/sampled_weight.h"
 #include "mdr/core/memory.h"
+#include "mdr/core/sampled_weight.h"
 #include "mdr/core/traction.h"
 #include "mdr/service/conversion.h"
 #include "mdr/service/outputs.h"

@@ -7,10 +7,10 @@
 #include <cstdint>
 #include <optional>
 
+#include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
 #include "mdr/core/interrupt.h"
-#include "mdr/base/status.h"
 #include "mdr/service/outputs.h"
 #include "mdr/v1/contact_service.pb.h"
 
