@@ -73,9 +73,9 @@ bool Skipped(std::string_view line) {
   return trimmed.empty() || trimmed.front() == '#';
 }
 
-// A file's lines, one at a time, without their line ends (and the first without a UTF-8 byte
-// order mark): holds one line and one block of the file, so that a line past max_line_bytes is
-// refused having read no more than that.
+// A file's lines, one at a time, without their line ends (and without a UTF-8 byte order mark
+// at the start of the file): holds one line and one block of the file, so that a line past
+// max_line_bytes is refused having read no more than that.
 class LineReader {
  public:
   LineReader(std::istream& in, std::size_t max_line_bytes)
@@ -86,16 +86,13 @@ class LineReader {
   // The next line into *line; number() is then its 1-based number in the file.
   Read Next(std::string* line) {
     line->clear();
-    bool any = false;  // a last line without a line end counts, even one that is only '\r'
     while (true) {
-      if (at_ == filled_) {
-        if (!Fill()) {
-          if (in_.bad()) return Read::kFailed;
-          if (!any) return Read::kEnd;
-          return Finish(line);
-        }
+      if (at_ == filled_ && !Fill()) {
+        if (in_.bad()) return Read::kFailed;
+        // A last line without a line end counts (even one that is only '\r'): every byte read
+        // since the last '\n' is in *line.
+        return line->empty() ? Read::kEnd : Finish(line);
       }
-      any = true;
       const char* begin = block_.data() + at_;
       const char* end = block_.data() + filled_;
       const char* newline = std::find(begin, end, '\n');
@@ -115,27 +112,29 @@ class LineReader {
   std::size_t number() const { return number_; }
 
  private:
+  // Reads the next block; false at the end of the file. The first block skips a byte order mark.
   bool Fill() {
     if (!in_) return false;
     in_.read(block_.data(), static_cast<std::streamsize>(block_.size()));
     filled_ = static_cast<std::size_t>(in_.gcount());
     at_ = 0;
+    if (first_block_) {
+      first_block_ = false;
+      if (std::string_view(block_.data(), filled_).starts_with("\xEF\xBB\xBF")) at_ = 3;
+    }
     return filled_ > 0;
   }
   Read Finish(std::string* line) {
+    ++number_;
     if (line->ends_with('\r')) line->pop_back();
-    if (line->size() > max_line_bytes_) {
-      ++number_;
-      return Read::kTooLong;
-    }
-    if (number_++ == 0 && line->starts_with("\xEF\xBB\xBF")) line->erase(0, 3);
-    return Read::kLine;
+    return line->size() > max_line_bytes_ ? Read::kTooLong : Read::kLine;
   }
 
   std::istream& in_;
   std::size_t max_line_bytes_;
   std::vector<char> block_ = std::vector<char>(std::size_t{1} << 16);
   std::size_t at_ = 0, filled_ = 0, number_ = 0;
+  bool first_block_ = true;
 };
 
 // The separator the header uses: the only one of ',', ';' and tab it holds (',' for none).

@@ -266,6 +266,80 @@ mdr::Status ReadColumn(mat_t* mat, const SelectedColumn& column, const SelectedC
   return mdr::OkStatus();
 }
 
+// A file cut short inside its variable number `variable`, which starts at byte `at` and declares
+// `bytes` ("" when its header is cut too).
+mdr::Status Truncated(const std::string& path, std::streamoff size, int variable, std::streamoff at,
+                      const std::string& bytes) {
+  return mdr::InvalidArgument(
+      path, "the file is truncated: it ends at byte " + std::to_string(size) +
+                ", inside its variable number " + std::to_string(variable) + ", which " +
+                (bytes.empty() ? "starts at byte " + std::to_string(at)
+                               : "declares " + bytes + " bytes from byte " + std::to_string(at)) +
+                "; was it still being written?");
+}
+
+// Whether the file starts with a MAT v5 (or 7.3) header: 128 bytes ending in "MI" either way
+// round. Other files are read as version 4 or refused.
+bool HasMat5Header(const std::string& path) {
+  char header[128];
+  std::ifstream in(path, std::ios::binary);
+  if (!in.read(header, sizeof header)) return false;
+  return (header[126] == 'M' && header[127] == 'I') || (header[126] == 'I' && header[127] == 'M');
+}
+
+// A MAT v4 file is one record per variable: a header of five 32-bit integers (its type as the
+// digits MOPT: byte order M, 0 little-endian or 1 big-endian; O 0; precision P, 0-5; kind T,
+// 0-2; then rows, columns, an imaginary flag and the name's length), the name, and rows x columns
+// elements of the precision (twice that with an imaginary part). matio allocates what a header
+// declares before it reads the file: a flipped byte in a name's length made it take 2 GB to open
+// a file of 150 bytes. So before matio opens it, every record must hold what it declares.
+// nullopt: the first record's header is not one of version 4 (the file is not a MATLAB file).
+std::optional<mdr::Status> CheckMat4Records(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  const std::streamoff size = in.tellg();
+  if (!in || size < 20 || !in.seekg(0)) return std::nullopt;
+  std::streamoff at = 0;
+  for (int variable = 1; at < size; ++variable) {
+    if (size - at < 20) return Truncated(path, size, variable, at, "");
+    std::uint32_t header[5];
+    in.seekg(at);
+    in.read(reinterpret_cast<char*>(header), sizeof header);
+    if (!in) return Truncated(path, size, variable, at, "");
+    // The type is under 5000 in its own byte order: little-endian if it reads so with M = 0.
+    const bool swapped = !(header[0] < 1000);
+    if (swapped) {
+      for (std::uint32_t& word : header) word = __builtin_bswap32(word);
+    }
+    const std::uint32_t type = header[0], rows = header[1], columns = header[2];
+    const std::uint32_t imaginary = header[3], name_bytes = header[4];
+    constexpr std::streamoff kPrecisionBytes[] = {8, 4, 4, 2, 2, 1};
+    const bool valid = type / 1000 == (swapped ? 1u : 0u) && type / 100 % 10 == 0 &&
+                       type / 10 % 10 <= 5 && type % 10 <= 2 && rows < (1u << 31) &&
+                       columns < (1u << 31) && imaginary <= 1 && name_bytes >= 1 &&
+                       name_bytes < (1u << 31);
+    if (!valid) {
+      if (variable == 1) return std::nullopt;
+      return mdr::InvalidArgument(path, "the file is corrupt: its variable number " +
+                                            std::to_string(variable) + " at byte " +
+                                            std::to_string(at) + " has no MAT v4 header");
+    }
+    // At most 2^62 elements, so the product below cannot overflow once checked against the file.
+    const std::uint64_t elements = std::uint64_t{rows} * columns;
+    const std::streamoff room = size - at - 20 - static_cast<std::streamoff>(name_bytes);
+    const std::streamoff element_bytes = kPrecisionBytes[type / 10 % 10] * (1 + imaginary);
+    if (room < 0 || elements > static_cast<std::uint64_t>(room) / element_bytes) {
+      std::uint64_t declared = 0;  // up to 2^66: said as such past 2^64
+      const bool overflow =
+          __builtin_mul_overflow(elements, static_cast<std::uint64_t>(element_bytes), &declared) ||
+          __builtin_add_overflow(declared, std::uint64_t{20} + name_bytes, &declared);
+      return Truncated(path, size, variable, at,
+                       overflow ? "more than 2^64" : std::to_string(declared));
+    }
+    at += 20 + name_bytes + static_cast<std::streamoff>(elements) * element_bytes;
+  }
+  return mdr::OkStatus();
+}
+
 // A MAT v5 file is a 128-byte header and then one element per variable, each a tag (its type and
 // its byte count) and that many bytes, padded to 8 unless compressed. An array's element holds
 // its parts the same way (flags, dimensions, name, data; a struct's fields and a cell's elements
@@ -293,13 +367,7 @@ class Mat5Elements {
     for (int variable = 1; at < size_; ++variable) {
       const std::optional<Tag> tag = Read(at, size_);
       if (!tag || tag->end > size_) {
-        return mdr::InvalidArgument(
-            path_, "the file is truncated: it ends at byte " + std::to_string(size_) +
-                       ", inside its variable number " + std::to_string(variable) + ", which " +
-                       (tag ? "declares " + std::to_string(tag->end - at) + " bytes from byte " +
-                                  std::to_string(at)
-                            : "starts at byte " + std::to_string(at)) +
-                       "; was it still being written?");
+        return Truncated(path_, size_, variable, at, tag ? std::to_string(tag->end - at) : "");
       }
       if (tag->type == kMatrix) {
         if (mdr::Status parts = CheckParts(at + 8, tag->end, variable, 1); !parts.ok()) {
@@ -312,6 +380,8 @@ class Mat5Elements {
   }
 
  private:
+  static constexpr std::uint32_t kInt32 = 5;        // miINT32
+  static constexpr std::uint32_t kUint32 = 6;       // miUINT32
   static constexpr std::uint32_t kMatrix = 14;      // miMATRIX
   static constexpr std::uint32_t kCompressed = 15;  // miCOMPRESSED (its parts are zlib's)
   static constexpr int kMaxNesting = 32;
@@ -380,12 +450,23 @@ class Mat5Elements {
       if (!dim) return mdr::OkStatus();
       elements = std::min<std::uint64_t>(elements * *dim, std::uint64_t{1} << 40);
     }
-    if (elements * size == static_cast<std::uint64_t>(parts[3].bytes)) return mdr::OkStatus();
-    return mdr::InvalidArgument(path_, "the file is corrupt: its variable number " +
-                                           std::to_string(variable) + " has an array of " +
-                                           std::to_string(elements) + " elements of " +
-                                           std::to_string(size) + " bytes, but its data holds " +
-                                           std::to_string(parts[3].bytes) + " bytes");
+    // A complex array's imaginary part (flag 0x800) holds as many elements as its real part.
+    const bool complex = (*flags & 0x800) != 0;
+    const Tag* imaginary = complex && parts.size() > 4 ? &parts[4] : nullptr;
+    const std::streamoff imaginary_size = imaginary ? TypeSize(imaginary->type) : 0;
+    for (const auto& [part, part_size] :
+         {std::pair{&parts[3], size}, std::pair{imaginary, imaginary_size}}) {
+      if (part == nullptr || part_size == 0 ||
+          elements * part_size == static_cast<std::uint64_t>(part->bytes)) {
+        continue;
+      }
+      return mdr::InvalidArgument(
+          path_, "the file is corrupt: its variable number " + std::to_string(variable) +
+                     " has an array of " + std::to_string(elements) + " elements of " +
+                     std::to_string(part_size) + " bytes, but its data holds " +
+                     std::to_string(part->bytes) + " bytes");
+    }
+    return mdr::OkStatus();
   }
 
   // The parts of the array whose data spans [begin, end), and theirs, to kMaxNesting levels.
@@ -397,7 +478,7 @@ class Mat5Elements {
     if (depth > kMaxNesting) {
       return corrupt("nests arrays deeper than " + std::to_string(kMaxNesting) + " levels");
     }
-    std::vector<Tag> parts;  // the first four
+    std::vector<Tag> parts;  // the first five
     for (std::streamoff at = begin; at < end; at = Padded(at)) {
       const std::optional<Tag> part = Read(at, end);
       if (!part || part->end > end) {
@@ -406,12 +487,28 @@ class Mat5Elements {
                              : "has no room for its tag") +
                        ", past the end of its array at byte " + std::to_string(end));
       }
+      if (part->data == at + 4 && part->bytes > 4) {
+        return corrupt("has a part at byte " + std::to_string(at) + " that declares " +
+                       std::to_string(part->bytes) + " bytes in the 4 of a small element");
+      }
+      // matio reads the flags and dimensions where they should be whatever their tags say, so
+      // tags that say otherwise make it read the rest from elsewhere.
+      const bool misplaced =
+          (parts.size() == 0 && (part->type != kUint32 || part->bytes != 8)) ||
+          (parts.size() == 1 && (part->type != kInt32 || part->bytes < 8 || part->bytes % 4 != 0));
+      if (misplaced) {
+        return corrupt("has " + std::string(parts.empty() ? "array flags" : "dimensions") +
+                       " at byte " + std::to_string(at) + " of type " + std::to_string(part->type) +
+                       " and " + std::to_string(part->bytes) + " bytes, not " +
+                       (parts.empty() ? "8 bytes of miUINT32"
+                                      : "a multiple of 4 bytes of miINT32, at least 8"));
+      }
       if (part->type == kMatrix) {
         if (mdr::Status parts = CheckParts(at + 8, part->end, variable, depth + 1); !parts.ok()) {
           return parts;
         }
       }
-      if (parts.size() < 4) parts.push_back(*part);
+      if (parts.size() < 5) parts.push_back(*part);
       at = part->end;
     }
     return CheckNumericData(parts, variable);
@@ -429,11 +526,14 @@ mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout
                                 const RigFileLimits& limits) {
   Mat_LogInitFunc("mdrctl", KeepMatioMessage);
   LastMatioMessage().clear();
-  MatFile mat{Mat_Open(path.c_str(), MAT_ACC_RDONLY)};
-  if (mat == nullptr) {
-    return mdr::InvalidArgument(
-        path, "cannot open as a MATLAB file (version 4, 5 or 7.3)" + MatioDetail());
+  const std::string not_matlab = "cannot open as a MATLAB file (version 4, 5 or 7.3)";
+  if (!HasMat5Header(path)) {
+    std::optional<mdr::Status> records = CheckMat4Records(path);
+    if (!records) return mdr::InvalidArgument(path, not_matlab);
+    if (!records->ok()) return *records;
   }
+  MatFile mat{Mat_Open(path.c_str(), MAT_ACC_RDONLY)};
+  if (mat == nullptr) return mdr::InvalidArgument(path, not_matlab + MatioDetail());
   if (Mat_GetVersion(mat.get()) == MAT_FT_MAT5) {
     if (mdr::Status whole = Mat5Elements(path).Check(); !whole.ok()) return whole;
   }

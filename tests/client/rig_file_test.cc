@@ -80,37 +80,46 @@ class MatWriter {
   mat_t* mat_;
 };
 
-// A MAT v5 file written byte by byte in either byte order (matio writes the machine's only):
-// one column vector of doubles per variable, uncompressed.
+// Bytes of numbers in either byte order (matio writes the machine's only).
+class Bytes {
+ public:
+  explicit Bytes(bool big_endian) : big_endian_(big_endian) {}
+  template <typename T>
+  void Put(T value) {
+    const char* p = reinterpret_cast<const char*>(&value);
+    const bool reverse = big_endian_ == (std::endian::native == std::endian::little);
+    for (std::size_t i = 0; i < sizeof value; ++i) text += p[reverse ? sizeof value - 1 - i : i];
+  }
+  void U32(std::uint32_t value) { Put(value); }
+  std::string text;
+
+ private:
+  bool big_endian_;
+};
+
+// A MAT v5 file written byte by byte in either byte order: one column vector of doubles per
+// variable, uncompressed.
 std::string Mat5Bytes(bool big_endian,
                       const std::vector<std::pair<std::string, std::vector<double>>>& variables) {
-  std::string bytes;
-  const auto put = [&](const void* data, std::size_t size) {
-    const char* p = static_cast<const char*>(data);
-    const bool reverse = big_endian == (std::endian::native == std::endian::little);
-    for (std::size_t i = 0; i < size; ++i) bytes += p[reverse ? size - 1 - i : i];
-  };
-  const auto u32 = [&](std::uint32_t value) { put(&value, 4); };
-  const auto pad = [&] { bytes.resize((bytes.size() + 7) / 8 * 8, '\0'); };
-  std::string text = "MATLAB 5.0 MAT-file, written by mdr's tests";
-  text.resize(124, ' ');
-  bytes = text;
-  const std::uint16_t version = 0x0100, endian = 'M' << 8 | 'I';
-  put(&version, 2);
-  put(&endian, 2);
+  Bytes bytes(big_endian);
+  bytes.text = "MATLAB 5.0 MAT-file, written by mdr's tests";
+  bytes.text.resize(124, ' ');
+  bytes.Put(std::uint16_t{0x0100});  // version
+  bytes.Put(std::uint16_t{'M' << 8 | 'I'});
   for (const auto& [name, values] : variables) {
     const std::size_t padded_name = (name.size() + 7) / 8 * 8;
-    u32(14);  // miMATRIX
-    u32(static_cast<std::uint32_t>(16 + 16 + 8 + padded_name + 8 + 8 * values.size()));
-    u32(6), u32(8), u32(6), u32(0);  // array flags: mxDOUBLE_CLASS
-    u32(5), u32(8), u32(static_cast<std::uint32_t>(values.size())), u32(1);  // dims n x 1
-    u32(1), u32(static_cast<std::uint32_t>(name.size()));                    // miINT8 name
-    bytes += name;
-    pad();
-    u32(9), u32(static_cast<std::uint32_t>(8 * values.size()));  // miDOUBLE
-    for (double value : values) put(&value, 8);
+    bytes.U32(14);  // miMATRIX
+    bytes.U32(static_cast<std::uint32_t>(16 + 16 + 8 + padded_name + 8 + 8 * values.size()));
+    bytes.U32(6), bytes.U32(8), bytes.U32(6), bytes.U32(0);  // array flags: mxDOUBLE_CLASS
+    bytes.U32(5), bytes.U32(8);                              // dims n x 1
+    bytes.U32(static_cast<std::uint32_t>(values.size())), bytes.U32(1);
+    bytes.U32(1), bytes.U32(static_cast<std::uint32_t>(name.size()));  // miINT8 name
+    bytes.text += name;
+    bytes.text.resize((bytes.text.size() + 7) / 8 * 8, '\0');
+    bytes.U32(9), bytes.U32(static_cast<std::uint32_t>(8 * values.size()));  // miDOUBLE
+    for (double value : values) bytes.Put(value);
   }
-  return bytes;
+  return bytes.text;
 }
 
 CsvLayout Layout() {
@@ -123,6 +132,22 @@ CsvLayout Layout() {
   layout.force_unit = 1e3;          // kN
   layout.time_unit = 1e-3;          // ms
   return layout;
+}
+
+// A MAT v4 file written byte by byte in either byte order: one column vector of doubles per
+// variable (a header of type, rows, columns, imaginary flag and name length; the name; the data).
+std::string Mat4Bytes(bool big_endian,
+                      const std::vector<std::pair<std::string, std::vector<double>>>& variables) {
+  Bytes bytes(big_endian);
+  for (const auto& [name, values] : variables) {
+    bytes.U32(big_endian ? 1000 : 0);  // MOPT: byte order, double precision, full numeric
+    bytes.U32(static_cast<std::uint32_t>(values.size())), bytes.U32(1), bytes.U32(0);
+    bytes.U32(static_cast<std::uint32_t>(name.size() + 1));
+    bytes.text += name;
+    bytes.text += '\0';
+    for (double value : values) bytes.Put(value);
+  }
+  return bytes.text;
 }
 
 class RigFileTest : public ::testing::Test {
@@ -158,6 +183,15 @@ class RigFileTest : public ::testing::Test {
     mat.AddDoubles("x", kDisplacement, true, compression);  // a row vector
     mat.AddDoubles("fx", kForce, false, compression);
     mat.AddDoubles("fn", NormalForce(), false, compression);
+  }
+  // A v5 file of one complex variable "x" of 6 elements (1 + 2i).
+  void WriteComplex(const char* name) const {
+    MatWriter mat(Path(name), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    std::vector<double> re(6, 1.0), im(6, 2.0);
+    mat_complex_split_t split{re.data(), im.data()};
+    mat.Add("x", MAT_C_DOUBLE, MAT_T_DOUBLE, std::vector<mat_complex_split_t>{split}, 6, 1,
+            MAT_F_COMPLEX);
   }
   mdr::Status ReadError(const std::string& name, const CsvLayout& layout = Layout()) const {
     auto read = ReadRigFile(Path(name).string(), layout);
@@ -248,14 +282,7 @@ TEST_F(RigFileTest, RefusedVariablesAreNamedWithTheirReason) {
     mat.AddDoubles("empty", {});
     mat.AddStruct("run", {{"x", kDisplacement}});
   }
-  {
-    MatWriter mat(Path("complex.mat"), MAT_FT_MAT5);
-    ASSERT_TRUE(mat.ok());
-    std::vector<double> re(6, 1.0), im(6, 2.0);
-    mat_complex_split_t split{re.data(), im.data()};
-    mat.Add("x", MAT_C_DOUBLE, MAT_T_DOUBLE, std::vector<mat_complex_split_t>{split}, 6, 1,
-            MAT_F_COMPLEX);
-  }
+  WriteComplex("complex.mat");
   const auto refused = [&](const std::string& force_column, const std::string& expected,
                            const char* file = "bad.mat") {
     SCOPED_TRACE(force_column);
@@ -308,6 +335,7 @@ TEST_F(RigFileTest, ATruncatedFileIsRefusedAtEveryByte) {
       {"x", kDisplacement}, {"fx", kForce}, {"fn", NormalForce()}, {"t", kTime}};
   files.emplace_back("big_endian.mat", Mat5Bytes(true, columns));
   files.emplace_back("little_endian.mat", Mat5Bytes(false, columns));
+  files.emplace_back("v4_big_endian.mat", Mat4Bytes(true, columns));
   for (const auto& [file, bytes] : files) {
     SCOPED_TRACE(file);
     std::ofstream(Path(file), std::ios::binary) << bytes;  // the hand-written ones
@@ -446,6 +474,97 @@ TEST_F(RigFileTest, CsvPastItsBoundsIsRefusedAtTheLineThatCrossesThem) {
   auto mat = ReadRigFile(Path("six.mat").string(), Layout(), limits);
   ASSERT_FALSE(mat.ok());
   EXPECT_THAT(mat.status().message(), HasSubstr("has 6 elements, more than the 5 mdrctl reads"));
+}
+
+// Tags where matio reads the flags and dimensions whatever they say: a small element of more
+// than 4 bytes, flags of another type (a fuzzed file made matio allocate 2 GB this way), and a
+// complex array whose imaginary part holds fewer elements than its dimensions declare.
+TEST_F(RigFileTest, MisplacedArrayPartsAreRefusedBeforeMatioReadsThem) {
+  const std::vector<std::pair<std::string, std::vector<double>>> columns{{"x", kDisplacement},
+                                                                         {"fx", kForce}};
+  for (const bool big_endian : {false, true}) {
+    SCOPED_TRACE(big_endian ? "big-endian" : "little-endian");
+    const auto corrupt = [&](std::size_t at, std::uint32_t value) {
+      std::string bytes = Mat5Bytes(big_endian, columns);
+      for (int i = 0; i < 4; ++i) {
+        bytes[at + i] = static_cast<char>(value >> (big_endian ? 24 - 8 * i : 8 * i));
+      }
+      std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << bytes;
+      return ReadError("corrupt.mat").message();
+    };
+    constexpr std::size_t kFlagsTag = 128 + 8;  // variable 1's first part
+    EXPECT_EQ(corrupt(kFlagsTag, 8u << 16 | 6),
+              "the file is corrupt: its variable number 1 has a part at byte 136 that declares 8 "
+              "bytes in the 4 of a small element");
+    EXPECT_EQ(
+        corrupt(kFlagsTag, 9),
+        R"(the file is corrupt: its variable number 1 has array flags at byte 136 of type 9 and 8 bytes, not 8 bytes of miUINT32)");
+    EXPECT_THAT(corrupt(kFlagsTag + 16, 6),  // the dimensions' type
+                HasSubstr("has dimensions at byte 152 of type 6 and 8 bytes, not a multiple of 4 "
+                          "bytes of miINT32, at least 8"));
+  }
+  WriteComplex("complex.mat");
+  std::ifstream in(Path("complex.mat"), std::ios::binary);
+  std::string bytes(std::istreambuf_iterator<char>(in), {});
+  // The imaginary part's tag, the second miDOUBLE tag of 48 bytes, says 40, and the variable
+  // ends 8 bytes earlier (its count at byte 132, 0x98 bytes): every part still ends in place.
+  const std::string tag("\x09\0\0\0\x30\0\0\0", 8);
+  const std::size_t imaginary = bytes.find(tag, bytes.find(tag) + 8);
+  ASSERT_NE(imaginary, std::string::npos);
+  ASSERT_EQ(bytes.size(), 128 + 8 + 0x98u);
+  bytes[imaginary + 4] = 0x28;
+  bytes[132] = static_cast<char>(0x90);
+  bytes.resize(bytes.size() - 8);
+  std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_THAT(ReadError("corrupt.mat").message(),
+              HasSubstr("has an array of 6 elements of 8 bytes, but its data holds 40 bytes"));
+}
+
+// matio allocates what a v4 header declares before it reads anything (opening a 123-byte file
+// whose name length had a flipped byte took it 2 GB): every record is checked first.
+TEST_F(RigFileTest, AVersion4FileIsCheckedBeforeMatioOpensIt) {
+  auto csv = ReadRigFile(WriteCsv().string(), Layout());
+  ASSERT_TRUE(csv.ok()) << csv.status().ToString();
+  const std::vector<std::pair<std::string, std::vector<double>>> columns{
+      {"x", kDisplacement}, {"fx", kForce}, {"fn", NormalForce()}, {"t", kTime}};
+  for (const bool big_endian : {false, true}) {
+    SCOPED_TRACE(big_endian ? "big-endian" : "little-endian");
+    const std::string bytes = Mat4Bytes(big_endian, columns);
+    std::ofstream(Path("v4.mat"), std::ios::binary | std::ios::trunc) << bytes;
+    auto read = ReadRigFile(Path("v4.mat").string(), Layout());
+    ASSERT_TRUE(read.ok()) << read.status().ToString();
+    ExpectSameBits(read->samples.displacement(), csv->samples.displacement(), "displacement");
+    ExpectSameBits(read->samples.time(), csv->samples.time(), "time");
+
+    // The message for the file with the given words written over it.
+    const auto corrupt = [&](std::initializer_list<std::pair<std::size_t, std::uint32_t>> words) {
+      std::string text = bytes;
+      for (const auto& [at, value] : words) {
+        for (int i = 0; i < 4; ++i) {
+          text[at + i] = static_cast<char>(value >> (big_endian ? 24 - 8 * i : 8 * i));
+        }
+      }
+      std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << text;
+      return ReadError("corrupt.mat").message();
+    };
+    constexpr std::uint32_t kHuge = 0x78010000;
+    EXPECT_EQ(corrupt({{16, kHuge}}),  // variable 1's name length
+              "the file is truncated: it ends at byte " + std::to_string(bytes.size()) +
+                  ", inside its variable number 1, which declares " +
+                  std::to_string(20 + std::uint64_t{kHuge} + 8 * kDisplacement.size()) +
+                  " bytes from byte 0; was it still being written?");
+    const std::size_t second = 20 + 2 + 8 * kDisplacement.size();  // variable 2's header
+    EXPECT_THAT(corrupt({{second + 4, kHuge}}),                    // its rows
+                HasSubstr("inside its variable number 2, which declares " +
+                          std::to_string(20 + 3 + 8 * std::uint64_t{kHuge}) + " bytes from byte " +
+                          std::to_string(second)));
+    // Rows, columns and an imaginary part past what 64 bits count (found by the rig fuzzer).
+    EXPECT_THAT(corrupt({{4, 0x7fffffff}, {8, 0x7fffffff}, {12, 1}}),
+                HasSubstr("inside its variable number 1, which declares more than 2^64 bytes"));
+    EXPECT_EQ(corrupt({{second, big_endian ? 1009u : 9u}}),  // a type of no v4 kind
+              "the file is corrupt: its variable number 2 at byte " + std::to_string(second) +
+                  " has no MAT v4 header");
+  }
 }
 
 TEST_F(RigFileTest, AFileThatIsNotMatlabIsRefused) {

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (engine: the physics core; request: the service's request validation;
-# capi: libmdr_c's C functions)
+# capi: libmdr_c's C functions; rig: mdrctl's CSV and MATLAB readers)
 # with clang-14 under ASan + UBSan and runs each on the corpus kept in
 # tests/fuzz/corpus (new inputs go to a scratch copy, not the repo).
 #   tests/fuzz/run.sh [RUNS]     deterministic: fixed seed, RUNS inputs per target (default 20000);
@@ -21,7 +21,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 artifacts=build/fuzz/artifacts
 mkdir -p "$artifacts"
-for target in engine request capi; do
+for target in engine request capi rig; do
   mkdir -p "$work/$target"
   echo "fuzz: $target (${budget[*]})"
   set +e
