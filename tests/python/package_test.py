@@ -225,6 +225,25 @@ class PackageTest(unittest.TestCase):
             with self.assertRaisesRegex(ValueError, "nested too deep to parse"):
                 mdr.load_scene_file(deep)
 
+    def test_embedded_server_takes_long_runs_unless_told_otherwise(self):
+        def limit(args=(), env=None):
+            saved = os.environ.get("MDR_MAX_MESSAGE_BYTES")
+            if env is not None:
+                os.environ["MDR_MAX_MESSAGE_BYTES"] = env
+            try:
+                server = mdr.embedded.EmbeddedServer(ARGS.mdrd, args)
+            finally:
+                if env is not None:
+                    if saved is None:
+                        del os.environ["MDR_MAX_MESSAGE_BYTES"]
+                    else:
+                        os.environ["MDR_MAX_MESSAGE_BYTES"] = saved
+            server.stop()
+            return int(re.search(r"max_message_bytes=(\d+)", "".join(server.log)).group(1))
+        self.assertEqual(limit(), mdr.embedded.EMBEDDED_MAX_MESSAGE_BYTES)
+        self.assertEqual(limit(["--max-message-bytes=6000000"]), 6000000)
+        self.assertEqual(limit(env="5000000"), 5000000)
+
     def test_embedded_server_stops_on_close(self):
         client = mdr.Client.embedded(ARGS.mdrd)
         process = client._server.process

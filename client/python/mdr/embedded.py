@@ -32,12 +32,14 @@ EMBEDDED_MAX_MESSAGE_BYTES = 512 << 20
 
 class EmbeddedServer:
     """mdrd on 127.0.0.1 with a port the system picks, no journal, and a message limit of
-    EMBEDDED_MAX_MESSAGE_BYTES unless `args` set --max-message-bytes; `address` once started."""
+    EMBEDDED_MAX_MESSAGE_BYTES unless `args` or $MDR_MAX_MESSAGE_BYTES set one; `address` once
+    started."""
 
     def __init__(self, mdrd: Optional[str] = None, args: Sequence[str] = (),
                  start_timeout: float = 30.0):
-        limit = [] if any(a.startswith("--max-message-bytes") for a in args) else [
-            f"--max-message-bytes={EMBEDDED_MAX_MESSAGE_BYTES}"]
+        chosen = "MDR_MAX_MESSAGE_BYTES" in os.environ or any(
+            a.startswith("--max-message-bytes") for a in args)
+        limit = [] if chosen else [f"--max-message-bytes={EMBEDDED_MAX_MESSAGE_BYTES}"]
         self.process = subprocess.Popen(
             [find_mdrd(mdrd), "--listen", "127.0.0.1:0", "--no-journal", *limit, *args],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
