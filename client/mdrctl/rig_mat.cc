@@ -292,7 +292,7 @@ bool HasMat5Header(const std::string& path) {
 // 0-2; then rows, columns, an imaginary flag and the name's length), the name, and rows x columns
 // elements of the precision (twice that with an imaginary part). matio allocates what a header
 // declares before it reads the file: a flipped byte in a name's length made it take 2 GB to open
-// a file of 150 bytes. So before matio opens it, every record must hold what it declares.
+// a file of 123 bytes. So before matio opens it, every record must hold what it declares.
 // nullopt: the first record's header is not one of version 4 (the file is not a MATLAB file).
 std::optional<mdr::Status> CheckMat4Records(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
