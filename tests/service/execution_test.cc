@@ -74,9 +74,16 @@ class ExecutionTest : public ServiceTest {
     });
     gate_.AwaitArrivals(arrived + 1);  // this batch's first step
   }
-  // Waits until `count` calls wait for the worker.
+  // Waits until `count` calls wait for the worker (a failure after 30 s).
   void AwaitQueued(std::size_t count) {
-    while (server_->queued_calls() != count) std::this_thread::yield();
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (server_->queued_calls() != count) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        ADD_FAILURE() << "never " << count << " queued calls";
+        return;
+      }
+      std::this_thread::yield();
+    }
   }
 
   Gate gate_;
@@ -142,6 +149,31 @@ TEST_F(ExecutionTest, StreamMessageRefusedByAFullQueueIsAnsweredUnapplied) {
   for (std::thread& thread : threads_) thread.join();
   threads_.clear();
   EXPECT_EQ(StateOf(other_session_).applied_steps(), 2u) << "only the queued unary batch ran";
+}
+
+// A deletion never overtakes a batch on its session: with the batch running, DeleteSession waits
+// on the session's strand (it cannot run inline), the batch commits, then the session goes, and
+// a batch that arrives after the deletion finds no session.
+TEST_F(ExecutionTest, DeleteSessionRunsAfterTheBatchRunningOnItsSession) {
+  OccupyTheWorker();
+  grpc::Status deleted;
+  threads_.emplace_back([this, &deleted] {
+    v1::DeleteSessionRequest erase;
+    erase.set_name(busy_session_);
+    google::protobuf::Empty empty;
+    deleted = stub_->DeleteSession(Context().get(), erase, &empty);
+  });
+  AwaitQueued(1);
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Context().get(), {}, &list).ok());
+  EXPECT_EQ(list.sessions_size(), 2) << "deleted while its batch ran";
+  gate_.Open();
+  for (std::thread& thread : threads_) thread.join();
+  threads_.clear();
+  EXPECT_TRUE(deleted.ok()) << deleted.error_message();
+  v1::ApplyResponse response;
+  EXPECT_EQ(Apply(busy_session_, {DepthStep(kDepth)}, &response).error_code(),
+            grpc::StatusCode::NOT_FOUND);
 }
 
 TEST_F(ExecutionTest, CallWhoseDeadlinePassedWhileQueuedIsNotRun) {

@@ -13,10 +13,12 @@
 #include <stdlib.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <random>
+#include <thread>
 
 #include "mdr/service/grpc_status.h"
 #include "mdr/service/operations.h"
@@ -610,6 +612,94 @@ TEST_F(JournalTest, DeletingAnUnavailableSessionRemovesItsEntry) {
     EXPECT_EQ(restored->session_count(), 0u);
   }
   EXPECT_TRUE(Load(options).empty());
+}
+
+// A deletion that races batches on its session leaves nothing of it in the journal: a batch
+// either commits before the deletion (which then removes its row too) or finds the session gone
+// (NOT_FOUND), never writes its row after the deletion (rows of a deleted session made the next
+// start refuse the journal as damaged). Every round deletes while a batch of 400 steps runs.
+TEST_F(JournalTest, ADeletionRacingBatchesLeavesNothingOfTheSession) {
+  const JournalOptions options = Options();
+  std::vector<v1::Step> cycle;
+  for (int i = 0; i < 400; ++i) {
+    cycle.push_back(DisplacementStep((i % 2 == 0 ? 1 : -1) * kDisplacementAt15N));
+  }
+  {
+    auto operations = Open(options);
+    for (int round = 0; round < 40; ++round) {
+      const std::string name = Create(*operations, "race-" + std::to_string(round));
+      v1::ApplyResponse response;
+      ASSERT_TRUE(Apply(*operations, ApplyRequestFor(name, {DepthStep(kDepth)}), &response).ok());
+      std::atomic<int> started{0};
+      std::atomic<bool> stop{false};
+      grpc::Status last;
+      std::thread applier([&] {
+        const v1::ApplyRequest batch = ApplyRequestFor(name, cycle);
+        while (!stop.load()) {
+          started.fetch_add(1);
+          v1::ApplyResponse ignored;
+          last = Apply(*operations, batch, &ignored);
+          if (!last.ok()) return;
+        }
+      });
+      while (started.load() < 1 + round % 3) std::this_thread::yield();
+      v1::DeleteSessionRequest remove;
+      remove.set_name(name);
+      const grpc::Status deleted = ToGrpcStatus(operations->DeleteSession(std::nullopt, remove));
+      stop.store(true);
+      applier.join();
+      ASSERT_TRUE(deleted.ok()) << deleted.error_message();
+      EXPECT_TRUE(last.ok() || last.error_code() == grpc::StatusCode::NOT_FOUND)
+          << last.error_message();
+    }
+    EXPECT_EQ(operations->session_count(), 0u);
+  }
+  std::unique_ptr<Journal> journal;
+  ASSERT_TRUE(Journal::Open(options, &journal).ok());
+  std::vector<JournaledSession> sessions;
+  const grpc::Status loaded = ToGrpcStatus(journal->Load(&sessions));
+  EXPECT_TRUE(loaded.ok()) << loaded.error_message();
+  EXPECT_TRUE(sessions.empty());
+}
+
+// Sessions are journaled outside the store's lock, their names held meanwhile: concurrent
+// creations of one name make one session, and concurrent creations never exceed the limits.
+TEST_F(JournalTest, ConcurrentCreationsKeepNamesUniqueAndLimitsHeld) {
+  const JournalOptions options = Options();
+  service::ServiceLimits limits;
+  limits.max_sessions = 12;
+  limits.max_sessions_per_token = 3;
+  auto operations = std::make_unique<ContactOperations>(limits, service::TestHooks());
+  ASSERT_TRUE(operations->OpenJournal(options).ok());
+  std::atomic<int> created{0}, taken{0}, full{0};
+  auto create = [&](const std::string& id, const Principal& caller) {
+    v1::CreateSessionRequest request;
+    *request.mutable_session()->mutable_scene() = SteelSphereOnSteelFlat();
+    request.set_session_id(id);
+    v1::Session session;
+    const grpc::Status status = ToGrpcStatus(operations->CreateSession(caller, request, &session));
+    if (status.ok()) ++created;
+    if (status.error_code() == grpc::StatusCode::ALREADY_EXISTS) ++taken;
+    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) ++full;
+  };
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      const Principal caller = "token-" + std::to_string(t % 4);
+      create("same", caller);
+      for (int i = 0; i < 4; ++i) create("s" + std::to_string(t) + "-" + std::to_string(i), caller);
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  // 4 tokens x 3 sessions = 12 = max_sessions: every token ends at its limit, "same" included.
+  EXPECT_EQ(created.load(), 12);
+  EXPECT_EQ(operations->session_count(), 12u);
+  EXPECT_EQ(created + taken + full, 8 * 5) << "only these refusals";
+  operations.reset();
+  std::vector<std::string> names;
+  for (const JournaledSession& session : Load(options)) names.push_back(session.name);
+  EXPECT_EQ(names.size(), 12u);
+  EXPECT_EQ(std::count(names.begin(), names.end(), "sessions/same"), 1);
 }
 
 TEST_F(JournalTest, FilesAreCreatedPrivate) {

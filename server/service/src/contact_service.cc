@@ -263,6 +263,30 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Queue(grpc::CallbackServerContext*
   return call;
 }
 
+template <typename Bounded, typename Operation>
+grpc::ServerUnaryReactor* ContactServiceImpl::InlineOrQueue(grpc::CallbackServerContext* context,
+                                                            const char* method,
+                                                            const std::string& strand,
+                                                            const std::string& request_id,
+                                                            Bounded bounded, Operation operation) {
+  const Clock::time_point start = Clock::now();
+  Principal caller;
+  if (CallerOf(context, authenticator_, &caller).ok()) {
+    std::optional<Status> status;
+    if (executor_.TryRunInline(CallerKeyOf(context, caller), strand, [&] {
+          status = bounded(caller);
+          return status.has_value();
+        })) {
+      const grpc::Status sent = ToGrpcStatus(*status);
+      LogCall(method, strand, RequestIdOf(context, request_id), sent, SecondsSince(start));
+      grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+      reactor->Finish(sent);
+      return reactor;
+    }
+  }
+  return Queue(context, method, strand, request_id, std::move(operation));
+}
+
 grpc::ServerUnaryReactor* ContactServiceImpl::CreateSession(grpc::CallbackServerContext* context,
                                                             const v1::CreateSessionRequest* request,
                                                             v1::Session* response) {
@@ -293,10 +317,16 @@ grpc::ServerUnaryReactor* ContactServiceImpl::ListSessions(grpc::CallbackServerC
 grpc::ServerUnaryReactor* ContactServiceImpl::DeleteSession(grpc::CallbackServerContext* context,
                                                             const v1::DeleteSessionRequest* request,
                                                             google::protobuf::Empty* /*response*/) {
-  const InlineCall call(context, "DeleteSession", request->name());
-  return call.Run(authenticator_, [&](const Principal& caller) {
-    return operations_.DeleteSession(caller, *request);
-  });
+  // Else on the session's strand: after the calls queued on it, and a journal write off the
+  // transport's threads.
+  return InlineOrQueue(
+      context, "DeleteSession", request->name(), "",
+      [this, request](const Principal& caller) {
+        return operations_.DeleteSessionIfBounded(caller, *request);
+      },
+      [this, request](const Principal& caller, const Interrupt&) {
+        return operations_.DeleteSession(caller, *request);
+      });
 }
 
 grpc::ServerUnaryReactor* ContactServiceImpl::ExportSession(grpc::CallbackServerContext* context,
@@ -320,30 +350,14 @@ grpc::ServerUnaryReactor* ContactServiceImpl::ImportSession(grpc::CallbackServer
 grpc::ServerUnaryReactor* ContactServiceImpl::Apply(grpc::CallbackServerContext* context,
                                                     const v1::ApplyRequest* request,
                                                     v1::ApplyResponse* response) {
-  // A batch whose cost is bounded a priori and small, on a session with nothing queued, is
-  // answered here on the transport's thread (docs/operations.md, "Inline steps"); any other goes
-  // to a worker (an unauthenticated call is refused there).
-  const Clock::time_point start = Clock::now();
-  Principal caller;
-  if (CallerOf(context, authenticator_, &caller).ok()) {
-    std::optional<Status> status;
-    if (executor_.TryRunInline(CallerKeyOf(context, caller), request->session(), [&] {
-          status = operations_.ApplyIfBounded(caller, *request, response);
-          return status.has_value();
-        })) {
-      const grpc::Status sent = ToGrpcStatus(*status);
-      LogCall("Apply", request->session(), RequestIdOf(context, request->request_id()), sent,
-              SecondsSince(start));
-      grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-      reactor->Finish(sent);
-      return reactor;
-    }
-  }
-  return Queue(context, "Apply", request->session(), request->request_id(),
-               [this, request, response](const Principal& caller, const Interrupt& interrupt) {
-                 return operations_.Apply(caller, *request, InterruptionOf(interrupt), response,
-                                          interrupt);
-               });
+  return InlineOrQueue(
+      context, "Apply", request->session(), request->request_id(),
+      [this, request, response](const Principal& caller) {
+        return operations_.ApplyIfBounded(caller, *request, response);
+      },
+      [this, request, response](const Principal& caller, const Interrupt& interrupt) {
+        return operations_.Apply(caller, *request, InterruptionOf(interrupt), response, interrupt);
+      });
 }
 
 grpc::ServerBidiReactor<v1::StreamApplyRequest, v1::StreamApplyResponse>*

@@ -266,11 +266,19 @@ Status ContactOperations::ListSessions(const Principal& caller,
 Status ContactOperations::DeleteSession(const Principal& caller,
                                         const v1::DeleteSessionRequest& request) {
   Status status = sessions_.Erase("name", request.name(), caller);
-  if (status.ok()) {
-    spdlog::info("event=session_deleted session={} sessions={}", LogValue(request.name()),
-                 sessions_.size());
-  }
+  if (status.ok()) LogDeleted(request.name());
   return status;
+}
+
+std::optional<Status> ContactOperations::DeleteSessionIfBounded(
+    const Principal& caller, const v1::DeleteSessionRequest& request) {
+  std::optional<Status> status = sessions_.EraseIfBounded("name", request.name(), caller);
+  if (status && status->ok()) LogDeleted(request.name());
+  return status;
+}
+
+void ContactOperations::LogDeleted(const std::string& name) const {
+  spdlog::info("event=session_deleted session={} sessions={}", LogValue(name), sessions_.size());
 }
 
 Status ContactOperations::ExportSession(const Principal& caller,

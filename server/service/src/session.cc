@@ -98,9 +98,37 @@ void Session::AttachJournal(Journal* journal) {
   journal_ = journal;
 }
 
+Status Session::Remove(const std::function<Status()>& remove_entry) {
+  std::lock_guard lock(mutex_);
+  return RemoveLocked(remove_entry);
+}
+
+std::optional<Status> Session::RemoveIfIdle(const std::function<Status()>& remove_entry) {
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) return std::nullopt;
+  return RemoveLocked(remove_entry);
+}
+
+std::optional<Status> Session::RemoveIfBounded() {
+  if (scene_.has_interface()) return std::nullopt;  // its memory takes long to free
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock() || journal_ != nullptr) return std::nullopt;
+  return RemoveLocked(nullptr);
+}
+
+Status Session::RemoveLocked(const std::function<Status()>& remove_entry) {
+  if (removed()) return NotFound("", name_ + " does not exist (deleted or expired)");
+  if (remove_entry) {
+    if (Status status = remove_entry(); !status.ok()) return status;
+  }
+  removed_.store(true, std::memory_order_release);
+  return OkStatus();
+}
+
 Status Session::CompactJournal() {
   std::lock_guard lock(mutex_);
-  if (journal_ == nullptr || !available() || journal_snapshot_sequence_ == journal_sequence_) {
+  if (journal_ == nullptr || !available() || removed() ||
+      journal_snapshot_sequence_ == journal_sequence_) {
     return OkStatus();
   }
   return CompactJournalLocked();
@@ -164,6 +192,8 @@ bool Session::StraightStepLocked(const v1::Step& step) const {
 Status Session::ApplyLocked(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                             const StepGuard& guard, std::size_t max_response_bytes,
                             v1::ApplyResponse* response, const Interrupt& interrupt) {
+  // Removed while the batch waited for the session: its journal entry may be gone already.
+  if (removed()) return NotFound("session", name_ + " does not exist (deleted or expired)");
   const bool deduplicated = !request.request_id().empty();
   const std::uint64_t fingerprint = deduplicated ? Fingerprint(request) : 0;
   const Stopwatch stopwatch;

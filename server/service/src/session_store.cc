@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <string_view>
 #include <utility>
 
@@ -70,35 +71,47 @@ std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
       ++it;
       continue;
     }
-    if (journal_ != nullptr) {
-      // Gone from memory either way; a session the journal keeps comes back at the next start
-      // and expires again.
-      if (Status status = journal_->RemoveSession(it->first); !status.ok()) {
-        spdlog::error("event=journal_error session={} error={}", LogValue(it->first),
-                      Quoted(status.ToString(), kMaxLoggedErrorBytes));
+    // A session a call holds now is in use, not idle: it stays.
+    const std::optional<Status> removal = it->second->RemoveIfIdle([&] {
+      if (journal_ != nullptr) {
+        // Gone from memory either way; a session the journal keeps comes back at the next start
+        // and expires again.
+        if (Status status = journal_->RemoveSession(it->first); !status.ok()) {
+          spdlog::error("event=journal_error session={} error={}", LogValue(it->first),
+                        Quoted(status.ToString(), kMaxLoggedErrorBytes));
+        }
       }
+      return OkStatus();
+    });
+    if (!removal) {
+      ++it;
+      continue;
     }
-    erased.push_back(it->first);
-    it = EraseLocked(it);
+    if (removal->ok()) erased.push_back(it->first);  // else a deletion removed it already
+    it = sessions_.erase(it);
   }
   return erased;
 }
 
 Status SessionStore::CheckRoomLocked(const Principal& caller) {
-  if (sessions_.size() >= max_sessions_) {
+  // Sessions being created count.
+  if (sessions_.size() + creating_.size() >= max_sessions_) {
     // Expired sessions the sweeper has not reached yet do not count.
     EraseExpiredLocked([](const Session&) { return true; });
   }
-  if (sessions_.size() >= max_sessions_) {
+  if (sessions_.size() + creating_.size() >= max_sessions_) {
     return ResourceExhausted("", "the server holds its maximum of " +
                                      std::to_string(max_sessions_) +
                                      " sessions (--max-sessions); delete unused ones");
   }
   if (!caller || max_sessions_per_owner_ == 0) return OkStatus();
   auto owned = [&] {
-    return static_cast<std::size_t>(std::count_if(
-        sessions_.begin(), sessions_.end(),
-        [&](const Map::value_type& entry) { return entry.second->owner() == *caller; }));
+    return static_cast<std::size_t>(
+        std::count_if(
+            sessions_.begin(), sessions_.end(),
+            [&](const Map::value_type& entry) { return entry.second->owner() == *caller; }) +
+        std::count_if(creating_.begin(), creating_.end(),
+                      [&](const auto& entry) { return entry.second == *caller; }));
   };
   if (owned() >= max_sessions_per_owner_) {
     EraseExpiredLocked([&](const Session& session) { return session.owner() == *caller; });
@@ -122,22 +135,32 @@ Status SessionStore::Create(const std::string& id_field, const std::string& sess
   if (session_id.empty()) {
     do {
       name = kCollection + GenerateSessionId();
-    } while (sessions_.contains(name));
+    } while (sessions_.contains(name) || creating_.contains(name));
   }
+  if (creating_.contains(name)) return AlreadyExists(id_field, name + " already exists");
   if (auto it = sessions_.find(name); it != sessions_.end()) {
-    // Names are global: a name taken by someone else's session is taken for the caller too.
-    if (!it->second->IsExpired(Session::Clock::now())) {
-      return AlreadyExists(id_field, name + " already exists");
-    }
-    EraseLocked(it);  // the journal entry is replaced below
+    // Names are global: a name taken by someone else's session is taken for the caller too. An
+    // expired session that a call holds is in use: still there. The journal entry of a replaced
+    // one is replaced below.
+    const bool replaceable =
+        it->second->removed() || (it->second->IsExpired(Session::Clock::now()) &&
+                                  it->second->RemoveIfIdle(nullptr).has_value());
+    if (!replaceable) return AlreadyExists(id_field, name + " already exists");
+    sessions_.erase(it);
   }
   auto created = std::make_shared<Session>(name, std::move(state));
-  if (journal_ != nullptr) {
+  if (Journal* journal = journal_; journal != nullptr) {
+    // The name is held meanwhile, and the store's lock is not: every other lookup goes on while
+    // the snapshot (of up to --max-message-bytes) is written.
+    creating_.emplace(name, created->owner());
+    lock.unlock();
     v1::SessionSnapshot snapshot;
     created->Export(&snapshot);
-    Status status = journal_->AddSession(name, created->owner(), created->create_time(), snapshot);
+    Status status = journal->AddSession(name, created->owner(), created->create_time(), snapshot);
+    if (status.ok()) created->AttachJournal(journal);
+    lock.lock();
+    creating_.erase(name);
     if (!status.ok()) return status;
-    created->AttachJournal(journal_);
   }
   sessions_.emplace(name, created);
   *session = std::move(created);
@@ -155,7 +178,9 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
   {
     std::shared_lock lock(mutex_);
     auto it = sessions_.find(name);
-    if (it == sessions_.end() || !it->second->VisibleTo(caller)) return NotFound(field, name);
+    if (it == sessions_.end() || it->second->removed() || !it->second->VisibleTo(caller)) {
+      return NotFound(field, name);
+    }
     if (TakeIfUnexpired(it->second, session)) return OkStatus();
   }
   std::unique_lock lock(mutex_);
@@ -182,20 +207,38 @@ Status SessionStore::Erase(const std::string& field, const std::string& name,
                            const Principal& caller) {
   std::shared_ptr<Session> session;
   if (Status status = Find(field, name, caller, &session); !status.ok()) return status;
-  std::unique_lock lock(mutex_);
-  // A concurrent delete may have won; deleting twice reports NOT_FOUND once.
-  auto it = sessions_.find(name);
-  if (it == sessions_.end() || it->second != session) return NotFound(field, name);
-  if (journal_ != nullptr) {
-    if (Status status = journal_->RemoveSession(name); !status.ok()) return status;
+  Journal* journal = nullptr;
+  {
+    std::shared_lock lock(mutex_);
+    journal = journal_;
   }
-  EraseLocked(it);
-  return OkStatus();
+  // Under the session's mutex, not the store's: the journal's write (and a batch running on the
+  // session, which commits first) keeps no other session's lookup waiting. A concurrent delete
+  // may have won; deleting twice reports NOT_FOUND once.
+  return FinishErase(field, session, session->Remove([&] {
+    return journal != nullptr ? journal->RemoveSession(name) : OkStatus();
+  }));
 }
 
-SessionStore::Map::iterator SessionStore::EraseLocked(Map::iterator it) {
-  it->second->MarkRemoved();
-  return sessions_.erase(it);
+std::optional<Status> SessionStore::EraseIfBounded(const std::string& field,
+                                                   const std::string& name,
+                                                   const Principal& caller) {
+  std::shared_ptr<Session> session;
+  if (Status status = Find(field, name, caller, &session); !status.ok()) return status;
+  std::optional<Status> removal = session->RemoveIfBounded();
+  if (!removal) return std::nullopt;
+  return FinishErase(field, session, *removal);
+}
+
+Status SessionStore::FinishErase(const std::string& field, const std::shared_ptr<Session>& session,
+                                 const Status& removal) {
+  if (removal.code() == StatusCode::kNotFound) return NotFound(field, session->name());
+  if (!removal.ok()) return removal;
+  std::unique_lock lock(mutex_);
+  if (auto it = sessions_.find(session->name()); it != sessions_.end() && it->second == session) {
+    sessions_.erase(it);
+  }
+  return OkStatus();
 }
 
 std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string& after,
@@ -205,7 +248,7 @@ std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string&
   std::vector<std::shared_ptr<Session>> page;
   const auto now = Session::Clock::now();
   auto listed = [&](const Session& session) {
-    return session.VisibleTo(caller) && !session.IsExpired(now);
+    return session.VisibleTo(caller) && !session.removed() && !session.IsExpired(now);
   };
   std::shared_lock lock(mutex_);
   auto it = after.empty() ? sessions_.begin() : sessions_.upper_bound(after);

@@ -2,10 +2,11 @@
 // request to ContactOperations and finishes the call with the result; StreamApply runs a
 // StreamApplyReactor. No physics and no validation rules here.
 //
-// Execution model (docs/operations.md): the cheap calls (GetSession, ListSessions, DeleteSession)
-// run inline on gRPC's thread. The computing calls (CreateSession, ImportSession, ExportSession,
-// Apply, Query, Transform and every StreamApply message) are authenticated inline and then queued
-// on the Executor, on their session's strand; the worker finishes the reactor. A full queue
+// Execution model (docs/operations.md): the cheap calls (GetSession, ListSessions) run inline on
+// gRPC's thread. The computing calls (CreateSession, ImportSession, ExportSession, Apply, Query,
+// Transform, every StreamApply message) and DeleteSession (a journal write, and it waits for a
+// batch running on its session) are authenticated inline and then queued on the Executor, on
+// their session's strand; the worker finishes the reactor. A full queue
 // answers UNAVAILABLE at once; a call whose deadline passed (or that was cancelled) while queued
 // is not run.
 #pragma once
@@ -121,6 +122,14 @@ class ContactServiceImpl final : public v1::ContactService::CallbackService {
   grpc::ServerUnaryReactor* Queue(grpc::CallbackServerContext* context, const char* method,
                                   const std::string& strand, const std::string& request_id,
                                   Operation operation);
+  // A call whose cost is bounded a priori and small, on a strand with nothing queued, answered
+  // here on the transport's thread (docs/operations.md, "Inline steps"): bounded(caller) returns
+  // its status, or nullopt to decline, having done nothing. Any other call goes to Queue (an
+  // unauthenticated one is refused there).
+  template <typename Bounded, typename Operation>
+  grpc::ServerUnaryReactor* InlineOrQueue(grpc::CallbackServerContext* context, const char* method,
+                                          const std::string& strand, const std::string& request_id,
+                                          Bounded bounded, Operation operation);
 
   ContactOperations& operations_;
   const Authenticator* const authenticator_;

@@ -1,6 +1,6 @@
 // The bounded worker pool that runs the computing calls (Apply, each StreamApply message, Query,
-// ExportSession, Transform, CreateSession, ImportSession, the analyses) off gRPC's threads, so
-// that cheap calls (health, GetSession, ListSessions, DeleteSession) answered inline never wait
+// ExportSession, Transform, CreateSession, ImportSession, DeleteSession, the analyses) off gRPC's
+// threads, so that cheap calls (health, GetSession, ListSessions) answered inline never wait
 // behind them.
 //
 // Every task belongs to a caller (a token's principal, or a peer's address without

@@ -65,6 +65,10 @@ class ContactOperations {
   Status ListSessions(const Principal& caller, const v1::ListSessionsRequest& request,
                       v1::ListSessionsResponse* response);
   Status DeleteSession(const Principal& caller, const v1::DeleteSessionRequest& request);
+  // DeleteSession if its cost is bounded a priori and small (SessionStore::EraseIfBounded), for
+  // a transport thread; nullopt otherwise, nothing done.
+  std::optional<Status> DeleteSessionIfBounded(const Principal& caller,
+                                               const v1::DeleteSessionRequest& request);
   Status ExportSession(const Principal& caller, const v1::ExportSessionRequest& request,
                        v1::SessionSnapshot* response);
   // interrupt: as for CreateSession.
@@ -96,6 +100,7 @@ class ContactOperations {
   const ServiceLimits& limits() const { return limits_; }
 
  private:
+  void LogDeleted(const std::string& name) const;
   // SessionStore::Find, or FindAgain with last_found when given.
   Status FindSession(const Principal& caller, const std::string& name,
                      std::weak_ptr<Session>* last_found, std::shared_ptr<Session>* session);

@@ -143,12 +143,25 @@ class Session {
   void Touch(Clock::time_point now = Clock::now());
   bool IsExpired(Clock::time_point now) const;
 
-  // Set by the SessionStore when it lets go of the session (deleted, expired, replaced), before
-  // it does; a reference kept from an earlier lookup is then no longer the session of its name.
-  void MarkRemoved() { removed_.store(true, std::memory_order_release); }
+  // How the SessionStore lets go of the session (deleted, expired, replaced), before it erases
+  // it: under the session's mutex, so that no batch commits on it afterwards. A batch running now
+  // commits (and is journaled) first; a later one fails with NOT_FOUND, so no batch is journaled
+  // after the session's entry was deleted. remove_entry (the deletion of the journal entry; may
+  // be empty) runs first: if it fails, its status is returned and nothing changes. NOT_FOUND
+  // (field empty) if the session was removed already.
+  Status Remove(const std::function<Status()>& remove_entry);
+  // Remove, unless a call holds the session now (it is in use, so not idle): nullopt, nothing
+  // done. Never waits: for the store's sweeps under its own lock.
+  std::optional<Status> RemoveIfIdle(const std::function<Status()>& remove_entry);
+  // Remove (without a journal entry to delete) if its cost is bounded a priori and small
+  // (docs/operations.md, "Inline steps"): a single contact, not journaled, held by no call;
+  // nullopt otherwise, nothing done.
+  std::optional<Status> RemoveIfBounded();
+  // A reference kept from an earlier lookup is no longer the session of its name once removed.
   bool removed() const { return removed_.load(std::memory_order_acquire); }
 
  private:
+  Status RemoveLocked(const std::function<Status()>& remove_entry);
   Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
                   const StepGuard& guard, std::size_t max_response_bytes,
                   v1::ApplyResponse* response, const Interrupt& interrupt);
@@ -218,7 +231,7 @@ class Session {
   const int max_message_bytes_;
   const std::size_t scene_bytes_;
   std::atomic<Clock::rep> last_used_;
-  std::atomic<bool> removed_{false};
+  std::atomic<bool> removed_{false};  // set under mutex_
 
   mutable std::mutex mutex_;
   std::optional<Contact> contact_;  // guarded by mutex_; unset: unavailable

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <shared_mutex>
 #include <string>
@@ -40,8 +41,13 @@ class SessionStore {
   // and *last_found is replaced by what it finds.
   Status FindAgain(const std::string& field, const std::string& name, const Principal& caller,
                    std::weak_ptr<Session>* last_found, std::shared_ptr<Session>* session);
-  // As Find, then deletes it (UNAVAILABLE if the journal fails: then it is kept).
+  // As Find, then deletes it (UNAVAILABLE if the journal fails: then it is kept). Waits for a
+  // batch running on the session (Session::Remove): for a worker, on the session's strand.
   Status Erase(const std::string& field, const std::string& name, const Principal& caller);
+  // Erase if its cost is bounded a priori and small (Session::RemoveIfBounded), for a transport
+  // thread; nullopt otherwise, nothing done.
+  std::optional<Status> EraseIfBounded(const std::string& field, const std::string& name,
+                                       const Principal& caller);
 
   // Up to page_size live sessions visible to the caller with names after `after` (empty: from
   // the first), in name order; *more tells whether further ones follow.
@@ -73,18 +79,23 @@ class SessionStore {
   // Frees room (expired sessions) and checks the limits for a new session of the caller; the
   // caller holds mutex_ exclusively.
   Status CheckRoomLocked(const Principal& caller);
+  // After Session::Remove (or RemoveIfBounded) returned `removal`: erases the session from the
+  // map if it succeeded; the status to answer.
+  Status FinishErase(const std::string& field, const std::shared_ptr<Session>& session,
+                     const Status& removal);
   // Erases expired sessions matching `which` (and journals it); returns their names.
   template <typename Predicate>
   std::vector<std::string> EraseExpiredLocked(Predicate which);
-  // Every session leaves the map here (Session::MarkRemoved first); the next entry.
-  Map::iterator EraseLocked(Map::iterator it);
 
   const std::size_t max_sessions_;
   const std::size_t max_sessions_per_owner_;
   mutable std::shared_mutex mutex_;
-  Map sessions_;                  // guarded by mutex_
-  std::mt19937_64 id_generator_;  // guarded by mutex_
-  Journal* journal_ = nullptr;    // guarded by mutex_
+  Map sessions_;  // guarded by mutex_
+  // Sessions being journaled by Create, not yet in sessions_: name -> owner. Their names are
+  // taken, and they count toward the limits.
+  std::map<std::string, std::string> creating_;  // guarded by mutex_
+  std::mt19937_64 id_generator_;                 // guarded by mutex_
+  Journal* journal_ = nullptr;                   // guarded by mutex_
 };
 
 }  // namespace mdr::service
