@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <future>
 #include <thread>
 
 #include "mdr/service/conversion.h"
@@ -123,7 +124,9 @@ TEST(SessionStoreTest, AnExpiredSessionIsGoneAndErased) {
   CreateOrDie(store, "long");
   std::shared_ptr<Session> found;
   EXPECT_EQ(store.Find("name", "sessions/short", {}, &found).code(), StatusCode::kNotFound);
-  EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{});  // Find erased it already
+  // Erased by the sweep, not by the lookup (which may run on a transport thread).
+  EXPECT_EQ(store.size(), 2u);
+  EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{"sessions/short"});
   EXPECT_EQ(store.size(), 1u);
   // Its name is free again.
   CreateOrDie(store, "short");
@@ -175,8 +178,49 @@ TEST(SessionStoreTest, FindAgainDoesNotReuseAnExpiredSession) {
   std::shared_ptr<Session> found;
   EXPECT_EQ(store.FindAgain("session", "sessions/short", {}, &last, &found).code(),
             StatusCode::kNotFound);
-  EXPECT_EQ(store.size(), 0u);  // erased, as Find erases it
+  EXPECT_FALSE(session->removed()) << "left to the sweep";
+  EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{"sessions/short"});
   EXPECT_TRUE(session->removed());
+  last = session;
+  EXPECT_EQ(store.FindAgain("session", "sessions/short", {}, &last, &found).code(),
+            StatusCode::kNotFound);
+}
+
+// A sweep leaves an expired session that a call holds (it is in use, and the call may journal):
+// the batch commits, and a later sweep erases the session.
+TEST(SessionStoreTest, ASweepLeavesAnExpiredSessionThatACallHolds) {
+  SessionStore store(100, 0);
+  const std::shared_ptr<Session> session = CreateExpiredOrDie(store, "busy");
+  ASSERT_NE(session, nullptr);
+  std::promise<void> entered, release;
+  std::shared_future<void> released = release.get_future().share();
+  std::thread batch([&] {
+    v1::ApplyResponse response;
+    const Status status = session->Apply(
+        ApplyRequestFor(session->name(), {DepthStep(kDepth)}), {},
+        [&](int) {
+          entered.set_value();
+          released.wait();
+          return OkStatus();
+        },
+        std::size_t{1} << 20, &response);
+    EXPECT_TRUE(status.ok()) << status.ToString();
+  });
+  entered.get_future().wait();
+  EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{});
+  EXPECT_FALSE(session->removed());
+  release.set_value();
+  batch.join();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));  // expired again after its use
+  EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{"sessions/busy"});
+  EXPECT_TRUE(session->removed());
+  v1::ApplyResponse response;
+  EXPECT_EQ(session
+                ->Apply(ApplyRequestFor(session->name(), {DepthStep(kDepth)}), {}, {},
+                        std::size_t{1} << 20, &response)
+                .code(),
+            StatusCode::kNotFound)
+      << "a batch on a removed session";
 }
 
 }  // namespace

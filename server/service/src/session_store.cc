@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string_view>
@@ -62,43 +63,42 @@ SessionStore::SessionStore(std::size_t max_sessions, std::size_t max_sessions_pe
       max_sessions_per_owner_(max_sessions_per_owner),
       id_generator_(std::random_device{}()) {}
 
-template <typename Predicate>
-std::vector<std::string> SessionStore::EraseExpiredLocked(Predicate which) {
-  std::vector<std::string> erased;
-  const auto now = Session::Clock::now();
-  for (auto it = sessions_.begin(); it != sessions_.end();) {
-    if (!which(*it->second) || !it->second->IsExpired(now)) {
-      ++it;
-      continue;
+std::vector<std::string> SessionStore::EraseExpired(
+    const std::function<bool(const Session&)>& which) {
+  std::vector<std::shared_ptr<Session>> expired;
+  Journal* journal = nullptr;
+  {
+    const auto now = Session::Clock::now();
+    std::shared_lock lock(mutex_);
+    journal = journal_;
+    for (const auto& [name, session] : sessions_) {
+      if ((!which || which(*session)) && session->IsExpired(now)) expired.push_back(session);
     }
+  }
+  // Each under its own mutex, not the store's: other lookups go on during the journal's writes.
+  std::vector<std::string> erased;
+  for (const std::shared_ptr<Session>& session : expired) {
     // A session a call holds now is in use, not idle: it stays.
-    const std::optional<Status> removal = it->second->RemoveIfIdle([&] {
-      if (journal_ != nullptr) {
+    const std::optional<Status> removal = session->RemoveIfIdle([&] {
+      if (journal != nullptr) {
         // Gone from memory either way; a session the journal keeps comes back at the next start
         // and expires again.
-        if (Status status = journal_->RemoveSession(it->first); !status.ok()) {
-          spdlog::error("event=journal_error session={} error={}", LogValue(it->first),
+        if (Status status = journal->RemoveSession(session->name()); !status.ok()) {
+          spdlog::error("event=journal_error session={} error={}", LogValue(session->name()),
                         Quoted(status.ToString(), kMaxLoggedErrorBytes));
         }
       }
       return OkStatus();
     });
-    if (!removal) {
-      ++it;
-      continue;
-    }
-    if (removal->ok()) erased.push_back(it->first);  // else a deletion removed it already
-    it = sessions_.erase(it);
+    if (!removal || !removal->ok()) continue;  // in use, or a deletion removed it already
+    (void)FinishErase("", session, *removal);
+    erased.push_back(session->name());
   }
   return erased;
 }
 
-Status SessionStore::CheckRoomLocked(const Principal& caller) {
+Status SessionStore::CheckRoomLocked(const Principal& caller) const {
   // Sessions being created count.
-  if (sessions_.size() + creating_.size() >= max_sessions_) {
-    // Expired sessions the sweeper has not reached yet do not count.
-    EraseExpiredLocked([](const Session&) { return true; });
-  }
   if (sessions_.size() + creating_.size() >= max_sessions_) {
     return ResourceExhausted("", "the server holds its maximum of " +
                                      std::to_string(max_sessions_) +
@@ -114,9 +114,6 @@ Status SessionStore::CheckRoomLocked(const Principal& caller) {
                       [&](const auto& entry) { return entry.second == *caller; }));
   };
   if (owned() >= max_sessions_per_owner_) {
-    EraseExpiredLocked([&](const Session& session) { return session.owner() == *caller; });
-  }
-  if (owned() >= max_sessions_per_owner_) {
     return ResourceExhausted("", "your token holds its maximum of " +
                                      std::to_string(max_sessions_per_owner_) +
                                      " sessions (--max-sessions-per-token); delete unused ones");
@@ -130,7 +127,17 @@ Status SessionStore::Create(const std::string& id_field, const std::string& sess
   if (Status status = CheckSessionId(id_field, session_id); !status.ok()) return status;
   state.owner = caller.value_or("");
   std::unique_lock lock(mutex_);
-  if (Status status = CheckRoomLocked(caller); !status.ok()) return status;
+  if (Status status = CheckRoomLocked(caller); !status.ok()) {
+    // Expired sessions the sweeper has not reached yet do not count: erased (outside the lock;
+    // every one if the server is full, else the caller's), then the limits checked again.
+    const bool server_full = sessions_.size() + creating_.size() >= max_sessions_;
+    lock.unlock();
+    EraseExpired([&](const Session& session) {
+      return server_full || session.owner() == caller.value_or("");
+    });
+    lock.lock();
+    if (status = CheckRoomLocked(caller); !status.ok()) return status;
+  }
   std::string name = kCollection + session_id;
   if (session_id.empty()) {
     do {
@@ -183,8 +190,7 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
     }
     if (TakeIfUnexpired(it->second, session)) return OkStatus();
   }
-  std::unique_lock lock(mutex_);
-  EraseExpiredLocked([&](const Session& expired) { return expired.name() == name; });
+  // Expired: erased by the sweeper (or a creation that needs the room), not on this thread.
   return NotFound(field, name);
 }
 
@@ -258,11 +264,6 @@ std::vector<std::shared_ptr<Session>> SessionStore::ListAfter(const std::string&
   while (it != sessions_.end() && !listed(*it->second)) ++it;
   *more = it != sessions_.end();
   return page;
-}
-
-std::vector<std::string> SessionStore::EraseExpired() {
-  std::unique_lock lock(mutex_);
-  return EraseExpiredLocked([](const Session&) { return true; });
 }
 
 bool SessionStore::AddRestored(std::shared_ptr<Session> session) {

@@ -1,11 +1,12 @@
 // The thread-safe set of sessions, ordered by name (stable pages for ListSessions). Sessions
 // whose idle timeout ran out are invisible at once and erased by EraseExpired (the server's
-// sweeper) or on the next lookup. A session is visible only to its owner (Session::VisibleTo):
-// to anyone else it does not exist. With a journal, every session added or erased is journaled
-// (an added one before it becomes visible).
+// sweeper, or a creation that needs their room). A session is visible only to its owner
+// (Session::VisibleTo): to anyone else it does not exist. With a journal, every session added or
+// erased is journaled (an added one before it becomes visible).
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -54,8 +55,10 @@ class SessionStore {
   std::vector<std::shared_ptr<Session>> ListAfter(const std::string& after, std::size_t page_size,
                                                   const Principal& caller, bool* more) const;
 
-  // Erases the sessions whose idle timeout ran out; returns their names.
-  std::vector<std::string> EraseExpired();
+  // Erases the sessions whose idle timeout ran out (those `which` selects; empty: all), but one
+  // that a call holds now (it is in use); returns their names. The journal's deletions run
+  // outside the store's lock.
+  std::vector<std::string> EraseExpired(const std::function<bool(const Session&)>& which = {});
 
   // Adds a session restored from the journal (not journaled again); false if the name is taken.
   bool AddRestored(std::shared_ptr<Session> session);
@@ -76,16 +79,13 @@ class SessionStore {
  private:
   using Map = std::map<std::string, std::shared_ptr<Session>>;
   std::string GenerateSessionId();
-  // Frees room (expired sessions) and checks the limits for a new session of the caller; the
-  // caller holds mutex_ exclusively.
-  Status CheckRoomLocked(const Principal& caller);
+  // Checks the limits for a new session of the caller (sessions being created count); the
+  // caller holds mutex_.
+  Status CheckRoomLocked(const Principal& caller) const;
   // After Session::Remove (or RemoveIfBounded) returned `removal`: erases the session from the
   // map if it succeeded; the status to answer.
   Status FinishErase(const std::string& field, const std::shared_ptr<Session>& session,
                      const Status& removal);
-  // Erases expired sessions matching `which` (and journals it); returns their names.
-  template <typename Predicate>
-  std::vector<std::string> EraseExpiredLocked(Predicate which);
 
   const std::size_t max_sessions_;
   const std::size_t max_sessions_per_owner_;
