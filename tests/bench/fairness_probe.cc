@@ -4,7 +4,8 @@
 // (this program again, --abuse), and bob's probe (this process).
 //   build/release/tests/bench/mdr_fairness --mdrd build/release/server/mdrd/mdrd
 //                                          [--seconds S] [--streams N] [--heavy-clients N]
-//                                          [--alice-competes] [--mdrd-arg=--flag ...]
+//                                          [--alice-competes] [--journal FILE]
+//                                          [--mdrd-arg=--flag ...]
 //
 // Bob's probe: a one-step Apply on his loaded H1 session every 2 ms (partial-slip cycling), its
 // round-trip time and whether it succeeded. Measured alone (quiet), then while alice
@@ -264,6 +265,7 @@ struct Settings {
   int heavy_clients = 4;
   std::vector<std::string> mdrd_args;  // passed on to mdrd
   bool alice_competes = false;         // her client at normal priority instead of SCHED_IDLE
+  std::string journal;                 // mdrd's journal file; empty: --no-journal
   std::string abuse;                   // child mode: "streams" or "heavy"
   std::string connect;                 // child mode: mdrd's address
 };
@@ -280,6 +282,9 @@ Settings Parse(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   app.add_option("--mdrd-arg", settings.mdrd_args,
                  "an argument passed on to mdrd (repeat: --mdrd-arg=--workers --mdrd-arg=4)");
+  app.add_option("--journal", settings.journal,
+                 "mdrd journals to this file (created; removed at the end) instead of running "
+                 "without a journal");
   app.add_flag("--alice-competes", settings.alice_competes,
                "run alice's client at normal priority (default: SCHED_IDLE, as if on its own "
                "machine)");
@@ -355,13 +360,24 @@ void Stop(pid_t pid) {
   waitpid(pid, &status, 0);
 }
 
-// Starts mdrd with the two tokens and no journal; returns its address once it serves.
+// Starts mdrd with the two tokens, and a journal if one is asked for; returns its address once
+// it serves.
 std::string StartMdrd(const Settings& settings, const std::string& tokens, pid_t* pid) {
   int output = -1;
-  std::vector<std::string> command = {
-      settings.mdrd,   "--listen", "127.0.0.1:0",         "--no-journal",
-      "--tokens-file", tokens,     "--max-message-bytes", std::to_string(64 << 20),
-      "--log-level",   "info"};
+  std::vector<std::string> command = {settings.mdrd,
+                                      "--listen",
+                                      "127.0.0.1:0",
+                                      "--tokens-file",
+                                      tokens,
+                                      "--max-message-bytes",
+                                      std::to_string(64 << 20),
+                                      "--log-level",
+                                      "info"};
+  if (settings.journal.empty()) {
+    command.push_back("--no-journal");
+  } else {
+    command.insert(command.end(), {"--journal", settings.journal});
+  }
   command.insert(command.end(), settings.mdrd_args.begin(), settings.mdrd_args.end());
   *pid = Spawn(command, &output);
   FILE* log = fdopen(output, "r");
@@ -459,5 +475,10 @@ int main(int argc, char** argv) {
                 alice_cores);
   }
   Stop(mdrd);
+  if (!settings.journal.empty()) {
+    for (const char* suffix : {"", "-wal", "-shm", ".commit"}) {
+      std::filesystem::remove(settings.journal + suffix);
+    }
+  }
   return never_refused ? EXIT_SUCCESS : EXIT_FAILURE;
 }

@@ -4,7 +4,8 @@
 // replaying its batches through Session::Apply; compaction replaces the snapshot and deletes the
 // batches it covers. Every write is one transaction and returns once SQLite has committed it
 // (durability against power loss depends on JournalSync). One process at a time: the database is
-// locked exclusively while open.
+// locked against other processes while open (an flock on the database file). Checkpoints run
+// on a thread of their own, so that no commit waits for their fsyncs.
 //
 // Damage is detected, never accepted silently: at open the schema is compared with this format's
 // and PRAGMA quick_check runs; every row carries a CRC-32 of its content and a session's batches
@@ -21,10 +22,13 @@
 
 #include <google/protobuf/timestamp.pb.h>
 
+#include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mdr/base/status.h"
@@ -142,6 +146,10 @@ class Journal {
   Status RemoveSession(const std::string& session);
 
   const JournalOptions& options() const { return options_; }
+  // Write-ahead log pages after which the checkpointer copies the log into the database.
+  static constexpr int kCheckpointPages = 1000;
+  // Checkpoints the checkpointer has completed (tests).
+  std::uint64_t checkpoints() const { return checkpoints_.load(std::memory_order_relaxed); }
 
  private:
   explicit Journal(const JournalOptions& options) : options_(options) {}
@@ -153,8 +161,15 @@ class Journal {
   // Reads the database's commit counter and compares the side file's with it.
   void CheckCommits(std::vector<std::string>* damage);
   Status Prepare();
-  // Finalizes the statements and closes the database (without a checkpoint when `keep_log`).
+  // Stops the checkpointer, finalizes the statements and closes the database (without a
+  // checkpoint when `keep_log`), then lets go of the lock.
   void Disconnect(bool keep_log);
+  // A thread with its own connection that checkpoints when a commit finds kCheckpointPages in
+  // the log (OnWalCommit, SQLite's WAL hook), so that no caller's commit waits for it.
+  Status StartCheckpointer();
+  void StopCheckpointer();
+  void Checkpoint(sqlite3* db);
+  static int OnWalCommit(void* journal, sqlite3* db, const char* name, int pages);
   // Every intact session; what is damaged is described in *damage and left out.
   void ReadSessions(std::vector<JournaledSession>* sessions, std::vector<std::string>* damage);
   void ReadRequests(JournaledSession* session, std::vector<std::string>* damage);
@@ -187,11 +202,19 @@ class Journal {
   std::mutex mutex_;  // one statement or transaction at a time
   std::vector<std::string> recovery_drops_;
   sqlite3* db_ = nullptr;
-  int commit_file_ = -1;              // the side file "<path>.commit"
-  std::uint64_t commits_ = 0;         // the commit counter of the last commit
-  std::uint64_t side_commits_ = 0;    // the side file's counter when opened
-  bool checkpoint_on_close_ = false;  // opened and checked
-  bool below_floor_ = false;          // the room was below min_free_bytes at the last check
+  int commit_file_ = -1;  // the side file "<path>.commit"
+  int lock_file_ = -1;    // the database file, flock'ed: one process at a time
+  std::thread checkpointer_;
+  std::mutex checkpoint_mutex_;
+  std::condition_variable checkpoint_wakeup_;
+  bool checkpoint_wanted_ = false;  // guarded by checkpoint_mutex_
+  bool checkpoint_stop_ = false;    // guarded by checkpoint_mutex_
+  std::atomic<std::uint64_t> checkpoints_{0};
+  int pages_at_checkpoint_request_ = 0;  // the log's pages when a checkpoint was last asked for
+  std::uint64_t commits_ = 0;            // the commit counter of the last commit
+  std::uint64_t side_commits_ = 0;       // the side file's counter when opened
+  bool checkpoint_on_close_ = false;     // opened and checked
+  bool below_floor_ = false;             // the room was below min_free_bytes at the last check
   sqlite3_stmt* begin_ = nullptr;
   sqlite3_stmt* commit_ = nullptr;
   sqlite3_stmt* rollback_ = nullptr;
