@@ -188,12 +188,11 @@ std::optional<std::uint64_t> DecodeCommitSlot(const unsigned char* slot) {
   return commits;
 }
 
-// Creates the file with mode 0600 if it does not exist (SQLite gives its -wal and -shm files
-// the database file's mode).
-// Opens (creating it, mode 0600) the database file and takes the lock that keeps every other
-// process out: an flock, independent of SQLite's POSIX locks. The descriptor is kept (and
-// closed only after SQLite's connections: closing any descriptor of the file drops the process's
-// POSIX locks on it); -1 and *error otherwise.
+// Opens the database file, creating it with mode 0600 (SQLite gives its -wal and -shm files the
+// database file's mode), and takes the lock that keeps every other process out: an flock,
+// independent of SQLite's POSIX locks. The descriptor is kept, and closed only after SQLite's
+// connections (closing any descriptor of the file drops the process's POSIX locks on it); -1 and
+// *error otherwise.
 int CreatePrivatelyAndLock(const std::string& path, std::string* error) {
   const int file = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (file < 0) {
@@ -201,7 +200,8 @@ int CreatePrivatelyAndLock(const std::string& path, std::string* error) {
     return -1;
   }
   if (::flock(file, LOCK_EX | LOCK_NB) != 0) {
-    *error = errno == EWOULDBLOCK ? "database is locked" : std::strerror(errno);
+    *error = errno == EWOULDBLOCK ? "database is locked (is another mdrd using it?)"
+                                  : std::strerror(errno);
     ::close(file);
     return -1;
   }
@@ -315,7 +315,7 @@ Status Journal::Connect(std::vector<std::string>* damage) {
   const std::string& path = options_.path;
   std::string error;
   lock_file_ = CreatePrivatelyAndLock(path, &error);
-  if (lock_file_ < 0) return Unusable(path, error + " (is another mdrd using it?)");
+  if (lock_file_ < 0) return Unusable(path, error);
   if (sqlite3_open_v2(path.c_str(), &db_,
                       SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
                       nullptr) != SQLITE_OK) {
@@ -323,7 +323,7 @@ Status Journal::Connect(std::vector<std::string>* damage) {
   }
   // Normal locking (the flock above keeps other processes out), so that the checkpointer's own
   // connection can checkpoint while this one writes. No automatic checkpoints: one would run on
-  // the committing thread, under mutex_, and its fsyncs (5-16 ms measured here) would hold every
+  // the committing thread, under mutex_, and its fsyncs (5-20 ms measured here) would hold every
   // caller's commit.
   if (!Execute("PRAGMA journal_mode=WAL", &error) ||
       !Execute("PRAGMA wal_autocheckpoint=0", &error) ||
@@ -552,7 +552,7 @@ Status Journal::StartCheckpointer() {
   sqlite3_wal_hook(db_, &Journal::OnWalCommit, this);
   checkpoint_stop_ = false;
   pages_at_checkpoint_request_ = 0;
-  checkpointer_ = std::thread([this, db] { Checkpoint(db); });
+  checkpointer_ = std::thread([this, db] { RunCheckpointer(db); });
   return OkStatus();
 }
 
@@ -569,7 +569,7 @@ void Journal::StopCheckpointer() {
 // PASSIVE: copies the committed frames into the database and syncs it (as synchronous says)
 // without taking the writer's lock, so commits go on meanwhile; the writer starts the log over
 // once a checkpoint has copied all of it.
-void Journal::Checkpoint(sqlite3* db) {
+void Journal::RunCheckpointer(sqlite3* db) {
   std::unique_lock lock(checkpoint_mutex_);
   while (true) {
     checkpoint_wakeup_.wait(lock, [this] { return checkpoint_wanted_ || checkpoint_stop_; });

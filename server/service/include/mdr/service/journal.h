@@ -168,7 +168,7 @@ class Journal {
   // the log (OnWalCommit, SQLite's WAL hook), so that no caller's commit waits for it.
   Status StartCheckpointer();
   void StopCheckpointer();
-  void Checkpoint(sqlite3* db);
+  void RunCheckpointer(sqlite3* db);  // the thread's loop, on its connection `db`
   static int OnWalCommit(void* journal, sqlite3* db, const char* name, int pages);
   // Every intact session; what is damaged is described in *damage and left out.
   void ReadSessions(std::vector<JournaledSession>* sessions, std::vector<std::string>* damage);
