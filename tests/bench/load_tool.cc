@@ -35,7 +35,8 @@
 // median over the rounds; latencies percentiles over every call: per call (unary), per message
 // from write to answer (stream, including the wait behind the messages ahead of it in the
 // window). The server's own compute time per step (ApplyResponse.compute_seconds) is reported
-// beside them.
+// beside them, and the context switches of the whole process per call or message on each side
+// (getrusage: the client threads' waits count with the servers', alike on every side).
 #include <grpc/grpc.h>
 #include <grpcpp/create_channel.h>
 #include <grpcpp/generic/generic_stub.h>
@@ -45,6 +46,7 @@
 #include <grpcpp/server_builder.h>
 #include <sched.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -247,6 +249,7 @@ struct ThreadTally {
 struct Round {
   std::vector<ThreadTally> tallies;
   double seconds = 0;
+  std::int64_t context_switches = 0;  // of the whole process: clients and servers alike
   std::int64_t steps() const {
     std::int64_t steps = 0;
     for (const ThreadTally& tally : tallies) steps += tally.steps;
@@ -268,7 +271,9 @@ struct RunFigures {
   double p99_us = 0;
   double p999_us = 0;
   double compute_seconds = 0;
+  std::int64_t context_switches = 0;
   double compute_ns_per_step() const { return compute_seconds / steps * 1e9; }
+  double context_switches_per_call() const { return static_cast<double>(context_switches) / calls; }
 };
 
 // Nearest-rank percentile of sorted values.
@@ -295,6 +300,7 @@ RunFigures Summarise(const std::vector<Round>& rounds) {
       latencies.insert(latencies.end(), tally.latencies_us.begin(), tally.latencies_us.end());
     }
     figures.seconds += round.seconds;
+    figures.context_switches += round.context_switches;
     figures.calls += round_calls;
     figures.steps += round.steps();
     steps_per_second.push_back(round.steps() / round.seconds);
@@ -318,6 +324,13 @@ std::vector<SessionCursor*> SessionsOfThread(std::span<SessionCursor> sessions, 
   return own;
 }
 
+// Voluntary and involuntary context switches of every thread of this process so far.
+std::int64_t ProcessContextSwitches() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_nvcsw + usage.ru_nivcsw;
+}
+
 using ThreadBody = std::function<ThreadTally(int thread, std::span<SessionCursor* const> sessions,
                                              Clock::time_point deadline)>;
 
@@ -327,6 +340,7 @@ Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const T
   std::vector<ThreadTally> tallies(threads);
   std::latch ready(threads + 1);
   Clock::time_point start, deadline;
+  std::int64_t switches_at_start = 0;
   {
     std::vector<std::jthread> workers;
     for (int t = 0; t < threads; ++t) {
@@ -336,12 +350,14 @@ Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const T
         tallies[t] = body(t, own, deadline);
       });
     }
+    switches_at_start = ProcessContextSwitches();
     start = Clock::now();
     deadline =
         start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
     ready.arrive_and_wait();
   }  // joins
-  return {std::move(tallies), std::chrono::duration<double>(Clock::now() - start).count()};
+  return {std::move(tallies), std::chrono::duration<double>(Clock::now() - start).count(),
+          ProcessContextSwitches() - switches_at_start};
 }
 
 void RecordCall(ThreadTally& tally, Clock::time_point start, int steps, double compute_seconds) {
@@ -654,20 +670,28 @@ class LoadRun {
 // Output: a table on stdout and the figures as JSON.
 
 void PrintTableHeader() {
-  std::printf("%-17s %8s %7s %9s %9s %9s %12s %9s %9s %9s %12s %7s %9s %8s\n", "scenario",
+  std::printf("%-17s %8s %7s %9s %9s %9s %12s %9s %9s %9s %12s %7s %9s %8s %16s\n", "scenario",
               "sessions", "threads", "p50 [us]", "p99 [us]", "p99.9", "steps/s", "echo p50",
-              "echo p99", "echo p99.9", "echo steps/s", "ratio", "ns/step*", "inline**");
+              "echo p99", "echo p99.9", "echo steps/s", "ratio", "ns/step*", "inline**",
+              "switches***");
 }
 
 void PrintRow(const ScenarioResult& r) {
   char engine_inline[16] = "-";
-  if (r.engine_inline)
+  char switches[48];
+  std::snprintf(switches, sizeof switches, "%.2f/%.2f", r.apply.context_switches_per_call(),
+                r.echo.context_switches_per_call());
+  if (r.engine_inline) {
     std::snprintf(engine_inline, sizeof engine_inline, "%.2f", r.engine_inline_ratio());
-  std::printf("%-17s %8d %7d %9.1f %9.1f %9.1f %12.0f %9.1f %9.1f %9.1f %12.0f %7.2f %9.0f %8s\n",
-              r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
-              r.apply.p999_us, r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us,
-              r.echo.p999_us, r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(),
-              engine_inline);
+    const std::string both = switches;
+    std::snprintf(switches, sizeof switches, "%s/%.2f", both.c_str(),
+                  r.engine_inline->context_switches_per_call());
+  }
+  std::printf(
+      "%-17s %8d %7d %9.1f %9.1f %9.1f %12.0f %9.1f %9.1f %9.1f %12.0f %7.2f %9.0f %8s %16s\n",
+      r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
+      r.apply.p999_us, r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us, r.echo.p999_us,
+      r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(), engine_inline, switches);
   std::fflush(stdout);
 }
 
@@ -691,6 +715,8 @@ void AddRunFigures(nlohmann::json& figures, const ScenarioResult& r, const std::
   AddFigure(figures, r, prefix + "calls", static_cast<double>(run.calls), "calls");
   AddFigure(figures, r, prefix + "seconds", run.seconds, "s");
   AddFigure(figures, r, prefix + "rounds", run.rounds, "rounds");
+  AddFigure(figures, r, prefix + "context_switches_per_call", run.context_switches_per_call(),
+            "switches/call");
 }
 
 void AddServiceFigures(nlohmann::json& figures, const ScenarioResult& r) {
@@ -1188,7 +1214,9 @@ std::vector<ScenarioResult> RunScenarios(LoadRun& run, const std::string& only) 
   }
   std::printf(
       "ratio: apply steps/s / echo steps/s; * server compute per step "
-      "(ApplyResponse.compute_seconds); ** engine inline steps/s / echo steps/s (the ceiling)\n");
+      "(ApplyResponse.compute_seconds); ** engine inline steps/s / echo steps/s (the ceiling); "
+      "*** context switches of the whole process (clients and servers) per call or message: "
+      "apply/echo[/engine inline]\n");
   return results;
 }
 
