@@ -677,21 +677,24 @@ void PrintTableHeader() {
 }
 
 void PrintRow(const ScenarioResult& r) {
-  char engine_inline[16] = "-";
-  char switches[48];
-  std::snprintf(switches, sizeof switches, "%.2f/%.2f", r.apply.context_switches_per_call(),
-                r.echo.context_switches_per_call());
+  const auto two_decimals = [](double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2f", value);
+    return std::string(text);
+  };
+  std::string engine_inline = "-";
+  std::string switches = two_decimals(r.apply.context_switches_per_call()) + "/" +
+                         two_decimals(r.echo.context_switches_per_call());
   if (r.engine_inline) {
-    std::snprintf(engine_inline, sizeof engine_inline, "%.2f", r.engine_inline_ratio());
-    const std::string both = switches;
-    std::snprintf(switches, sizeof switches, "%s/%.2f", both.c_str(),
-                  r.engine_inline->context_switches_per_call());
+    engine_inline = two_decimals(r.engine_inline_ratio());
+    switches += "/" + two_decimals(r.engine_inline->context_switches_per_call());
   }
   std::printf(
       "%-17s %8d %7d %9.1f %9.1f %9.1f %12.0f %9.1f %9.1f %9.1f %12.0f %7.2f %9.0f %8s %16s\n",
       r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
       r.apply.p999_us, r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us, r.echo.p999_us,
-      r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(), engine_inline, switches);
+      r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(), engine_inline.c_str(),
+      switches.c_str());
   std::fflush(stdout);
 }
 
