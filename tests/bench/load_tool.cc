@@ -35,8 +35,11 @@
 // median over the rounds; latencies percentiles over every call: per call (unary), per message
 // from write to answer (stream, including the wait behind the messages ahead of it in the
 // window). The server's own compute time per step (ApplyResponse.compute_seconds) is reported
-// beside them, and the context switches of the whole process per call or message on each side
-// (getrusage: the client threads' waits count with the servers', alike on every side).
+// beside them, and the context switches and CPU time of the whole process per call or message on
+// each side (getrusage: the client threads' count with the servers', alike on every side; the
+// JSON also has the switches of the stream clients' own threads). Client and servers share this
+// machine's cores, so a server that is the slower end makes the client wait (and switch) per
+// answer, and a few microseconds of server time per message show up several times over.
 #include <grpc/grpc.h>
 #include <grpcpp/create_channel.h>
 #include <grpcpp/generic/generic_stub.h>
@@ -56,6 +59,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -242,7 +246,8 @@ struct ThreadTally {
   std::vector<double> latencies_us;
   std::int64_t calls = 0;
   std::int64_t steps = 0;
-  double compute_seconds = 0;  // ApplyResponse.compute_seconds summed (0 for the echo)
+  double compute_seconds = 0;        // ApplyResponse.compute_seconds summed (0 for the echo)
+  std::int64_t client_switches = 0;  // streams: of the reader and the writer thread
 };
 
 // What the threads of one round did in `seconds` of wall time.
@@ -250,6 +255,7 @@ struct Round {
   std::vector<ThreadTally> tallies;
   double seconds = 0;
   std::int64_t context_switches = 0;  // of the whole process: clients and servers alike
+  double cpu_seconds = 0;             // of the whole process (user and system)
   std::int64_t steps() const {
     std::int64_t steps = 0;
     for (const ThreadTally& tally : tallies) steps += tally.steps;
@@ -271,9 +277,16 @@ struct RunFigures {
   double p99_us = 0;
   double p999_us = 0;
   double compute_seconds = 0;
-  std::int64_t context_switches = 0;
+  std::int64_t context_switches = 0;  // of the whole process
+  std::int64_t client_switches = 0;   // of the client's stream threads
+  double cpu_seconds = 0;             // of the whole process (user and system)
   double compute_ns_per_step() const { return compute_seconds / steps * 1e9; }
   double context_switches_per_call() const { return static_cast<double>(context_switches) / calls; }
+  // Streams only (0 for unary calls): the switches of the client's reader and writer threads.
+  double client_context_switches_per_call() const {
+    return static_cast<double>(client_switches) / calls;
+  }
+  double cpu_us_per_call() const { return cpu_seconds / calls * 1e6; }
 };
 
 // Nearest-rank percentile of sorted values.
@@ -301,6 +314,8 @@ RunFigures Summarise(const std::vector<Round>& rounds) {
     }
     figures.seconds += round.seconds;
     figures.context_switches += round.context_switches;
+    figures.cpu_seconds += round.cpu_seconds;
+    for (const ThreadTally& tally : round.tallies) figures.client_switches += tally.client_switches;
     figures.calls += round_calls;
     figures.steps += round.steps();
     steps_per_second.push_back(round.steps() / round.seconds);
@@ -330,6 +345,17 @@ std::int64_t ProcessContextSwitches() {
   getrusage(RUSAGE_SELF, &usage);
   return usage.ru_nvcsw + usage.ru_nivcsw;
 }
+std::int64_t ThreadContextSwitches() {
+  rusage usage{};
+  getrusage(RUSAGE_THREAD, &usage);
+  return usage.ru_nvcsw + usage.ru_nivcsw;
+}
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
+         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
 
 using ThreadBody = std::function<ThreadTally(int thread, std::span<SessionCursor* const> sessions,
                                              Clock::time_point deadline)>;
@@ -341,6 +367,7 @@ Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const T
   std::latch ready(threads + 1);
   Clock::time_point start, deadline;
   std::int64_t switches_at_start = 0;
+  double cpu_at_start = 0;
   {
     std::vector<std::jthread> workers;
     for (int t = 0; t < threads; ++t) {
@@ -351,13 +378,14 @@ Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const T
       });
     }
     switches_at_start = ProcessContextSwitches();
+    cpu_at_start = ProcessCpuSeconds();
     start = Clock::now();
     deadline =
         start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
     ready.arrive_and_wait();
   }  // joins
   return {std::move(tallies), std::chrono::duration<double>(Clock::now() - start).count(),
-          ProcessContextSwitches() - switches_at_start};
+          ProcessContextSwitches() - switches_at_start, ProcessCpuSeconds() - cpu_at_start};
 }
 
 void RecordCall(ThreadTally& tally, Clock::time_point start, int steps, double compute_seconds) {
@@ -451,6 +479,34 @@ class SendTimes {
   std::vector<std::atomic<std::int64_t>> slots_;
 };
 
+// The writer's credits: messages it may still write before an answer comes back. Not a
+// std::counting_semaphore: libstdc++ 12's timed acquire polls with sleeps of half the time waited
+// so far (its __timed_backoff_spin_policy), which delays the writer by up to milliseconds after a
+// credit is released and makes the stream's throughput depend on that backoff, not on the server.
+class WindowCredits {
+ public:
+  explicit WindowCredits(int window) : available_(window) {}
+  // Takes one credit, waiting until `deadline` at most; false if none came by then.
+  bool AcquireUntil(Clock::time_point deadline) {
+    std::unique_lock lock(mutex_);
+    if (!released_.wait_until(lock, deadline, [this] { return available_ > 0; })) return false;
+    --available_;
+    return true;
+  }
+  void Release() {
+    {
+      std::lock_guard lock(mutex_);
+      ++available_;
+    }
+    released_.notify_one();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable released_;
+  int available_;  // guarded by mutex_
+};
+
 // One stream of a client thread: a writer keeps at most `window` messages unanswered until the
 // deadline, while the thread that owns it reads the answers.
 class WindowedStream {
@@ -462,7 +518,7 @@ class WindowedStream {
   void WriteUntil(Clock::time_point deadline, std::span<SessionCursor* const> sessions,
                   const CyclingSteps& steps, bool applies_steps) {
     StreamApplyRequest request;
-    for (; credits_.try_acquire_until(deadline); ++written_) {
+    for (; credits_.AcquireUntil(deadline); ++written_) {
       SessionCursor& session = *sessions[written_ % sessions.size()];
       request.mutable_apply()->set_session(session.name);
       *request.mutable_apply()->mutable_steps() = steps.Batch(1, session.phase);
@@ -480,7 +536,7 @@ class WindowedStream {
     while (stream_->Read(&response)) {
       if (response.status().code() != 0) Fail("stream message: " + response.status().message());
       RecordAnswer(tally, response);
-      credits_.release();
+      credits_.Release();
     }
     return tally;
   }
@@ -503,7 +559,7 @@ class WindowedStream {
   }
 
   std::unique_ptr<StreamReaderWriter> stream_;
-  std::counting_semaphore<> credits_;
+  WindowCredits credits_;
   SendTimes send_times_;
   std::int64_t written_ = 0;  // by the writer; read by the owner after joining it
 };
@@ -515,9 +571,16 @@ ThreadBody StreamBody(const StreamOpener& open, const CyclingSteps& steps, int w
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + kCallTimeout);
     WindowedStream stream(open(thread, &context), window);
-    std::jthread writer([&] { stream.WriteUntil(deadline, sessions, steps, applies_steps); });
-    const ThreadTally tally = stream.ReadAnswers();
+    const std::int64_t reader_switches = ThreadContextSwitches();
+    std::int64_t writer_switches = 0;
+    std::jthread writer([&] {
+      const std::int64_t at_start = ThreadContextSwitches();
+      stream.WriteUntil(deadline, sessions, steps, applies_steps);
+      writer_switches = ThreadContextSwitches() - at_start;
+    });
+    ThreadTally tally = stream.ReadAnswers();
     writer.join();
+    tally.client_switches = ThreadContextSwitches() - reader_switches + writer_switches;
     stream.CheckComplete(tally);
     return tally;
   };
@@ -670,31 +733,39 @@ class LoadRun {
 // Output: a table on stdout and the figures as JSON.
 
 void PrintTableHeader() {
-  std::printf("%-17s %8s %7s %9s %9s %9s %12s %9s %9s %9s %12s %7s %9s %8s %16s\n", "scenario",
+  std::printf("%-17s %8s %7s %9s %9s %9s %12s %9s %9s %9s %12s %7s %9s %8s %16s %18s\n", "scenario",
               "sessions", "threads", "p50 [us]", "p99 [us]", "p99.9", "steps/s", "echo p50",
               "echo p99", "echo p99.9", "echo steps/s", "ratio", "ns/step*", "inline**",
-              "switches***");
+              "switches***", "cpu [us]***");
 }
 
 void PrintRow(const ScenarioResult& r) {
-  const auto two_decimals = [](double value) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.2f", value);
-    return std::string(text);
+  // "apply/echo[/engine inline]" of one per-call figure.
+  const auto per_side = [&r](const std::function<double(const RunFigures&)>& figure,
+                             const char* format) {
+    const auto formatted = [format](double value) {
+      char text[32];
+      std::snprintf(text, sizeof text, format, value);
+      return std::string(text);
+    };
+    std::string cell = formatted(figure(r.apply)) + "/" + formatted(figure(r.echo));
+    if (r.engine_inline) cell += "/" + formatted(figure(*r.engine_inline));
+    return cell;
   };
-  std::string engine_inline = "-";
-  std::string switches = two_decimals(r.apply.context_switches_per_call()) + "/" +
-                         two_decimals(r.echo.context_switches_per_call());
-  if (r.engine_inline) {
-    engine_inline = two_decimals(r.engine_inline_ratio());
-    switches += "/" + two_decimals(r.engine_inline->context_switches_per_call());
-  }
+  const std::string switches =
+      per_side([](const RunFigures& run) { return run.context_switches_per_call(); }, "%.2f");
+  const std::string cpu =
+      per_side([](const RunFigures& run) { return run.cpu_us_per_call(); }, "%.1f");
+  char engine_inline[32] = "-";
+  if (r.engine_inline)
+    std::snprintf(engine_inline, sizeof engine_inline, "%.2f", r.engine_inline_ratio());
   std::printf(
-      "%-17s %8d %7d %9.1f %9.1f %9.1f %12.0f %9.1f %9.1f %9.1f %12.0f %7.2f %9.0f %8s %16s\n",
+      "%-17s %8d %7d %9.1f %9.1f %9.1f %12.0f %9.1f %9.1f %9.1f %12.0f %7.2f %9.0f %8s %16s "
+      "%18s\n",
       r.scenario.c_str(), r.sessions, r.apply.threads, r.apply.p50_us, r.apply.p99_us,
       r.apply.p999_us, r.apply.steps_per_second, r.echo.p50_us, r.echo.p99_us, r.echo.p999_us,
-      r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(), engine_inline.c_str(),
-      switches.c_str());
+      r.echo.steps_per_second, r.ratio(), r.apply.compute_ns_per_step(), engine_inline,
+      switches.c_str(), cpu.c_str());
   std::fflush(stdout);
 }
 
@@ -720,6 +791,9 @@ void AddRunFigures(nlohmann::json& figures, const ScenarioResult& r, const std::
   AddFigure(figures, r, prefix + "rounds", run.rounds, "rounds");
   AddFigure(figures, r, prefix + "context_switches_per_call", run.context_switches_per_call(),
             "switches/call");
+  AddFigure(figures, r, prefix + "client_context_switches_per_call",
+            run.client_context_switches_per_call(), "switches/call");
+  AddFigure(figures, r, prefix + "cpu_per_call", run.cpu_us_per_call(), "us/call");
 }
 
 void AddServiceFigures(nlohmann::json& figures, const ScenarioResult& r) {
@@ -1218,8 +1292,8 @@ std::vector<ScenarioResult> RunScenarios(LoadRun& run, const std::string& only) 
   std::printf(
       "ratio: apply steps/s / echo steps/s; * server compute per step "
       "(ApplyResponse.compute_seconds); ** engine inline steps/s / echo steps/s (the ceiling); "
-      "*** context switches of the whole process (clients and servers) per call or message: "
-      "apply/echo[/engine inline]\n");
+      "*** context switches and CPU time (user and system) of the whole process (clients and "
+      "servers) per call or message: apply/echo[/engine inline]\n");
   return results;
 }
 
