@@ -372,8 +372,9 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
 Status ContactOperations::FindSession(const Principal& caller, const std::string& name,
                                       std::weak_ptr<Session>* last_found,
                                       std::shared_ptr<Session>* session) {
-  return last_found == nullptr ? sessions_.Find("session", name, caller, session)
-                               : sessions_.FindAgain("session", name, caller, last_found, session);
+  static const std::string kField = "session";  // not a string built per message
+  return last_found == nullptr ? sessions_.Find(kField, name, caller, session)
+                               : sessions_.FindAgain(kField, name, caller, last_found, session);
 }
 
 std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,

@@ -331,7 +331,7 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked(ReadBooking re
       const auto now = StreamBudget::Clock::now();
       registry_.MaybeCalibrate(now);
       const auto delay =
-          registry_.budget().BookRead(caller_key_, executor_.OtherActiveCallers(caller_key_), now);
+          registry_.budget().BookRead(caller_key_, OtherActiveCallersLocked(now), now);
       if (delay.count() > 0) {
         paused_ = true;
         read_booked_at_ = now + delay;
@@ -362,6 +362,14 @@ StreamApplyReactor::Actions StreamApplyReactor::NextActionsLocked(ReadBooking re
   }
   if (actions.finish) finished_ = true;
   return actions;
+}
+
+std::size_t StreamApplyReactor::OtherActiveCallersLocked(StreamBudget::Clock::time_point now) {
+  if (now >= other_callers_at_ + kOtherCallersRefresh) {
+    other_callers_ = executor_.OtherActiveCallers(caller_key_);
+    other_callers_at_ = now;
+  }
+  return other_callers_;
 }
 
 void StreamApplyReactor::Start(const Actions& actions) {

@@ -137,6 +137,11 @@ class StreamApplyReactor final
   // Books the read that OnReadDone held, if it is still due (the owner of applying_ only).
   void StartHeldRead();
   void Start(const Actions& actions);
+  // The executor's count of other active callers (a caller stays active for a second after its
+  // last task), asked at most every kOtherCallersRefresh: reads of every stream would otherwise
+  // queue on the executor's lock.
+  std::size_t OtherActiveCallersLocked(StreamBudget::Clock::time_point now);
+  static constexpr auto kOtherCallersRefresh = std::chrono::milliseconds(1);
   // Once draining, the client gone or the stream finished: no message is applied any more.
   bool StoppedLocked() const { return draining_ || write_failed_ || finished_; }
   // Gives up the unapplied messages (they get no response: the contract says they were not
@@ -179,6 +184,9 @@ class StreamApplyReactor final
   bool paused_ = false;
   StreamBudget::Clock::time_point read_booked_at_;  // while paused: when the booked read may start
   bool read_booked_ = false;  // resumed: the next read was charged when the pause began
+  // guarded by mutex_: the executor's last answer to OtherActiveCallers, and when it was asked
+  std::size_t other_callers_ = 0;
+  StreamBudget::Clock::time_point other_callers_at_{};
   std::size_t answered_ = 0;
 };
 
