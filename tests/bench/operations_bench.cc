@@ -91,6 +91,35 @@ void BM_ServiceApplyOneStep(benchmark::State& state) {
 }
 BENCHMARK(BM_ServiceApplyOneStep)->Arg(0)->Arg(1);
 
+// The same step as a StreamApply message answered inline (ContactOperations::ApplyIfBounded,
+// the session found again through the stream's cache): what a stream message costs the
+// transport's thread beside the engine's step.
+void BM_ServiceInlineOneStep(benchmark::State& state) {
+  const bool track_energy = state.range(0) != 0;
+  mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
+  const std::string name = LoadedSession(operations, track_energy);
+  std::vector<mdr::v1::ApplyRequest> requests;
+  for (const double displacement :
+       CycleDisplacements(mdr::reference::LoadedH1Contact(track_energy))) {
+    mdr::v1::ApplyRequest& request = requests.emplace_back();
+    request.set_session(name);
+    request.add_steps()->set_displacement(displacement);
+  }
+  std::weak_ptr<mdr::service::Session> last_session;
+  mdr::v1::ApplyResponse response;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    response.Clear();
+    const std::optional<mdr::Status> status = operations.ApplyIfBounded(
+        std::nullopt, requests[i++ % requests.size()], &response, &last_session);
+    if (!status) Fail(mdr::Internal("", "the step was not bounded"));
+    if (!status->ok()) Fail(*status);
+    benchmark::DoNotOptimize(response);
+  }
+  state.SetLabel(track_energy ? "energy on" : "energy off");
+}
+BENCHMARK(BM_ServiceInlineOneStep)->Arg(0)->Arg(1);
+
 // Applies a batch of `steps` steps of the cycle (energy on or off) to a loaded H1 session, exact
 // or on a grid of grid_springs springs, once per iteration.
 void RunCyclingBatches(benchmark::State& state, int steps, bool track_energy,
