@@ -131,7 +131,7 @@ std::string TopLevelPaths(const std::vector<Leaf>& leaves) {
 
 // A path selects the leaf it names and every leaf below it.
 Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
-                               const std::vector<Leaf>& leaves, const std::string& mask_field,
+                               const std::vector<Leaf>& leaves, const char* mask_field,
                                const char* message_name) {
   OutputSelection selection;
   for (int i = 0; i < mask.paths_size(); ++i) {
@@ -144,7 +144,7 @@ Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
       }
     }
     if (!matched) {
-      return InvalidArgument(mask_field + ".paths[" + std::to_string(i) + "]",
+      return InvalidArgument(std::string(mask_field) + ".paths[" + std::to_string(i) + "]",
                              Quoted(path) + " is not a field of " + message_name +
                                  "; valid: " + TopLevelPaths(leaves) +
                                  " or one of their fields (e.g. \"state.normal_force\")");
