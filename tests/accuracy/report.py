@@ -177,12 +177,20 @@ def load_markdown(path):
              "to an engine contact of its session on the transport's thread, over the echo: the "
              "ceiling of any server computing the same steps. mdrd applies a message whose cost "
              "is bounded a priori on the transport's thread too, and hands any other to a worker "
-             "(docs/operations.md, \"Inline steps\").", "",
+             "(docs/operations.md, \"Inline steps\").",
+             "- CPU per call: the process's CPU time (clients and servers, user and system) per "
+             "call or message, for mdrd / the echo [/ engine inline]. Client and servers share "
+             "the cores, so a server that is the slower end makes the client wait and wake per "
+             "answer, and its own extra microseconds show up several times over here.", "",
              "| scenario | sessions | p50 | p99 | p99.9 | throughput | echo throughput | ratio | "
-             "server compute | engine inline |", "|---|---|---|---|---|---|---|---|---|---|"]
+             "server compute | engine inline | CPU per call |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for (scenario, sessions), f in rows.items():
         inline = f.get("engine_inline_ratio")
         inline_cell = f"{inline['value']:.2f}" if inline else "-"
+        cpu_sides = [f.get(prefix + "cpu_per_call") for prefix in ("", "echo_", "engine_inline_")]
+        cpu_cell = (" / ".join(f"{c['value']:.0f}" for c in cpu_sides if c) + " us"
+                    if cpu_sides[0] else "-")
         def latency(name):
             echo = f.get("echo_" + name)
             echo_cell = f" / {echo['value']:.0f}" if echo else ""
@@ -191,7 +199,7 @@ def load_markdown(path):
             f"| {scenario} | {sessions} | {latency('p50_latency')} | {latency('p99_latency')} | "
             f"{latency('p999_latency')} | {f['throughput']['value']:,.0f} steps/s | "
             f"{f['echo_throughput']['value']:,.0f} steps/s | {f['ratio']['value']:.2f} | "
-            f"{f['server_compute_per_step']['value']:.0f} ns/step | {inline_cell} |")
+            f"{f['server_compute_per_step']['value']:.0f} ns/step | {inline_cell} | {cpu_cell} |")
     lines += ["", f"Host: {context['host_cpus']} CPUs, gRPC {context['grpc_version']}, "
               f"{context['date']}.", ""]
     return lines
