@@ -339,22 +339,18 @@ std::vector<SessionCursor*> SessionsOfThread(std::span<SessionCursor> sessions, 
   return own;
 }
 
-// Voluntary and involuntary context switches of every thread of this process so far.
-std::int64_t ProcessContextSwitches() {
+// What getrusage tells of this process (RUSAGE_SELF: every thread) or of the calling thread
+// (RUSAGE_THREAD) so far: voluntary and involuntary context switches, user and system CPU time.
+struct Usage {
+  std::int64_t context_switches = 0;
+  double cpu_seconds = 0;
+};
+Usage UsageOf(int who) {
   rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_nvcsw + usage.ru_nivcsw;
-}
-std::int64_t ThreadContextSwitches() {
-  rusage usage{};
-  getrusage(RUSAGE_THREAD, &usage);
-  return usage.ru_nvcsw + usage.ru_nivcsw;
-}
-double ProcessCpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
-         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+  getrusage(who, &usage);
+  return {usage.ru_nvcsw + usage.ru_nivcsw,
+          usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
+              1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec)};
 }
 
 using ThreadBody = std::function<ThreadTally(int thread, std::span<SessionCursor* const> sessions,
@@ -366,8 +362,7 @@ Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const T
   std::vector<ThreadTally> tallies(threads);
   std::latch ready(threads + 1);
   Clock::time_point start, deadline;
-  std::int64_t switches_at_start = 0;
-  double cpu_at_start = 0;
+  Usage at_start;
   {
     std::vector<std::jthread> workers;
     for (int t = 0; t < threads; ++t) {
@@ -377,15 +372,16 @@ Round RunConcurrently(std::span<SessionCursor> sessions, double seconds, const T
         tallies[t] = body(t, own, deadline);
       });
     }
-    switches_at_start = ProcessContextSwitches();
-    cpu_at_start = ProcessCpuSeconds();
+    at_start = UsageOf(RUSAGE_SELF);
     start = Clock::now();
     deadline =
         start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
     ready.arrive_and_wait();
   }  // joins
+  const Usage at_end = UsageOf(RUSAGE_SELF);
   return {std::move(tallies), std::chrono::duration<double>(Clock::now() - start).count(),
-          ProcessContextSwitches() - switches_at_start, ProcessCpuSeconds() - cpu_at_start};
+          at_end.context_switches - at_start.context_switches,
+          at_end.cpu_seconds - at_start.cpu_seconds};
 }
 
 void RecordCall(ThreadTally& tally, Clock::time_point start, int steps, double compute_seconds) {
@@ -571,16 +567,17 @@ ThreadBody StreamBody(const StreamOpener& open, const CyclingSteps& steps, int w
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + kCallTimeout);
     WindowedStream stream(open(thread, &context), window);
-    const std::int64_t reader_switches = ThreadContextSwitches();
+    const std::int64_t reader_switches = UsageOf(RUSAGE_THREAD).context_switches;
     std::int64_t writer_switches = 0;
     std::jthread writer([&] {
-      const std::int64_t at_start = ThreadContextSwitches();
+      const std::int64_t at_start = UsageOf(RUSAGE_THREAD).context_switches;
       stream.WriteUntil(deadline, sessions, steps, applies_steps);
-      writer_switches = ThreadContextSwitches() - at_start;
+      writer_switches = UsageOf(RUSAGE_THREAD).context_switches - at_start;
     });
     ThreadTally tally = stream.ReadAnswers();
     writer.join();
-    tally.client_switches = ThreadContextSwitches() - reader_switches + writer_switches;
+    tally.client_switches =
+        UsageOf(RUSAGE_THREAD).context_switches - reader_switches + writer_switches;
     stream.CheckComplete(tally);
     return tally;
   };

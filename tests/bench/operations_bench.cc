@@ -66,17 +66,24 @@ std::string LoadedSession(mdr::service::ContactOperations& operations, bool trac
   return session.name();
 }
 
-void BM_ServiceApplyOneStep(benchmark::State& state) {
-  const bool track_energy = state.range(0) != 0;
-  mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
-  const std::string name = LoadedSession(operations, track_energy);
+// One request per step of the cycle, each a single displacement step on `session`.
+std::vector<mdr::v1::ApplyRequest> OneStepCycleRequests(const std::string& session,
+                                                        bool track_energy) {
   std::vector<mdr::v1::ApplyRequest> requests;
   for (const double displacement :
        CycleDisplacements(mdr::reference::LoadedH1Contact(track_energy))) {
     mdr::v1::ApplyRequest& request = requests.emplace_back();
-    request.set_session(name);
+    request.set_session(session);
     request.add_steps()->set_displacement(displacement);
   }
+  return requests;
+}
+
+void BM_ServiceApplyOneStep(benchmark::State& state) {
+  const bool track_energy = state.range(0) != 0;
+  mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
+  const std::vector<mdr::v1::ApplyRequest> requests =
+      OneStepCycleRequests(LoadedSession(operations, track_energy), track_energy);
   const auto no_interruption = [] { return mdr::OkStatus(); };
   mdr::v1::ApplyResponse response;
   std::size_t i = 0;
@@ -97,14 +104,8 @@ BENCHMARK(BM_ServiceApplyOneStep)->Arg(0)->Arg(1);
 void BM_ServiceInlineOneStep(benchmark::State& state) {
   const bool track_energy = state.range(0) != 0;
   mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
-  const std::string name = LoadedSession(operations, track_energy);
-  std::vector<mdr::v1::ApplyRequest> requests;
-  for (const double displacement :
-       CycleDisplacements(mdr::reference::LoadedH1Contact(track_energy))) {
-    mdr::v1::ApplyRequest& request = requests.emplace_back();
-    request.set_session(name);
-    request.add_steps()->set_displacement(displacement);
-  }
+  const std::vector<mdr::v1::ApplyRequest> requests =
+      OneStepCycleRequests(LoadedSession(operations, track_energy), track_energy);
   std::weak_ptr<mdr::service::Session> last_session;
   mdr::v1::ApplyResponse response;
   std::size_t i = 0;
