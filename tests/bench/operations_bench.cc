@@ -99,27 +99,34 @@ void BM_ServiceApplyOneStep(benchmark::State& state) {
 BENCHMARK(BM_ServiceApplyOneStep)->Arg(0)->Arg(1);
 
 // The same step as a StreamApply message answered inline (ContactOperations::ApplyIfBounded,
-// the session found again through the stream's cache): what a stream message costs the
-// transport's thread beside the engine's step.
+// the session found again through the stream's RecentSessions): what a stream message costs the
+// transport's thread beside the engine's step. Arguments: energy off/on, and the sessions the
+// stream cycles through (13: mdr_load's 100 sessions over 8 streams).
 void BM_ServiceInlineOneStep(benchmark::State& state) {
   const bool track_energy = state.range(0) != 0;
+  const auto sessions = static_cast<std::size_t>(state.range(1));
   mdr::service::ContactOperations operations(mdr::service::ServiceLimits{}, {});
-  const std::vector<mdr::v1::ApplyRequest> requests =
-      OneStepCycleRequests(LoadedSession(operations, track_energy), track_energy);
-  std::weak_ptr<mdr::service::Session> last_session;
+  std::vector<std::vector<mdr::v1::ApplyRequest>> requests;  // per session, one cycle
+  for (std::size_t s = 0; s < sessions; ++s) {
+    requests.push_back(OneStepCycleRequests(LoadedSession(operations, track_energy), track_energy));
+  }
+  mdr::service::RecentSessions recent_sessions;
   mdr::v1::ApplyResponse response;
   std::size_t i = 0;
   for (auto _ : state) {
     response.Clear();
+    const std::vector<mdr::v1::ApplyRequest>& cycle = requests[i % sessions];
     const std::optional<mdr::Status> status = operations.ApplyIfBounded(
-        std::nullopt, requests[i++ % requests.size()], &response, &last_session);
+        std::nullopt, cycle[(i / sessions) % cycle.size()], &response, &recent_sessions);
+    ++i;
     if (!status) Fail(mdr::Internal("", "the step was not bounded"));
     if (!status->ok()) Fail(*status);
     benchmark::DoNotOptimize(response);
   }
-  state.SetLabel(track_energy ? "energy on" : "energy off");
+  state.SetLabel(std::string(track_energy ? "energy on" : "energy off") + ", " +
+                 std::to_string(sessions) + (sessions == 1 ? " session" : " sessions"));
 }
-BENCHMARK(BM_ServiceInlineOneStep)->Arg(0)->Arg(1);
+BENCHMARK(BM_ServiceInlineOneStep)->ArgsProduct({{0, 1}, {1, 13}});
 
 // Applies a batch of `steps` steps of the cycle (energy on or off) to a loaded H1 session, exact
 // or on a grid of grid_springs springs, once per iteration.

@@ -15,6 +15,7 @@ namespace mdr::service_testing {
 namespace {
 
 using service::Principal;
+using service::RecentSessions;
 using service::Session;
 using service::SessionOrigin;
 using service::SessionStore;
@@ -132,16 +133,16 @@ TEST(SessionStoreTest, AnExpiredSessionIsGoneAndErased) {
   CreateOrDie(store, "short");
 }
 
-// FindAgain (a stream's lookup) reuses the session an earlier lookup found only while the store
+// FindAgain (a stream's lookup) reuses a session an earlier lookup found only while the store
 // holds it under that name, for that caller; everything else is decided as by Find.
 TEST(SessionStoreTest, FindAgainReusesOnlyASessionTheStoreStillHolds) {
   SessionStore store(100, 0);
   const Principal alice("alice");
   const std::string name = CreateOrDie(store, "kept", alice);
-  std::weak_ptr<Session> last;
+  RecentSessions last;
   std::shared_ptr<Session> first, again;
   ASSERT_TRUE(store.FindAgain("session", name, alice, &last, &first).ok());
-  EXPECT_EQ(last.lock(), first);
+  EXPECT_EQ(last.Lookup(name), first);
   ASSERT_TRUE(store.FindAgain("session", name, alice, &last, &again).ok());
   EXPECT_EQ(again, first);
 
@@ -149,11 +150,12 @@ TEST(SessionStoreTest, FindAgainReusesOnlyASessionTheStoreStillHolds) {
   std::shared_ptr<Session> found;
   EXPECT_EQ(store.FindAgain("session", name, Principal("bob"), &last, &found).code(),
             StatusCode::kNotFound);
-  // Another name: that session, which is kept from now on.
+  // Another name: that session, which is kept beside the first from now on.
   const std::string other = CreateOrDie(store, "other", alice);
   ASSERT_TRUE(store.FindAgain("session", other, alice, &last, &found).ok());
   EXPECT_EQ(found->name(), other);
-  EXPECT_EQ(last.lock(), found);
+  EXPECT_EQ(last.Lookup(other), found);
+  EXPECT_EQ(last.Lookup(name), first);
   // A malformed name is refused as by Find, naming the field.
   EXPECT_EQ(store.FindAgain("session", "not-a-name", alice, &last, &found).field(), "session");
 
@@ -174,16 +176,50 @@ TEST(SessionStoreTest, FindAgainDoesNotReuseAnExpiredSession) {
   SessionStore store(100, 0);
   const std::shared_ptr<Session> session = CreateExpiredOrDie(store, "short");
   ASSERT_NE(session, nullptr);
-  std::weak_ptr<Session> last = session;
+  RecentSessions last;
+  last.Remember("sessions/short", session);
   std::shared_ptr<Session> found;
   EXPECT_EQ(store.FindAgain("session", "sessions/short", {}, &last, &found).code(),
             StatusCode::kNotFound);
   EXPECT_FALSE(session->removed()) << "left to the sweep";
   EXPECT_EQ(store.EraseExpired(), std::vector<std::string>{"sessions/short"});
   EXPECT_TRUE(session->removed());
-  last = session;
+  last.Remember("sessions/short", session);
   EXPECT_EQ(store.FindAgain("session", "sessions/short", {}, &last, &found).code(),
             StatusCode::kNotFound);
+}
+
+// A stream cycling through more sessions than RecentSessions keeps finds each one, every time,
+// and the ones it remembers are the sessions of their names.
+TEST(SessionStoreTest, FindAgainCyclingThroughMoreSessionsThanItRemembers) {
+  SessionStore store(100, 0);
+  const Principal alice("alice");
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < RecentSessions::kCapacity + 5; ++i) {
+    names.push_back(CreateOrDie(store, "s" + std::to_string(i), alice));
+  }
+  RecentSessions recent;
+  for (int round = 0; round < 3; ++round) {
+    for (const std::string& name : names) {
+      std::shared_ptr<Session> found;
+      ASSERT_TRUE(store.FindAgain("session", name, alice, &recent, &found).ok()) << name;
+      EXPECT_EQ(found->name(), name);
+      EXPECT_EQ(recent.Lookup(name), found) << "just found: remembered";
+    }
+  }
+  std::size_t remembered = 0;
+  for (const std::string& name : names) {
+    if (const std::shared_ptr<Session> kept = recent.Lookup(name)) {
+      EXPECT_EQ(kept->name(), name);
+      ++remembered;
+    }
+  }
+  EXPECT_EQ(remembered, RecentSessions::kCapacity);
+  // A refused lookup remembers nothing (a client's name is kept only once found valid).
+  std::shared_ptr<Session> found;
+  EXPECT_EQ(store.FindAgain("session", "sessions/none", alice, &recent, &found).code(),
+            StatusCode::kNotFound);
+  EXPECT_EQ(recent.Lookup("sessions/none"), nullptr);
 }
 
 // A sweep leaves an expired session that a call holds (it is in use, and the call may journal):

@@ -102,7 +102,7 @@ TEST_F(StreamApplyTest, ReportsErrorsPerMessageAndStaysOpen) {
   EXPECT_TRUE(stream->Finish().ok());
 }
 
-// A stream keeps the session its last message found (SessionStore::FindAgain); a session
+// A stream keeps the sessions its messages found (SessionStore::FindAgain); a session
 // deleted between two messages is not found by the next one, and one created again under the
 // same name is the one the next message applies to.
 TEST_F(StreamApplyTest, FollowsASessionDeletedAndCreatedAgainBetweenMessages) {

@@ -351,7 +351,7 @@ Status ContactOperations::ImportSession(const Principal& caller,
 
 Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest& request,
                                 const Interruption& interruption, v1::ApplyResponse* response,
-                                const Interrupt& interrupt, std::weak_ptr<Session>* last_found) {
+                                const Interrupt& interrupt, RecentSessions* recent) {
   if (request.steps().empty()) {
     return InvalidArgument("steps", "must contain at least one step");
   }
@@ -359,7 +359,7 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
   if (!step_outputs.ok()) return step_outputs.status();
   std::shared_ptr<Session> session;
-  if (Status status = FindSession(caller, request.session(), last_found, &session); !status.ok()) {
+  if (Status status = FindSession(caller, request.session(), recent, &session); !status.ok()) {
     return status;
   }
   const Session::StepGuard guard = [&](int step_index) {
@@ -370,17 +370,16 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
 }
 
 Status ContactOperations::FindSession(const Principal& caller, const std::string& name,
-                                      std::weak_ptr<Session>* last_found,
-                                      std::shared_ptr<Session>* session) {
+                                      RecentSessions* recent, std::shared_ptr<Session>* session) {
   static const std::string kField = "session";  // not a string built per message
-  return last_found == nullptr ? sessions_.Find(kField, name, caller, session)
-                               : sessions_.FindAgain(kField, name, caller, last_found, session);
+  return recent == nullptr ? sessions_.Find(kField, name, caller, session)
+                           : sessions_.FindAgain(kField, name, caller, recent, session);
 }
 
 std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,
                                                         const v1::ApplyRequest& request,
                                                         v1::ApplyResponse* response,
-                                                        std::weak_ptr<Session>* last_found) {
+                                                        RecentSessions* recent) {
   if (limits_.max_inline_vertices == 0 || hooks_.before_step || request.steps_size() != 1) {
     return std::nullopt;
   }
@@ -388,7 +387,7 @@ std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,
   Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
   if (!step_outputs.ok()) return std::nullopt;
   std::shared_ptr<Session> session;
-  if (!FindSession(caller, request.session(), last_found, &session).ok()) return std::nullopt;
+  if (!FindSession(caller, request.session(), recent, &session).ok()) return std::nullopt;
   std::optional<Status> applied = session->ApplyIfBounded(
       request, *step_outputs, limits_.max_inline_vertices, MaxResponseBytes(), response);
   if (applied) ProcessMetrics().inline_batches.Increment();

@@ -194,18 +194,39 @@ Status SessionStore::Find(const std::string& field, const std::string& name,
   return NotFound(field, name);
 }
 
+std::size_t RecentSessions::IndexOf(const std::string& name) const {
+  for (std::size_t i = 0; i < used_; ++i) {
+    if (entries_[i].name == name) return i;
+  }
+  return kCapacity;
+}
+
+std::shared_ptr<Session> RecentSessions::Lookup(const std::string& name) const {
+  const std::size_t i = IndexOf(name);
+  return i < kCapacity ? entries_[i].session.lock() : nullptr;
+}
+
+void RecentSessions::Remember(const std::string& name, const std::shared_ptr<Session>& session) {
+  std::size_t i = IndexOf(name);
+  if (i == kCapacity) {
+    i = used_ < kCapacity ? used_++ : next_++ % kCapacity;
+    entries_[i].name.assign(name);  // reuses the entry's buffer
+  }
+  entries_[i].session = session;
+}
+
 Status SessionStore::FindAgain(const std::string& field, const std::string& name,
-                               const Principal& caller, std::weak_ptr<Session>* last_found,
+                               const Principal& caller, RecentSessions* recent,
                                std::shared_ptr<Session>* session) {
   // Removal is marked under the store's exclusive lock before the erase, so a session seen here
   // as not removed was in the store at this moment: as if Find had run now.
-  if (std::shared_ptr<Session> kept = last_found->lock();
-      kept != nullptr && !kept->removed() && kept->name() == name && kept->VisibleTo(caller) &&
+  if (std::shared_ptr<Session> kept = recent->Lookup(name);
+      kept != nullptr && !kept->removed() && kept->VisibleTo(caller) &&
       TakeIfUnexpired(std::move(kept), session)) {
     return OkStatus();
   }
   Status status = Find(field, name, caller, session);
-  if (status.ok()) *last_found = *session;
+  if (status.ok()) recent->Remember(name, *session);
   return status;
 }
 

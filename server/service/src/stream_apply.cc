@@ -295,11 +295,12 @@ std::optional<v1::StreamApplyResponse> StreamApplyReactor::Answer(const v1::Appl
   v1::StreamApplyResponse response;
   std::optional<Status> applied;
   if (bounded_only) {
-    applied = operations_.ApplyIfBounded(caller_, apply, response.mutable_result(), &last_session_);
+    applied =
+        operations_.ApplyIfBounded(caller_, apply, response.mutable_result(), &recent_sessions_);
     if (!applied) return std::nullopt;
   } else {
     applied = operations_.Apply(caller_, apply, interruption_, response.mutable_result(),
-                                interrupt_, &last_session_);
+                                interrupt_, &recent_sessions_);
   }
   const grpc::Status status = ToGrpcStatus(*applied);
   if (status.ok()) {

@@ -75,11 +75,11 @@ class ContactOperations {
   Status ImportSession(const Principal& caller, const v1::ImportSessionRequest& request,
                        v1::Session* response, const Interrupt& interrupt = {});
   // interruption is checked before every step, interrupt inside long steps (curved force
-  // paths). last_found (optional; a stream's): the session this caller's previous request found,
-  // reused without a lookup while the store holds it (SessionStore::FindAgain).
+  // paths). recent (optional; a stream's): the sessions this caller's stream found before, reused
+  // without a lookup while the store holds them (SessionStore::FindAgain).
   Status Apply(const Principal& caller, const v1::ApplyRequest& request,
                const Interruption& interruption, v1::ApplyResponse* response,
-               const Interrupt& interrupt = {}, std::weak_ptr<Session>* last_found = nullptr);
+               const Interrupt& interrupt = {}, RecentSessions* recent = nullptr);
   // Apply, if its cost is bounded a priori and small: one step of a straight kind (displacement
   // channels, or a tangential force at a held depth) on a single exact contact of at most
   // limits().max_inline_vertices vertices, without a journal or a test hook (docs/operations.md,
@@ -87,7 +87,7 @@ class ContactOperations {
   // (nullopt): the caller queues the request for Apply. For a transport thread.
   std::optional<Status> ApplyIfBounded(const Principal& caller, const v1::ApplyRequest& request,
                                        v1::ApplyResponse* response,
-                                       std::weak_ptr<Session>* last_found = nullptr);
+                                       RecentSessions* recent = nullptr);
   // interrupt is checked before every radius of a traction or pressure profile.
   Status Query(const Principal& caller, const v1::QueryRequest& request,
                v1::QueryResponse* response, const Interrupt& interrupt = {});
@@ -101,9 +101,9 @@ class ContactOperations {
 
  private:
   void LogDeleted(const std::string& name) const;
-  // SessionStore::Find, or FindAgain with last_found when given.
-  Status FindSession(const Principal& caller, const std::string& name,
-                     std::weak_ptr<Session>* last_found, std::shared_ptr<Session>* session);
+  // SessionStore::Find, or FindAgain with recent when given.
+  Status FindSession(const Principal& caller, const std::string& name, RecentSessions* recent,
+                     std::shared_ptr<Session>* session);
   // The largest per-step results of a batch: the message limit less room for the final state
   // and the other fields of the response.
   std::size_t MaxResponseBytes() const {

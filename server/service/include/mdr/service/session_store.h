@@ -5,6 +5,7 @@
 // erased is journaled (an added one before it becomes visible).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <functional>
 #include <map>
@@ -19,6 +20,32 @@
 #include "mdr/service/session.h"
 
 namespace mdr::service {
+
+// The sessions a stream found lately (SessionStore::FindAgain): its next messages for them need
+// no lookup under the store's lock, which every call of every caller shares. Holds none of them
+// alive. A rig's stream drives one session; a simulation code may cycle through many.
+class RecentSessions {
+ public:
+  static constexpr std::size_t kCapacity = 16;
+
+  // The session remembered under name, if it is still alive; null otherwise.
+  std::shared_ptr<Session> Lookup(const std::string& name) const;
+  // Remembers a session found in the store under its (valid, so short) name, in the entry of
+  // that name or else in the oldest.
+  void Remember(const std::string& name, const std::shared_ptr<Session>& session);
+
+ private:
+  // The entry of that name, kCapacity if none.
+  std::size_t IndexOf(const std::string& name) const;
+
+  struct Entry {
+    std::string name;  // compared before the weak pointer is locked (an atomic operation)
+    std::weak_ptr<Session> session;
+  };
+  std::array<Entry, kCapacity> entries_;
+  std::size_t used_ = 0;
+  std::size_t next_ = 0;  // the entry replaced next once all are used
+};
 
 class SessionStore {
  public:
@@ -36,12 +63,11 @@ class SessionStore {
   // "sessions/{id}"; field names the request field.
   Status Find(const std::string& field, const std::string& name, const Principal& caller,
               std::shared_ptr<Session>* session);
-  // As Find, but first tries *last_found, the session an earlier lookup of this caller found (a
-  // stream keeps it for its next message): while the store still holds it under `name`, it is
-  // found without the store's lock, which every call of every caller shares. Otherwise as Find,
-  // and *last_found is replaced by what it finds.
+  // As Find, but first tries the session of that name in *recent (found earlier by this caller's
+  // stream): while the store still holds it, it is found without the store's lock. Otherwise as
+  // Find, and what it finds is remembered in *recent.
   Status FindAgain(const std::string& field, const std::string& name, const Principal& caller,
-                   std::weak_ptr<Session>* last_found, std::shared_ptr<Session>* session);
+                   RecentSessions* recent, std::shared_ptr<Session>* session);
   // As Find, then deletes it (UNAVAILABLE if the journal fails: then it is kept). Waits for a
   // batch running on the session (Session::Remove): for a worker, on the session's strand.
   Status Erase(const std::string& field, const std::string& name, const Principal& caller);

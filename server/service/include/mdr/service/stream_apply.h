@@ -158,9 +158,9 @@ class StreamApplyReactor final
   Principal caller_;                                    // set once by the constructor
   std::string caller_key_;                              // the executor's key of caller_
   std::string metadata_request_id_;  // the stream's x-request-id (or "-"), for the call logs
-  // The session the last message found: the next message for it needs no lookup in the store.
-  // Used by the owner of applying_ only (one thread at a time, ordered by mutex_).
-  std::weak_ptr<Session> last_session_;
+  // The sessions earlier messages found: the next messages for them need no lookup in the
+  // store. Used by the owner of applying_ only (one thread at a time, ordered by mutex_).
+  RecentSessions recent_sessions_;
 
   std::mutex mutex_;
   std::unique_ptr<Message> read_buffer_;  // the outstanding read's target while reading_
