@@ -1,5 +1,6 @@
 #include "mdr/service/server.h"
 
+#include <absl/synchronization/mutex.h>
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
 #include <malloc.h>
@@ -28,6 +29,10 @@ void ReturnLargeFreesToTheSystem() {
   // maps every allocation of this size or more and unmaps it when it is freed.
   constexpr int kMmapThreshold = 128 * 1024;
   (void)mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+}
+
+void SkipMutexDeadlockDetection() {
+  absl::SetMutexDeadlockDetectionMode(absl::OnDeadlockCycle::kIgnore);
 }
 
 namespace {
@@ -142,6 +147,7 @@ ContactServer::ContactServer(const ServerOptions& options,
 }
 
 Result<std::unique_ptr<ContactServer>> ContactServer::Start(const ServerOptions& options) {
+  SkipMutexDeadlockDetection();
   if (Status s = ValidateServiceLimits(options.limits); !s.ok()) return s;
   if (Status s = ValidateExecutorOptions(options.execution); !s.ok()) return s;
   Result<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials(options.tls);

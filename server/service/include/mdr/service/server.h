@@ -61,6 +61,12 @@ struct ServerOptions {
 // (docs/interfaces.md, "Memory layout").
 void ReturnLargeFreesToTheSystem();
 
+// Process-wide; ContactServer::Start calls it. Debian's abseil is built without NDEBUG, so every
+// absl::Mutex that gRPC locks runs abseil's debug deadlock detector: a process-wide lock and a
+// lock-order graph with stack traces on every acquisition, and an abort of the whole server on a
+// cycle in that graph. This turns the detector off, as in a release build of abseil.
+void SkipMutexDeadlockDetection();
+
 class ContactServer {
  public:
   // Health checking and reflection are process-wide switches
