@@ -9,7 +9,7 @@ namespace {
 
 // Debian's abseil runs its debug deadlock detector on every absl::Mutex (gRPC's among them) and
 // aborts the process on a cycle in the lock-order graph it records. A started server turns it
-// off (SkipMutexDeadlockDetection): two mutexes locked in both orders no longer abort.
+// off (ContactServer::Start): two mutexes locked in both orders no longer abort.
 TEST(ServerProcessTest, StartTurnsOffAbseilsDeadlockAbort) {
   service::ServerOptions options;
   options.listen_address = "127.0.0.1:0";

@@ -31,11 +31,12 @@ void ReturnLargeFreesToTheSystem() {
   (void)mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
 }
 
+namespace {
+
+// As a release build of abseil (see ContactServer::Start).
 void SkipMutexDeadlockDetection() {
   absl::SetMutexDeadlockDetectionMode(absl::OnDeadlockCycle::kIgnore);
 }
-
-namespace {
 
 Result<std::string> ReadPemFile(const std::string& flag, const std::string& path) {
   std::ifstream file(path);

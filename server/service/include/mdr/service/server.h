@@ -61,17 +61,13 @@ struct ServerOptions {
 // (docs/interfaces.md, "Memory layout").
 void ReturnLargeFreesToTheSystem();
 
-// Process-wide; ContactServer::Start calls it. Debian's abseil is built without NDEBUG, so every
-// absl::Mutex that gRPC locks runs abseil's debug deadlock detector: a process-wide lock and a
-// lock-order graph with stack traces on every acquisition, and an abort of the whole server on a
-// cycle in that graph. This turns the detector off, as in a release build of abseil.
-void SkipMutexDeadlockDetection();
-
 class ContactServer {
  public:
   // Health checking and reflection are process-wide switches
   // (grpc::EnableDefaultHealthCheckService, InitProtoReflectionServerBuilderPlugin) that the caller
-  // sets before Start when wanted.
+  // sets before Start when wanted. Start itself turns off abseil's debug deadlock detector for
+  // the whole process (Debian's abseil is built without NDEBUG): it ran on every absl::Mutex that
+  // gRPC locks, behind a process-wide lock, and aborted the process on a lock-order cycle.
   static Result<std::unique_ptr<ContactServer>> Start(const ServerOptions& options);
 
   ContactServer(const ContactServer&) = delete;
