@@ -76,13 +76,19 @@ JsonWriter& JsonWriter::Bool(bool value) {
   return *this;
 }
 
-JsonWriter& JsonWriter::Message(const google::protobuf::Message& message) {
-  BeforeValue();
+std::string ProtoJson(const google::protobuf::Message& message, bool indented) {
   google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = indented;
   options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
   std::string json;
   (void)google::protobuf::util::MessageToJsonString(message, &json, options);
-  json_ += json;
+  return json;
+}
+
+JsonWriter& JsonWriter::Message(const google::protobuf::Message& message) {
+  BeforeValue();
+  json_ += ProtoJson(message, false);
   return *this;
 }
 

@@ -39,4 +39,9 @@ class JsonWriter {
 
 using mdr::client::JsonQuoted;  // a JSON string literal (mdr/client/scene_file.h)
 
+// A message as proto3 JSON the way every mdrctl output writes it (--format json, report.json):
+// field names as in the .proto, and every field present, zeros, false and empty lists included,
+// so that a script reads a field without knowing proto3's defaults. Indented or compact.
+std::string ProtoJson(const google::protobuf::Message& message, bool indented);
+
 }  // namespace mdrctl

@@ -3,14 +3,15 @@
 #include <google/protobuf/duration.pb.h>
 #include <google/protobuf/text_format.h>
 #include <google/protobuf/timestamp.pb.h>
-#include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/time_util.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
 
+#include "json_writer.h"
 #include "mdr/client/loading_path.h"
+#include "rig_csv.h"
 
 namespace mdrctl {
 namespace {
@@ -292,14 +293,7 @@ void Flatten(const Message& message, const std::string& prefix,
 
 }  // namespace
 
-std::string ToJson(const Message& message) {
-  google::protobuf::util::JsonPrintOptions options;
-  options.add_whitespace = true;
-  options.preserve_proto_field_names = true;
-  std::string json;
-  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
-  return json;
-}
+std::string ToJson(const Message& message) { return ProtoJson(message, true); }
 
 void PrintReport(const RunReport& report, const SceneFile& file, Format format, std::FILE* out) {
   if (format == Format::kJson) {

@@ -16,7 +16,7 @@ namespace mdrctl {
 
 enum class Format { kTable, kCsv, kJson };
 
-// The proto3 JSON of a message (field names as in the .proto), indented.
+// The proto3 JSON of a message, indented, every field present (ProtoJson, json_writer.h).
 std::string ToJson(const google::protobuf::Message& message);
 
 // Steps (the file's outputs as columns), energy per cycle and recorded profiles.

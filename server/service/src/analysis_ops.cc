@@ -1,6 +1,7 @@
 #include "mdr/service/analysis_ops.h"
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <set>
 #include <string>
@@ -61,10 +62,16 @@ v1::Regime ToProto(analysis::Regime regime) {
   return v1::REGIME_UNSPECIFIED;
 }
 
+// A sample index or count as the proto's uint32: every request is checked against
+// kMaxAnalyzedSamples first, which the static_assert keeps below 2^32.
+static_assert(kMaxAnalyzedSamples <= std::numeric_limits<std::uint32_t>::max());
+static_assert(kMaxFittedSamples <= kMaxAnalyzedSamples);
+std::uint32_t SampleIndex(std::size_t index) { return static_cast<std::uint32_t>(index); }
+
 void ToProto(const CycleMetrics& c, v1::CycleFigures* p) {
-  p->set_first_sample(c.first_sample);
-  p->set_last_sample(c.last_sample);
-  p->set_lower_reversal(c.lower_reversal);
+  p->set_first_sample(SampleIndex(c.first_sample));
+  p->set_last_sample(SampleIndex(c.last_sample));
+  p->set_lower_reversal(SampleIndex(c.lower_reversal));
   p->set_start_time(c.start_time);
   p->set_force_amplitude(c.force_amplitude);
   p->set_force_offset(c.force_offset);
@@ -251,7 +258,7 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
     return s.field().empty() ? s : s.WithFieldPrefix("samples");
   }
   response->set_reversal_threshold(loops->reversal_threshold);
-  response->mutable_reversals()->Add(loops->reversals.begin(), loops->reversals.end());
+  for (const std::size_t reversal : loops->reversals) response->add_reversals(SampleIndex(reversal));
   response->set_friction_drift(loops->friction_drift);
   response->set_friction_drifts(loops->friction_drifts);
   for (const CycleMetrics& cycle : loops->cycles) {
@@ -350,7 +357,7 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
     result->mutable_correlation()->Add(row.begin(), row.end());
   }
   result->set_residual_rms(fit->residual_rms);
-  result->set_residuals(fit->residuals);
+  result->set_residuals(SampleIndex(fit->residuals));
   result->set_iterations(fit->iterations);
   result->set_converged(fit->converged);
   result->set_condition_number(fit->condition_number);
