@@ -81,7 +81,9 @@ class LineReader {
   LineReader(std::istream& in, std::size_t max_line_bytes)
       : in_(in), max_line_bytes_(max_line_bytes) {}
 
-  enum class Read { kLine, kEnd, kTooLong, kFailed };
+  // kUnterminated: the file ends inside a line (its bytes after the last '\n', even only a
+  // '\r'), which is not read: a file cut short would end in a cut cell ("20.0" as "2").
+  enum class Read { kLine, kEnd, kTooLong, kFailed, kUnterminated };
 
   // The next line into *line; number() is then its 1-based number in the file.
   Read Next(std::string* line) {
@@ -89,9 +91,9 @@ class LineReader {
     while (true) {
       if (at_ == filled_ && !Fill()) {
         if (in_.bad()) return Read::kFailed;
-        // A last line without a line end counts (even one that is only '\r'): every byte read
-        // since the last '\n' is in *line.
-        return line->empty() ? Read::kEnd : Finish(line);
+        if (line->empty()) return Read::kEnd;
+        ++number_;
+        return Read::kUnterminated;
       }
       const char* begin = block_.data() + at_;
       const char* end = block_.data() + filled_;
@@ -155,31 +157,57 @@ struct Selected {
   std::size_t cell = 0;
 };
 
+// The header's cell named `name`, once.
+mdr::Result<std::size_t> FindColumn(const std::vector<std::string>& header, const std::string& name,
+                                    const std::string& where) {
+  std::vector<std::size_t> at;
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == name) at.push_back(i);
+  }
+  if (at.size() == 1) return at.front();
+  if (at.size() > 1) {
+    return mdr::InvalidArgument(where,
+                                "column " + Printable(name) + " appears more than once in the header");
+  }
+  std::string names;
+  for (std::size_t i = 0; i < header.size() && i < 32; ++i) {
+    names += (i ? ", " : "") + Printable(header[i]);
+  }
+  if (header.size() > 32) names += ", ...";
+  return mdr::InvalidArgument(
+      where, "no column " + Printable(name) + " in the header; its columns are " + names);
+}
+
 // The header's cells as names, checked for the selected columns.
 mdr::Status FindColumns(const std::vector<std::string>& header, const std::string& where,
                         std::vector<Selected>* selected) {
   for (Selected& column : *selected) {
-    std::vector<std::size_t> at;
-    for (std::size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == column.column.name) at.push_back(i);
-    }
-    if (at.size() == 1) {
-      column.cell = at.front();
-      continue;
-    }
-    if (at.size() > 1) {
-      return mdr::InvalidArgument(where, "column " + Printable(column.column.name) +
-                                             " appears more than once in the header");
-    }
-    std::string names;
-    for (std::size_t i = 0; i < header.size() && i < 32; ++i) {
-      names += (i ? ", " : "") + Printable(header[i]);
-    }
-    if (header.size() > 32) names += ", ...";
-    return mdr::InvalidArgument(where, "no column " + Printable(column.column.name) +
-                                           " in the header; its columns are " + names);
+    auto cell = FindColumn(header, column.column.name, where);
+    if (!cell.ok()) return cell.status();
+    column.cell = *cell;
   }
   return mdr::OkStatus();
+}
+
+// The samples and lines of one run of `file`.
+RigData RunOf(const RigData& file, const RigRun& run) {
+  RigData piece;
+  piece.path = file.path;
+  piece.format = file.format;
+  piece.synthetic = file.synthetic;
+  piece.run = run.id;
+  const auto begin = static_cast<int>(run.first), end = static_cast<int>(run.first + run.count);
+  const auto copy = [&](const google::protobuf::RepeatedField<double>& from,
+                        google::protobuf::RepeatedField<double>* to) {
+    if (from.empty()) return;
+    to->Add(from.begin() + begin, from.begin() + end);
+  };
+  copy(file.samples.displacement(), piece.samples.mutable_displacement());
+  copy(file.samples.tangential_force(), piece.samples.mutable_tangential_force());
+  copy(file.samples.normal_force(), piece.samples.mutable_normal_force());
+  copy(file.samples.time(), piece.samples.mutable_time());
+  piece.lines.assign(file.lines.begin() + begin, file.lines.begin() + end);
+  return piece;
 }
 
 // A cell as a finite number: C locale, a leading '+' allowed, optionally quoted. With
@@ -217,6 +245,53 @@ mdr::Result<double> ParseCell(std::string_view cell, bool decimal_comma, const s
 }
 
 }  // namespace
+
+std::string RunSplitter::Add(std::string_view id, std::size_t place, std::string_view place_name) {
+  const std::size_t sample = samples_++;
+  if (!runs_.empty() && runs_.back().id == id) {
+    ++runs_.back().count;
+    last_places_.back() = place;
+    return "";
+  }
+  const auto [found, added] = index_.emplace(std::string(id), runs_.size());
+  if (!added) {
+    const std::size_t earlier = found->second;
+    return "run " + Printable(id) + " appears again after run " + Printable(runs_.back().id) +
+           " (its rows ended at " + std::string(place_name) + " " +
+           std::to_string(last_places_[earlier]) +
+           "): the rows of a run must be contiguous; interleaved runs are usually a bad export";
+  }
+  runs_.push_back({std::string(id), sample, 1});
+  last_places_.push_back(place);
+  return "";
+}
+
+std::string RunIds(const std::vector<RigRun>& runs) {
+  std::string ids;
+  for (std::size_t i = 0; i < runs.size() && i < 32; ++i) {
+    ids += (i ? ", " : "") + Printable(runs[i].id);
+  }
+  if (runs.size() > 32) ids += ", ...";
+  return ids.empty() ? "none" : ids;
+}
+
+std::vector<RigData> SplitRuns(const RigData& file) {
+  if (file.runs.empty()) return {file};
+  std::vector<RigData> runs;
+  for (const RigRun& run : file.runs) runs.push_back(RunOf(file, run));
+  return runs;
+}
+
+mdr::Result<RigData> SelectRun(const RigData& file, const CsvLayout& layout,
+                               const std::string& id) {
+  for (const RigRun& run : file.runs) {
+    if (run.id == id) return RunOf(file, run);
+  }
+  const std::string column =
+      (file.format == RigFormat::kMat ? "variable " : "column ") + Printable(layout.run_column);
+  return mdr::InvalidArgument(file.path, "no run " + Printable(id) + " in " + column +
+                                             "; its runs are " + RunIds(file.runs));
+}
 
 std::string Printable(std::string_view text, std::size_t limit) {
   std::string out = "\"";
@@ -288,6 +363,8 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
   char delimiter = ',';
   std::vector<std::string> header;
   std::vector<Selected> selected;
+  std::optional<std::size_t> run_cell;
+  RunSplitter runs;
   std::string line;
   while (true) {
     switch (reader.Next(&line)) {
@@ -300,6 +377,12 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
       case LineReader::Read::kFailed:
         return mdr::InvalidArgument(
             path, "cannot read the CSV file after line " + std::to_string(reader.number()));
+      case LineReader::Read::kUnterminated:
+        return mdr::InvalidArgument(
+            where(),
+            "the last line has no line end: the file may be cut short (a rig still writing "
+            "it?), its last cell cut with it; if the file is complete, end its last line with a "
+            "line end");
       case LineReader::Read::kEnd:
         if (!header_line) {
           return mdr::InvalidArgument(
@@ -309,6 +392,7 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
           return mdr::InvalidArgument(
               path, "no data rows after the header (line " + std::to_string(*header_line) + ")");
         }
+        csv.runs = runs.Take();
         return csv;
     }
     const std::string_view trimmed = Trim(line);
@@ -326,6 +410,11 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
         selected.push_back({column});
       }
       if (auto s = FindColumns(header, where(), &selected); !s.ok()) return s;
+      if (!layout.run_column.empty()) {
+        auto cell = FindColumn(header, layout.run_column, where());
+        if (!cell.ok()) return cell.status();
+        run_cell = *cell;
+      }
       continue;
     }
     if (csv.lines.size() == limits.max_samples) {
@@ -348,6 +437,16 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
       auto value = ParseCell(cells[cell], delimiter != ',', where(), column.name);
       if (!value.ok()) return value.status();
       column.values->Add(*value * column.factor);
+    }
+    if (run_cell) {
+      const std::string_view id = Unquoted(cells[*run_cell]);
+      const std::string refused =
+          id.empty() ? "the cell is empty: every row needs its run's id"
+                     : runs.Add(id, reader.number(), "line");
+      if (!refused.empty()) {
+        return mdr::InvalidArgument(where(),
+                                    "column " + Printable(layout.run_column) + ": " + refused);
+      }
     }
     csv.lines.push_back(reader.number());
   }

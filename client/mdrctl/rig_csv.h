@@ -3,20 +3,28 @@
 // CSV: one sample per row, columns chosen by their header names, values in stated units converted
 // to SI. '#' comment lines and blank lines are skipped anywhere; the first other line is the
 // header. Cells are separated by ',' (or ';' or a tab, when the header uses exactly one of the
-// three). Every error names the file, the line (1-based, counting every line of the file) and the
-// column; text taken from the file is quoted bounded and escaped (Printable). The file is read a
-// line at a time, so that any file (a log still growing, /dev/zero) costs bounded memory.
+// three). Every line ends with a line end: a last line without one is refused (the file may be cut
+// short, a cell "20.0" read as "2"). Every error names the file, the line (1-based, counting every
+// line of the file) and the column; text taken from the file is quoted bounded and escaped
+// (Printable). The file is read a line at a time, so that any file (a log still growing,
+// /dev/zero) costs bounded memory.
 //
 // MATLAB (rig_mat.cc): a "column" is a variable of that name, a real numeric vector, or a field
 // of a 1x1 struct ("run.force"); every error names the file, the variable and the element.
+//
+// A file of several runs names each sample's run in a run column (CsvLayout::run_column): the
+// rows of one run are contiguous, in any order of the runs; SplitRuns and SelectRun take them
+// apart.
 #pragma once
 
 #include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
+#include "mdr/base/sample_limits.h"
 #include "mdr/base/status.h"
 #include "mdr/v1/analysis.pb.h"
 
@@ -35,6 +43,8 @@ struct CsvLayout {
   std::string force_column = "tangential_force";
   std::string normal_force_column;  // empty: none
   std::string time_column;          // empty: none
+  // The column of each sample's run id, in a file of several runs; empty: the file is one run.
+  std::string run_column;
   double displacement_unit = 1, force_unit = 1, time_unit = 1;
 };
 
@@ -43,10 +53,19 @@ enum class RigFormat { kCsv, kMat };
 // What a reader holds at most: a file past a bound is refused when the reader reaches it, having
 // held no more than the bound (the tests lower the bounds to reach them).
 struct RigFileLimits {
-  // Samples: data rows of a CSV file, elements of a MAT file's variable.
-  std::size_t max_samples = std::size_t{1} << 25;
+  // Samples: data rows of a CSV file, elements of a MAT file's variable; by default what one
+  // AnalyzeLoops call takes, for the whole file (all its runs).
+  std::size_t max_samples = mdr::kMaxAnalyzedSamples;
   // Bytes of one CSV line, its line end not counted.
   std::size_t max_line_bytes = std::size_t{1} << 20;
+};
+
+// One run of a file with a run column: its id as the file writes it (a CSV cell trimmed and
+// unquoted; a MAT element's number: an integer in decimal, else its shortest form) and its
+// samples, [first, first + count) of the file's.
+struct RigRun {
+  std::string id;
+  std::size_t first = 0, count = 0;
 };
 
 struct RigData {
@@ -57,6 +76,39 @@ struct RigData {
   std::vector<std::size_t> lines;
   // The text of a "# SYNTHETIC ..." comment (bounded, escaped), if the file has one.
   std::optional<std::string> synthetic;
+  // With a run column: the file's runs in the order they first appear; empty without one.
+  std::vector<RigRun> runs;
+  // The id of the run these samples are, when taken from such a file (SplitRuns, SelectRun).
+  std::optional<std::string> run;
+};
+
+// Each run of a file read with a run column, in the order they appear, its samples and lines
+// only; a file without a run column as it is.
+std::vector<RigData> SplitRuns(const RigData& file);
+
+// The run `id` of a file read with a run column (layout.run_column names it in the error). Errors:
+// INVALID_ARGUMENT with the field the file's path, naming the id and the file's ids (at most 32).
+mdr::Result<RigData> SelectRun(const RigData& file, const CsvLayout& layout,
+                               const std::string& id);
+
+// The runs' ids for a message: quoted and escaped (Printable), at most 32, then "...".
+std::string RunIds(const std::vector<RigRun>& runs);
+
+// The runs of a run column, built sample by sample by both readers. A run is one contiguous block
+// of samples: an id that reappears after another run is refused, because interleaved runs are
+// almost always a bad export (a merge sorted by time, say), not a recording.
+class RunSplitter {
+ public:
+  // Adds the next sample, of run `id` (not empty), at `place`, its line or element ("line",
+  // "element": `place_name`). Returns "" or why the sample is refused.
+  std::string Add(std::string_view id, std::size_t place, std::string_view place_name);
+  std::vector<RigRun> Take() { return std::move(runs_); }
+
+ private:
+  std::vector<RigRun> runs_;
+  std::vector<std::size_t> last_places_;                 // of each run in runs_
+  std::unordered_map<std::string, std::size_t> index_;  // id -> its run in runs_
+  std::size_t samples_ = 0;
 };
 
 // A column the layout selects: its name, its factor to SI and the samples' field it fills (the

@@ -3,6 +3,7 @@
 #include <matio.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -520,6 +521,36 @@ class Mat5Elements {
   bool swapped_ = false;
 };
 
+// A run variable's element as its run id: an integer in decimal (run 1000000 as "1000000", not
+// "1e+06"), another number in its shortest form that reads back the same.
+std::string RunId(double value) {
+  if (value == std::floor(value) && std::abs(value) < 0x1p53) {
+    return std::to_string(static_cast<std::int64_t>(value));  // -0 as "0"
+  }
+  char text[32];
+  const auto end = std::to_chars(text, text + sizeof text, value).ptr;
+  return std::string(text, end);
+}
+
+// The runs of the run variable, read as a selected column of `length` elements (its checks:
+// a real numeric vector of finite elements, one per sample).
+mdr::Result<std::vector<RigRun>> ReadRuns(mat_t* mat, const std::string& name,
+                                          const SelectedColumn& first, const std::string& path,
+                                          std::size_t max_samples, std::size_t length) {
+  google::protobuf::RepeatedField<double> values;
+  const SelectedColumn column{name, 1, &values};
+  if (auto s = ReadColumn(mat, column, &first, path, max_samples, &length); !s.ok()) return s;
+  RunSplitter runs;
+  for (int i = 0; i < values.size(); ++i) {
+    const std::string refused = runs.Add(RunId(values[i]), i + 1, "element");
+    if (!refused.empty()) {
+      return mdr::InvalidArgument(path, "variable " + Printable(name) + ", element " +
+                                            std::to_string(i + 1) + ": " + refused);
+    }
+  }
+  return runs.Take();
+}
+
 }  // namespace
 
 mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout,
@@ -547,6 +578,12 @@ mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout
     if (auto s = ReadColumn(mat.get(), column, first, path, limits.max_samples, &length); !s.ok()) {
       return s;
     }
+  }
+  if (!layout.run_column.empty()) {
+    auto runs = ReadRuns(mat.get(), layout.run_column, columns.front(), path, limits.max_samples,
+                         length);
+    if (!runs.ok()) return runs.status();
+    data.runs = std::move(runs).value();
   }
   data.lines.resize(length);
   for (std::size_t i = 0; i < length; ++i) data.lines[i] = i + 1;

@@ -396,8 +396,8 @@ TEST_F(RigFileTest, ACorruptByteCountOrDimensionIsRefusedBeforeMatioReadsIt) {
   }
 }
 
-// The same rows with LF or CRLF line ends, a byte order mark, no line end after the last row, and
-// cells long enough that rows straddle the reader's 64 KiB blocks: the same samples and lines.
+// The same rows with LF or CRLF line ends, a byte order mark, and cells long enough that rows
+// straddle the reader's 64 KiB blocks: the same samples and lines.
 TEST_F(RigFileTest, CsvRowsAcrossBlocksAndLineEndsReadTheSame) {
   const std::string filler(100000, 'a');  // an unselected column
   const auto write = [&](const std::string& name, const std::string& end, bool bom, bool last_end) {
@@ -411,7 +411,7 @@ TEST_F(RigFileTest, CsvRowsAcrossBlocksAndLineEndsReadTheSame) {
     }
   };
   write("lf.csv", "\n", false, true);
-  write("crlf.csv", "\r\n", true, false);
+  write("crlf.csv", "\r\n", true, true);
   auto plain = ReadRigFile(WriteCsv().string(), Layout());
   ASSERT_TRUE(plain.ok()) << plain.status().ToString();
   for (const char* name : {"lf.csv", "crlf.csv"}) {
@@ -425,7 +425,34 @@ TEST_F(RigFileTest, CsvRowsAcrossBlocksAndLineEndsReadTheSame) {
   }
 }
 
+// A file that ends inside a line may be cut short, its last cell with it ("20.0" written as far
+// as "2"): refused at that line, whatever the line holds, LF or CRLF, across a block or not.
+TEST_F(RigFileTest, ALastLineWithoutLineEndIsRefused) {
+  const std::string filler(70000, 'a');  // the last line starts in one block, ends in the next
+  for (const std::string& last : {std::string("1,1,2,2"), std::string("1,1,2,2\r"),
+                                  std::string("# a comment"), "1," + filler + ",2,2"}) {
+    SCOPED_TRACE(last.substr(0, 16));
+    const bool wide = last.size() > 1000;
+    std::ofstream(Path("cut.csv"), std::ios::binary | std::ios::trunc)
+        << (wide ? "t,note,fx,fn\n0,a,2,20.0\n" : "t,x,fx,fn\n0,1,2,20.0\n") << last;
+    CsvLayout layout = Layout();
+    if (wide) layout.displacement_column = "fx";
+    const mdr::Status status = ReadError("cut.csv", layout);
+    EXPECT_EQ(status.field(), Path("cut.csv").string() + ":3");
+    EXPECT_EQ(status.message(),
+              "the last line has no line end: the file may be cut short (a rig still writing "
+              "it?), its last cell cut with it; if the file is complete, end its last line with "
+              "a line end");
+  }
+  std::ofstream(Path("whole.csv"), std::ios::binary) << "t,x,fx,fn\n0,1,2,20.0\n1,1,2,2\n";
+  auto whole = ReadRigFile(Path("whole.csv").string(), Layout());
+  ASSERT_TRUE(whole.ok()) << whole.status().ToString();
+  EXPECT_EQ(whole->samples.normal_force(1), 2e3);
+}
+
 TEST_F(RigFileTest, CsvPastItsBoundsIsRefusedAtTheLineThatCrossesThem) {
+  // By default the most samples one AnalyzeLoops call takes.
+  EXPECT_EQ(RigFileLimits{}.max_samples, std::size_t{10'000'000});
   {
     std::ofstream out(Path("rows.csv"));
     out << "t,x,fx,fn\n0,1,2,3\n# a comment\n1,1,2,3\n2,1,2,3\n\n3,1,2,3\n";
@@ -590,6 +617,153 @@ TEST_F(RigFileTest, ServiceErrorsAboutASampleNameTheVariableAndElement) {
       LocateSampleError("samples.tangential_force[2]", "must be finite", data, Layout());
   EXPECT_EQ(csv.field(), "run.mat:9");
   EXPECT_EQ(csv.message(), R"(column "fx": must be finite)");
+}
+
+// A file of several runs (a run column): every run in the order it first appears, each a
+// contiguous block of rows, its ids as the cells write them (trimmed, unquoted).
+TEST_F(RigFileTest, CsvRunsAreSplitByTheRunColumn) {
+  std::ofstream(Path("runs.csv"), std::ios::binary)
+      << "# three runs\nrun,t,x,fx,fn\n\"a\",0,1,2,3\n a ,1,2,3,4\n\n b,2,3,4,5\n"
+      << "# between\n10,3,4,5,6\n10,4,5,6,7\n10,5,6,7,8\n";
+  CsvLayout layout = Layout();
+  layout.run_column = "run";
+  auto file = ReadRigFile(Path("runs.csv").string(), layout);
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  ASSERT_EQ(file->runs.size(), 3u);
+  EXPECT_EQ(file->runs[0].id, "a");
+  EXPECT_EQ(file->runs[1].id, "b");
+  EXPECT_EQ(file->runs[2].id, "10");
+  EXPECT_EQ(file->runs[2].first, 3u);
+  EXPECT_EQ(file->runs[2].count, 3u);
+  EXPECT_FALSE(file->run);
+
+  const std::vector<RigData> runs = SplitRuns(*file);
+  ASSERT_EQ(runs.size(), 3u);
+  EXPECT_EQ(runs[0].run, "a");
+  EXPECT_EQ(runs[0].lines, (std::vector<std::size_t>{3, 4}));
+  EXPECT_EQ(runs[1].lines, (std::vector<std::size_t>{6}));
+  EXPECT_EQ(runs[2].lines, (std::vector<std::size_t>{8, 9, 10}));
+  EXPECT_EQ(runs[2].samples.displacement_size(), 3);
+  EXPECT_DOUBLE_EQ(runs[2].samples.displacement(0), 4e-6);
+  EXPECT_EQ(runs[2].samples.tangential_force(2), 7e3);
+  EXPECT_EQ(runs[2].samples.normal_force(1), 7e3);
+  EXPECT_DOUBLE_EQ(runs[2].samples.time(2), 5e-3);
+  EXPECT_TRUE(runs[2].runs.empty());
+
+  auto b = SelectRun(*file, layout, "b");
+  ASSERT_TRUE(b.ok()) << b.status().ToString();
+  EXPECT_EQ(b->run, "b");
+  EXPECT_EQ(b->samples.displacement_size(), 1);
+  EXPECT_EQ(b->samples.tangential_force(0), 4e3);
+
+  // A service error about a sample of a run lands on its line in the file.
+  const mdr::Status located =
+      LocateSampleError("samples.time[1]", "must increase strictly", runs[2], layout);
+  EXPECT_EQ(located.field(), Path("runs.csv").string() + ":9");
+
+  // Without the run column the file is one set.
+  auto whole = ReadRigFile(Path("runs.csv").string(), Layout());
+  ASSERT_TRUE(whole.ok());
+  EXPECT_TRUE(whole->runs.empty());
+  EXPECT_EQ(SplitRuns(*whole).size(), 1u);
+  EXPECT_EQ(SplitRuns(*whole).front().lines.size(), 6u);
+}
+
+TEST_F(RigFileTest, AMissingRunIsNamedWithTheFilesRuns) {
+  std::ofstream(Path("runs.csv"), std::ios::binary)
+      << "run,t,x,fx,fn\np50,0,1,2,3\np50,1,1,2,3\n\"p\x1b" << std::string(80, 'x')
+      << "\",2,1,2,3\n";
+  CsvLayout layout = Layout();
+  layout.run_column = "run";
+  auto file = ReadRigFile(Path("runs.csv").string(), layout);
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  auto missing = SelectRun(*file, layout, "p\"200");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().field(), Path("runs.csv").string());
+  EXPECT_EQ(missing.status().message(),
+            R"(no run "p\"200" in column "run"; its runs are "p50", "p\x1B)" +
+                std::string(62, 'x') + R"(...")");
+}
+
+TEST_F(RigFileTest, AnInterleavedRunIsRefusedAtItsLine) {
+  std::ofstream(Path("interleaved.csv"), std::ios::binary)
+      << "run,t,x,fx,fn\na,0,1,2,3\na,1,1,2,3\nb,2,1,2,3\n# c\na,3,1,2,3\n";
+  CsvLayout layout = Layout();
+  layout.run_column = "run";
+  const mdr::Status status = ReadError("interleaved.csv", layout);
+  EXPECT_EQ(status.field(), Path("interleaved.csv").string() + ":6");
+  EXPECT_EQ(status.message(),
+            R"(column "run": run "a" appears again after run "b" (its rows ended at line 3): )"
+            "the rows of a run must be contiguous; interleaved runs are usually a bad export");
+}
+
+TEST_F(RigFileTest, AnEmptyRunCellOrAMissingRunColumnIsRefused) {
+  CsvLayout layout = Layout();
+  layout.run_column = "run";
+  for (const char* cell : {"", "  ", "\"\""}) {
+    SCOPED_TRACE(cell);
+    std::ofstream(Path("empty.csv"), std::ios::binary | std::ios::trunc)
+        << "t,x,fx,fn,run\n0,1,2,3,a\n1,1,2,3," << cell << "\n";
+    const mdr::Status status = ReadError("empty.csv", layout);
+    EXPECT_EQ(status.field(), Path("empty.csv").string() + ":3");
+    EXPECT_EQ(status.message(), R"(column "run": the cell is empty: every row needs its run's id)");
+  }
+  std::ofstream(Path("none.csv"), std::ios::binary) << "t,x,fx,fn\n0,1,2,3\n";
+  const mdr::Status none = ReadError("none.csv", layout);
+  EXPECT_EQ(none.field(), Path("none.csv").string() + ":1");
+  EXPECT_THAT(none.message(), HasSubstr(R"(no column "run" in the header)"));
+}
+
+// A MAT file's run variable is a numeric vector like the others: its elements are the ids,
+// integers in decimal (1000000, not 1e+06), in every version matio writes.
+TEST_F(RigFileTest, MatRunsAreSplitByTheRunVariable) {
+  const std::vector<double> run{7, 7, 1000000, 1000000, 2.5, 2.5};
+  CsvLayout layout = Layout();
+  layout.run_column = "run";
+  for (const mat_ft version : {MAT_FT_MAT5, MAT_FT_MAT73, MAT_FT_MAT4}) {
+    SCOPED_TRACE(version);
+    {
+      MatWriter mat(Path("runs.mat"), version);
+      ASSERT_TRUE(mat.ok());
+      WriteColumns(mat);
+      mat.AddDoubles("run", run);
+    }
+    auto file = ReadRigFile(Path("runs.mat").string(), layout);
+    ASSERT_TRUE(file.ok()) << file.status().ToString();
+    ASSERT_EQ(file->runs.size(), 3u);
+    EXPECT_EQ(file->runs[0].id, "7");
+    EXPECT_EQ(file->runs[1].id, "1000000");
+    EXPECT_EQ(file->runs[2].id, "2.5");
+    auto selected = SelectRun(*file, layout, "1000000");
+    ASSERT_TRUE(selected.ok()) << selected.status().ToString();
+    EXPECT_EQ(selected->lines, (std::vector<std::size_t>{3, 4}));
+    EXPECT_EQ(selected->samples.displacement(0), kDisplacement[2] * 1e-6);
+    auto missing = SelectRun(*file, layout, "8");
+    ASSERT_FALSE(missing.ok());
+    EXPECT_EQ(missing.status().message(),
+              R"(no run "8" in variable "run"; its runs are "7", "1000000", "2.5")");
+  }
+  {
+    MatWriter mat(Path("bad_runs.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    WriteColumns(mat);
+    mat.Add("interleaved", MAT_C_INT32, MAT_T_INT32, std::vector<std::int32_t>{1, 2, 2, 1, 1, 1},
+            6, 1);
+    mat.AddDoubles("missing", {1, 1, NAN, 2, 2, 2});
+    mat.AddDoubles("short", {1, 1, 2});
+  }
+  const auto refused = [&](const char* variable) {
+    layout.run_column = variable;
+    const mdr::Status status = ReadError("bad_runs.mat", layout);
+    EXPECT_EQ(status.field(), Path("bad_runs.mat").string());
+    return status.message();
+  };
+  EXPECT_EQ(refused("interleaved"),
+            R"(variable "interleaved", element 4: run "1" appears again after run "2" (its rows )"
+            "ended at element 1): the rows of a run must be contiguous; interleaved runs are "
+            "usually a bad export");
+  EXPECT_EQ(refused("missing"), R"(variable "missing", element 3: nan is not a finite number)");
+  EXPECT_THAT(refused("short"), HasSubstr(R"(variable "short" has 3 elements, "x" has 6)"));
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <functional>
 
+#include "mdr/base/sample_limits.h"  // kMaxAnalyzedSamples, kMaxFittedSamples
 #include "mdr/base/status.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/service/limits.h"
@@ -13,9 +14,8 @@
 
 namespace mdr::service {
 
-// Bounds on the work one call may ask for (analysis.proto states them).
-inline constexpr std::size_t kMaxAnalyzedSamples = 10'000'000;
-inline constexpr std::size_t kMaxFittedSamples = 1'000'000;
+// Bounds on the work one call may ask for (analysis.proto states them; the samples' bounds are
+// mdr_base's, which mdrctl's file readers share).
 inline constexpr int kMaxLoopSets = 64;
 inline constexpr int kMaxFitIterations = 1000;
 inline constexpr int kMaxMapForces = 100;
