@@ -129,6 +129,7 @@ mdr::Result<CsvLayout> LayoutFromArgs(const LoopsArgs& args) {
   layout.force_column = args.force_column;
   layout.normal_force_column = args.normal_force_column;
   layout.time_column = args.time_column;
+  layout.run_column = args.run_column;
   auto u = UnitFactor(Quantity::kDisplacement, args.displacement_unit, "--displacement-unit");
   if (!u.ok()) return u.status();
   auto f = UnitFactor(Quantity::kForce, args.force_unit, "--force-unit");
@@ -154,50 +155,106 @@ mdr::v1::LoopAnalysisOptions LoopsOptions(const LoopsArgs& args, const mdr::v1::
   return options;
 }
 
+// What mdrctl loops analyses: the file, or with --run-column each of its runs (or the --run).
+mdr::Result<std::vector<RigData>> LoopsRuns(const LoopsArgs& args, const CsvLayout& layout,
+                                            const RigData& file) {
+  if (!args.run) return SplitRuns(file);
+  auto run = SelectRun(file, layout, *args.run);
+  if (!run.ok()) return run.status();
+  return std::vector<RigData>{std::move(run).value()};
+}
+
+// The figures of one run (or the whole file), its errors at the file's lines.
+mdr::Result<ReportSet> AnalyzeRun(Connection& connection, const LoopsArgs& args,
+                                  const CsvLayout& layout, const mdr::v1::LoopAnalysisOptions& options,
+                                  const mdr::client::SceneDocument* document, RigData run) {
+  const mdr::v1::Scene* scene = document ? &document->file().scene() : nullptr;
+  const mdr::v1::AnalyzeLoopsRequest request = AnalysisRequest(run, options, scene);
+  auto analysis = connection.client().AnalyzeLoops(request);
+  if (!analysis.ok()) {
+    if (auto large = RequestTooLarge(analysis.status(), args.file, request.ByteSizeLong())) {
+      return *large;
+    }
+    return LoopsError(analysis.status(), run, layout, document);
+  }
+  ReportSet set;
+  set.label = fs::path(args.file).filename().string();
+  set.csv = std::move(run);
+  set.layout = layout;
+  set.normal_force = options.has_normal_force() ? options.normal_force() : std::nan("");
+  set.analysis = std::move(analysis).value();
+  return set;
+}
+
+void PrintLoops(const LoopsArgs& args, const std::vector<ReportSet>& sets, Format format) {
+  if (args.run_column.empty()) {
+    PrintLoopAnalysis(sets.front().analysis, format, stdout);
+    return;
+  }
+  std::vector<RunAnalysis> runs;
+  for (const ReportSet& set : sets) {
+    runs.push_back({*set.csv.run, static_cast<std::size_t>(set.csv.samples.displacement_size()),
+                    set.csv.lines.front(), set.csv.lines.back(), &set.analysis});
+  }
+  PrintRunAnalyses(runs, format, stdout);
+}
+
+// loop.png and cycles.png, or per run run1_loop.png, run1_cycles.png, ... in the file's order.
+mdr::Result<std::vector<std::string>> WriteLoopsReportPlots(const LoopsReport& report,
+                                                            const std::string& dir) {
+  std::vector<std::string> pngs;
+  for (std::size_t k = 0; k < report.sets.size(); ++k) {
+    const ReportSet& set = report.sets[k];
+    const std::string prefix =
+        report.run_column.empty() ? "" : "run" + std::to_string(k + 1) + "_";
+    const std::string title = set.label + (set.csv.run ? " run " + Printable(*set.csv.run) : "");
+    auto written =
+        WriteLoopsPlots({title, &set.csv.samples, &set.analysis, set.normal_force}, dir, prefix);
+    if (!written.ok()) return written.status();
+    pngs.insert(pngs.end(), written->begin(), written->end());
+  }
+  return pngs;
+}
+
 }  // namespace
 
 int LoopsCommand(const Common& common, const LoopsArgs& args) {
+  if (args.run && args.run_column.empty()) {
+    return Fail(mdr::InvalidArgument("--run", "needs --run-column, the column of the runs' ids"));
+  }
   auto layout = LayoutFromArgs(args);
   if (!layout.ok()) return Fail(layout.status());
-  auto csv = ReadRigFile(args.file, *layout);
-  if (!csv.ok()) return Fail(csv.status());
+  auto file = ReadRigFile(args.file, *layout);
+  if (!file.ok()) return Fail(file.status());
+  auto runs = LoopsRuns(args, *layout, *file);
+  if (!runs.ok()) return Fail(runs.status());
   std::optional<mdr::client::SceneDocument> document;
-  std::optional<mdr::v1::Scene> scene;
   if (!args.scene.empty()) {
     auto loaded = mdr::client::SceneDocument::Load(args.scene);
     if (!loaded.ok()) return Fail(loaded.status());
     document = std::move(loaded).value();
-    scene = document->file().scene();
   }
   if (!args.report_dir.empty()) {
     if (auto s = MakeDirectory(args.report_dir, "--report"); !s.ok()) return Fail(s);
   }
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status());
-  const mdr::v1::LoopAnalysisOptions options = LoopsOptions(args, scene ? &*scene : nullptr);
-  const mdr::v1::AnalyzeLoopsRequest request =
-      AnalysisRequest(*csv, options, scene ? &*scene : nullptr);
-  auto analysis = (*connection)->client().AnalyzeLoops(request);
-  if (!analysis.ok()) {
-    if (auto large = RequestTooLarge(analysis.status(), args.file, request.ByteSizeLong())) {
-      return Fail(*large);
-    }
-    return Fail(LoopsError(analysis.status(), *csv, *layout, document ? &*document : nullptr));
-  }
-  PrintLoopAnalysis(*analysis, common.format, stdout);
-  if (args.report_dir.empty()) return EXIT_SUCCESS;
+  const mdr::v1::LoopAnalysisOptions options =
+      LoopsOptions(args, document ? &document->file().scene() : nullptr);
   LoopsReport report;
-  report.set.label = fs::path(args.file).filename().string();
-  report.set.csv = *csv;
-  report.set.layout = *layout;
-  report.set.normal_force = options.has_normal_force() ? options.normal_force() : std::nan("");
-  report.set.analysis = *analysis;
+  report.label = fs::path(args.file).filename().string();
+  report.run_column = args.run_column;
   report.options = options;
   report.scene_source = args.scene;
-  report.plots = DrawPlots([&] {
-    return WriteLoopsPlots({report.set.label, &csv->samples, &*analysis, report.set.normal_force},
-                           args.report_dir);
-  });
+  for (RigData& run : *runs) {
+    auto set = AnalyzeRun(**connection, args, *layout, options, document ? &*document : nullptr,
+                          std::move(run));
+    if (!set.ok()) return Fail(set.status());
+    report.sets.push_back(std::move(set).value());
+  }
+  PrintLoops(args, report.sets, common.format);
+  if (args.report_dir.empty()) return EXIT_SUCCESS;
+  report.plots = DrawPlots([&] { return WriteLoopsReportPlots(report, args.report_dir); });
   const mdr::Status written =
       WriteReport(args.report_dir, LoopsMarkdown(report), LoopsJson(report), report.plots);
   return written.ok() ? EXIT_SUCCESS : Fail(written);
@@ -209,13 +266,69 @@ int LoopsCommand(const Common& common, const LoopsArgs& args) {
 namespace mdrctl {
 namespace {
 
+// The files of a campaign, each read once per layout: several sets may take runs of one file.
+class CampaignFiles {
+ public:
+  mdr::Result<const RigData*> Read(const CampaignSet& set) {
+    const std::string key = set.path + '\0' + LayoutKey(set.layout);
+    auto found = files_.find(key);
+    if (found == files_.end()) {
+      auto read = ReadRigFile(set.path, set.layout);
+      if (!read.ok()) return read.status();
+      found = files_.emplace(key, std::move(read).value()).first;
+    }
+    return &found->second;
+  }
+
+ private:
+  static std::string LayoutKey(const CsvLayout& layout) {
+    std::string key;
+    for (const std::string* name : {&layout.displacement_column, &layout.force_column,
+                                    &layout.normal_force_column, &layout.time_column,
+                                    &layout.run_column}) {
+      key += *name + '\0';
+    }
+    for (double unit : {layout.displacement_unit, layout.force_unit, layout.time_unit}) {
+      char text[32];  // the shortest text that reads back as the same factor
+      key.append(text, std::to_chars(text, text + sizeof text, unit).ptr);
+      key += '\0';
+    }
+    return key;
+  }
+  std::map<std::string, RigData> files_;
+};
+
+// A set's samples: its file, or with a run column the set's run (a file of one run needs none).
+mdr::Result<RigData> SetSamples(const Campaign& campaign, std::size_t index, CampaignFiles* files) {
+  const CampaignSet& set = campaign.sets[index];
+  auto file = files->Read(set);
+  if (!file.ok()) return file.status();
+  const RigData& data = **file;
+  if (set.layout.run_column.empty()) return data;
+  const std::string field = mdr::Indexed("sets", index);
+  if (set.run) {
+    auto run = SelectRun(data, set.layout, *set.run);
+    if (run.ok()) return run;
+    return mdr::InvalidArgument(run.status().field(), run.status().message() + " (" +
+                                                          campaign.lines.Where(field + ".run") +
+                                                          ")");
+  }
+  if (data.runs.size() == 1) return SplitRuns(data).front();
+  return campaign.lines.Error(field, "its file " + set.path + " holds " +
+                                         std::to_string(data.runs.size()) + " runs in column " +
+                                         Printable(set.layout.run_column) + " (" +
+                                         RunIds(data.runs) + "): choose one with run: ID");
+}
+
 mdr::Result<std::vector<ReportSet>> ReadSets(const Campaign& campaign) {
   std::vector<ReportSet> sets;
-  for (const CampaignSet& set : campaign.sets) {
-    auto csv = ReadRigFile(set.path, set.layout);
+  CampaignFiles files;
+  for (std::size_t i = 0; i < campaign.sets.size(); ++i) {
+    const CampaignSet& set = campaign.sets[i];
+    auto csv = SetSamples(campaign, i, &files);
     if (!csv.ok()) return csv.status();
     ReportSet& read = sets.emplace_back();
-    read.label = set.file;
+    read.label = set.file + (csv->run ? " run " + Printable(*csv->run) : "");
     read.csv = std::move(csv).value();
     read.layout = set.layout;
     read.normal_force = set.normal_force;
@@ -654,11 +767,13 @@ Campaign schema (docs/analysis.md, "From a rig's CSV files to a report"):
   title: text of the report's heading (optional)
   scene: a scene file's path (relative to this file; its `scene` is read) or an inline
     mdr.v1.Scene: the starting point of the fit; the free parameters start at `initial`
-  columns: {displacement, tangential_force, normal_force, time}: header names in the CSV
-    files (defaults: displacement, tangential_force; normal_force and time: none)
+  columns: {displacement, tangential_force, normal_force, time, run}: header names in the CSV
+    files (defaults: displacement, tangential_force; normal_force, time and run: none); run:
+    the column of each row's run id, in files of several runs
   units: {displacement: m|mm|um|nm, force: N|kN|mN, time: s|ms|us} (defaults m, N, s)
-  sets: [{file, normal_force (N), columns?, units?}]: one run per CSV file at a constant
-    normal force; columns and units override the defaults above for that file
+  sets: [{file, normal_force (N), run?, columns?, units?}]: one run at a constant normal
+    force, a whole CSV file or its run `run` (its id in the run column); columns and units
+    override the defaults above for that file
   free: [{parameter, initial?, lower, upper}]: parameter is friction, effective_modulus,
     profile_scale, rig_compliance or displacement_offset (SI units; bounds exclusive)
   burn_in_reversals: residuals count from this reversal of each set on (default 2)

@@ -173,8 +173,9 @@ bool AnyRegime(const std::vector<PlottedSet>& sets) {
 }
 
 // Q* (or Q*/P), Ed, A and B (and the contact's A), C (and the onset's) per cycle.
-void AddCyclePlots(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
-  script->Output("cycles.png");
+void AddCyclePlots(const std::vector<PlottedSet>& sets, const fs::path& data,
+                   const std::string& png, Script* script) {
+  script->Output(png);
   int cycles = 0;
   for (const PlottedSet& set : sets) cycles = std::max(cycles, set.analysis->cycles_size());
   script->text << "set multiplot layout 2,2 title 'figures per cycle'\nset key bottom right "
@@ -341,15 +342,15 @@ mdr::Result<std::vector<std::string>> WriteFitPlots(const std::vector<PlottedSet
   return script.pngs;
 }
 
-mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set,
-                                                      const std::string& dir) {
+mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set, const std::string& dir,
+                                                      const std::string& prefix) {
   TemporaryDirectory temporary;
   if (temporary.path().empty()) return mdr::Internal("--report", "cannot create a temporary dir");
   const fs::path out = fs::absolute(dir);
   WriteLoop(set, temporary.path() / "loop.dat");
   WriteCycles({set}, temporary.path() / "cycles.dat");
   Script script(out);
-  script.Output("loop.png");
+  script.Output(prefix + "loop.png");
   script.Labels(set.label + ": F_x over u, coloured by cycle", "u [µm] (contact+rig)", "F_x [N]");
   const int cycles = std::max(set.analysis->cycles_size(), 1);
   script.text << "set key top left\nset cbrange [0.5:" << cycles + 0.5 << "]\nset cblabel 'cycle'\n"
@@ -358,7 +359,7 @@ mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set,
               << Q(temporary.path() / "loop.dat")
               << " using ($1*1e6):($3>0?$2:1/0):3 with lines lw 1.5 lc palette title 'cycles'\n"
               << "unset colorbox\n";
-  AddCyclePlots({set}, temporary.path() / "cycles.dat", &script);
+  AddCyclePlots({set}, temporary.path() / "cycles.dat", prefix + "cycles.png", &script);
   const fs::path script_file = temporary.path() / "plots.gp";
   std::ofstream(script_file) << script.text.str();
   if (mdr::Status s = RunGnuplot(script_file.string(), "--report"); !s.ok()) return s;

@@ -22,10 +22,10 @@ struct PlottedSet {
   std::size_t first_counted = 0;               // the first sample the fit counts
 };
 
-// loop.png (F_x over u, coloured by cycle) and cycles.png (the figures per cycle). Returns the
-// PNGs' file names (in dir).
-mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set,
-                                                      const std::string& dir);
+// loop.png (F_x over u, coloured by cycle) and cycles.png (the figures per cycle), each name after
+// `prefix` (one run of several: "run2_"). Returns the PNGs' file names (in dir).
+mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set, const std::string& dir,
+                                                      const std::string& prefix = "");
 
 // loops.png (measured and fitted loops per set), residuals.png, fretting_map.png
 // (Q*/P against the actuator amplitude: the map's loops, the onsets, the measured cycles) and

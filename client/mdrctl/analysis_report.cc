@@ -438,6 +438,11 @@ std::string MapSection(const FitReport& report) {
 
 void WriteSetJson(const ReportSet& set, bool fit, JsonWriter* json) {
   json->BeginObject().Key("file").String(set.label).Key("path").String(set.csv.path);
+  if (set.csv.run) {  // one run of a file of several: its id as written, its first and last line
+    json->Key("run").String(*set.csv.run);
+    json->Key("first_line").Number(static_cast<double>(set.csv.lines.front()));
+    json->Key("last_line").Number(static_cast<double>(set.csv.lines.back()));
+  }
   json->Key("normal_force").Number(set.normal_force);
   json->Key("samples").Number(set.csv.samples.displacement_size());
   json->Key("synthetic");
@@ -467,13 +472,18 @@ void WritePlotsJson(const Plots& plots, JsonWriter* json) {
 }  // namespace
 
 std::string LoopsMarkdown(const LoopsReport& report) {
-  const ReportSet& set = report.set;
-  std::string md = "# Loop analysis of " + Code(set.label) + "\n\n";
-  if (set.csv.synthetic) {
-    md += "> **Synthetic input**: " + Code(*set.csv.synthetic) + "\n\n";
+  const ReportSet& first = report.sets.front();
+  std::string md = "# Loop analysis of " + Code(report.label) + "\n\n";
+  if (first.csv.synthetic) {
+    md += "> **Synthetic input**: " + Code(*first.csv.synthetic) + "\n\n";
   }
-  md += "Columns: " + LayoutText(set.layout) + "; " +
-        std::to_string(set.csv.samples.displacement_size()) + " samples.";
+  std::size_t samples = 0;
+  for (const ReportSet& set : report.sets) samples += set.csv.samples.displacement_size();
+  md += "Columns: " + LayoutText(first.layout) + "; " + std::to_string(samples) + " samples";
+  md += report.run_column.empty() ? "."
+                                  : " in " + std::to_string(report.sets.size()) +
+                                        " runs by the run column " + Code(report.run_column) +
+                                        ", each analysed on its own.";
   if (report.options.has_normal_force()) {
     md += " Normal force " + Num(report.options.normal_force()) + " N (given).";
   }
@@ -485,10 +495,25 @@ std::string LoopsMarkdown(const LoopsReport& report) {
     md +=
         " Regimes against the onset of gross slip of the scene " + Code(report.scene_source) + ".";
   }
-  md += "\n\n" + AnalysisSummary(set.analysis) + "\n\n" + kMeasuresNote + "\n\n" +
-        CycleTable(set.analysis) + "\n";
-  return md + PlotsSection(report.plots,
-                           {"the measured loop, coloured by cycle", "the figures per cycle"});
+  std::vector<std::string> captions;
+  if (report.run_column.empty()) {
+    md += "\n\n" + AnalysisSummary(first.analysis) + "\n\n" + kMeasuresNote + "\n\n" +
+          CycleTable(first.analysis) + "\n";
+    captions = {"the measured loop, coloured by cycle", "the figures per cycle"};
+  } else {
+    md += "\n\n" + std::string(kMeasuresNote) + "\n\n";
+    for (const ReportSet& set : report.sets) {
+      const std::string run = "run " + Code(Printable(*set.csv.run));
+      md += "## Run " + Code(Printable(*set.csv.run)) + "\n\n" +
+            std::to_string(set.csv.samples.displacement_size()) + " samples, " +
+            (set.csv.format == RigFormat::kMat ? "elements " : "lines ") +
+            std::to_string(set.csv.lines.front()) + " to " + std::to_string(set.csv.lines.back()) +
+            ". " + AnalysisSummary(set.analysis) + "\n\n" + CycleTable(set.analysis) + "\n";
+      captions.push_back(run + ": the measured loop, coloured by cycle");
+      captions.push_back(run + ": the figures per cycle");
+    }
+  }
+  return md + PlotsSection(report.plots, captions);
 }
 
 std::string LoopsJson(const LoopsReport& report) {
@@ -496,8 +521,15 @@ std::string LoopsJson(const LoopsReport& report) {
   json.BeginObject().Key("report").String("mdrctl loops");
   json.Key("options").Message(report.options);
   json.Key("scene").String(report.scene_source);
-  json.Key("set");
-  WriteSetJson(report.set, false, &json);
+  if (report.run_column.empty()) {
+    json.Key("set");
+    WriteSetJson(report.sets.front(), false, &json);
+  } else {
+    json.Key("run_column").String(report.run_column);
+    json.Key("runs").BeginArray();
+    for (const ReportSet& set : report.sets) WriteSetJson(set, false, &json);
+    json.EndArray();
+  }
   WritePlotsJson(report.plots, &json);
   json.EndObject();
   return json.Pretty();

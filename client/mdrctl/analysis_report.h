@@ -1,6 +1,6 @@
 // The reports of `mdrctl loops --report` and `mdrctl fit --report`: report.md for people (every
 // number labelled with what it measures, the verdicts in words) and report.json with the same
-// content in machine form (the service's messages as proto3 JSON, timings left out so that a
+// content in machine form (the service's messages as proto3 JSON, timings cleared to 0 so that a
 // re-run reproduces the file).
 #pragma once
 
@@ -14,9 +14,9 @@
 
 namespace mdrctl {
 
-// One CSV file and what was computed from it.
+// One CSV file (or one run of a file of several: csv.run) and what was computed from it.
 struct ReportSet {
-  std::string label;  // the file as given
+  std::string label;  // the file as given (and its run)
   RigData csv;
   CsvLayout layout;
   double normal_force = 0;  // N; NaN when unknown (mdrctl loops without a load)
@@ -35,7 +35,10 @@ struct Plots {
 };
 
 struct LoopsReport {
-  ReportSet set;
+  std::string label;  // the file's name
+  // One set, or with a run column one per run analysed, in the file's order (their csv.run).
+  std::vector<ReportSet> sets;
+  std::string run_column;  // "" without
   mdr::v1::LoopAnalysisOptions options;
   std::string scene_source;  // the --scene file, "" without
   Plots plots;

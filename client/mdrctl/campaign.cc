@@ -179,7 +179,7 @@ class YamlDoc {
     target = std::move(assigned_value_).value();                \
   } while (false)
 
-// `columns: {displacement, tangential_force, normal_force, time}` and
+// `columns: {displacement, tangential_force, normal_force, time, run}` and
 // `units: {displacement, force, time}` of `map` over `layout`.
 mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::string& field,
                        CsvLayout* layout) {
@@ -187,7 +187,8 @@ mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::str
   if (const YAML::Node columns = map["columns"]) {
     const std::string f = prefix + "columns";
     if (auto s =
-            doc.CheckKeys(columns, f, {"displacement", "tangential_force", "normal_force", "time"});
+            doc.CheckKeys(columns, f,
+                          {"displacement", "tangential_force", "normal_force", "time", "run"});
         !s.ok()) {
       return s;
     }
@@ -202,6 +203,7 @@ mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::str
                     doc.String(columns["normal_force"], f + ".normal_force"));
     if (columns["time"])
       MDRCTL_ASSIGN(layout->time_column, doc.String(columns["time"], f + ".time"));
+    if (columns["run"]) MDRCTL_ASSIGN(layout->run_column, doc.String(columns["run"], f + ".run"));
   }
   if (const YAML::Node units = map["units"]) {
     const std::string f = prefix + "units";
@@ -315,13 +317,14 @@ mdr::Status ReadFitSection(const YamlDoc& doc, const YAML::Node& map, const std:
 mdr::Result<std::vector<CampaignSet>> ReadSets(const YamlDoc& doc, const CsvLayout& defaults) {
   const YAML::Node sets = doc.root()["sets"];
   if (!sets || !sets.IsSequence() || sets.size() == 0) {
-    return doc.Error("sets", "must list the loop sets ({file, normal_force})");
+    return doc.Error("sets", "must list the loop sets ({file, normal_force, run?})");
   }
   std::vector<CampaignSet> out;
   for (std::size_t i = 0; i < sets.size(); ++i) {
     const std::string f = mdr::Indexed("sets", i);
     const YAML::Node item = sets[i];
-    if (auto s = doc.CheckKeys(item, f, {"file", "normal_force", "columns", "units"}); !s.ok()) {
+    if (auto s = doc.CheckKeys(item, f, {"file", "normal_force", "run", "columns", "units"});
+        !s.ok()) {
       return s;
     }
     if (!item["file"] || !item["normal_force"]) return doc.Error(f, "needs file and normal_force");
@@ -331,6 +334,14 @@ mdr::Result<std::vector<CampaignSet>> ReadSets(const YamlDoc& doc, const CsvLayo
     MDRCTL_ASSIGN(set.normal_force, doc.Positive(item["normal_force"], f + ".normal_force"));
     set.layout = defaults;
     if (auto s = ReadLayout(doc, item, f, &set.layout); !s.ok()) return s;
+    if (item["run"]) {
+      MDRCTL_ASSIGN(set.run, doc.String(item["run"], f + ".run"));
+      if (set.layout.run_column.empty()) {
+        return doc.Error(f + ".run",
+                         "needs a run column to find it in: columns: {run: NAME}, for every set "
+                         "or in this one");
+      }
+    }
     out.push_back(set);
   }
   return out;

@@ -43,6 +43,8 @@ struct CampaignSet {
   std::string path;  // resolved against the campaign's directory
   double normal_force = 0;
   CsvLayout layout;
+  // The run of a file of several (its id in layout.run_column); unset: the file's only run.
+  std::optional<std::string> run;
 };
 
 struct Campaign {

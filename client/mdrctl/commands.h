@@ -67,13 +67,16 @@ int ImportCommand(const Common& common, const std::string& snapshot_file, const 
 // A TransformRequest in YAML or JSON.
 int TransformCommand(const Common& common, const std::string& request_file);
 
-// mdrctl loops FILE.csv: the figures of every cycle of a rig's CSV file (AnalyzeLoops).
+// mdrctl loops FILE.csv: the figures of every cycle of a rig's CSV file (AnalyzeLoops), of each
+// run of a file of several.
 struct LoopsArgs {
   std::string file;
   std::string displacement_column = "displacement";
   std::string force_column = "tangential_force";
   std::string normal_force_column;  // optional
   std::string time_column;          // optional
+  std::string run_column;           // optional: each sample's run id
+  std::optional<std::string> run;   // only this run (needs run_column)
   std::string displacement_unit = "m";
   std::string force_unit = "N";
   std::string time_unit = "s";

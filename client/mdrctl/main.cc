@@ -142,6 +142,12 @@ int main(int argc, char** argv) {
                     "Header name (MAT: variable) of the normal force (optional)");
   loops->add_option("--time-column", loops_args.time_column,
                     "Header name (MAT: variable) of the time (optional)");
+  loops->add_option("--run-column", loops_args.run_column,
+                    "Header name (MAT: variable) of each sample's run id, for a file of several "
+                    "runs: each run is analysed on its own, in the file's order");
+  loops->add_option_function<std::string>(
+      "--run", [&loops_args](const std::string& id) { loops_args.run = id; },
+      "Analyse only this run of the --run-column (its id as the file writes it)");
   loops->add_option("--displacement-unit", loops_args.displacement_unit, "m, mm, um or nm")
       ->capture_default_str();
   loops->add_option("--force-unit", loops_args.force_unit, "N, kN or mN (also the normal force's)")

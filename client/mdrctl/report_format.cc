@@ -460,30 +460,38 @@ void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out
   }
 }
 
-void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
-                       std::FILE* out) {
-  if (format == Format::kJson) {
-    std::fputs(ToJson(analysis).c_str(), out);
-    return;
-  }
-  const std::vector<CycleColumn> columns = CycleColumns(analysis);
-  Table table;
-  table.header.push_back("cycle");
-  for (const CycleColumn& column : columns) {
-    table.header.push_back(format == Format::kCsv ? column.csv_name : column.header);
-  }
+namespace {
+
+// The per-cycle rows of an analysis under `columns`, after `lead` (the run's id, or nothing).
+void AddCycleRows(const mdr::v1::AnalyzeLoopsResponse& analysis,
+                  const std::vector<CycleColumn>& columns, Format format,
+                  const std::vector<std::string>& lead, Table* table) {
   for (int i = 0; i < analysis.cycles_size(); ++i) {
-    std::vector<std::string> row{std::to_string(i + 1)};
+    std::vector<std::string> row = lead;
+    row.push_back(std::to_string(i + 1));
     for (const CycleColumn& column : columns) {
       std::string cell = column.cell(analysis.cycles(i));
       // A CSV cell holds no separator: flags are joined by '|'.
       if (format == Format::kCsv) std::replace(cell.begin(), cell.end(), ' ', '|');
       row.push_back(cell);
     }
-    table.rows.push_back(std::move(row));
+    table->rows.push_back(std::move(row));
   }
-  table.Print(format, out);
-  if (format != Format::kTable) return;
+}
+
+Table CycleTable(const std::vector<CycleColumn>& columns, Format format,
+                 std::vector<std::string> header) {
+  Table table;
+  table.header = std::move(header);
+  table.header.push_back("cycle");
+  for (const CycleColumn& column : columns) {
+    table.header.push_back(format == Format::kCsv ? column.csv_name : column.header);
+  }
+  return table;
+}
+
+void PrintAnalysisFooter(const mdr::v1::AnalyzeLoopsResponse& analysis,
+                         const std::vector<CycleColumn>& columns, std::FILE* out) {
   std::string biased;
   for (const CycleColumn& column : columns) {
     if (MeasureLabel(analysis, column.figure) == "contact+rig") {
@@ -498,6 +506,58 @@ void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format for
                Number(analysis.reversal_threshold()).c_str(),
                Number(analysis.friction_drift()).c_str(),
                analysis.friction_drifts() ? " (drifts)" : "");
+}
+
+}  // namespace
+
+void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
+                       std::FILE* out) {
+  if (format == Format::kJson) {
+    std::fputs(ToJson(analysis).c_str(), out);
+    return;
+  }
+  const std::vector<CycleColumn> columns = CycleColumns(analysis);
+  Table table = CycleTable(columns, format, {});
+  AddCycleRows(analysis, columns, format, {}, &table);
+  table.Print(format, out);
+  if (format == Format::kTable) PrintAnalysisFooter(analysis, columns, out);
+}
+
+void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::FILE* out) {
+  if (format == Format::kJson) {
+    JsonWriter json;
+    json.BeginObject().Key("runs").BeginArray();
+    for (const RunAnalysis& run : runs) {
+      json.BeginObject().Key("run").String(run.run);
+      json.Key("samples").Number(static_cast<double>(run.samples));
+      json.Key("first_line").Number(static_cast<double>(run.first_line));
+      json.Key("last_line").Number(static_cast<double>(run.last_line));
+      json.Key("analysis").Message(*run.analysis).EndObject();
+    }
+    json.EndArray().EndObject();
+    std::fputs(json.Pretty().c_str(), out);
+    return;
+  }
+  if (format == Format::kTable) {
+    for (const RunAnalysis& run : runs) {
+      std::fprintf(out, "%srun %s: %zu samples, lines %zu to %zu\n", &run == &runs.front() ? "" : "\n",
+                   Printable(run.run).c_str(), run.samples, run.first_line, run.last_line);
+      PrintLoopAnalysis(*run.analysis, format, out);
+    }
+    return;
+  }
+  // One CSV table: its columns are those of every run's cycles together (a run without cycles
+  // would otherwise drop the contact columns).
+  mdr::v1::AnalyzeLoopsResponse all;
+  for (const RunAnalysis& run : runs) {
+    for (const auto& cycle : run.analysis->cycles()) *all.add_cycles() = cycle;
+  }
+  const std::vector<CycleColumn> columns = CycleColumns(all);
+  Table table = CycleTable(columns, format, {"run"});
+  for (const RunAnalysis& run : runs) {
+    AddCycleRows(*run.analysis, columns, format, {Printable(run.run)}, &table);
+  }
+  table.Print(format, out);
 }
 
 void PrintMessage(const Message& message, Format format, std::FILE* out) {

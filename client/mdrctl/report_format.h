@@ -3,6 +3,7 @@
 
 #include <google/protobuf/message.h>
 
+#include <cstddef>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -53,5 +54,18 @@ void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out
 // One row per cycle (table, CSV; table adds which figures the rig biases) or the JSON response.
 void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
                        std::FILE* out);
+
+// One run of a file of several (mdrctl loops --run-column) and its analysis.
+struct RunAnalysis {
+  std::string run;  // its id as the file writes it
+  std::size_t samples = 0;
+  std::size_t first_line = 0, last_line = 0;  // of its rows (a MAT file: elements)
+  const mdr::v1::AnalyzeLoopsResponse* analysis = nullptr;
+};
+// The runs in the file's order. Table: a heading per run ("run "a": ...", the id quoted and
+// escaped as Printable), then its table as PrintLoopAnalysis prints it; CSV: one table, the run's
+// id (quoted so) first on every row; JSON: {"runs": [{run, samples, first_line, last_line,
+// analysis}]}, the id as written, analysis the AnalyzeLoopsResponse.
+void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::FILE* out);
 
 }  // namespace mdrctl

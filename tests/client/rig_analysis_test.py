@@ -12,6 +12,13 @@ report"), one case per CTest test:
   campaign_errors     campaign and synthesis files: unknown keys (escaped), bad values, service
                       errors at their line, a bad cell in a set's CSV
   example_reproduces  examples/rig_campaign/run.sh re-run reproduces the committed report.json
+  runs                a file of several runs split by a run column (CSV and MAT): each run's
+                      figures those of its own file, --run, and the refusals (a missing run,
+                      an interleaved run, an empty run cell, --run without --run-column);
+                      a campaign taking its sets as runs of one file fits as the separate files
+  cut_last_line       a file whose last line has no line end (cut short) is refused at it
+  json_fields         --format json and report.json carry every field, zeros and false
+                      included, and sample indices as JSON numbers
   long_run            a file of 10^6 samples: analysed on mdrctl's own server (past mdrd's
                       default message limit), and through --server to an mdrd with that default
                       refused naming the file, the request's size and --max-message-bytes
@@ -509,7 +516,212 @@ def case_long_run(args, tmp):
     print("ok past mdrd's message limit: the file, its size and --max-message-bytes named")
 
 
+# ---- runs ----
+
+def data_rows(path):
+    """The header and data lines of a CSV file (comments left out)."""
+    lines = [line for line in open(path).read().splitlines() if not line.startswith("#")]
+    return lines[0], lines[1:]
+
+
+def multi_run_csv(path, runs):
+    """One CSV file of several runs' files, a run column first: {id: file}."""
+    out = []
+    for run_id, file in runs.items():
+        header, rows = data_rows(file)
+        if not out:
+            out.append("run," + header)
+        out += [f"{run_id},{row}" for row in rows]
+    return write(path, "\n".join(out) + "\n")
+
+
+def without_run(rows):
+    return [{k: v for k, v in r.items() if k != "run"} for r in rows]
+
+
+def case_runs(args, tmp):
+    m = args.mdrctl
+    data = synthesize(m, tmp, H1_SCENE, "100", "3e-6, 1e-6", 3, 400)
+    gross, partial = (os.path.join(data, f"p100N_u{a}um.csv") for a in ("3", "1"))
+    common = ["--normal-force", "100", "--time-column", "time"]
+
+    def loops(path, *extra, fmt="csv"):
+        return expect_success(m, ["loops", path, *common, *extra, "--format", fmt],
+                              f"loops {os.path.basename(path)} {' '.join(extra)}").stdout
+
+    alone = {"gross": csv_rows(loops(gross)), "partial": csv_rows(loops(partial))}
+    both = multi_run_csv(os.path.join(tmp, "both.csv"), {'"gross"': gross, " partial ": partial})
+    rows = csv_rows(loops(both, "--run-column", "run"))
+    check([r["run"] for r in rows] == ["gross"] * len(alone["gross"]) +
+          ["partial"] * len(alone["partial"]), f"runs {[r['run'] for r in rows]}")
+    for run_id, expected in alone.items():
+        got = without_run(r for r in rows if r["run"] == run_id)
+        check(got == expected, f"run {run_id}: other figures than its own file:\n{got}\n{expected}")
+    print(f"ok a CSV file of two runs: each run's {len(alone['gross'])} cycles as its own file's")
+    selected = csv_rows(loops(both, "--run-column", "run", "--run", "partial"))
+    check(without_run(selected) == alone["partial"], "--run partial")
+    document = json.loads(loops(both, "--run-column", "run", fmt="json"))
+    check([r["run"] for r in document["runs"]] == ["gross", "partial"], "JSON runs")
+    header, gross_rows = data_rows(gross)
+    first = document["runs"][0]
+    check(first["first_line"] == 2 and first["last_line"] == 1 + len(gross_rows) and
+          first["samples"] == len(gross_rows), f"JSON run: {first}")
+    single = json.loads(loops(gross, fmt="json"))
+    check(first["analysis"]["cycles"] == single["cycles"], "JSON cycles of a run")
+    table = loops(both, "--run-column", "run", fmt="table")
+    check(f'run "gross": {len(gross_rows)} samples, lines 2 to {1 + len(gross_rows)}' in table
+          and 'run "partial"' in table, table)
+    print("ok --run, the JSON and the table say each result's run")
+    # The same runs in a MATLAB file, the run variable numbered.
+    columns = {"run": [], "time": [], "displacement": [], "tangential_force": []}
+    for number, file in ((1, gross), (2, partial)):
+        for row in data_rows(file)[1]:
+            values = [number] + [float(x) for x in row.split(",")]
+            for name, value in zip(columns, values):
+                columns[name].append(value)
+    mat = os.path.join(tmp, "both.mat")
+    write_mat5(mat, columns)
+    mat_rows = csv_rows(loops(mat, "--run-column", "run"))
+    check([{**r, "run": {"1": "gross", "2": "partial"}[r["run"]]} for r in mat_rows] == rows,
+          "the MAT file's runs give other figures than the CSV file's")
+    print("ok a MAT file of two runs, numbered, reads as the CSV file")
+    report = os.path.join(tmp, "report")
+    expect_success(m, ["loops", both, *common, "--run-column", "run", "--report", report],
+                   "loops --report of two runs")
+    document = json.load(open(os.path.join(report, "report.json")))
+    check(document["run_column"] == "run" and
+          [r["run"] for r in document["runs"]] == ["gross", "partial"], "report.json runs")
+    text = open(os.path.join(report, "report.md")).read()
+    check('## Run `"gross"`' in text and '## Run `"partial"`' in text, "report.md runs")
+    check_pngs(report, ["run1_loop.png", "run1_cycles.png", "run2_loop.png", "run2_cycles.png"],
+               document)
+
+    # The refusals.
+    expect_failure(m, ["loops", both, "--run-column", "run", "--run", "slip\x1b"],
+                   r'^mdrctl: \S*both\.csv: no run "slip\\x1B" in column "run"; its runs are '
+                   r'"gross", "partial"\n$', "a missing run")
+    expect_failure(m, ["loops", mat, "--run-column", "run", "--run", "3"],
+                   r'^mdrctl: \S*both\.mat: no run "3" in variable "run"; its runs are "1", "2"\n$',
+                   "a missing run of a MAT file")
+    lines = [f"{r},{row}\n" for r, row in zip("aba", gross_rows)]
+    interleaved = write(os.path.join(tmp, "interleaved.csv"), f"run,{header}\n" + "".join(lines))
+    expect_failure(m, ["loops", interleaved, "--run-column", "run"],
+                   r'^mdrctl: \S*interleaved\.csv:4: column "run": run "a" appears again after '
+                   r'run "b" \(its rows ended at line 2\): the rows of a run must be contiguous',
+                   "an interleaved run")
+    empty = write(os.path.join(tmp, "empty_run.csv"),
+                  f"run,{header}\na,{gross_rows[0]}\n ,{gross_rows[1]}\n")
+    expect_failure(m, ["loops", empty, "--run-column", "run"],
+                   r'^mdrctl: \S*empty_run\.csv:3: column "run": the cell is empty: every row '
+                   r"needs its run's id\n$", "an empty run cell")
+    expect_failure(m, ["loops", gross, "--run", "a"],
+                   r"^mdrctl: --run: needs --run-column, the column of the runs' ids\n$",
+                   "--run without --run-column")
+
+    # A campaign whose sets are runs of one file fits as the campaign of separate files.
+    os.makedirs(os.path.join(tmp, "fit"))
+    campaign = small_campaign(m, os.path.join(tmp, "fit"))
+    original = open(campaign).read()
+    files = re.findall(r"\{file: (\S+), normal_force: (\S+)\}", original)
+    check(len(files) == 4, f"sets {files}")
+    directory = os.path.dirname(campaign)
+    multi_run_csv(os.path.join(directory, "all.csv"),
+                  {f"r{k}": os.path.join(directory, f) for k, (f, _) in enumerate(files)})
+    merged = original.replace("time: time}", "time: time, run: run}")
+    for k, (f, load) in enumerate(files):
+        merged = merged.replace(f"{{file: {f}, normal_force: {load}}}",
+                                f"{{file: all.csv, run: r{k}, normal_force: {load}}}")
+    check(merged.count("all.csv") == 4 and "run: run}" in merged, merged)
+    runs_campaign = write(os.path.join(directory, "runs.yaml"), merged)
+    separate = json.loads(expect_success(m, ["fit", campaign, "--format", "json"],
+                                         "fit of separate files").stdout)
+    runs_report = os.path.join(tmp, "runs_report")
+    as_runs = json.loads(expect_success(m, ["fit", runs_campaign, "--format", "json", "--report",
+                                            runs_report], "fit of runs").stdout)
+    check(separate["estimates"] == as_runs["estimates"],
+          f"the runs fit otherwise than the files: {separate['estimates']} vs "
+          f"{as_runs['estimates']}")
+    document = json.load(open(os.path.join(runs_report, "report.json")))
+    check([s["run"] for s in document["sets"]] == ["r0", "r1", "r2", "r3"], "report.json sets")
+    check('all.csv run "r2"' in open(os.path.join(runs_report, "report.md")).read(),
+          "report.md names the sets' runs")
+    print("ok a campaign of four runs of one file fits as its four files")
+    expect_failure(m, ["fit", write(os.path.join(directory, "no_run.yaml"),
+                                    merged.replace("all.csv, run: r1, ", "all.csv, "))],
+                   r'^mdrctl: sets\[1\]: its file \S*all\.csv holds 4 runs in column "run" '
+                   r'\("r0", "r1", "r2", "r3"\): choose one with run: ID '
+                   r'\(\S*no_run\.yaml:\d+\)\n$', "a set without its run")
+    expect_failure(m, ["fit", write(os.path.join(directory, "bad_run.yaml"),
+                                    merged.replace("run: r1,", "run: r9,"))],
+                   r'^mdrctl: \S*all\.csv: no run "r9" in column "run"; its runs are "r0", "r1", '
+                   r'"r2", "r3" \(\S*bad_run\.yaml:\d+\)\n$', "a campaign's missing run")
+    expect_failure(m, ["fit", write(os.path.join(directory, "no_column.yaml"),
+                                    merged.replace(", run: run}", "}"))],
+                   r'^mdrctl: sets\[0\]\.run: needs a run column to find it in: columns: '
+                   r'\{run: NAME\}, [^\n]*\(\S*no_column\.yaml:\d+\)\n$', "a run without a column")
+
+
+# ---- cut_last_line ----
+
+def case_cut_last_line(args, tmp):
+    m = args.mdrctl
+    rows = "".join(f"{1e-6 * math.sin(k * math.pi / 20)!r},{10 * math.sin(k * math.pi / 20 - 0.3)!r}\n"
+                   for k in range(120))
+    header = "displacement,tangential_force\n"
+    whole = write(os.path.join(tmp, "whole.csv"), header + rows + "0,20.0\n")
+    expect_success(m, ["loops", whole, "--normal-force", "100"], "a whole file")
+    cut = write(os.path.join(tmp, "cut.csv"), header + rows + "0,2")
+    expect_failure(m, ["loops", cut, "--normal-force", "100"],
+                   r"^mdrctl: \S*cut\.csv:122: the last line has no line end: the file may be cut "
+                   r"short \(a rig still writing it\?\), its last cell cut with it; if the file is "
+                   r"complete, end its last line with a line end\n$", "a last line cut short")
+    crlf_cut = write(os.path.join(tmp, "cut_crlf.csv"),
+                     (header + rows).replace("\n", "\r\n") + "0,20.0\r")
+    expect_failure(m, ["loops", crlf_cut, "--normal-force", "100"],
+                   r"^mdrctl: \S*cut_crlf\.csv:122: the last line has no line end",
+                   "a CRLF file cut after its last '\\r'")
+
+
+# ---- json_fields ----
+
+def case_json_fields(args, tmp):
+    m = args.mdrctl
+    campaign = small_campaign(m, tmp)
+    out = expect_success(m, ["loops", os.path.join(os.path.dirname(campaign), "p200N_u8um.csv"),
+                             "--normal-force", "200", "--format", "json"],
+                         "loops --format json").stdout
+    document = json.loads(out)
+    check(document["friction_drifts"] is False,
+          f"friction_drifts: {document.get('friction_drifts')}")
+    check(document["reversals"] and all(type(r) is int for r in document["reversals"]),
+          f"reversals as numbers: {document['reversals']}")
+    cycle = document["cycles"][0]
+    for key in ("first_sample", "last_sample", "lower_reversal"):
+        check(type(cycle[key]) is int, f"{key}: {cycle[key]!r} is not a JSON number")
+    flags = cycle["flags"]
+    check(flags["not_closed"] is False and flags["hooked"] is False and
+          flags["asymmetric"] is False, f"flags without their false fields: {flags}")
+    check(cycle["regime"] == "REGIME_UNSPECIFIED" and cycle["onset_system_free_ratio"] == 0,
+          f"unset regime and onset not printed: {cycle}")
+    print(f"ok loops JSON: false and zero fields present, indices as numbers "
+          f"({cycle['first_sample']}, {cycle['lower_reversal']}, {cycle['last_sample']})")
+    report = os.path.join(tmp, "report")
+    expect_success(m, ["fit", campaign, "--report", report, "--format", "json"], "fit")
+    document = json.load(open(os.path.join(report, "report.json")))
+    fit = document["fit"]
+    check(type(fit["residuals"]) is int and fit["residuals"] > 0, f"residuals {fit['residuals']!r}")
+    analysis = document["sets"][0]["analysis"]
+    check(type(analysis["cycles"][0]["first_sample"]) is int and
+          analysis["friction_drifts"] is False, "report.json's analysis")
+    check(document["request"]["reversal_threshold"] == 0 and
+          document["request"]["max_iterations"] == 0, "report.json's request: zero fields")
+    print("ok report.json: every field, residuals and indices as numbers")
+
+
 CASES = {
+    "runs": case_runs,
+    "cut_last_line": case_cut_last_line,
+    "json_fields": case_json_fields,
     "long_run": case_long_run,
     "csv_errors": case_csv_errors,
     "loops_figures": case_loops_figures,
