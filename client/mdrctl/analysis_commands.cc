@@ -20,6 +20,7 @@
 #include "campaign.h"
 #include "commands.h"
 #include "connection.h"
+#include "json_writer.h"
 #include "loop_sessions.h"
 #include "mdr/analysis/identify.h"
 #include "mdr/base/validate.h"
@@ -166,7 +167,8 @@ mdr::Result<std::vector<RigData>> LoopsRuns(const LoopsArgs& args, const CsvLayo
 
 // The figures of one run (or the whole file), its errors at the file's lines.
 mdr::Result<ReportSet> AnalyzeRun(Connection& connection, const LoopsArgs& args,
-                                  const CsvLayout& layout, const mdr::v1::LoopAnalysisOptions& options,
+                                  const CsvLayout& layout,
+                                  const mdr::v1::LoopAnalysisOptions& options,
                                   const mdr::client::SceneDocument* document, RigData run) {
   const mdr::v1::Scene* scene = document ? &document->file().scene() : nullptr;
   const mdr::v1::AnalyzeLoopsRequest request = AnalysisRequest(run, options, scene);
@@ -205,8 +207,7 @@ mdr::Result<std::vector<std::string>> WriteLoopsReportPlots(const LoopsReport& r
   std::vector<std::string> pngs;
   for (std::size_t k = 0; k < report.sets.size(); ++k) {
     const ReportSet& set = report.sets[k];
-    const std::string prefix =
-        report.run_column.empty() ? "" : "run" + std::to_string(k + 1) + "_";
+    const std::string prefix = report.run_column.empty() ? "" : "run" + std::to_string(k + 1) + "_";
     const std::string title = set.label + (set.csv.run ? " run " + Printable(*set.csv.run) : "");
     auto written =
         WriteLoopsPlots({title, &set.csv.samples, &set.analysis, set.normal_force}, dir, prefix);
@@ -283,9 +284,9 @@ class CampaignFiles {
  private:
   static std::string LayoutKey(const CsvLayout& layout) {
     std::string key;
-    for (const std::string* name : {&layout.displacement_column, &layout.force_column,
-                                    &layout.normal_force_column, &layout.time_column,
-                                    &layout.run_column}) {
+    for (const std::string* name :
+         {&layout.displacement_column, &layout.force_column, &layout.normal_force_column,
+          &layout.time_column, &layout.run_column}) {
       key += *name + '\0';
     }
     for (double unit : {layout.displacement_unit, layout.force_unit, layout.time_unit}) {
@@ -309,9 +310,9 @@ mdr::Result<RigData> SetSamples(const Campaign& campaign, std::size_t index, Cam
   if (set.run) {
     auto run = SelectRun(data, set.layout, *set.run);
     if (run.ok()) return run;
-    return mdr::InvalidArgument(run.status().field(), run.status().message() + " (" +
-                                                          campaign.lines.Where(field + ".run") +
-                                                          ")");
+    return mdr::InvalidArgument(
+        run.status().field(),
+        run.status().message() + " (" + campaign.lines.Where(field + ".run") + ")");
   }
   if (data.runs.size() == 1) return SplitRuns(data).front();
   return campaign.lines.Error(field, "its file " + set.path + " holds " +
@@ -742,7 +743,7 @@ YAML::Node SceneNode(const mdr::v1::Scene& scene) {
       for (auto item : node) block(item);
     }
   };
-  YAML::Node node = YAML::Load(ToJson(scene));
+  YAML::Node node = YAML::Load(ProtoJson(scene, false, JsonFields::kSet));
   block(node);
   return node;
 }

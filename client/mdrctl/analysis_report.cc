@@ -480,10 +480,10 @@ std::string LoopsMarkdown(const LoopsReport& report) {
   std::size_t samples = 0;
   for (const ReportSet& set : report.sets) samples += set.csv.samples.displacement_size();
   md += "Columns: " + LayoutText(first.layout) + "; " + std::to_string(samples) + " samples";
-  md += report.run_column.empty() ? "."
-                                  : " in " + std::to_string(report.sets.size()) +
-                                        " runs by the run column " + Code(report.run_column) +
-                                        ", each analysed on its own.";
+  md += report.run_column.empty()
+            ? "."
+            : " in " + std::to_string(report.sets.size()) + " runs by the run column " +
+                  Code(report.run_column) + ", each analysed on its own.";
   if (report.options.has_normal_force()) {
     md += " Normal force " + Num(report.options.normal_force()) + " N (given).";
   }

@@ -186,9 +186,8 @@ mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::str
   const std::string prefix = field.empty() ? "" : field + ".";
   if (const YAML::Node columns = map["columns"]) {
     const std::string f = prefix + "columns";
-    if (auto s =
-            doc.CheckKeys(columns, f,
-                          {"displacement", "tangential_force", "normal_force", "time", "run"});
+    if (auto s = doc.CheckKeys(columns, f,
+                               {"displacement", "tangential_force", "normal_force", "time", "run"});
         !s.ok()) {
       return s;
     }

@@ -76,11 +76,11 @@ JsonWriter& JsonWriter::Bool(bool value) {
   return *this;
 }
 
-std::string ProtoJson(const google::protobuf::Message& message, bool indented) {
+std::string ProtoJson(const google::protobuf::Message& message, bool indented, JsonFields fields) {
   google::protobuf::util::JsonPrintOptions options;
   options.add_whitespace = indented;
   options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
+  options.always_print_primitive_fields = fields == JsonFields::kEvery;
   std::string json;
   (void)google::protobuf::util::MessageToJsonString(message, &json, options);
   return json;

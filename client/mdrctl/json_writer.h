@@ -42,6 +42,10 @@ using mdr::client::JsonQuoted;  // a JSON string literal (mdr/client/scene_file.
 // A message as proto3 JSON the way every mdrctl output writes it (--format json, report.json):
 // field names as in the .proto, and every field present, zeros, false and empty lists included,
 // so that a script reads a field without knowing proto3's defaults. Indented or compact.
-std::string ProtoJson(const google::protobuf::Message& message, bool indented);
+// JsonFields::kSet leaves the defaults out, for a file a person reads and edits (the scene of a
+// campaign that synthesize writes).
+enum class JsonFields { kEvery, kSet };
+std::string ProtoJson(const google::protobuf::Message& message, bool indented,
+                      JsonFields fields = JsonFields::kEvery);
 
 }  // namespace mdrctl

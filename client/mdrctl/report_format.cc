@@ -540,8 +540,9 @@ void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::
   }
   if (format == Format::kTable) {
     for (const RunAnalysis& run : runs) {
-      std::fprintf(out, "%srun %s: %zu samples, lines %zu to %zu\n", &run == &runs.front() ? "" : "\n",
-                   Printable(run.run).c_str(), run.samples, run.first_line, run.last_line);
+      std::fprintf(out, "%srun %s: %zu samples, lines %zu to %zu\n",
+                   &run == &runs.front() ? "" : "\n", Printable(run.run).c_str(), run.samples,
+                   run.first_line, run.last_line);
       PrintLoopAnalysis(*run.analysis, format, out);
     }
     return;

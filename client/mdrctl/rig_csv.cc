@@ -166,8 +166,8 @@ mdr::Result<std::size_t> FindColumn(const std::vector<std::string>& header, cons
   }
   if (at.size() == 1) return at.front();
   if (at.size() > 1) {
-    return mdr::InvalidArgument(where,
-                                "column " + Printable(name) + " appears more than once in the header");
+    return mdr::InvalidArgument(
+        where, "column " + Printable(name) + " appears more than once in the header");
   }
   std::string names;
   for (std::size_t i = 0; i < header.size() && i < 32; ++i) {
@@ -440,9 +440,8 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
     }
     if (run_cell) {
       const std::string_view id = Unquoted(cells[*run_cell]);
-      const std::string refused =
-          id.empty() ? "the cell is empty: every row needs its run's id"
-                     : runs.Add(id, reader.number(), "line");
+      const std::string refused = id.empty() ? "the cell is empty: every row needs its run's id"
+                                             : runs.Add(id, reader.number(), "line");
       if (!refused.empty()) {
         return mdr::InvalidArgument(where(),
                                     "column " + Printable(layout.run_column) + ": " + refused);

@@ -88,8 +88,7 @@ std::vector<RigData> SplitRuns(const RigData& file);
 
 // The run `id` of a file read with a run column (layout.run_column names it in the error). Errors:
 // INVALID_ARGUMENT with the field the file's path, naming the id and the file's ids (at most 32).
-mdr::Result<RigData> SelectRun(const RigData& file, const CsvLayout& layout,
-                               const std::string& id);
+mdr::Result<RigData> SelectRun(const RigData& file, const CsvLayout& layout, const std::string& id);
 
 // The runs' ids for a message: quoted and escaped (Printable), at most 32, then "...".
 std::string RunIds(const std::vector<RigRun>& runs);
@@ -106,7 +105,7 @@ class RunSplitter {
 
  private:
   std::vector<RigRun> runs_;
-  std::vector<std::size_t> last_places_;                 // of each run in runs_
+  std::vector<std::size_t> last_places_;                // of each run in runs_
   std::unordered_map<std::string, std::size_t> index_;  // id -> its run in runs_
   std::size_t samples_ = 0;
 };

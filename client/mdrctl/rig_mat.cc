@@ -580,8 +580,8 @@ mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout
     }
   }
   if (!layout.run_column.empty()) {
-    auto runs = ReadRuns(mat.get(), layout.run_column, columns.front(), path, limits.max_samples,
-                         length);
+    auto runs =
+        ReadRuns(mat.get(), layout.run_column, columns.front(), path, limits.max_samples, length);
     if (!runs.ok()) return runs.status();
     data.runs = std::move(runs).value();
   }

@@ -747,8 +747,8 @@ TEST_F(RigFileTest, MatRunsAreSplitByTheRunVariable) {
     MatWriter mat(Path("bad_runs.mat"), MAT_FT_MAT5);
     ASSERT_TRUE(mat.ok());
     WriteColumns(mat);
-    mat.Add("interleaved", MAT_C_INT32, MAT_T_INT32, std::vector<std::int32_t>{1, 2, 2, 1, 1, 1},
-            6, 1);
+    mat.Add("interleaved", MAT_C_INT32, MAT_T_INT32, std::vector<std::int32_t>{1, 2, 2, 1, 1, 1}, 6,
+            1);
     mat.AddDoubles("missing", {1, 1, NAN, 2, 2, 2});
     mat.AddDoubles("short", {1, 1, 2});
   }

@@ -258,7 +258,8 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
     return s.field().empty() ? s : s.WithFieldPrefix("samples");
   }
   response->set_reversal_threshold(loops->reversal_threshold);
-  for (const std::size_t reversal : loops->reversals) response->add_reversals(SampleIndex(reversal));
+  for (const std::size_t reversal : loops->reversals)
+    response->add_reversals(SampleIndex(reversal));
   response->set_friction_drift(loops->friction_drift);
   response->set_friction_drifts(loops->friction_drifts);
   for (const CycleMetrics& cycle : loops->cycles) {
