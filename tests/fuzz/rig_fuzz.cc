@@ -2,13 +2,15 @@
 // arbitrary bytes, under bounds lowered so that fuzzed files reach them (lines of 48 bytes, 16
 // samples). Checks: nothing crashes (ASan + UBSan); a CSV file that reads is self-consistent (one
 // value per sample in every selected column, one line number per sample, increasing, after the
-// header and within the file); the same bytes with every line end written as CRLF, and with a
+// header and within the file; with a run column, runs of distinct non-empty ids that tile the
+// samples in order, and SplitRuns gives back every sample and line); the same bytes with every
+// line end written as CRLF, and with a
 // UTF-8 byte order mark in front, read the same (the same samples bit for bit and lines, or the
 // same error at the same line); every error names the file. The same bytes as a MATLAB file go
 // through the v5 checks and matio (any result, no crash). Build and run: tests/fuzz/run.sh.
 //
 // Input: byte 0 chooses the selected columns (bit 0: a normal force column, bit 1: a time
-// column); the rest is the file.
+// column, bit 2: a run column "r"); the rest is the file.
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +20,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <string>
 #include <string_view>
 
@@ -87,8 +90,32 @@ void ExpectSame(const mdr::Result<mdrctl::RigData>& a, const std::string& path_a
   if (a->lines != b->lines || !SameBits(a->samples.displacement(), b->samples.displacement()) ||
       !SameBits(a->samples.tangential_force(), b->samples.tangential_force()) ||
       !SameBits(a->samples.normal_force(), b->samples.normal_force()) ||
-      !SameBits(a->samples.time(), b->samples.time()) || a->synthetic != b->synthetic) {
+      !SameBits(a->samples.time(), b->samples.time()) || a->synthetic != b->synthetic ||
+      a->runs.size() != b->runs.size()) {
     Fail(variant, "other samples, lines or marker");
+  }
+}
+
+// The runs tile the samples in order, each id distinct and non-empty, and SplitRuns returns every
+// sample and line once.
+void CheckRuns(const mdrctl::RigData& data) {
+  std::set<std::string> ids;
+  std::size_t next = 0;
+  for (const mdrctl::RigRun& run : data.runs) {
+    if (run.id.empty() || !ids.insert(run.id).second || run.first != next || run.count == 0) {
+      Fail("runs", "run " + mdrctl::Printable(run.id) + " at sample " + std::to_string(run.first));
+    }
+    next += run.count;
+  }
+  if (next != data.lines.size()) Fail("runs", "the runs do not cover every sample");
+  std::vector<std::size_t> lines;
+  int samples = 0;
+  for (const mdrctl::RigData& piece : mdrctl::SplitRuns(data)) {
+    lines.insert(lines.end(), piece.lines.begin(), piece.lines.end());
+    samples += piece.samples.displacement_size();
+  }
+  if (lines != data.lines || samples != data.samples.displacement_size()) {
+    Fail("runs", "SplitRuns lost or added samples");
   }
 }
 
@@ -116,13 +143,14 @@ void CheckConsistent(const mdrctl::RigData& data, std::string_view text, bool no
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
-  const bool normal = (data[0] & 1) != 0, time = (data[0] & 2) != 0;
+  const bool normal = (data[0] & 1) != 0, time = (data[0] & 2) != 0, runs = (data[0] & 4) != 0;
   const std::string_view text(reinterpret_cast<const char*>(data) + 1, size - 1);
   mdrctl::CsvLayout layout;
   layout.displacement_column = "x";
   layout.force_column = "f";
   if (normal) layout.normal_force_column = "n";
   if (time) layout.time_column = "t";
+  if (runs) layout.run_column = "r";
   mdrctl::RigFileLimits limits;
   limits.max_line_bytes = 48;
   limits.max_samples = 16;
@@ -131,6 +159,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto read = mdrctl::ReadRigFile(path, layout, limits);
   if (read.ok()) {
     CheckConsistent(*read, text, normal, time);
+    if (runs) CheckRuns(*read);
   } else if (!read.status().field().starts_with(path)) {
     Fail("the error names the file", read.status().ToString());
   }
