@@ -321,6 +321,12 @@ mdr::Result<RigData> SetSamples(const Campaign& campaign, std::size_t index, Cam
                                          RunIds(data.runs) + "): choose one with run: ID");
 }
 
+double MeanOf(const google::protobuf::RepeatedField<double>& values) {
+  double sum = 0;
+  for (double v : values) sum += v;
+  return values.empty() ? std::nan("") : sum / values.size();
+}
+
 mdr::Result<std::vector<ReportSet>> ReadSets(const Campaign& campaign) {
   std::vector<ReportSet> sets;
   CampaignFiles files;
@@ -332,7 +338,8 @@ mdr::Result<std::vector<ReportSet>> ReadSets(const Campaign& campaign) {
     read.label = set.file + (csv->run ? " run " + Printable(*csv->run) : "");
     read.csv = std::move(csv).value();
     read.layout = set.layout;
-    read.normal_force = set.normal_force;
+    read.declared_normal_force = set.normal_force;
+    read.normal_force = set.normal_force.value_or(MeanOf(read.csv.samples.normal_force()));
   }
   return sets;
 }
@@ -398,12 +405,17 @@ mdr::v1::FitLoopsRequest FitRequest(const Campaign& campaign, const std::vector<
   *request.mutable_scene() = campaign.scene;
   for (const ReportSet& set : sets) {
     auto* loop_set = request.add_sets();
-    loop_set->set_normal_force(set.normal_force);
+    if (set.declared_normal_force) loop_set->set_normal_force(*set.declared_normal_force);
     if (!with_samples) continue;
-    *loop_set->mutable_samples()->mutable_displacement() = set.csv.samples.displacement();
-    *loop_set->mutable_samples()->mutable_tangential_force() = set.csv.samples.tangential_force();
+    // Every column the campaign names: the measured normal force is replayed, the time carries
+    // the drift and the inertia.
+    *loop_set->mutable_samples() = set.csv.samples;
   }
   for (const auto& free : campaign.free) *request.add_free() = free;
+  *request.mutable_nuisances() = campaign.nuisances;
+  if (campaign.displacement_noise) request.set_displacement_noise(*campaign.displacement_noise);
+  if (campaign.force_noise) request.set_force_noise(*campaign.force_noise);
+  request.set_include_models(with_samples);
   if (campaign.burn_in_reversals) request.set_burn_in_reversals(*campaign.burn_in_reversals);
   request.set_reversal_threshold(campaign.reversal_threshold);
   request.set_max_iterations(campaign.max_iterations);
@@ -420,56 +432,42 @@ void PrintProgress(const mdr::v1::FitLoopsRequest& request, const mdr::v1::FitPr
                FormatValue(progress.residual_rms()).c_str(), values.c_str());
 }
 
-// The actuator path the fit replays (mdr/analysis/identify.h, ReplayPath): the measured
-// displacement made monotone between the reversals, found at the fit's threshold.
-std::vector<double> ReplayedPath(const ReportSet& set) {
-  const auto& u = set.csv.samples.displacement();
-  const auto& reversals = set.analysis.reversals();
-  return mdr::analysis::ReplayPath(std::vector<double>(u.begin(), u.end()),
-                                   std::vector<std::size_t>(reversals.begin(), reversals.end()));
-}
-
-// Where the replay presses the contact: the fitted offset, else the path's first sample (as the
-// fit does: mdr/analysis/identify.h, Parameter::kDisplacementOffset).
-double ReplayOffset(const mdr::v1::FitResult& fit, const std::vector<double>& path) {
-  for (const auto& e : fit.estimates()) {
-    if (e.parameter() == mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET) return e.value();
-  }
-  return path.front();
-}
-
-// The first sample the fit counts: the burn_in-th reversal (0: the first sample).
-mdr::Result<std::size_t> FirstCounted(const mdr::v1::FitLoopsRequest& request,
-                                      const ReportSet& set) {
-  const int burn_in = request.has_burn_in_reversals() ? request.burn_in_reversals() : 2;
-  if (burn_in == 0) return std::size_t{0};
-  if (set.analysis.reversals_size() < burn_in) {
-    return mdr::FailedPrecondition(set.csv.path, "has fewer reversals than burn_in_reversals");
-  }
-  return static_cast<std::size_t>(set.analysis.reversals(burn_in - 1));
-}
-
-// Each set replayed through a session of the fitted scene: its model forces and residual RMS,
-// and the RMS over every set's counted samples.
-mdr::Status ReplaySets(ContactClient& client, const mdr::v1::FitLoopsRequest& request,
-                       const mdr::v1::FitResult& fit, FitReport* report) {
+// Each set's model as the fit returned it (FitResult.models): the forces the sensor should have
+// read, and the residual RMS over the counted samples, per set and over every set. The model
+// contact's forces are checked against a session of the fitted scene replayed along the model's
+// own actuator path and normal force (the largest difference is reported): the loops in the
+// report are the exact engine's.
+mdr::Status ReplaySets(ContactClient& client, const mdr::v1::FitResult& fit, FitReport* report) {
   double sum = 0;
   std::size_t count = 0;
-  for (ReportSet& set : report->sets) {
-    const std::vector<double> path = ReplayedPath(set);
-    set.offset = ReplayOffset(fit, path);
-    auto model = ReplayForces(client, fit.fitted_scene(), set.normal_force, set.offset, path);
-    if (!model.ok()) {
-      return mdr::Internal(
-          set.csv.path, "the replay of the fitted scene failed: " + model.status().error_message());
+  if (fit.models_size() != static_cast<int>(report->sets.size()) ||
+      fit.sets_size() != static_cast<int>(report->sets.size())) {
+    return mdr::Internal(report->campaign->path, "the fit returned no model of every set");
+  }
+  report->replay_difference = 0;
+  for (std::size_t i = 0; i < report->sets.size(); ++i) {
+    ReportSet& set = report->sets[i];
+    const mdr::v1::SetModel& model = fit.models(static_cast<int>(i));
+    const mdr::v1::SetFit& set_fit = fit.sets(static_cast<int>(i));
+    const std::vector<double> path(model.actuator_path().begin(), model.actuator_path().end());
+    std::vector<double> normal;
+    if (set_fit.normal_force_measured())
+      normal.assign(model.normal_force().begin(), model.normal_force().end());
+    auto replayed = ReplayForces(client, fit.fitted_scene(), set_fit.normal_force(), normal, path);
+    if (!replayed.ok()) {
+      return mdr::Internal(set.csv.path, "the replay of the fitted scene failed: " +
+                                             replayed.status().error_message());
     }
-    set.model = std::move(model).value();
-    auto first = FirstCounted(request, set);
-    if (!first.ok()) return first.status();
-    set.first_counted = *first;
+    for (std::size_t k = 0; k < replayed->size(); ++k) {
+      report->replay_difference =
+          std::max(report->replay_difference,
+                   std::abs((*replayed)[k] - model.contact_force(static_cast<int>(k))));
+    }
+    set.model.assign(model.predicted_force().begin(), model.predicted_force().end());
+    set.first_counted = set_fit.first_residual();
     double set_sum = 0;
-    for (std::size_t i = set.first_counted; i < set.model.size(); ++i) {
-      const double r = set.csv.samples.tangential_force(static_cast<int>(i)) - set.model[i];
+    for (std::size_t k = set.first_counted; k < set.model.size(); ++k) {
+      const double r = set.csv.samples.tangential_force(static_cast<int>(k)) - set.model[k];
       set_sum += r * r;
     }
     const std::size_t set_count = set.model.size() - set.first_counted;
@@ -482,14 +480,15 @@ mdr::Status ReplaySets(ContactClient& client, const mdr::v1::FitLoopsRequest& re
   return mdr::OkStatus();
 }
 
-mdr::v1::FrettingMapRequest MapRequest(const Campaign& campaign, const mdr::v1::Scene& fitted) {
+mdr::v1::FrettingMapRequest MapRequest(const Campaign& campaign, const std::vector<ReportSet>& sets,
+                                       const mdr::v1::Scene& fitted) {
   mdr::v1::FrettingMapRequest request;
   *request.mutable_scene() = fitted;
   std::vector<double> loads = campaign.map_normal_forces;
   if (loads.empty()) {
     const std::set<double> distinct = [&] {
       std::set<double> s;
-      for (const CampaignSet& set : campaign.sets) s.insert(set.normal_force);
+      for (const ReportSet& set : sets) s.insert(set.normal_force);
       return s;
     }();
     loads.assign(distinct.begin(), distinct.end());
@@ -502,11 +501,15 @@ mdr::v1::FrettingMapRequest MapRequest(const Campaign& campaign, const mdr::v1::
   return request;
 }
 
-std::vector<PlottedSet> PlottedSets(const std::vector<ReportSet>& sets) {
+std::vector<PlottedSet> PlottedSets(const std::vector<ReportSet>& sets,
+                                    const mdr::v1::FitResult& fit) {
   std::vector<PlottedSet> plotted;
-  for (const ReportSet& set : sets) {
-    plotted.push_back({set.label, &set.csv.samples, &set.analysis, set.normal_force, &set.model,
-                       set.first_counted});
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    const ReportSet& set = sets[i];
+    plotted.push_back(
+        {set.label, &set.csv.samples, &set.analysis, set.normal_force, &set.model,
+         set.first_counted,
+         i < static_cast<std::size_t>(fit.sets_size()) ? &fit.sets(static_cast<int>(i)) : nullptr});
   }
   return plotted;
 }
@@ -530,8 +533,8 @@ mdr::Status RunCampaign(ContactClient& client, FitReport* report) {
   report->request = FitRequest(campaign, report->sets, false);
   const mdr::v1::Scene& fitted = report->fit.fitted_scene();
   if (auto s = AnalyzeSets(client, campaign, fitted, &report->sets); !s.ok()) return s;
-  if (auto s = ReplaySets(client, request, report->fit, report); !s.ok()) return s;
-  report->map_request = MapRequest(campaign, fitted);
+  if (auto s = ReplaySets(client, report->fit, report); !s.ok()) return s;
+  report->map_request = MapRequest(campaign, report->sets, fitted);
   auto map = client.FrettingMap(report->map_request);
   if (!map.ok()) return CampaignError(map.status(), campaign, report->sets);
   report->map = std::move(map).value();
@@ -556,8 +559,9 @@ int FitCommand(const Common& common, const FitArgs& args) {
   if (auto s = RunCampaign((*connection)->client(), &report); !s.ok()) return Fail(s);
   PrintFitResult(report.fit, common.format, stdout);
   if (args.report_dir.empty()) return EXIT_SUCCESS;
-  report.plots = DrawPlots(
-      [&] { return WriteFitPlots(PlottedSets(report.sets), report.map, args.report_dir); });
+  report.plots = DrawPlots([&] {
+    return WriteFitPlots(PlottedSets(report.sets, report.fit), report.map, args.report_dir);
+  });
   const mdr::Status written =
       WriteReport(args.report_dir, FitMarkdown(report), FitJson(report), report.plots);
   return written.ok() ? EXIT_SUCCESS : Fail(written);

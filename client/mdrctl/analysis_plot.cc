@@ -209,14 +209,13 @@ void WriteFitLoops(const std::vector<PlottedSet>& sets, const fs::path& file) {
   }
 }
 
-// One block per set: the running index over every set's counted samples and the residual.
+// One block per set: the sample index and the residual over the counted samples.
 void WriteResiduals(const std::vector<PlottedSet>& sets, const fs::path& file) {
   std::ofstream out = DataFile(file);
-  std::size_t running = 0;
   for (const PlottedSet& set : sets) {
     out << "# " << set.label << ": counted sample, F_x measured - model [N]\n";
     for (int i = static_cast<int>(set.first_counted); i < set.samples->displacement_size(); ++i) {
-      out << running++ << ' ' << set.samples->tangential_force(i) - (*set.model)[i] << '\n';
+      out << i << ' ' << set.samples->tangential_force(i) - (*set.model)[i] << '\n';
     }
     out << "\n\n";
   }
@@ -274,16 +273,38 @@ void AddFitLoopsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, 
   script->text << "unset multiplot\nset terminal pngcairo size 1000,700 noenhanced font ',11'\n";
 }
 
+// A panel per set: its residuals against its sample index, the force sensor's noise band and its
+// adequacy verdict in the title.
 void AddResidualsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  const int columns = sets.size() > 4 ? 3 : sets.size() > 1 ? 2 : 1;
+  const int rows = static_cast<int>((sets.size() + columns - 1) / columns);
+  script->text << "set terminal pngcairo size " << 420 * columns << "," << 300 * rows
+               << " noenhanced font ',10'\n";
   script->Output("residuals.png");
-  script->Labels("residuals of the fit, F_x measured - fitted, set after set",
-                 "counted sample (all sets in order)", "residual [N]");
-  std::vector<Series> series;
+  script->text << "set multiplot layout " << rows << "," << columns
+               << " title 'residuals of the fit, F_x measured - fitted, per set'\n"
+               << "set key top left font ',8'\nset xlabel 'sample'\nset ylabel 'residual [N]'\n";
   for (std::size_t i = 0; i < sets.size(); ++i) {
-    series.push_back({Q(data) + " index " + std::to_string(i), "1:2",
-                      "points pt 7 ps 0.3 lc " + std::to_string(i + 1), sets[i].label});
+    const PlottedSet& set = sets[i];
+    std::string title = set.label;
+    std::vector<Series> series{{Q(data) + " index " + std::to_string(i), "1:2",
+                                "points pt 7 ps 0.3 lc " + std::to_string(i % 8 + 1), "residual"}};
+    if (set.fit) {
+      char verdict[160];
+      std::snprintf(verdict, sizeof verdict, ": chi2 %.3g, structure p %.2g%s",
+                    set.fit->reduced_chi_square(), set.fit->structure_p_value(),
+                    set.fit->misfit() ? ", MISFIT" : "");
+      title += verdict;
+      const std::string band = std::to_string(2 * set.fit->force_noise());
+      series.push_back({series.front().source, "1:(" + band + ")",
+                        "lines lw 1 dt 2 lc rgb '#555555'", "+-2 force noise"});
+      series.push_back(
+          {series.front().source, "1:(-" + band + ")", "lines lw 1 dt 2 lc rgb '#555555'", ""});
+    }
+    script->text << "set title " << GnuplotQuoted(title) << "\n" << Plot(series);
   }
-  script->text << "set key outside right font ',9'\n" << Plot(series) << "set key default\n";
+  script->text << "unset multiplot\nset terminal pngcairo size 1000,700 noenhanced font ',11'\n"
+               << "set key default\n";
 }
 
 void AddMapPlots(const mdr::v1::FrettingMapResponse& map, const fs::path& dir, Script* script) {

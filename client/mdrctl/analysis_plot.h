@@ -20,6 +20,7 @@ struct PlottedSet {
   double normal_force = 0;                     // N; NaN if unknown
   const std::vector<double>* model = nullptr;  // F_x of the fitted scene per sample, or none
   std::size_t first_counted = 0;               // the first sample the fit counts
+  const mdr::v1::SetFit* fit = nullptr;        // what the fit found in it, or none
 };
 
 // loop.png (F_x over u, coloured by cycle) and cycles.png (the figures per cycle), each name after
@@ -27,7 +28,9 @@ struct PlottedSet {
 mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set, const std::string& dir,
                                                       const std::string& prefix = "");
 
-// loops.png (measured and fitted loops per set), residuals.png, fretting_map.png
+// loops.png (measured and fitted loops per set), residuals.png (a panel per set: the residuals
+// over the counted samples, +-2 standard deviations of the force sensor's noise, the set's
+// adequacy in the title), fretting_map.png
 // (Q*/P against the actuator amplitude: the map's loops, the onsets, the measured cycles) and
 // fretting_regimes.png (normal force against actuator amplitude: the boundary, the map's regimes,
 // the measured cycles).

@@ -236,26 +236,113 @@ std::string FittedSection(const FitReport& report) {
         std::to_string(report.request.has_burn_in_reversals() ? report.request.burn_in_reversals()
                                                               : 2) +
         " of each set on:\n\n";
-  MarkdownTable sets({"file", "P [N]", "samples", "counted from sample", "pressed at u_0 [m]",
-                      "cycles", "columns"});
-  for (const ReportSet& set : report.sets) {
-    sets.Row({Code(set.label), Num(set.normal_force),
-              std::to_string(set.csv.samples.displacement_size()),
-              std::to_string(set.first_counted), Num(set.offset),
-              std::to_string(set.analysis.cycles_size()), LayoutText(set.layout)});
+  MarkdownTable sets({"file", "P [N]", "samples", "counted from sample", "cycles", "columns"});
+  for (std::size_t i = 0; i < report.sets.size(); ++i) {
+    const ReportSet& set = report.sets[i];
+    std::string load = Num(set.normal_force);
+    if (i < static_cast<std::size_t>(report.fit.sets_size()) &&
+        report.fit.sets(static_cast<int>(i)).normal_force_measured()) {
+      const mdr::v1::SetFit& f = report.fit.sets(static_cast<int>(i));
+      load = "measured: " + Num(f.normal_force()) + " [" + Num(f.normal_force_min()) + ", " +
+             Num(f.normal_force_max()) + "]" +
+             (set.declared_normal_force ? ", declared " + Num(*set.declared_normal_force) : "");
+    }
+    sets.Row({Code(set.label), load, std::to_string(set.csv.samples.displacement_size()),
+              std::to_string(set.first_counted), std::to_string(set.analysis.cycles_size()),
+              LayoutText(set.layout)});
   }
-  return md + sets.str() + "\n";
+  const auto& nuisances = report.request.nuisances();
+  std::string asked;
+  for (const auto& [on, name] :
+       {std::pair{nuisances.force_offset(), "a force offset per set"},
+        std::pair{nuisances.displacement_drift(), "a displacement drift per set"},
+        std::pair{nuisances.moving_mass(), "a moving mass"}}) {
+    if (on) asked += std::string(asked.empty() ? "" : ", ") + name;
+  }
+  md += sets.str() +
+        "\nFitted with them, always: every set's press point (its displacement offset) and every "
+        "turning point from the first counted reversal on; " +
+        (asked.empty() ? std::string("no other nuisance parameters") : "and " + asked) +
+        ". The replayed path is each set's displacement smoothed within its half-cycles between "
+        "the fitted turning points; each residual is weighed by its effective variance "
+        "(docs/analysis.md, \"Identification\").\n\n";
+  return md;
+}
+
+// The noise of each set's channels as the fit estimated it, and whether the model explains the
+// set to that noise.
+std::string AdequacySection(const FitReport& report) {
+  const FitResult& fit = report.fit;
+  std::string md =
+      "### Noise and model adequacy per set\n\n"
+      "Each channel's noise is estimated from its own samples (the spread of their third "
+      "differences; a lag-1 correlation of those differences near -0.75 says the noise is "
+      "independent from sample to sample). The model explains a set when its residuals, each "
+      "over its noise, have a reduced chi-square near 1 (a misfit above 1.5) and show no "
+      "structure repeated over the cycles (a misfit below p = 1e-4).\n\n";
+  MarkdownTable table({"set", "u noise [m]", "F noise [N]", "F_N noise [N]", "u / F noise corr.",
+                       "residual RMS [N]", "reduced chi-square", "autocorrelation", "structure p",
+                       "slip", "verdict"});
+  for (int i = 0; i < fit.sets_size() && i < static_cast<int>(report.sets.size()); ++i) {
+    const mdr::v1::SetFit& s = fit.sets(i);
+    table.Row(
+        {Code(report.sets[static_cast<std::size_t>(i)].label), Num(s.displacement_noise(), 3),
+         Num(s.force_noise(), 3), s.normal_force_measured() ? Num(s.normal_force_noise(), 3) : "-",
+         Num(s.displacement_noise_correlation(), 2) + " / " + Num(s.force_noise_correlation(), 2),
+         Num(s.residual_rms(), 4), Num(s.reduced_chi_square(), 4), Num(s.autocorrelation(), 3),
+         Num(s.structure_p_value(), 3), s.gross_slip() ? "gross" : "partial",
+         s.load_mismatch() ? "**load mismatch**"
+         : s.misfit()      ? "**misfit**"
+                           : "adequate"});
+  }
+  md += table.str() + "\n" +
+        (fit.adequate() ? "The model explains every set to its noise.\n\n"
+                        : "**The model does not explain every set**: the estimates are not "
+                          "identified whatever their intervals say (notes below).\n\n");
+  return md;
+}
+
+std::string NuisanceSection(const FitReport& report) {
+  const FitResult& fit = report.fit;
+  if (fit.nuisances_size() == 0) return "";
+  std::string md =
+      "### Nuisance parameters\n\nEach with its Wald interval and, per free "
+      "parameter, how far holding it at zero would move the estimate (to first "
+      "order):\n\n";
+  std::vector<std::string> header{"nuisance",       "set",           "estimate",
+                                  "standard error", "95 % interval", "verdict"};
+  for (const ParameterEstimate& e : fit.estimates()) {
+    header.push_back("effect on " + std::string(FitParameterName(e.parameter())));
+  }
+  MarkdownTable table(header);
+  for (const mdr::v1::NuisanceEstimate& e : fit.nuisances()) {
+    std::string name = mdr::v1::Nuisance_Name(e.nuisance()).substr(9);
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    std::vector<std::string> row{
+        name,
+        e.has_set() && e.set() < report.sets.size() ? Code(report.sets[e.set()].label) : "all",
+        Num(e.value(), 6),
+        Num(e.standard_error(), 3),
+        "[" + Num(e.lower_95(), 6) + ", " + Num(e.upper_95(), 6) + "]",
+        e.identified() ? "identified" : "not identified"};
+    for (double effect : e.effect()) row.push_back(Num(effect, 3));
+    table.Row(row);
+  }
+  return md + table.str() + "\n";
 }
 
 std::string EstimatesSection(const FitReport& report) {
   const FitResult& fit = report.fit;
   std::string md = "## Estimates\n\n";
   MarkdownTable table({"parameter", "estimate", "standard error", "95 % interval",
-                       "relative half-width", "verdict"});
+                       "relative half-width", "interval", "verdict"});
   for (const ParameterEstimate& e : fit.estimates()) {
     table.Row({FitParameterName(e.parameter()), Num(e.value(), 8), Num(e.standard_error(), 3),
                "[" + Num(e.lower_95(), 8) + ", " + Num(e.upper_95(), 8) + "]",
                Num(0.5 * (e.upper_95() - e.lower_95()) / std::abs(e.value()), 3),
+               e.interval() == mdr::v1::INTERVAL_METHOD_PROFILE_LIKELIHOOD ? "profile likelihood"
+                                                                           : "Wald",
                e.identified() ? "identified" : "**not identified**"});
   }
   md += table.str() + "\n";
@@ -264,13 +351,13 @@ std::string EstimatesSection(const FitReport& report) {
         Num(fit.residual_rms()) + " N over " + std::to_string(fit.residuals()) +
         " counted samples.\n\n";
   md +=
-      "Replay check: every set replayed through a session of the fitted scene (pressed at its "
-      "u_0, then the measured actuator path made monotone between its reversals, as the fit "
-      "replays it) gives a residual RMS of " +
+      "Replay check: the model's contact forces, replayed through a session of the fitted "
+      "scene along the model's own actuator path (and measured normal force), agree to " +
+      Num(report.replay_difference, 3) +
+      " N at most; the residual RMS of the model the fit returned is " +
       Num(report.replay_rms, 10) + " N over " + std::to_string(report.replay_residuals) +
-      " samples, against the fit's " + Num(fit.residual_rms(), 10) + " N (relative difference " +
-      Num(std::abs(report.replay_rms - fit.residual_rms()) / fit.residual_rms(), 2) + ").\n\n";
-  return md;
+      " samples, against the fit's " + Num(fit.residual_rms(), 10) + " N.\n\n";
+  return md + AdequacySection(report) + NuisanceSection(report);
 }
 
 std::string TruthSection(const FitReport& report) {
@@ -296,12 +383,9 @@ std::string TruthSection(const FitReport& report) {
         std::to_string(known) + " parameters.";
   if (inside < known) {
     md +=
-        " **The fit misses the truth** by more than its intervals allow. The intervals "
-        "account for the scatter of the residuals, and for their correlation within each "
-        "half-cycle; anything systematic shifts the estimates beyond them: a model that does "
-        "not describe the data, or noise on the measured displacement at the turning points, "
-        "which the replay takes as measured and which selects the noisiest extreme as the "
-        "turning point (docs/analysis.md, \"Limitations\").";
+        " **The fit misses the truth** by more than its intervals allow. A 95 % interval misses "
+        "the truth in one fit of twenty by design; more often, or by far, means something the "
+        "model does not describe (docs/analysis.md, \"Limitations\").";
   }
   md += "\n\n";
   return md;
@@ -335,11 +419,15 @@ std::string CorrelationSection(const FitReport& report) {
 std::string VerdictSection(const FitReport& report) {
   const FitResult& fit = report.fit;
   std::string md = "## Verdict\n\n";
-  md += fit.identified() ? "Every free parameter is identified: its 95 % half-width is below half "
-                           "its value, its correlations with the others below 0.99 and the "
-                           "condition number below 1e8.\n\n"
-                         : "**Not every free parameter is identified**; the estimates marked "
-                           "\"not identified\" are not determined by these data.\n\n";
+  md += fit.identified()  ? "Every free parameter is identified: the model explains every set to "
+                            "its noise, each 95 % half-width is below half its value, its "
+                            "correlations with the others below 0.99 and the condition number "
+                            "below 1e8.\n\n"
+        : !fit.adequate() ? "**Nothing is identified: the model does not explain the data** "
+                            "(a wrong profile, a wrong declared load, an effect the model "
+                            "lacks); the estimates describe the best wrong model.\n\n"
+                          : "**Not every free parameter is identified**; the estimates marked "
+                            "\"not identified\" are not determined by these data.\n\n";
   for (const std::string& note : fit.notes()) md += "- " + note + "\n";
   int missed = 0, known = 0;
   for (const ParameterEstimate& e : fit.estimates()) {
@@ -454,7 +542,6 @@ void WriteSetJson(const ReportSet& set, bool fit, JsonWriter* json) {
   json->Key("layout");
   WriteLayout(set.layout, json);
   if (fit) {
-    json->Key("offset").Number(set.offset);
     json->Key("first_counted_sample").Number(static_cast<double>(set.first_counted));
     json->Key("replay_residual_rms").Number(set.replay_rms);
   }
@@ -545,7 +632,7 @@ std::string FitMarkdown(const FitReport& report) {
         SetsSection(report) + MapSection(report);
   return md + PlotsSection(report.plots,
                            {"measured and fitted loops per set",
-                            "residuals (measured - fitted) against the counted sample",
+                            "residuals (measured - fitted) per set, with the force noise",
                             "fretting map: Q*/P against the actuator amplitude, with the onsets "
                             "and the measured cycles",
                             "regimes: the boundary, the map's loops and the measured cycles"});
@@ -560,6 +647,7 @@ std::string FitJson(const FitReport& report) {
   json.Key("request").Message(report.request);
   mdr::v1::FitResult fit = report.fit;
   fit.clear_compute_seconds();
+  fit.clear_models();  // drawn in loops.png and residuals.png; from the API when needed
   json.Key("fit").Message(fit);
   json.Key("estimates").BeginArray();
   for (const ParameterEstimate& e : report.fit.estimates()) {
@@ -577,6 +665,7 @@ std::string FitJson(const FitReport& report) {
   json.Key("residual_rms").Number(report.replay_rms);
   json.Key("residuals").Number(static_cast<double>(report.replay_residuals));
   json.Key("fit_residual_rms").Number(report.fit.residual_rms());
+  json.Key("largest_contact_force_difference").Number(report.replay_difference);
   json.EndObject();
   json.Key("sets").BeginArray();
   for (const ReportSet& set : report.sets) WriteSetJson(set, true, &json);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,12 +20,14 @@ struct ReportSet {
   std::string label;  // the file as given (and its run)
   RigData csv;
   CsvLayout layout;
-  double normal_force = 0;  // N; NaN when unknown (mdrctl loops without a load)
+  // N; NaN when unknown (mdrctl loops without a load). mdrctl fit: the declared one, else the
+  // mean of the normal-force column.
+  double normal_force = 0;
+  std::optional<double> declared_normal_force;  // mdrctl fit: as the campaign gives it
   mdr::v1::AnalyzeLoopsResponse analysis;
-  // mdrctl fit: F_x of the fitted scene replayed along the set's displacement, the offset the
-  // replay pressed at, the first sample the fit counts and the replay's RMS from it on.
+  // mdrctl fit: the force the fitted model says the sensor should have read at each sample, the
+  // first sample the fit counts and the RMS of measured minus model from it on.
   std::vector<double> model;
-  double offset = 0;
   std::size_t first_counted = 0;
   double replay_rms = 0;
 };
@@ -51,6 +54,9 @@ struct FitReport {
   mdr::v1::FitResult fit;
   double replay_rms = 0;  // over every set's counted samples
   std::size_t replay_residuals = 0;
+  // N: the largest difference between the model contact's forces and a session of the fitted
+  // scene replayed along the model's path.
+  double replay_difference = 0;
   mdr::v1::FrettingMapRequest map_request;
   mdr::v1::FrettingMapResponse map;
   Plots plots;

@@ -113,6 +113,13 @@ class YamlDoc {
     }
     return static_cast<int>(*value);
   }
+  mdr::Result<bool> Bool(const YAML::Node& node, const std::string& field) const {
+    if (node.IsScalar()) {
+      if (node.Scalar() == "true") return true;
+      if (node.Scalar() == "false") return false;
+    }
+    return Error(field, "must be true or false");
+  }
   mdr::Result<std::string> String(const YAML::Node& node, const std::string& field) const {
     if (!node.IsScalar()) return Error(field, "must be a string");
     return node.Scalar();
@@ -273,6 +280,8 @@ mdr::Result<std::vector<FitLoopsRequest::FreeParameter>> ReadFree(const YamlDoc&
 // The fit options shared by campaigns and the fit section of a synthesis spec.
 struct FitSection {
   std::vector<FitLoopsRequest::FreeParameter> free;
+  FitLoopsRequest::Nuisances nuisances;
+  std::optional<double> displacement_noise, force_noise;
   std::optional<int> burn_in_reversals;
   double reversal_threshold = 0;
   int max_iterations = 0;
@@ -284,6 +293,33 @@ mdr::Status ReadFitSection(const YamlDoc& doc, const YAML::Node& map, const std:
   const auto f = [&](const char* key) { return YamlDoc::Join(field, key); };
   if (!map["free"]) return doc.Error(f("free"), "is required: the parameters to fit");
   MDRCTL_ASSIGN(fit->free, ReadFree(doc, map["free"], f("free")));
+  if (const YAML::Node nuisances = map["nuisances"]) {
+    const std::string n = f("nuisances");
+    if (auto s = doc.CheckKeys(nuisances, n, {"force_offset", "displacement_drift", "moving_mass"});
+        !s.ok()) {
+      return s;
+    }
+    bool value = false;
+    if (nuisances["force_offset"]) {
+      MDRCTL_ASSIGN(value, doc.Bool(nuisances["force_offset"], n + ".force_offset"));
+      fit->nuisances.set_force_offset(value);
+    }
+    if (nuisances["displacement_drift"]) {
+      MDRCTL_ASSIGN(value, doc.Bool(nuisances["displacement_drift"], n + ".displacement_drift"));
+      fit->nuisances.set_displacement_drift(value);
+    }
+    if (nuisances["moving_mass"]) {
+      MDRCTL_ASSIGN(value, doc.Bool(nuisances["moving_mass"], n + ".moving_mass"));
+      fit->nuisances.set_moving_mass(value);
+    }
+  }
+  if (map["displacement_noise"]) {
+    MDRCTL_ASSIGN(fit->displacement_noise,
+                  doc.Positive(map["displacement_noise"], f("displacement_noise")));
+  }
+  if (map["force_noise"]) {
+    MDRCTL_ASSIGN(fit->force_noise, doc.Positive(map["force_noise"], f("force_noise")));
+  }
   if (map["burn_in_reversals"]) {
     MDRCTL_ASSIGN(fit->burn_in_reversals,
                   doc.Integer(map["burn_in_reversals"], f("burn_in_reversals"), 0, 1000000));
@@ -316,7 +352,7 @@ mdr::Status ReadFitSection(const YamlDoc& doc, const YAML::Node& map, const std:
 mdr::Result<std::vector<CampaignSet>> ReadSets(const YamlDoc& doc, const CsvLayout& defaults) {
   const YAML::Node sets = doc.root()["sets"];
   if (!sets || !sets.IsSequence() || sets.size() == 0) {
-    return doc.Error("sets", "must list the loop sets ({file, normal_force, run?})");
+    return doc.Error("sets", "must list the loop sets ({file, normal_force?, run?})");
   }
   std::vector<CampaignSet> out;
   for (std::size_t i = 0; i < sets.size(); ++i) {
@@ -326,13 +362,17 @@ mdr::Result<std::vector<CampaignSet>> ReadSets(const YamlDoc& doc, const CsvLayo
         !s.ok()) {
       return s;
     }
-    if (!item["file"] || !item["normal_force"]) return doc.Error(f, "needs file and normal_force");
+    if (!item["file"]) return doc.Error(f, "needs file");
     CampaignSet set;
     MDRCTL_ASSIGN(set.file, doc.String(item["file"], f + ".file"));
     set.path = doc.Resolve(set.file);
-    MDRCTL_ASSIGN(set.normal_force, doc.Positive(item["normal_force"], f + ".normal_force"));
     set.layout = defaults;
     if (auto s = ReadLayout(doc, item, f, &set.layout); !s.ok()) return s;
+    if (item["normal_force"]) {
+      MDRCTL_ASSIGN(set.normal_force, doc.Positive(item["normal_force"], f + ".normal_force"));
+    } else if (set.layout.normal_force_column.empty()) {
+      return doc.Error(f, "needs normal_force (N), or a normal_force column to replay");
+    }
     if (item["run"]) {
       MDRCTL_ASSIGN(set.run, doc.String(item["run"], f + ".run"));
       if (set.layout.run_column.empty()) {
@@ -404,10 +444,11 @@ mdr::Result<Campaign> LoadCampaign(const std::string& path) {
   if (!loaded.ok()) return loaded.status();
   const YamlDoc& doc = *loaded;
   const YAML::Node& root = doc.root();
-  if (auto s = doc.CheckKeys(root, "",
-                             {"title", "scene", "columns", "units", "sets", "free",
-                              "burn_in_reversals", "reversal_threshold", "max_iterations",
-                              "displacement_resolution", "fretting_map", "truth"});
+  if (auto s = doc.CheckKeys(
+          root, "",
+          {"title", "scene", "columns", "units", "sets", "free", "nuisances", "displacement_noise",
+           "force_noise", "burn_in_reversals", "reversal_threshold", "max_iterations",
+           "displacement_resolution", "fretting_map", "truth"});
       !s.ok()) {
     return s;
   }
@@ -426,6 +467,9 @@ mdr::Result<Campaign> LoadCampaign(const std::string& path) {
   FitSection fit;
   if (auto s = ReadFitSection(doc, root, "", true, &fit); !s.ok()) return s;
   campaign.free = fit.free;
+  campaign.nuisances = fit.nuisances;
+  campaign.displacement_noise = fit.displacement_noise;
+  campaign.force_noise = fit.force_noise;
   campaign.burn_in_reversals = fit.burn_in_reversals;
   campaign.reversal_threshold = fit.reversal_threshold;
   campaign.max_iterations = fit.max_iterations;
@@ -502,13 +546,17 @@ mdr::Result<SynthesisSpec> LoadSynthesisSpec(const std::string& path) {
   const YAML::Node fit_node = root["fit"];
   if (auto s = doc.CheckKeys(
           fit_node, "fit",
-          {"free", "burn_in_reversals", "reversal_threshold", "max_iterations", "fretting_map"});
+          {"free", "nuisances", "displacement_noise", "force_noise", "burn_in_reversals",
+           "reversal_threshold", "max_iterations", "fretting_map"});
       !s.ok()) {
     return s;
   }
   FitSection fit;
   if (auto s = ReadFitSection(doc, fit_node, "fit", false, &fit); !s.ok()) return s;
   spec.free = fit.free;
+  spec.nuisances = fit.nuisances;
+  spec.fit_displacement_noise = fit.displacement_noise;
+  spec.fit_force_noise = fit.force_noise;
   spec.burn_in_reversals = fit.burn_in_reversals;
   spec.reversal_threshold = fit.reversal_threshold;
   spec.max_iterations = fit.max_iterations;

@@ -41,7 +41,9 @@ class FieldLines {
 struct CampaignSet {
   std::string file;  // as written in the campaign
   std::string path;  // resolved against the campaign's directory
-  double normal_force = 0;
+  // N: required unless the set has a normal-force column (then replayed as measured and this,
+  // if given, checked against it).
+  std::optional<double> normal_force;
   CsvLayout layout;
   // The run of a file of several (its id in layout.run_column); unset: the file's only run.
   std::optional<std::string> run;
@@ -54,6 +56,8 @@ struct Campaign {
   std::string scene_source;  // the scene file's path, or "inline"
   std::vector<CampaignSet> sets;
   std::vector<mdr::v1::FitLoopsRequest::FreeParameter> free;
+  mdr::v1::FitLoopsRequest::Nuisances nuisances;
+  std::optional<double> displacement_noise, force_noise;  // the sensors', when known
   std::optional<int> burn_in_reversals;
   double reversal_threshold = 0;          // m; 0: automatic
   int max_iterations = 0;                 // 0: the service's default
@@ -85,6 +89,8 @@ struct SynthesisSpec {
   double force_noise_relative = 0;  // standard deviation over the run's noise-free Q*
   // Copied into the campaign (the fit section of the spec).
   std::vector<mdr::v1::FitLoopsRequest::FreeParameter> free;
+  mdr::v1::FitLoopsRequest::Nuisances nuisances;
+  std::optional<double> fit_displacement_noise, fit_force_noise;
   std::optional<int> burn_in_reversals;
   double reversal_threshold = 0;
   int max_iterations = 0;

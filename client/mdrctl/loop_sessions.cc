@@ -82,20 +82,25 @@ RpcResult<RecordedRun> RecordSineRun(ContactClient& client, const mdr::v1::Scene
 }
 
 RpcResult<std::vector<double>> ReplayForces(ContactClient& client, const mdr::v1::Scene& scene,
-                                            double normal_force, double offset,
+                                            double normal_force, const std::vector<double>& normal,
                                             const std::vector<double>& displacement) {
   auto created = client.CreateSession(scene);
   if (!created.ok()) return created.status();
   const ScopedSession session(client, created->name());
   google::protobuf::RepeatedPtrField<mdr::v1::Step> steps;
-  steps.Add()->set_displacement(offset);  // unloaded: moves the actuator only
-  steps.Add()->set_normal_force(normal_force);
-  for (double u : displacement) steps.Add()->set_displacement(u);
+  mdr::v1::Step* press = steps.Add();
+  press->set_normal_force(normal.empty() ? normal_force : normal.front());
+  press->set_displacement(0);
+  for (std::size_t i = 0; i < displacement.size(); ++i) {
+    mdr::v1::Step* step = steps.Add();
+    step->set_displacement(displacement[i]);
+    if (!normal.empty()) step->set_normal_force(normal[i]);
+  }
   RecordedRun run;
   const grpc::Status applied =
       ApplyRecorded(client, session.name(), BatchLimit(*created), steps, &run);
   if (!applied.ok()) return applied;
-  return std::vector<double>(run.force.begin() + 2, run.force.end());
+  return std::vector<double>(run.force.begin() + 1, run.force.end());
 }
 
 }  // namespace mdrctl

@@ -24,11 +24,14 @@ mdr::client::RpcResult<RecordedRun> RecordSineRun(mdr::client::ContactClient& cl
                                                   double amplitude, int cycles,
                                                   int samples_per_cycle);
 
-// F_x after each step of the replay in a session of `scene`: the actuator moved to `offset` while
-// unloaded, the contact pressed to `normal_force`, then the actuator at each displacement.
+// F_x after each step of the replay in a session of `scene` (as FitLoops replays a set): the
+// contact pressed to normal_force (or normal.front()) with the actuator at 0, then the actuator at
+// each displacement, with the normal force of `normal` at each step when it is not empty (else
+// held).
 mdr::client::RpcResult<std::vector<double>> ReplayForces(mdr::client::ContactClient& client,
                                                          const mdr::v1::Scene& scene,
-                                                         double normal_force, double offset,
+                                                         double normal_force,
+                                                         const std::vector<double>& normal,
                                                          const std::vector<double>& displacement);
 
 }  // namespace mdrctl

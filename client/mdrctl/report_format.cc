@@ -428,7 +428,16 @@ std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analy
   return columns;
 }
 
-void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out) {
+std::string NuisanceLabel(mdr::v1::Nuisance nuisance) {
+  std::string name = mdr::v1::Nuisance_Name(nuisance).substr(9);  // NUISANCE_
+  std::transform(name.begin(), name.end(), name.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return name;
+}
+
+void PrintFitResult(const mdr::v1::FitResult& result, Format format, std::FILE* out) {
+  mdr::v1::FitResult fit = result;
+  fit.clear_models();  // sample by sample: for plots (the report's), not for the terminal
   if (format == Format::kJson) {
     std::fputs(ToJson(fit).c_str(), out);
     return;
@@ -447,12 +456,44 @@ void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out
   }
   table.Print(format, out);
   if (format != Format::kTable) return;
+  // What each set says of the model, and the nuisances.
+  Table sets;
+  sets.header = {"set",         "u_noise",    "F_noise",        "chi2",
+                 "structure_p", "gross_slip", "turning_points", "verdict"};
+  for (int i = 0; i < fit.sets_size(); ++i) {
+    const auto& s = fit.sets(i);
+    sets.rows.push_back({std::to_string(i), Number(s.displacement_noise()), Number(s.force_noise()),
+                         Number(s.reduced_chi_square()), Number(s.structure_p_value()),
+                         s.gross_slip() ? "yes" : "no", std::to_string(s.turning_points()),
+                         s.load_mismatch() ? "LOAD MISMATCH"
+                         : s.misfit()      ? "MISFIT"
+                                           : "adequate"});
+  }
+  std::fputc('\n', out);
+  sets.Print(format, out);
+  Table nuisances;
+  nuisances.header = {"nuisance", "set",      "estimate",  "standard_error",
+                      "lower_95", "upper_95", "identified"};
+  for (const auto& e : fit.nuisances()) {
+    nuisances.rows.push_back({NuisanceLabel(e.nuisance()),
+                              e.has_set() ? std::to_string(e.set()) : "all", Number(e.value()),
+                              Number(e.standard_error()), Number(e.lower_95()),
+                              Number(e.upper_95()), e.identified() ? "yes" : "no"});
+  }
+  if (!nuisances.rows.empty()) {
+    std::fputc('\n', out);
+    nuisances.Print(format, out);
+  }
   std::fprintf(out,
-               "\nresidual RMS %s N over %llu samples, %d iterations%s, condition number %s: %s\n",
+               "\nresidual RMS %s N over %llu samples (reduced chi-square %s), %d iterations%s, "
+               "condition number %s: %s\n",
                Number(fit.residual_rms()).c_str(), static_cast<unsigned long long>(fit.residuals()),
-               fit.iterations(), fit.converged() ? ", converged" : ", NOT converged",
+               Number(fit.reduced_chi_square()).c_str(), fit.iterations(),
+               fit.converged() ? ", converged" : ", NOT converged",
                Number(fit.condition_number()).c_str(),
-               fit.identified() ? "every parameter identified" : "NOT every parameter identified");
+               !fit.adequate()    ? "the model does NOT explain the data (see the notes)"
+               : fit.identified() ? "every parameter identified"
+                                  : "NOT every parameter identified");
   for (const std::string& note : fit.notes()) std::fprintf(out, "note: %s\n", note.c_str());
   if (fit.has_guessed_rig_compliance()) {
     std::fprintf(out, "rig compliance from the reversal slopes (a starting point): %s m/N\n",

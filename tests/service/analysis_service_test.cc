@@ -82,7 +82,7 @@ v1::FitLoopsRequest FitRequest(const std::vector<analysis::LoopSet>& sets) {
   for (const analysis::LoopSet& set : sets) {
     auto* out = request.add_sets();
     ToProto(set.samples, out->mutable_samples());
-    out->set_normal_force(set.normal_force);
+    if (set.normal_force) out->set_normal_force(*set.normal_force);
   }
   auto* friction = request.add_free();
   friction->set_parameter(v1::FIT_PARAMETER_FRICTION);

@@ -1,273 +1,40 @@
 #include "mdr/analysis/identify.h"
 
-#include <gsl/gsl_blas.h>
 #include <gsl/gsl_cdf.h>
-#include <gsl/gsl_errno.h>
-#include <gsl/gsl_multifit_nlinear.h>
-#include <gsl/gsl_vector.h>
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <memory>
 #include <set>
 #include <thread>
 
+#include "covariance.h"
+#include "fit_model.h"
+#include "least_squares.h"
+#include "mdr/analysis/signal.h"
 #include "mdr/base/validate.h"
 
 namespace mdr::analysis {
 namespace {
 
+using internal::FitModel;
+using internal::Layout;
+using internal::PreparedSet;
+using internal::SparseColumn;
+
 constexpr double kCorrelationLimit = 0.99;   // beyond: two parameters are not separated
 constexpr double kConditionLimit = 1e8;      // beyond: the data constrain a combination poorly
 constexpr double kRelativeWidthLimit = 0.5;  // 95 % half-width over |value| beyond: undetermined
-constexpr std::uint32_t kInterruptPeriod = 1024;  // samples between interrupt checks
+constexpr int kMaxReweighings = 5;           // stages: one unweighted, then effective-variance
+constexpr double kWeightChange = 1e-3;       // weights settled: a stage moves them less (RMS)
+// Model adequacy (docs/analysis.md, "Model adequacy").
+constexpr double kMisfitChiSquare = 1.5;  // reduced chi-square beyond: residuals exceed the noise
+constexpr double kMisfitPValue = 1e-4;    // a structure repeated over the cycles this unlikely
+constexpr int kStructureBinsPerDirection = 8;
+constexpr std::size_t kMinBinCount = 5;
 
-// A bounded parameter in the solver's unbounded coordinate phi: theta = lo + (hi - lo) / (1 +
-// exp(-phi)), so every trial value lies strictly inside the bounds.
-struct Bounded {
-  double lo, hi;
-  double Value(double phi) const { return lo + (hi - lo) / (1 + std::exp(-phi)); }
-  double Phi(double value) const { return std::log((value - lo) / (hi - value)); }
-  double Derivative(double phi) const {  // d theta / d phi
-    const double s = 1 / (1 + std::exp(-phi));
-    return (hi - lo) * s * (1 - s);
-  }
-};
-
-// One set prepared for replay: its samples and the index from which residuals count.
-struct PreparedSet {
-  const LoopSet* set;
-  std::size_t first_residual;
-  // The actuator path the replay follows: the measured displacement made monotone between its
-  // reversals (ReplayPath).
-  std::vector<double> path;
-  std::vector<std::size_t> reversals;
-};
-
-// The least-squares non-decreasing fit of v[0, n) in place (pool adjacent violators).
-void MakeNonDecreasing(double* v, std::size_t n) {
-  std::vector<double> mean;
-  std::vector<std::size_t> count;
-  for (std::size_t i = 0; i < n; ++i) {
-    mean.push_back(v[i]);
-    count.push_back(1);
-    while (mean.size() > 1 && mean[mean.size() - 2] > mean.back()) {
-      const std::size_t c = count.back() + count[count.size() - 2];
-      const double m = (mean.back() * static_cast<double>(count.back()) +
-                        mean[mean.size() - 2] * static_cast<double>(count[count.size() - 2])) /
-                       static_cast<double>(c);
-      mean.pop_back(), count.pop_back();
-      mean.back() = m, count.back() = c;
-    }
-  }
-  std::size_t i = 0;
-  for (std::size_t b = 0; b < mean.size(); ++b) {
-    for (std::size_t k = 0; k < count[b]; ++k) v[i++] = mean[b];
-  }
-}
-
-// Everything the residual function needs.
-class Problem {
- public:
-  Problem(const ContactConfig& scene, std::vector<PreparedSet> sets, const FitOptions& options,
-          std::vector<Bounded> bounds, const Interrupt& interrupt)
-      : scene_(scene),
-        sets_(std::move(sets)),
-        options_(options),
-        bounds_(std::move(bounds)),
-        interrupt_(interrupt) {
-    for (const PreparedSet& s : sets_) {
-      offsets_.push_back(residuals_);
-      residuals_ += s.set->samples.displacement.size() - s.first_residual;
-    }
-  }
-
-  std::size_t residuals() const { return residuals_; }
-
-  // Where each half-cycle's residuals start (indices into the residual vector, ascending): the
-  // clusters of the robust covariance. A turning point's displacement, as measured, shapes the
-  // model's whole next half-cycle, so its noise makes their residuals move together.
-  std::vector<std::size_t> HalfCycleStarts() const {
-    std::vector<std::size_t> starts;
-    for (std::size_t i = 0; i < sets_.size(); ++i) {
-      const PreparedSet& s = sets_[i];
-      starts.push_back(offsets_[i]);
-      for (std::size_t r : s.reversals) {
-        const std::size_t next = r + 1;  // the reversal's sample closes its stretch
-        if (next > s.first_residual && next < s.set->samples.displacement.size()) {
-          starts.push_back(offsets_[i] + (next - s.first_residual));
-        }
-      }
-    }
-    return starts;
-  }
-  std::size_t parameters() const { return bounds_.size(); }
-  const std::vector<Bounded>& bounds() const { return bounds_; }
-
-  std::vector<double> Values(const double* phi) const {
-    std::vector<double> values(bounds_.size());
-    for (std::size_t k = 0; k < values.size(); ++k) values[k] = bounds_[k].Value(phi[k]);
-    return values;
-  }
-
-  // The scene at these parameter values.
-  Result<ContactConfig> SceneAt(const std::vector<double>& values) const {
-    ContactConfig scene = scene_;
-    const double kappa = scene.material.kappa();
-    for (std::size_t k = 0; k < values.size(); ++k) {
-      switch (options_.free[k].parameter) {
-        case Parameter::kFriction:
-          scene.friction = values[k];
-          break;
-        case Parameter::kEffectiveModulus:
-          scene.material.e_star = values[k];
-          scene.material.g_star = values[k] / kappa;
-          break;
-        case Parameter::kProfileScale: {
-          Result<ProfilePtr> profile = options_.profile_family(values[k]);
-          if (!profile.ok()) return profile.status();
-          scene.profile = std::move(profile).value();
-          break;
-        }
-        case Parameter::kRigCompliance:
-          scene.rig.tangential = values[k];
-          break;
-        case Parameter::kDisplacementOffset:
-          break;  // used by the replay
-      }
-    }
-    return scene;
-  }
-
-  // Where the virgin contact is pressed in set i's coordinates.
-  double Offset(const std::vector<double>& values, std::size_t i) const {
-    for (std::size_t k = 0; k < values.size(); ++k) {
-      if (options_.free[k].parameter == Parameter::kDisplacementOffset) return values[k];
-    }
-    return sets_[i].path.front();
-  }
-
-  // Residuals (model - measured force) of every set at phi, written to r; the sets run on up to
-  // `threads` threads. Fails if a replay fails or the interrupt fires.
-  Status Residuals(const double* phi, double* r, int threads) const {
-    const std::vector<double> values = Values(phi);
-    Result<ContactConfig> scene = SceneAt(values);
-    if (!scene.ok()) return scene.status();
-    return ForEach(sets_.size(), threads, [&](std::size_t i) {
-      return Replay(*scene, Offset(values, i), i, r + offsets_[i]);
-    });
-  }
-
-  // Runs task(0 .. count - 1) on up to `threads` threads; the first error wins.
-  template <class Task>
-  static Status ForEach(std::size_t count, int threads, const Task& task) {
-    const std::size_t workers = std::min<std::size_t>(count, std::max(threads, 1));
-    std::atomic<std::size_t> next{0};
-    std::vector<Status> errors(workers);
-    auto work = [&](std::size_t w) {
-      for (std::size_t i = next++; i < count; i = next++) {
-        if (Status s = task(i); !s.ok() && errors[w].ok()) errors[w] = s;
-      }
-    };
-    std::vector<std::thread> pool;
-    for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-    work(0);
-    for (std::thread& t : pool) t.join();
-    for (const Status& s : errors) {
-      if (!s.ok()) return s;
-    }
-    return OkStatus();
-  }
-
- private:
-  // The measured actuator path of set i through the exact engine.
-  Status Replay(const ContactConfig& scene, double offset, std::size_t i, double* r) const {
-    const PreparedSet& prepared = sets_[i];
-    const LoopSamples& samples = prepared.set->samples;
-    Result<Contact> created = Contact::Create(scene);
-    if (!created.ok()) return created.status();
-    Contact c = std::move(created).value();
-    Step to_offset, press, move;
-    to_offset.tangential = move.tangential = TangentialControl::kDisplacement;
-    to_offset.tangential_value = offset;
-    press.normal = NormalControl::kForce;
-    press.normal_value = prepared.set->normal_force;
-    if (Status s = c.Apply(to_offset); !s.ok()) return s;
-    if (Status s = c.Apply(press); !s.ok()) return s;
-    for (std::size_t k = 0; k < prepared.path.size(); ++k) {
-      if (Status s = interrupt_.CheckEvery(kInterruptPeriod, k); !s.ok()) return s;
-      move.tangential_value = prepared.path[k];
-      // A failure ends the replay (c is dropped): no undo copy per sample.
-      if (Status s = c.Apply(move, nullptr, {}, Contact::OnFailure::kDiscarded); !s.ok()) {
-        return s;
-      }
-      if (k >= prepared.first_residual) {
-        *r++ = c.tangential_force() - samples.tangential_force[k];
-      }
-    }
-    return OkStatus();
-  }
-
-  const ContactConfig& scene_;
-  std::vector<PreparedSet> sets_;
-  const FitOptions& options_;
-  std::vector<Bounded> bounds_;
-  const Interrupt& interrupt_;
-  std::vector<std::size_t> offsets_;
-  std::size_t residuals_ = 0;
-};
-
-// What the GSL callbacks see.
-struct Callbacks {
-  const Problem* problem;
-  int threads;
-  Status error;  // the first failure of a residual evaluation
-};
-
-int ResidualFunction(const gsl_vector* x, void* params, gsl_vector* f) {
-  auto* c = static_cast<Callbacks*>(params);
-  Status s = c->problem->Residuals(x->data, f->data, c->threads);
-  if (s.ok()) return GSL_SUCCESS;
-  if (c->error.ok()) c->error = s;
-  return GSL_EFAILED;
-}
-
-// Forward differences in phi, the columns computed concurrently.
-int JacobianFunction(const gsl_vector* x, void* params, gsl_matrix* jacobian) {
-  auto* c = static_cast<Callbacks*>(params);
-  const Problem& problem = *c->problem;
-  const std::size_t n = problem.residuals(), p = problem.parameters();
-  std::vector<double> base(n);
-  std::vector<std::vector<double>> columns(p, std::vector<double>(n));
-  std::vector<double> phi(x->data, x->data + p);
-  Status s = problem.Residuals(phi.data(), base.data(), c->threads);
-  if (s.ok()) {
-    s = Problem::ForEach(p, c->threads, [&](std::size_t k) {
-      std::vector<double> shifted = phi;
-      const double h = 1e-7 * std::max(1.0, std::abs(phi[k]));
-      shifted[k] += h;
-      if (Status e = problem.Residuals(shifted.data(), columns[k].data(), 1); !e.ok()) return e;
-      for (std::size_t i = 0; i < n; ++i) columns[k][i] = (columns[k][i] - base[i]) / h;
-      return OkStatus();
-    });
-  }
-  if (!s.ok()) {
-    if (c->error.ok()) c->error = s;
-    return GSL_EFAILED;
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t k = 0; k < p; ++k) gsl_matrix_set(jacobian, i, k, columns[k][i]);
-  }
-  return GSL_SUCCESS;
-}
-
-double Rms(const gsl_vector* f) {
-  return f->size > 0 ? gsl_blas_dnrm2(f) / std::sqrt(static_cast<double>(f->size)) : 0;
-}
-
-Status CheckFreeParameters(const ContactConfig& scene, const FitOptions& options) {
+Status CheckFreeParameters(const FitOptions& options) {
   if (options.free.empty() || options.free.size() > 5) {
     return InvalidArgument("free",
                            "needs 1 to 5 parameters, got " + std::to_string(options.free.size()));
@@ -291,7 +58,18 @@ Status CheckFreeParameters(const ContactConfig& scene, const FitOptions& options
                                                    ", got " + FormatNumber(free.upper));
     }
   }
-  (void)scene;
+  if (options.displacement_noise) {
+    if (Status s = RequirePositive("displacement_noise", *options.displacement_noise); !s.ok()) {
+      return s;
+    }
+  }
+  if (options.force_noise) {
+    if (Status s = RequirePositive("force_noise", *options.force_noise); !s.ok()) return s;
+  }
+  if (options.burn_in_reversals < 0) {
+    return InvalidArgument("burn_in_reversals",
+                           "must be >= 0, got " + std::to_string(options.burn_in_reversals));
+  }
   return OkStatus();
 }
 
@@ -314,196 +92,411 @@ double InitialValue(const FreeParameter& free, const ContactConfig& scene,
   return 0;
 }
 
-// The sets, checked and with their burn-in: residuals from the burn_in-th reversal on.
-Result<std::vector<PreparedSet>> PrepareSets(const std::vector<LoopSet>& sets,
-                                             const FitOptions& options,
-                                             const Interrupt& interrupt) {
-  if (sets.empty()) return InvalidArgument("sets", "needs at least one loop set");
-  LoopOptions loop_options;
-  loop_options.reversal_threshold = options.reversal_threshold;
-  if (Status s = ValidateLoopOptions(loop_options); !s.ok()) return s;  // the fit's own field
-  std::vector<PreparedSet> prepared;
-  for (std::size_t i = 0; i < sets.size(); ++i) {
-    const std::string field = Indexed("sets", i);
-    if (Status s = RequirePositive(field + ".normal_force", sets[i].normal_force); !s.ok()) {
-      return s;
-    }
-    Result<LoopAnalysis> loops = AnalyzeLoops(sets[i].samples, loop_options, interrupt);
-    if (!loops.ok()) return loops.status().WithFieldPrefix(field + ".samples");
-    const auto burn_in = static_cast<std::size_t>(std::max(options.burn_in_reversals, 0));
-    std::size_t first = 0;
-    if (burn_in > 0) {
-      if (loops->reversals.size() < burn_in) {
-        return FailedPrecondition(
-            field + ".samples",
-            "has " + std::to_string(loops->reversals.size()) +
-                " reversals, fewer than burn_in_reversals = " + std::to_string(burn_in));
-      }
-      first = loops->reversals[burn_in - 1];
-    }
-    prepared.push_back({&sets[i], first, ReplayPath(sets[i].samples.displacement, loops->reversals),
-                        loops->reversals});
-  }
-  return prepared;
+double Rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return v.empty() ? 0 : std::sqrt(s / static_cast<double>(v.size()));
 }
 
-// Estimates, correlations and the verdict from the Jacobian at the solution.
-// The cluster-robust (sandwich) covariance of theta, clusters the half-cycles: bread (J^T J)^-1,
-// meat the sum over clusters of (J_g^T r_g)(J_g^T r_g)^T, with the small-sample factor
-// G/(G-1) (n-1)/(n-p). It is what the residuals' own correlation says, where s^2 (J^T J)^-1
-// assumes independent ones.
-Eigen::MatrixXd ClusterCovariance(const Eigen::MatrixXd& j_theta, const Eigen::VectorXd& residual,
-                                  const Eigen::MatrixXd& bread,
-                                  const std::vector<std::size_t>& starts) {
-  const Eigen::Index n = j_theta.rows(), p = j_theta.cols();
-  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(p, p);
-  for (std::size_t g = 0; g < starts.size(); ++g) {
-    const auto begin = static_cast<Eigen::Index>(starts[g]);
-    const Eigen::Index end = g + 1 < starts.size() ? static_cast<Eigen::Index>(starts[g + 1]) : n;
-    const Eigen::VectorXd score =
-        j_theta.middleRows(begin, end - begin).transpose() * residual.segment(begin, end - begin);
-    meat += score * score.transpose();
-  }
-  const auto clusters = static_cast<double>(starts.size());
-  const double factor =
-      clusters / (clusters - 1) * static_cast<double>(n - 1) / static_cast<double>(n - p);
-  return factor * bread * meat * bread;
+// The unweighted residuals (N) from the weighted ones.
+std::vector<double> Unweighted(const std::vector<double>& r, const std::vector<double>& weights) {
+  std::vector<double> out(r.size());
+  for (std::size_t i = 0; i < r.size(); ++i) out[i] = r[i] / weights[i];
+  return out;
 }
 
-void Assess(const Problem& problem, const std::vector<double>& phi, const Eigen::MatrixXd& jacobian,
-            const Eigen::VectorXd& residual, const FitOptions& options,
-            const std::vector<LoopSet>& sets, FitResult* result) {
-  const double rss = residual.squaredNorm();
-  const std::size_t n = problem.residuals(), p = problem.parameters();
-  const std::vector<double> values = problem.Values(phi.data());
-  Eigen::VectorXd derivative(p), scale(p);
-  double displacement_scale = 0;  // for a relative offset: the data's amplitude
-  for (const LoopSet& set : sets) {
-    const auto [lo, hi] =
-        std::minmax_element(set.samples.displacement.begin(), set.samples.displacement.end());
-    displacement_scale = std::max(displacement_scale, 0.5 * (*hi - *lo));
-  }
-  for (std::size_t k = 0; k < p; ++k) {
-    derivative[k] = problem.bounds()[k].Derivative(phi[k]);
-    scale[k] = options.free[k].parameter == Parameter::kDisplacementOffset ? displacement_scale
-                                                                           : std::abs(values[k]);
-  }
-  // J in theta, and with relative columns (dr / (d theta / theta)).
-  const Eigen::MatrixXd j_theta = jacobian * derivative.cwiseInverse().asDiagonal();
-  const Eigen::MatrixXd j_relative = j_theta * scale.asDiagonal();
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(j_relative, Eigen::ComputeThinV);
-  const Eigen::VectorXd sigma = svd.singularValues();
-  result->condition_number = sigma[static_cast<Eigen::Index>(p) - 1] > 0
-                                 ? sigma[0] / sigma[static_cast<Eigen::Index>(p) - 1]
-                                 : std::numeric_limits<double>::infinity();
-  const Eigen::VectorXd weakest = svd.matrixV().col(static_cast<Eigen::Index>(p) - 1);
-  result->weakest_combination.assign(weakest.data(), weakest.data() + p);
-  // Covariance of theta: s^2 (J^T J)^-1, through the SVD (infinite along a null direction).
-  const double dof = static_cast<double>(n) - static_cast<double>(p);
-  const double s2 = dof > 0 ? rss / dof : std::numeric_limits<double>::infinity();
-  // The correlations come from (J^T J)^-1 alone, so that they stay defined when the data are
-  // matched exactly (s^2 = 0, noise-free loops).
-  Eigen::MatrixXd covariance(p, p), relative(p, p);
-  const bool singular = !(result->condition_number < 1e15);
-  if (singular) {
-    covariance.setConstant(std::numeric_limits<double>::infinity());
-    relative.setConstant(std::numeric_limits<double>::infinity());
-  } else {
-    const Eigen::MatrixXd v = svd.matrixV();
-    const Eigen::VectorXd inverse_square = sigma.array().square().inverse();
-    relative = v * inverse_square.asDiagonal() * v.transpose();
-    covariance = s2 * (scale.asDiagonal() * relative * scale.asDiagonal());
-  }
-  const double t =
-      dof > 0 ? gsl_cdf_tdist_Pinv(0.975, dof) : std::numeric_limits<double>::infinity();
-  // Where the half-cycles' residuals move together (a turning point's displacement noise), the
-  // sandwich is the larger and its interval, on G - 1 degrees of freedom, is the one reported.
-  const std::vector<std::size_t> starts = problem.HalfCycleStarts();
-  Eigen::MatrixXd robust =
-      Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(p), static_cast<Eigen::Index>(p), 0);
-  double t_robust = std::numeric_limits<double>::infinity();
-  if (!singular && starts.size() > 1) {
-    robust = ClusterCovariance(j_theta, residual,
-                               scale.asDiagonal() * relative * scale.asDiagonal(), starts);
-    t_robust = gsl_cdf_tdist_Pinv(0.975, static_cast<double>(starts.size() - 1));
-  }
-  result->correlation.assign(p, std::vector<double>(p, 0));
-  for (std::size_t a = 0; a < p; ++a) {
-    for (std::size_t b = 0; b < p; ++b) {
-      const double c = relative(a, b) / std::sqrt(relative(a, a) * relative(b, b));
-      result->correlation[a][b] = a == b ? 1 : (std::isfinite(c) ? c : 1);
+// The adequacy figures of one set from its normalised residuals z (each over its noise) and its
+// model path.
+void AssessAdequacy(const PreparedSet& set, const std::vector<double>& z,
+                    const std::vector<double>& path, double parameters, SetFit* fit) {
+  const std::size_t n = z.size();
+  double sum = 0;
+  for (double v : z) sum += v * v;
+  const double dof = std::max(1.0, static_cast<double>(n) - parameters);
+  fit->reduced_chi_square = sum / dof;
+  // Lag-1 autocorrelation within half-cycles, and the residuals binned by direction and position
+  // along each complete half-cycle.
+  const std::size_t count = set.reversals.size();
+  double lag = 0;
+  std::vector<double> bin_sum(2 * kStructureBinsPerDirection, 0);
+  std::vector<std::size_t> bin_count(bin_sum.size(), 0);
+  for (std::size_t k = 0; k <= count; ++k) {
+    const std::size_t begin = k == 0 ? 0 : set.reversals[k - 1] + 1;
+    const std::size_t end = k < count ? set.reversals[k] : set.samples - 1;
+    const bool rising = k < count ? set.upper[k] : !set.upper[count - 1];
+    const bool complete = k > 0 && k < count;
+    const double from = complete ? path[set.reversals[k - 1]] : 0;
+    const double span = complete ? path[set.reversals[k]] - from : 0;
+    for (std::size_t i = std::max(begin, set.first_residual); i <= end; ++i) {
+      const std::size_t row = i - set.first_residual;
+      if (i + 1 <= end) lag += z[row] * z[row + 1];
+      if (!complete || span == 0) continue;
+      const double fraction = std::clamp((path[i] - from) / span, 0.0, 1.0);
+      const auto bin =
+          std::min<std::size_t>(kStructureBinsPerDirection - 1,
+                                static_cast<std::size_t>(fraction * kStructureBinsPerDirection));
+      const std::size_t b = bin + (rising ? 0 : kStructureBinsPerDirection);
+      bin_sum[b] += z[row];
+      ++bin_count[b];
     }
   }
-  result->identified = true;
-  const bool ill_conditioned = !(result->condition_number < kConditionLimit);
-  for (std::size_t k = 0; k < p; ++k) {
-    ParameterEstimate e;
-    e.parameter = options.free[k].parameter;
-    e.value = values[k];
-    const auto kk = static_cast<Eigen::Index>(k);
-    const bool clustered = robust(kk, kk) > covariance(kk, kk);
-    e.standard_error = std::sqrt(clustered ? robust(kk, kk) : covariance(kk, kk));
-    const double quantile = clustered ? t_robust : t;
-    e.lower_95 = e.value - quantile * e.standard_error;
-    e.upper_95 = e.value + quantile * e.standard_error;
-    double worst = 0;
-    for (std::size_t b = 0; b < p; ++b) {
-      if (b != k) worst = std::max(worst, std::abs(result->correlation[k][b]));
+  fit->autocorrelation = sum > 0 ? lag / sum : 0;
+  double statistic = 0;
+  int bins = 0;
+  // Against the noise, or the residuals' own scatter where that is larger (a misfit's): a
+  // noise-free record's rounding has a structure too, but none that matters.
+  const double variance = std::max(fit->reduced_chi_square, 1.0);
+  for (std::size_t b = 0; b < bin_sum.size(); ++b) {
+    if (bin_count[b] < kMinBinCount) continue;
+    const double mean = bin_sum[b] / static_cast<double>(bin_count[b]);
+    statistic += static_cast<double>(bin_count[b]) * mean * mean / variance;
+    ++bins;
+  }
+  fit->structure_statistic = statistic;
+  fit->structure_bins = bins;
+  fit->structure_p_value = bins > 0 ? gsl_cdf_chisq_Q(statistic, bins) : 1;
+}
+
+// Everything the result reports, from the solution.
+class Assessment {
+ public:
+  Assessment(const FitModel& model, const std::vector<LoopSet>& sets, const FitOptions& options,
+             const std::vector<double>& x, const std::vector<double>& r,
+             const std::vector<SparseColumn>& jacobian, FitResult* result)
+      : model_(model),
+        sets_(sets),
+        options_(options),
+        x_(x),
+        r_(r),
+        jacobian_(jacobian),
+        result_(result) {}
+
+  Status Run() {
+    const Layout& layout = model_.layout();
+    const std::size_t n = r_.size(), p = layout.size;
+    result_->parameters = p;
+    covariance_.emplace(jacobian_, layout);
+    const double dof = static_cast<double>(n) - static_cast<double>(covariance_->rank());
+    double rss = 0;
+    for (double v : r_) rss += v * v;
+    s2_ = dof > 0 ? rss / dof : std::numeric_limits<double>::infinity();
+    t_ = dof > 0 ? gsl_cdf_tdist_Pinv(0.975, dof) : std::numeric_limits<double>::infinity();
+    result_->reduced_chi_square = s2_;
+    Estimates();
+    if (Status s = Sets(); !s.ok()) return s;
+    Nuisances();
+    Verdict();
+    return OkStatus();
+  }
+
+ private:
+  struct NuisanceCoordinate {
+    Nuisance nuisance;
+    std::optional<std::size_t> set;
+    std::size_t coordinate;
+  };
+  std::vector<NuisanceCoordinate> NuisanceCoordinates() const {
+    const Layout& layout = model_.layout();
+    std::vector<NuisanceCoordinate> out;
+    for (std::size_t s = 0; s < layout.blocks.size(); ++s) {
+      const Layout::Block& b = layout.blocks[s];
+      if (b.force_offset) out.push_back({Nuisance::kForceOffset, s, *b.force_offset});
+      if (b.displacement_offset) {
+        out.push_back({Nuisance::kDisplacementOffset, s, *b.displacement_offset});
+      }
+      if (b.drift) out.push_back({Nuisance::kDisplacementDrift, s, *b.drift});
     }
-    const double width = quantile * e.standard_error / scale[k];
-    e.identified =
-        !singular && !ill_conditioned && worst < kCorrelationLimit && width < kRelativeWidthLimit;
-    result->identified = result->identified && e.identified;
-    if (!(width < kRelativeWidthLimit)) {
-      result->notes.push_back(std::string(ParameterName(e.parameter)) +
-                              " is not determined by the data: its 95 % interval is +-" +
-                              FormatNumber(t * e.standard_error) + " about " +
-                              FormatNumber(e.value));
+    if (layout.mass) out.push_back({Nuisance::kMovingMass, std::nullopt, *layout.mass});
+    return out;
+  }
+
+  // The free parameters: values, standard errors and Wald intervals, correlations, the condition
+  // of their information with the nuisances profiled out, and what the data separate.
+  void Estimates() {
+    const std::size_t f = model_.layout().free;
+    const std::vector<double> values = model_.Values(x_);
+    Eigen::VectorXd derivative(f), scale(f);
+    for (std::size_t k = 0; k < f; ++k) {
+      derivative[k] = model_.bounds()[k].Derivative(x_[k]);
+      scale[k] = options_.free[k].parameter == Parameter::kDisplacementOffset ? DisplacementScale()
+                                                                              : std::abs(values[k]);
     }
-    for (std::size_t b = k + 1; b < p; ++b) {
-      if (std::abs(result->correlation[k][b]) >= kCorrelationLimit) {
-        result->notes.push_back(std::string(ParameterName(e.parameter)) + " and " +
-                                ParameterName(options.free[b].parameter) + " are correlated at " +
-                                FormatNumber(result->correlation[k][b]) +
-                                ": the loops fix their combination, not each");
+    // (J^T J)^-1 of the free parameters in theta, relative (over each parameter's scale).
+    Eigen::MatrixXd relative(f, f);
+    for (std::size_t a = 0; a < f; ++a) {
+      for (std::size_t b = 0; b < f; ++b) {
+        relative(a, b) =
+            covariance_->shared()(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) *
+            derivative[a] * derivative[b] / (scale[a] * scale[b]);
       }
     }
-    result->estimates.push_back(e);
-  }
-  if (ill_conditioned) {
-    std::string combination;
-    for (std::size_t k = 0; k < p; ++k) {
-      combination += (k ? ", " : "") + std::string(ParameterName(options.free[k].parameter)) + " " +
-                     FormatNumber(result->weakest_combination[k]);
+    const bool singular = covariance_->singular() || !relative.allFinite();
+    result_->condition_number = std::numeric_limits<double>::infinity();
+    result_->weakest_combination.assign(f, 0);
+    if (!singular) {
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(relative);
+      const Eigen::VectorXd lambda = eigen.eigenvalues();  // ascending: of the covariance
+      if (lambda[0] > 0) result_->condition_number = std::sqrt(lambda[f - 1] / lambda[0]);
+      const Eigen::VectorXd weakest = eigen.eigenvectors().col(static_cast<Eigen::Index>(f) - 1);
+      result_->weakest_combination.assign(weakest.data(), weakest.data() + f);
     }
-    result->notes.push_back(
-        "the fit is ill-conditioned (condition number " + FormatNumber(result->condition_number) +
-        "): the data hardly constrain the relative change (" + combination + ")");
+    result_->correlation.assign(f, std::vector<double>(f, 0));
+    for (std::size_t a = 0; a < f; ++a) {
+      for (std::size_t b = 0; b < f; ++b) {
+        const double c = relative(a, b) / std::sqrt(relative(a, a) * relative(b, b));
+        result_->correlation[a][b] = a == b ? 1 : (std::isfinite(c) ? c : 1);
+      }
+    }
+    const bool ill_conditioned = !(result_->condition_number < kConditionLimit);
+    for (std::size_t k = 0; k < f; ++k) {
+      ParameterEstimate e;
+      e.parameter = options_.free[k].parameter;
+      e.value = values[k];
+      e.standard_error = singular ? std::numeric_limits<double>::infinity()
+                                  : std::sqrt(s2_ * relative(k, k)) * scale[k];
+      e.lower_95 = e.value - t_ * e.standard_error;
+      e.upper_95 = e.value + t_ * e.standard_error;
+      double worst = 0;
+      for (std::size_t b = 0; b < f; ++b) {
+        if (b != k) worst = std::max(worst, std::abs(result_->correlation[k][b]));
+      }
+      const double width = t_ * e.standard_error / scale[k];
+      e.identified =
+          !singular && !ill_conditioned && worst < kCorrelationLimit && width < kRelativeWidthLimit;
+      if (!(width < kRelativeWidthLimit)) {
+        result_->notes.push_back(std::string(ParameterName(e.parameter)) +
+                                 " is not determined by the data: its 95 % interval is +-" +
+                                 FormatNumber(t_ * e.standard_error) + " about " +
+                                 FormatNumber(e.value));
+      }
+      for (std::size_t b = k + 1; b < f; ++b) {
+        if (std::abs(result_->correlation[k][b]) >= kCorrelationLimit) {
+          result_->notes.push_back(std::string(ParameterName(e.parameter)) + " and " +
+                                   ParameterName(options_.free[b].parameter) +
+                                   " are correlated at " +
+                                   FormatNumber(result_->correlation[k][b]) +
+                                   ": the loops fix their combination, not each");
+        }
+      }
+      result_->estimates.push_back(e);
+    }
+    if (ill_conditioned) {
+      std::string combination;
+      for (std::size_t k = 0; k < f; ++k) {
+        combination += (k ? ", " : "") + std::string(ParameterName(options_.free[k].parameter)) +
+                       " " + FormatNumber(result_->weakest_combination[k]);
+      }
+      result_->notes.push_back("the fit is ill-conditioned (condition number " +
+                               FormatNumber(result_->condition_number) +
+                               "): the data hardly constrain the relative change (" + combination +
+                               ")");
+    }
+    derivative_ = derivative;
   }
-}
+
+  double DisplacementScale() const {
+    double scale = 0;
+    for (const PreparedSet& s : model_.sets()) scale = std::max(scale, s.stroke);
+    return scale;
+  }
+
+  void Nuisances() {
+    const std::size_t f = model_.layout().free;
+    for (const NuisanceCoordinate& c : NuisanceCoordinates()) {
+      NuisanceEstimate e;
+      e.nuisance = c.nuisance;
+      e.set = c.set;
+      const double scale = model_.Scale(c.coordinate);
+      const double offset =
+          c.nuisance == Nuisance::kDisplacementOffset ? model_.sets()[*c.set].default_offset : 0;
+      e.value = offset + x_[c.coordinate] * scale;
+      // Its variance and covariance with the free parameters (solver coordinates).
+      const std::size_t f_mass = model_.layout().free;
+      const bool shared = !c.set;
+      const double variance = shared ? covariance_->shared()(static_cast<Eigen::Index>(f_mass),
+                                                             static_cast<Eigen::Index>(f_mass))
+                                     : covariance_->Variance(c.coordinate);
+      const Eigen::VectorXd with_free =
+          shared ? Eigen::VectorXd(covariance_->shared().col(static_cast<Eigen::Index>(f_mass)))
+                 : covariance_->WithShared(c.coordinate);
+      const bool determined = (shared || covariance_->determined(c.coordinate)) &&
+                              std::isfinite(variance) && variance > 0;
+      e.standard_error =
+          determined ? std::sqrt(s2_ * variance) * scale : std::numeric_limits<double>::infinity();
+      e.lower_95 = e.value - t_ * e.standard_error;
+      e.upper_95 = e.value + t_ * e.standard_error;
+      // Identified: its 95 % interval narrower than half its natural range (the set's force or
+      // stroke amplitude; the mass whose inertia would match the force amplitude).
+      e.identified = determined && t_ * e.standard_error < kRelativeWidthLimit * scale;
+      // Held at zero (its coordinate at 0), the free parameters would move by
+      // -cov(free, nuisance) / var(nuisance) times its coordinate, to first order.
+      for (std::size_t k = 0; k < f; ++k) {
+        e.effect.push_back(determined
+                               ? -with_free[static_cast<Eigen::Index>(k)] / variance *
+                                     x_[c.coordinate] * derivative_[static_cast<Eigen::Index>(k)]
+                               : 0);
+      }
+      // The press point, fitted always, is undetermined in every set that slides fully: no note.
+      if (!e.identified && e.nuisance != Nuisance::kDisplacementOffset) {
+        result_->notes.push_back(
+            std::string(NuisanceName(e.nuisance)) +
+            (c.set ? " of sets[" + std::to_string(*c.set) + "]" : std::string()) +
+            " is not determined by the loops (its 95 % interval is +-" +
+            FormatNumber(t_ * e.standard_error) + ")");
+      }
+      result_->nuisances.push_back(std::move(e));
+    }
+    SeparateOffsets();
+  }
+
+  // Loops of partial slip remember where the contact was pressed: their forces carry a constant
+  // set by the press point and by the history before the counted samples, which a force offset
+  // shifts them by too, so the data fix the two together, not each -- however the covariance
+  // at the solution reads (a press point a little further makes the uncounted first loading
+  // slide fully, and the memory of it vanishes). Unless the virgin loading is counted
+  // (burn_in_reversals 0), a set that is not in gross slip has neither identified; nor does one
+  // whose two estimates are correlated beyond the limit.
+  void SeparateOffsets() {
+    const Layout& layout = model_.layout();
+    for (std::size_t s = 0; s < layout.blocks.size(); ++s) {
+      const Layout::Block& b = layout.blocks[s];
+      if (!b.force_offset || !b.displacement_offset) continue;
+      const std::size_t f = *b.force_offset, d = *b.displacement_offset;
+      std::string why;
+      if (options_.burn_in_reversals > 0 && !result_->sets[s].gross_slip) {
+        why =
+            ": its loops of partial slip fix their combination, not each (counting the virgin "
+            "loading, burn_in_reversals 0, separates them)";
+      } else if (covariance_->determined(f) && covariance_->determined(d)) {
+        const double c = covariance_->Covariance(f, d) /
+                         std::sqrt(covariance_->Variance(f) * covariance_->Variance(d));
+        if (std::abs(c) >= kCorrelationLimit) {
+          why = " are correlated at " + FormatNumber(c) + ": its loops fix their combination";
+        }
+      }
+      if (why.empty()) continue;
+      for (NuisanceEstimate& e : result_->nuisances) {
+        if (e.set == s &&
+            (e.nuisance == Nuisance::kForceOffset || e.nuisance == Nuisance::kDisplacementOffset)) {
+          e.identified = false;
+        }
+      }
+      result_->notes.push_back("force_offset and displacement_offset of sets[" + std::to_string(s) +
+                               "] are not identified" + why);
+    }
+  }
+
+  Status Sets() {
+    const Layout& layout = model_.layout();
+    const std::vector<double>& weights = model_.weights();
+    const std::vector<double> force = Unweighted(r_, weights);
+    result_->residual_rms = Rms(force);
+    result_->residuals = r_.size();
+    const auto n = static_cast<double>(r_.size());
+    for (std::size_t s = 0; s < model_.sets().size(); ++s) {
+      const PreparedSet& set = model_.sets()[s];
+      const LoopSamples& samples = set.set->samples;
+      SetFit fit;
+      fit.displacement_noise = set.displacement_noise;
+      fit.force_noise = set.force_noise;
+      fit.noise_estimated = !options_.displacement_noise && !options_.force_noise;
+      fit.displacement_noise_correlation = NoiseCorrelation(samples.displacement);
+      fit.force_noise_correlation = NoiseCorrelation(samples.tangential_force);
+      fit.normal_force_measured = !set.normal.empty();
+      if (fit.normal_force_measured) {
+        fit.normal_force_noise = NoiseFromDifferences(samples.normal_force);
+        const auto [lo, hi] = std::minmax_element(set.normal.begin(), set.normal.end());
+        fit.normal_force_min = *lo, fit.normal_force_max = *hi;
+        double sum = 0;
+        for (double v : set.normal) sum += v;
+        fit.normal_force = sum / static_cast<double>(set.normal.size());
+        const auto [mlo, mhi] =
+            std::minmax_element(samples.normal_force.begin(), samples.normal_force.end());
+        // Three noise deviations, and a millionth of the load: a noise-free column's rounding.
+        const double margin = 3 * fit.normal_force_noise + 1e-6 * std::abs(*mhi);
+        const std::optional<double>& declared = sets_[s].normal_force;
+        fit.load_mismatch = declared && (*declared < *mlo - margin || *declared > *mhi + margin);
+        if (fit.load_mismatch) {
+          result_->notes.push_back("sets[" + std::to_string(s) + "]: the declared normal force " +
+                                   FormatNumber(*declared) +
+                                   " N lies outside the range its normal_force column measured, [" +
+                                   FormatNumber(*mlo) + ", " + FormatNumber(*mhi) +
+                                   "] N: declaration and measurement disagree");
+        }
+      } else {
+        fit.normal_force = fit.normal_force_min = fit.normal_force_max = set.constant_normal;
+      }
+      fit.first_residual = set.first_residual;
+      fit.residuals = set.samples - set.first_residual;
+      const Layout::Block& block = layout.blocks[s];
+      fit.turning_points = block.turning_count;
+      const std::vector<double> fitted = model_.TurningPoints(x_, s);
+      double shift = 0;
+      for (std::size_t k = 0; k < fitted.size(); ++k) {
+        const double d = fitted[k] - set.turning[set.first_free_turning + k];
+        shift += d * d;
+      }
+      fit.turning_point_shift_rms =
+          fitted.empty() ? 0 : std::sqrt(shift / static_cast<double>(fitted.size()));
+      const auto rows_begin = r_.begin() + static_cast<std::ptrdiff_t>(set.row_offset);
+      const std::vector<double> z(rows_begin,
+                                  rows_begin + static_cast<std::ptrdiff_t>(fit.residuals));
+      fit.residual_rms = Rms(std::vector<double>(
+          force.begin() + static_cast<std::ptrdiff_t>(set.row_offset),
+          force.begin() + static_cast<std::ptrdiff_t>(set.row_offset + fit.residuals)));
+      Result<internal::SetEvaluation> evaluation = model_.Evaluate(x_, s);
+      if (!evaluation.ok()) return evaluation.status();
+      const auto burn_in = static_cast<std::size_t>(options_.burn_in_reversals);
+      fit.gross_slip = set.reversals.size() > burn_in;
+      for (std::size_t k = burn_in; k < set.reversals.size(); ++k) {
+        fit.gross_slip = fit.gross_slip && evaluation->stiffness[set.reversals[k]] == 0;
+      }
+      // Its share of the parameters: its own, and of the shared ones by its residuals.
+      const double own = static_cast<double>(block.turning_count) + (block.force_offset ? 1 : 0) +
+                         (block.displacement_offset ? 1 : 0) + (block.drift ? 1 : 0);
+      const double shared = static_cast<double>(layout.free + (layout.mass ? 1 : 0)) *
+                            static_cast<double>(fit.residuals) / n;
+      AssessAdequacy(set, z, evaluation->path, own + shared, &fit);
+      fit.misfit =
+          fit.reduced_chi_square > kMisfitChiSquare || fit.structure_p_value < kMisfitPValue;
+      if (fit.misfit) {
+        result_->notes.push_back("sets[" + std::to_string(s) +
+                                 "]: the model does not explain the loops to their noise " +
+                                 "(reduced chi-square " + FormatNumber(fit.reduced_chi_square) +
+                                 ", a structure repeated over the cycles with p = " +
+                                 FormatNumber(fit.structure_p_value) + ")");
+      }
+      if (options_.keep_models) {
+        result_->models.push_back({std::move(evaluation->path), std::move(evaluation->normal),
+                                   std::move(evaluation->contact_force),
+                                   std::move(evaluation->predicted)});
+      }
+      result_->sets.push_back(fit);
+    }
+    return OkStatus();
+  }
+
+  void Verdict() {
+    result_->adequate = std::none_of(result_->sets.begin(), result_->sets.end(),
+                                     [](const SetFit& s) { return s.misfit || s.load_mismatch; });
+    result_->identified =
+        result_->adequate && std::all_of(result_->estimates.begin(), result_->estimates.end(),
+                                         [](const ParameterEstimate& e) { return e.identified; });
+  }
+
+  const FitModel& model_;
+  const std::vector<LoopSet>& sets_;
+  const FitOptions& options_;
+  const std::vector<double>& x_;
+  const std::vector<double>& r_;
+  const std::vector<SparseColumn>& jacobian_;
+  FitResult* result_;
+  std::optional<internal::BlockCovariance> covariance_;
+  Eigen::VectorXd derivative_;
+  double s2_ = 0, t_ = 0;
+};
 
 }  // namespace
-
-// Each stretch (after one reversal, up to and including the next) replaced by its least-squares
-// monotone fit in its direction (identify.h).
-std::vector<double> ReplayPath(const std::vector<double>& u,
-                               const std::vector<std::size_t>& reversals) {
-  std::vector<double> path = u;
-  std::size_t begin = 0;
-  auto fit = [&](std::size_t end) {  // the stretch [begin, end]
-    if (end <= begin) return;
-    const bool rising = u[end] >= u[begin];
-    double* v = path.data() + begin;
-    const std::size_t n = end - begin + 1;
-    if (!rising) std::for_each(v, v + n, [](double& x) { x = -x; });
-    MakeNonDecreasing(v, n);
-    if (!rising) std::for_each(v, v + n, [](double& x) { x = -x; });
-    begin = end + 1;
-  };
-  for (std::size_t r : reversals) fit(r);
-  if (!u.empty()) fit(u.size() - 1);
-  return path;
-}
 
 const char* ParameterName(Parameter parameter) {
   switch (parameter) {
@@ -521,101 +514,108 @@ const char* ParameterName(Parameter parameter) {
   return "unknown";
 }
 
+const char* NuisanceName(Nuisance nuisance) {
+  switch (nuisance) {
+    case Nuisance::kForceOffset:
+      return "force_offset";
+    case Nuisance::kDisplacementOffset:
+      return "displacement_offset";
+    case Nuisance::kDisplacementDrift:
+      return "displacement_drift";
+    case Nuisance::kMovingMass:
+      return "moving_mass";
+  }
+  return "unknown";
+}
+
+const char* IntervalMethodName(IntervalMethod method) {
+  return method == IntervalMethod::kWald ? "wald" : "profile_likelihood";
+}
+
 Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet>& sets,
                            const FitOptions& options, const Interrupt& interrupt,
                            const FitProgress& progress) {
   if (Status s = ValidateContactConfig(scene); !s.ok()) return s.WithFieldPrefix("scene");
-  if (Status s = CheckFreeParameters(scene, options); !s.ok()) return s;
-  Result<std::vector<PreparedSet>> prepared = PrepareSets(sets, options, interrupt);
-  if (!prepared.ok()) return prepared.status();
-  std::vector<Bounded> bounds;
-  std::vector<double> phi;
+  if (Status s = CheckFreeParameters(options); !s.ok()) return s;
+  if (sets.empty()) return InvalidArgument("sets", "needs at least one loop set");
+  LoopOptions loop_options;
+  loop_options.reversal_threshold = options.reversal_threshold;
+  if (Status s = ValidateLoopOptions(loop_options); !s.ok()) return s;  // the fit's own field
+  std::vector<PreparedSet> prepared;
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    Result<PreparedSet> set = internal::PrepareSet(sets[i], i, options, interrupt);
+    if (!set.ok()) return set.status();
+    prepared.push_back(std::move(set).value());
+  }
+  std::vector<internal::Bounded> bounds;
+  std::vector<double> initial;
   for (std::size_t k = 0; k < options.free.size(); ++k) {
     const FreeParameter& free = options.free[k];
-    const double initial = InitialValue(free, scene, sets);
-    if (!(initial > free.lower && initial < free.upper)) {
+    const double value = InitialValue(free, scene, sets);
+    if (!(value > free.lower && value < free.upper)) {
       return InvalidArgument(Indexed("free", k) + ".initial",
-                             "the initial value " + FormatNumber(initial) + " of " +
+                             "the initial value " + FormatNumber(value) + " of " +
                                  ParameterName(free.parameter) + " must lie inside (" +
                                  FormatNumber(free.lower) + ", " + FormatNumber(free.upper) + ")");
     }
     bounds.push_back({free.lower, free.upper});
-    phi.push_back(bounds.back().Phi(initial));
-  }
-  const Problem problem(scene, std::move(prepared).value(), options, bounds, interrupt);
-  const std::size_t n = problem.residuals(), p = problem.parameters();
-  if (n < p) {
-    return FailedPrecondition("sets", std::to_string(n) + " counted samples cannot determine " +
-                                          std::to_string(p) + " parameters");
+    initial.push_back(value);
   }
   const int threads = options.threads > 0
                           ? options.threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  Callbacks callbacks{&problem, threads, OkStatus()};
-  gsl_set_error_handler_off();
-  gsl_multifit_nlinear_fdf fdf;
-  fdf.f = ResidualFunction;
-  fdf.df = JacobianFunction;
-  fdf.fvv = nullptr;
-  fdf.n = n;
-  fdf.p = p;
-  fdf.params = &callbacks;
-  gsl_multifit_nlinear_parameters parameters = gsl_multifit_nlinear_default_parameters();
-  parameters.scale = gsl_multifit_nlinear_scale_more;
-  std::unique_ptr<gsl_multifit_nlinear_workspace, void (*)(gsl_multifit_nlinear_workspace*)>
-      workspace(gsl_multifit_nlinear_alloc(gsl_multifit_nlinear_trust, &parameters, n, p),
-                gsl_multifit_nlinear_free);
-  gsl_vector_view x = gsl_vector_view_array(phi.data(), p);
-  int status = gsl_multifit_nlinear_init(&x.vector, &fdf, workspace.get());
+  FitModel model(scene, std::move(prepared), options, bounds, interrupt, threads);
+  const std::size_t n = model.residuals(), p = model.parameters();
+  if (n <= p) {
+    return FailedPrecondition("sets", std::to_string(n) + " counted samples cannot determine " +
+                                          std::to_string(p) +
+                                          " parameters (turning points and nuisances included)");
+  }
+  // The first stage unweighted (least squares in N, as robust a start as any), then the
+  // effective-variance stages.
+  std::vector<double> x = model.Start(initial);
+  if (Status s = model.Reweigh(x, /*uniform=*/true); !s.ok()) return s;
   FitResult result;
-  while (status == GSL_SUCCESS && result.iterations < options.max_iterations) {
-    status = gsl_multifit_nlinear_iterate(workspace.get());
-    ++result.iterations;
-    const gsl_vector* at = gsl_multifit_nlinear_position(workspace.get());
-    if (progress) {
-      progress(result.iterations, Rms(gsl_multifit_nlinear_residual(workspace.get())),
-               problem.Values(at->data));
+  internal::SolverOptions solver;
+  solver.step_tolerance = options.step_tolerance;
+  const auto report = [&](int iteration, const std::vector<double>& r,
+                          const std::vector<double>& at) {
+    if (progress)
+      progress(result.iterations + iteration, Rms(Unweighted(r, model.weights())),
+               model.Values(at));
+  };
+  bool converged = false;
+  for (int stage = 0; stage < kMaxReweighings; ++stage) {
+    solver.max_iterations = options.max_iterations - result.iterations;
+    if (solver.max_iterations <= 0) break;
+    Result<internal::SolverOutcome> outcome = internal::SolveLeastSquares(model, x, solver, report);
+    if (!outcome.ok()) return outcome.status();
+    result.iterations += outcome->iterations;
+    converged = outcome->converged;
+    x = outcome->x;
+    const std::vector<double> before = model.weights();
+    if (Status s = model.Reweigh(x); !s.ok()) return s;
+    if (stage == 0) continue;  // from uniform weights: always a weighted stage more
+    // Settled when the weights move by less than kWeightChange in RMS (an isolated sample where
+    // a branch's slope jumps may flip from stage to stage).
+    double change = 0;
+    for (std::size_t i = 0; i < before.size(); ++i) {
+      const double d = model.weights()[i] / before[i] - 1;
+      change += d * d;
     }
-    if (status == GSL_ENOPROG) {  // no step lowers the cost: a minimum to the residuals' noise
-      result.converged = true;
-      status = GSL_SUCCESS;
-      break;
-    }
-    if (status != GSL_SUCCESS) break;
-    int info = 0;
-    if (gsl_multifit_nlinear_test(options.step_tolerance, 0, 0, &info, workspace.get()) ==
-            GSL_SUCCESS &&
-        info > 0) {
-      result.converged = true;
-      break;
-    }
+    if (std::sqrt(change / static_cast<double>(before.size())) < kWeightChange) break;
   }
-  if (!callbacks.error.ok()) return callbacks.error;
-  if (status != GSL_SUCCESS) {
-    return FailedPrecondition("free", std::string("the fit failed: ") + gsl_strerror(status));
-  }
-  const gsl_vector* solution = gsl_multifit_nlinear_position(workspace.get());
-  std::vector<double> best(solution->data, solution->data + p);
-  gsl_matrix* j = gsl_matrix_alloc(n, p);
-  const int jacobian_status = JacobianFunction(solution, &callbacks, j);
-  Eigen::MatrixXd jacobian(n, p);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t k = 0; k < p; ++k)
-      jacobian(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) =
-          gsl_matrix_get(j, i, k);
-  }
-  gsl_matrix_free(j);
-  if (jacobian_status != GSL_SUCCESS) return callbacks.error;
-  const gsl_vector* f = gsl_multifit_nlinear_residual(workspace.get());
-  result.residuals = n;
-  result.residual_rms = Rms(f);
-  Assess(problem, best, jacobian,
-         Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<>>(
-             f->data, static_cast<Eigen::Index>(n), Eigen::InnerStride<>(f->stride)),
-         options, sets, &result);
-  Result<ContactConfig> fitted = problem.SceneAt(problem.Values(best.data()));
+  result.converged = converged;
+  std::vector<double> r;
+  std::vector<SparseColumn> jacobian;
+  if (Status s = model.Residuals(x, &r); !s.ok()) return s;
+  if (Status s = model.Jacobian(x, r, &jacobian); !s.ok()) return s;
+  Assessment assessment(model, sets, options, x, r, jacobian, &result);
+  if (Status s = assessment.Run(); !s.ok()) return s;
+  Result<ContactConfig> fitted = model.SceneAt(model.Values(x));
   if (!fitted.ok()) return fitted.status();
   result.fitted = std::move(fitted).value();
+  result.fitted.track_energy = scene.track_energy;
   return result;
 }
 
@@ -625,18 +625,24 @@ Result<ComplianceGuess> GuessRigCompliance(const std::vector<LoopSet>& sets, dou
   ComplianceGuess guess;
   for (std::size_t i = 0; i < sets.size(); ++i) {
     const std::string field = Indexed("sets", i);
-    if (Status s = RequirePositive(field + ".normal_force", sets[i].normal_force); !s.ok()) {
-      return s;
+    const LoopSamples& samples = sets[i].samples;
+    double load = 0;
+    if (!samples.normal_force.empty()) {
+      for (double v : samples.normal_force) load += v;
+      load /= static_cast<double>(samples.normal_force.size());
+    } else if (sets[i].normal_force) {
+      load = *sets[i].normal_force;
     }
+    if (Status s = RequirePositive(field + ".normal_force", load); !s.ok()) return s;
     LoopOptions options;
     options.reversal_threshold = reversal_threshold;
-    Result<LoopAnalysis> loops = AnalyzeLoops(sets[i].samples, options);
+    Result<LoopAnalysis> loops = AnalyzeLoops(samples, options);
     if (!loops.ok()) return loops.status().WithFieldPrefix(field + ".samples");
     double stiffness = 0;
     for (const CycleMetrics& cycle : loops->cycles) {
       stiffness += 0.5 * (cycle.stiffness_increasing + cycle.stiffness_decreasing);
     }
-    guess.normal_forces.push_back(sets[i].normal_force);
+    guess.normal_forces.push_back(load);
     guess.apparent_stiffness.push_back(stiffness / static_cast<double>(loops->cycles.size()));
   }
   // 1 / k = C_t + c x with x = P^(-1/(n+1)): least squares.
@@ -648,7 +654,7 @@ Result<ComplianceGuess> GuessRigCompliance(const std::vector<LoopSet>& sets, dou
     y[i] = 1 / guess.apparent_stiffness[i];
     sx += x[i], sy += y[i], sxx += x[i] * x[i], sxy += x[i] * y[i];
   }
-  const double mean_x = sx / static_cast<double>(m), spread = sxx - sx * mean_x;
+  const double mean_x = m > 0 ? sx / static_cast<double>(m) : 0, spread = sxx - sx * mean_x;
   if (m < 2 || !(spread > 1e-12 * sxx)) {
     return FailedPrecondition("sets", "needs loop sets at two or more distinct normal forces");
   }

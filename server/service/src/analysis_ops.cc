@@ -231,6 +231,57 @@ v1::Scene FittedScene(const v1::Scene& scene, const ContactConfig& start,
   return fitted;
 }
 
+v1::Nuisance ToProto(analysis::Nuisance nuisance) {
+  switch (nuisance) {
+    case analysis::Nuisance::kForceOffset:
+      return v1::NUISANCE_FORCE_OFFSET;
+    case analysis::Nuisance::kDisplacementOffset:
+      return v1::NUISANCE_DISPLACEMENT_OFFSET;
+    case analysis::Nuisance::kDisplacementDrift:
+      return v1::NUISANCE_DISPLACEMENT_DRIFT;
+    case analysis::Nuisance::kMovingMass:
+      return v1::NUISANCE_MOVING_MASS;
+  }
+  return v1::NUISANCE_UNSPECIFIED;
+}
+
+void ToProto(const analysis::NuisanceEstimate& e, v1::NuisanceEstimate* out) {
+  out->set_nuisance(ToProto(e.nuisance));
+  if (e.set) out->set_set(SampleIndex(*e.set));
+  out->set_value(e.value);
+  out->set_standard_error(e.standard_error);
+  out->set_lower_95(e.lower_95);
+  out->set_upper_95(e.upper_95);
+  out->set_identified(e.identified);
+  out->mutable_effect()->Add(e.effect.begin(), e.effect.end());
+}
+
+void ToProto(const analysis::SetFit& s, v1::SetFit* out) {
+  out->set_displacement_noise(s.displacement_noise);
+  out->set_force_noise(s.force_noise);
+  out->set_normal_force_noise(s.normal_force_noise);
+  out->set_noise_estimated(s.noise_estimated);
+  out->set_displacement_noise_correlation(s.displacement_noise_correlation);
+  out->set_force_noise_correlation(s.force_noise_correlation);
+  out->set_normal_force_measured(s.normal_force_measured);
+  out->set_normal_force(s.normal_force);
+  out->set_normal_force_min(s.normal_force_min);
+  out->set_normal_force_max(s.normal_force_max);
+  out->set_load_mismatch(s.load_mismatch);
+  out->set_first_residual(SampleIndex(s.first_residual));
+  out->set_residuals(SampleIndex(s.residuals));
+  out->set_turning_points(SampleIndex(s.turning_points));
+  out->set_turning_point_shift_rms(s.turning_point_shift_rms);
+  out->set_gross_slip(s.gross_slip);
+  out->set_residual_rms(s.residual_rms);
+  out->set_reduced_chi_square(s.reduced_chi_square);
+  out->set_autocorrelation(s.autocorrelation);
+  out->set_structure_statistic(s.structure_statistic);
+  out->set_structure_bins(s.structure_bins);
+  out->set_structure_p_value(s.structure_p_value);
+  out->set_misfit(s.misfit);
+}
+
 }  // namespace
 
 Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimits& limits,
@@ -327,11 +378,20 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
                            "must be >= 0, got " + std::to_string(options.burn_in_reversals));
   }
   options.reversal_threshold = request.reversal_threshold();
+  options.nuisances.force_offset = request.nuisances().force_offset();
+  options.nuisances.displacement_drift = request.nuisances().displacement_drift();
+  options.nuisances.moving_mass = request.nuisances().moving_mass();
+  if (request.has_displacement_noise()) options.displacement_noise = request.displacement_noise();
+  if (request.has_force_noise()) options.force_noise = request.force_noise();
+  options.keep_models = request.include_models();
   options.threads = 1;  // the call's own worker: concurrency comes from the pool, not from a call
   if (request.max_iterations() > 0) options.max_iterations = request.max_iterations();
   std::vector<analysis::LoopSet> sets;
-  for (const auto& set : request.sets())
-    sets.push_back({ToCore(set.samples()), set.normal_force()});
+  for (const auto& set : request.sets()) {
+    analysis::LoopSet core{ToCore(set.samples()), std::nullopt};
+    if (set.has_normal_force()) core.normal_force = set.normal_force();
+    sets.push_back(std::move(core));
+  }
   Result<analysis::FitResult> fit =
       analysis::FitLoops(*scene, sets, options, interrupt,
                          [&](int iteration, double rms, const std::vector<double>& v) {
@@ -353,7 +413,22 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
     out->set_lower_95(e.lower_95);
     out->set_upper_95(e.upper_95);
     out->set_identified(e.identified);
+    out->set_interval(e.interval == analysis::IntervalMethod::kWald
+                          ? v1::INTERVAL_METHOD_WALD
+                          : v1::INTERVAL_METHOD_PROFILE_LIKELIHOOD);
   }
+  for (const analysis::NuisanceEstimate& e : fit->nuisances) ToProto(e, result->add_nuisances());
+  for (const analysis::SetFit& s : fit->sets) ToProto(s, result->add_sets());
+  for (analysis::SetModel& m : fit->models) {
+    v1::SetModel* out = result->add_models();
+    out->mutable_actuator_path()->Add(m.actuator_path.begin(), m.actuator_path.end());
+    out->mutable_normal_force()->Add(m.normal_force.begin(), m.normal_force.end());
+    out->mutable_contact_force()->Add(m.contact_force.begin(), m.contact_force.end());
+    out->mutable_predicted_force()->Add(m.predicted_force.begin(), m.predicted_force.end());
+  }
+  result->set_parameters(SampleIndex(fit->parameters));
+  result->set_reduced_chi_square(fit->reduced_chi_square);
+  result->set_adequate(fit->adequate);
   for (const std::vector<double>& row : fit->correlation) {
     result->mutable_correlation()->Add(row.begin(), row.end());
   }
@@ -368,7 +443,7 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
   for (const std::string& note : fit->notes) result->add_notes(note);
   *result->mutable_fitted_scene() = FittedScene(request.scene(), *scene, *fit);
   std::set<double> loads;
-  for (const auto& set : sets) loads.insert(set.normal_force);
+  for (const analysis::SetFit& set : fit->sets) loads.insert(set.normal_force);
   if (const std::optional<double> n = ExponentOf(request.scene()); n && loads.size() >= 2) {
     Result<analysis::ComplianceGuess> guess =
         analysis::GuessRigCompliance(sets, *n, options.reversal_threshold);
