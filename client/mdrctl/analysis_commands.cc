@@ -776,12 +776,19 @@ Campaign schema (docs/analysis.md, "From a rig's CSV files to a report"):
     files (defaults: displacement, tangential_force; normal_force, time and run: none); run:
     the column of each row's run id, in files of several runs
   units: {displacement: m|mm|um|nm, force: N|kN|mN, time: s|ms|us} (defaults m, N, s)
-  sets: [{file, normal_force (N), run?, columns?, units?}]: one run at a constant normal
-    force, a whole CSV file or its run `run` (its id in the run column); columns and units
-    override the defaults above for that file
+  sets: [{file, normal_force (N)?, run?, columns?, units?}]: one run, a whole CSV file or
+    its run `run` (its id in the run column); normal_force is required without a normal_force
+    column (with one, the column is replayed and normal_force checked against it); columns and
+    units override the defaults above for that file
   free: [{parameter, initial?, lower, upper}]: parameter is friction, effective_modulus,
     profile_scale, rig_compliance or displacement_offset (SI units; bounds exclusive)
-  burn_in_reversals: residuals count from this reversal of each set on (default 2)
+  nuisances: {force_offset, displacement_drift, moving_mass}: true fits a force offset and a
+    drift per set, a moving mass for all (needs time); each set's displacement offset and its
+    turning points are fitted always
+  displacement_noise, force_noise: the sensors' noise in m and N where known (default:
+    estimated from each set)
+  burn_in_reversals: residuals count from this reversal of each set on (default 2; 0 counts
+    the virgin loading)
   reversal_threshold: hysteresis of the reversal detection in m (default 0: automatic)
   max_iterations: of the fit, 0 to 1000 (default 0: the service's 200)
   displacement_resolution: m; narrower loops are classified as sticking, C as nan (default 0)
@@ -814,6 +821,23 @@ std::string CampaignYaml(const SynthesisSpec& spec, const mdr::v1::Scene& starti
   }
   out << YAML::EndSeq;
   EmitFree(spec, &out);
+  const auto& nuisances = spec.nuisances;
+  if (nuisances.force_offset() || nuisances.displacement_drift() || nuisances.moving_mass()) {
+    out << YAML::Key << "nuisances" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (const auto& [name, on] : {std::pair{"force_offset", nuisances.force_offset()},
+                                   std::pair{"displacement_drift", nuisances.displacement_drift()},
+                                   std::pair{"moving_mass", nuisances.moving_mass()}}) {
+      if (on) out << YAML::Key << name << YAML::Value << true;
+    }
+    out << YAML::EndMap;
+  }
+  if (spec.fit_displacement_noise) {
+    out << YAML::Key << "displacement_noise" << YAML::Value
+        << Shortest(*spec.fit_displacement_noise);
+  }
+  if (spec.fit_force_noise) {
+    out << YAML::Key << "force_noise" << YAML::Value << Shortest(*spec.fit_force_noise);
+  }
   if (spec.burn_in_reversals) {
     out << YAML::Key << "burn_in_reversals" << YAML::Value << *spec.burn_in_reversals;
   }

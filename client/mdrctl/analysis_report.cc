@@ -341,8 +341,8 @@ std::string EstimatesSection(const FitReport& report) {
     table.Row({FitParameterName(e.parameter()), Num(e.value(), 8), Num(e.standard_error(), 3),
                "[" + Num(e.lower_95(), 8) + ", " + Num(e.upper_95(), 8) + "]",
                Num(0.5 * (e.upper_95() - e.lower_95()) / std::abs(e.value()), 3),
-               e.interval() == mdr::v1::INTERVAL_METHOD_PROFILE_LIKELIHOOD ? "profile likelihood"
-                                                                           : "Wald",
+               e.interval() == mdr::v1::INTERVAL_METHOD_HALF_CYCLE_SANDWICH ? "half-cycle sandwich"
+                                                                            : "Wald",
                e.identified() ? "identified" : "**not identified**"});
   }
   md += table.str() + "\n";

@@ -2,8 +2,9 @@
 """Identifies a contact and its test rig from fretting loops (docs/analysis.md). The measurements
 are made with the exact engine: the steel sphere H1 (R = 10 mm on steel, mu = 0.3) behind a rig of
 2e-8 m/N is cycled by its actuator at +-2 um, three cycles of 200 samples at each of 30, 100 and
-300 N, with 0.05 N of Gaussian noise on the recorded force (seed 24). From a start 20-30 % off,
-FitLoops finds mu, E* and the rig's compliance with 95 % intervals; then the 100 N run's cycles are
+300 N, with 0.05 N of Gaussian noise on the recorded force and 5 nm on the recorded displacement
+(seed 24). From a start 20-30 % off, FitLoops finds mu, E* and the rig's compliance with 95 %
+intervals, each run's noise and whether the model explains it; then the 100 N run's cycles are
 analysed with the identified rig (its contact figures) and classified against the fitted scene's
 onset of gross slip, and a fretting map places the runs. Usage: identify_rig.py"""
 import numpy as np
@@ -16,6 +17,7 @@ TRUTH = {"sphere": {"radius": 0.01}, "friction": 0.3,
          "rig": {"tangential_compliance": 2e-8}}
 LOADS = (30.0, 100.0, 300.0)  # N
 AMPLITUDE, CYCLES, PER_CYCLE, NOISE = 2e-6, 3, 200, 0.05  # m, -, -, N
+DISPLACEMENT_NOISE = 5e-9  # m
 E_STAR = 210e9 / (2 * (1 - 0.3**2))  # Pa
 rng = np.random.default_rng(24)
 
@@ -29,7 +31,7 @@ def measure(client, normal_force):
                        for u in AMPLITUDE * np.sin(2 * np.pi * k / PER_CYCLE)])
     u = np.r_[0.0, run.actuator_displacement]
     f = np.r_[0.0, run.tangential_force] + rng.normal(0, NOISE, u.size)
-    return u, f
+    return u + rng.normal(0, DISPLACEMENT_NOISE, u.size), f
 
 
 with mdr.Client.embedded() as client:
@@ -49,6 +51,11 @@ with mdr.Client.embedded() as client:
         print(f"{name:<17} = {e.value:.6g} +- {e.standard_error:.2g} "
               f"(95 %: [{e.lower_95:.6g}, {e.upper_95:.6g}]{verdict})")
     print(f"guessed rig compliance from the loads: {fit.guessed_rig_compliance:.4g} m/N")
+    for k, load in enumerate(LOADS):
+        verdict = "misfit" if fit.sets.misfit[k] else "adequate"
+        print(f"{load:g} N run: noise {fit.sets.displacement_noise[k]:.3g} m and "
+              f"{fit.sets.force_noise[k]:.3g} N, reduced chi-square "
+              f"{fit.sets.reduced_chi_square[k]:.3f}: {verdict}")
     for note in fit.notes:
         print(f"note: {note}")
 

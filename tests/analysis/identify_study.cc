@@ -157,6 +157,14 @@ int Main(int argc, char** argv) {
       nuisance_tally[analysis::NuisanceName(e.nuisance)].Add(e.value, true_value, e.standard_error,
                                                              e.lower_95, e.upper_95);
     }
+    for (std::size_t s = 0; s < fit->sets.size(); ++s) {
+      const analysis::SetFit& f = fit->sets[s];
+      if (replicate > 0 && (f.reduced_chi_square > 1.25 || f.misfit)) {
+        std::printf("  replicate %d set %zu: chi2 %.3f structure p %.2g shift %.3g%s\n", replicate,
+                    s, f.reduced_chi_square, f.structure_p_value, f.turning_point_shift_rms,
+                    f.misfit ? " MISFIT" : "");
+      }
+    }
     bool misfit = false, mismatch = false;
     for (const analysis::SetFit& s : fit->sets) {
       misfit = misfit || s.misfit;

@@ -164,13 +164,15 @@ campaigns::Spec NoisySpec(double displacement_noise) {
 
 // The criteria: every interval holds the truth in at least 90 of 100 replicates, the
 // estimates are unbiased to 0.3 standard errors, and clean data of the right model are called a
-// misfit in at most 5.
+// misfit in at most 5 of 100. Fewer replicates (the slow campaigns) scale the counts, and the
+// bias allowed grows with the mean's own scatter (1/sqrt(replicates) standard errors).
 void ExpectTrustworthy(const Tally& tally, int replicates) {
   const char* names[] = {"friction", "effective_modulus", "rig_compliance"};
   ASSERT_EQ(tally.replicates, replicates);
+  const double bias = std::max(0.3, 3 / std::sqrt(static_cast<double>(replicates)));
   for (int k = 0; k < 3; ++k) {
     EXPECT_GE(tally.covered[k], 90 * replicates / 100) << names[k];
-    EXPECT_LT(std::abs(tally.mean_z[k]), 0.3) << names[k];
+    EXPECT_LT(std::abs(tally.mean_z[k]), bias) << names[k];
   }
   EXPECT_LE(tally.misfit, 5 * replicates / 100);
   EXPECT_GE(tally.identified, 95 * replicates / 100);
@@ -227,13 +229,14 @@ TEST(IdentifyTest, AVaryingNormalLoadIsReplayedAsMeasured) {
   }
 }
 
+// 30 replicates (a curved path per sample makes these fits ten times slower); the study's 100
+// are in docs/analysis.md, "Coverage measured".
 TEST(IdentifyTest, IntervalsHoldUnderAVaryingNormalLoad) {
   campaigns::Spec spec = NoisySpec(5e-9);
   spec.normal_variation = 0.15;
   spec.record_normal_force = true;
   spec.normal_noise = 0.1;
-  ExpectTrustworthy(Replicate(campaigns::SteelOnTitanium(), spec, campaigns::ThreeFree(), 100),
-                    100);
+  ExpectTrustworthy(Replicate(campaigns::SteelOnTitanium(), spec, campaigns::ThreeFree(), 30), 30);
 }
 
 // Offsets of both sensors (0.8 N, +-0.5 um) and a drift of 50 nm per run, fitted as nuisances

@@ -1,12 +1,14 @@
 // Loop analysis throughput (issue #24): AnalyzeLoops on 10^6 samples, 2000 cycles of 500 samples
 // of the H1 engine's Mindlin-Deresiewicz loop with a little noise on u and F_x; and a fit of 10
-// loops of 600 samples (5 loads, 2 cycles each) with 4 free parameters.
-//   build/analysis/tests/bench/mdr_analysis_bench
+// loops of 600 samples (5 loads, 2 cycles each) with 3 free parameters, per-run nuisances and
+// every turning point fitted (issue #47).
+//   build/release/tests/bench/mdr_analysis_bench
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <random>
 
+#include "fixtures/identify_campaigns.h"
 #include "fixtures/reference_scenes.h"
 #include "mdr/analysis/identify.h"
 #include "mdr/analysis/loops.h"
@@ -73,47 +75,35 @@ void BM_AnalyzeLoops(benchmark::State& state) {
 }
 BENCHMARK(BM_AnalyzeLoops)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
-// A campaign as a rig writes it: H1 behind 50 N/um at 5 normal forces, the actuator on a
-// triangle wave from the virgin state (2 cycles of 600 samples), noise of 0.05 N on F_x.
+// A campaign as a rig writes it (tests/fixtures/identify_campaigns.h): a steel ball on titanium
+// behind 50 N/um at 5 normal forces, the actuator on a sine of 3 um from the press point, 2 cycles
+// of 600 samples each; 5 nm of noise on the displacement and 0.1 N on the force, a force offset
+// of 0.8 N, displacement offsets of +-0.5 um and a drift of 50 nm per run.
 std::vector<LoopSet> Campaign() {
-  ContactConfig scene = reference::H1Config();
-  scene.rig.tangential = 2e-8;
-  std::mt19937_64 rng(3);
-  std::normal_distribution<double> noise(0, 0.05);
-  std::vector<LoopSet> sets;
-  for (double load : {20.0, 50.0, 100.0, 200.0, 400.0}) {
-    Contact c = std::move(Contact::Create(scene)).value();
-    Step press, move;
-    press.normal = NormalControl::kForce;
-    press.normal_value = load;
-    move.tangential = TangentialControl::kDisplacement;
-    (void)c.Apply(press);
-    LoopSet set;
-    set.normal_force = load;
-    for (int k = 0; k <= 2 * 600; ++k) {
-      move.tangential_value = reference::TriangleWave(2e-6, k + 150, 300);  // from 0, rising
-      (void)c.Apply(move);
-      set.samples.displacement.push_back(move.tangential_value);
-      set.samples.tangential_force.push_back(c.tangential_force() + noise(rng));
-    }
-    sets.push_back(std::move(set));
-  }
-  return sets;
+  identify_campaigns::Spec spec;
+  spec.loads = {20, 50, 100, 200, 400};
+  spec.amplitudes = {3e-6};
+  spec.cycles = 2;
+  spec.samples_per_cycle = 600;
+  spec.displacement_noise = 5e-9;
+  spec.force_noise = 0.1;
+  spec.force_offset = 0.8;
+  spec.displacement_offset = 0.5e-6;
+  spec.displacement_drift = 50e-9;
+  return identify_campaigns::Make(identify_campaigns::SteelOnTitanium(), spec);
 }
 
-// Arg: threads. Free: mu, E*, the rig's compliance and the displacement offset (from the first
-// sample on, so that the virgin loading shows where the contact was pressed).
+// Arg: threads. Free: mu, E* and the rig's compliance; per run its force offset, drift, press
+// point and every turning point (from the virgin loading on, so that the offsets are separable).
 void BM_FitTenLoops(benchmark::State& state) {
   static const std::vector<LoopSet> sets = Campaign();
-  const ContactConfig scene = reference::H1Config();
-  FitOptions options;
-  options.free = {{Parameter::kFriction, 0.4, 0.05, 2},
-                  {Parameter::kEffectiveModulus, 0.8e11, 1e9, 1e13},
-                  {Parameter::kRigCompliance, 1e-8, 0, 1e-6},
-                  {Parameter::kDisplacementOffset, 1e-8, -1e-6, 1e-6}};
+  const ContactConfig scene = identify_campaigns::SteelOnTitanium();
+  FitOptions options = identify_campaigns::ThreeFree();
+  options.nuisances.force_offset = options.nuisances.displacement_drift = true;
   options.burn_in_reversals = 0;
   options.threads = static_cast<int>(state.range(0));
   int iterations = 0;
+  std::size_t parameters = 0;
   for (auto _ : state) {
     Result<FitResult> fit = FitLoops(scene, sets, options);
     if (!fit.ok() || !fit->converged) {
@@ -121,8 +111,10 @@ void BM_FitTenLoops(benchmark::State& state) {
       return;
     }
     iterations = fit->iterations;
+    parameters = fit->parameters;
   }
   state.counters["iterations"] = iterations;
+  state.counters["parameters"] = static_cast<double>(parameters);
   state.counters["samples"] = 10 * 600;
 }
 BENCHMARK(BM_FitTenLoops)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();

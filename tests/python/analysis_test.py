@@ -228,6 +228,46 @@ class AnalysisTest(unittest.TestCase):
         self.assertIsNone(alone.guessed_rig_compliance_error)
         self.assertEqual(alone.correlation.shape, (1, 1))
 
+    def test_fit_with_a_normal_force_column_nuisances_and_models(self):
+        """A measured normal-force column replayed as measured, a force offset per set, the
+        sets' adequacy, the nuisances with their effects and the models sample by sample."""
+        sets = [make_loops(self.client, 50.0, 8e-7), make_loops(self.client, 200.0, 1.5e-6)]
+        offset = 0.3  # N, the force sensor's zero
+        columns = [{"displacement": loops.actuator, "tangential_force": loops.force + offset,
+                    "normal_force": np.full(loops.actuator.size, load),
+                    "declared_normal_force": load}
+                   for loops, load in zip(sets, (50.0, 200.0))]
+        start = dict(H1, friction=1.27 * MU, rig={"tangential_compliance": 0.75 * C_T})
+        fit = self.client.fit_loops(
+            start, columns, {"friction": {"lower": 0.05, "upper": 1},
+                             "rig_compliance": {"lower": 1e-9, "upper": 1e-7}},
+            nuisances=["force_offset"], burn_in_reversals=0, include_models=True)
+        self.assertRelative(fit.value, [MU, C_T], 1e-6)
+        self.assertEqual(fit.interval, ("wald", "wald"))
+        self.assertTrue(fit.adequate)
+        self.assertEqual(fit.sets.normal_force_measured.tolist(), [True, True])
+        self.assertEqual(fit.sets.load_mismatch.tolist(), [False, False])
+        self.assertEqual(fit.sets.misfit.tolist(), [False, False])
+        self.assertEqual(fit.sets.reduced_chi_square.shape, (2,))
+        offsets = [n for n in fit.nuisances if n.name == "force_offset"]
+        self.assertEqual([n.set for n in offsets], [0, 1])
+        for n in offsets:
+            self.assertAlmostEqual(n.value, offset, delta=1e-6)
+            self.assertEqual(set(n.effect), {"friction", "rig_compliance"})
+        self.assertEqual(len([n for n in fit.nuisances if n.name == "displacement_offset"]), 2)
+        self.assertEqual(len(fit.models), 2)
+        for model, loops in zip(fit.models, sets):
+            self.assertEqual(model.predicted_force.shape, loops.force.shape)
+            np.testing.assert_allclose(model.predicted_force, loops.force + offset, rtol=0,
+                                       atol=1e-6)
+        # A declared load the column contradicts: a mismatch, nothing identified.
+        wrong = dict(columns[0], declared_normal_force=80.0)
+        mismatch = self.client.fit_loops(start, [wrong, columns[1]],
+                                         {"friction": {"lower": 0.05, "upper": 1}})
+        self.assertEqual(mismatch.sets.load_mismatch.tolist(), [True, False])
+        self.assertFalse(mismatch.adequate or mismatch.all_identified)
+        self.assertIn("declared normal force 80 N", " ".join(mismatch.notes))
+
     def test_an_exception_in_progress_stops_the_fit_and_propagates(self):
         class Stop(Exception):
             pass
@@ -456,16 +496,20 @@ class AnalysisTest(unittest.TestCase):
             self.client.fit_loops(RIG, [(u, f, 100)], {"friction": {"lower": 0.1}})
         with self.assertRaisesRegex(ValueError, "unknown key 'lowr'"):
             self.client.fit_loops(RIG, [(u, f, 100)], {"friction": {"lowr": 0.1, "upper": 1}})
-        with self.assertRaisesRegex(ValueError, r"sets\[0\]\.normal_force must be one number"):
-            self.client.fit_loops(RIG, [(u, f, np.full(u.size, 100.0))],
+        with self.assertRaisesRegex(ValueError, r"sets\[0\]\.declared_normal_force needs"):
+            self.client.fit_loops(RIG, [{"displacement": u, "tangential_force": f,
+                                         "normal_force": 100, "declared_normal_force": 100}],
                                   {"friction": {"lower": 0.1, "upper": 1}})
         with self.assertRaisesRegex(ValueError, r"sets\[1\] must be \(displacement"):
             self.client.fit_loops(RIG, [(u, f, 100), (u, f)],
                                   {"friction": {"lower": 0.1, "upper": 1}})
-        with self.assertRaisesRegex(ValueError, r"sets\[0\]: unknown key 'time'"):
+        with self.assertRaisesRegex(ValueError, r"sets\[0\]: unknown key 'times'"):
             self.client.fit_loops(RIG, [{"displacement": u, "tangential_force": f,
-                                         "normal_force": 100, "time": u}],
+                                         "normal_force": 100, "times": u}],
                                   {"friction": {"lower": 0.1, "upper": 1}})
+        with self.assertRaisesRegex(ValueError, "unknown nuisance 'offset'"):
+            self.client.fit_loops(RIG, [(u, f, 100)], {"friction": {"lower": 0.1, "upper": 1}},
+                                  nuisances=["offset"])
         with self.assertRaisesRegex(ValueError, "max_iterations must be an integer"):
             self.client.fit_loops(RIG, [(u, f, 100)], {"friction": {"lower": 0.1, "upper": 1}},
                                   max_iterations=2.5)
@@ -494,6 +538,12 @@ class AnalysisTest(unittest.TestCase):
             self.assertEqual(regime, "gross_slip")
         self.assertEqual(re.findall(r"the \+-2 um run is (.*)$", out, re.MULTILINE),
                          ["gross slip", "gross slip", "partial slip"])
+        runs = re.findall(r"^\S+ N run: noise (\S+) m and (\S+) N, .*: (\w+)$", out, re.MULTILINE)
+        self.assertEqual(len(runs), 3, out)
+        for displacement_noise, force_noise, verdict in runs:  # 5 nm and 0.05 N: within 30 %
+            self.assertAlmostEqual(float(displacement_noise) / 5e-9, 1, delta=0.3, msg=out)
+            self.assertAlmostEqual(float(force_noise) / 0.05, 1, delta=0.3, msg=out)
+            self.assertEqual(verdict, "adequate", out)
 
 
 if __name__ == "__main__":

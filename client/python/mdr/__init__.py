@@ -30,8 +30,8 @@ Measured friction loops of a test rig (docs/analysis.md; SI units, numpy arrays 
 
 The generated API modules are mdr.v1.*_pb2 (messages) and mdr.v1.contact_service_pb2_grpc.
 """
-from .analysis import (FIT_PARAMETERS, BackboneResult, Estimate, Figures, FrettingMapResult,
-                       LoopAnalysisResult, LoopFitResult)
+from .analysis import (FIT_PARAMETERS, NUISANCES, BackboneResult, Estimate, Figures,
+                       FrettingMapResult, LoopAnalysisResult, LoopFitResult, NuisanceFit)
 from .client import Client, Session
 from .embedded import EmbeddedServer, find_mdrd
 from .errors import MdrError
@@ -42,5 +42,5 @@ from .messages import (ApplyResult, InterfaceResult, InterfaceTotals, QueryResul
 __all__ = ["Client", "Session", "EmbeddedServer", "find_mdrd", "MdrError", "ApplyResult",
            "InterfaceResult", "InterfaceTotals", "QueryResult", "contact_step",
            "interface_scene", "load_scene_file", "to_scene", "to_step", "to_steps",
-           "FIT_PARAMETERS", "BackboneResult", "Estimate", "Figures", "FrettingMapResult",
-           "LoopAnalysisResult", "LoopFitResult"]
+           "FIT_PARAMETERS", "NUISANCES", "BackboneResult", "Estimate", "Figures",
+           "FrettingMapResult", "LoopAnalysisResult", "LoopFitResult", "NuisanceFit"]

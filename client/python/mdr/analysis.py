@@ -127,35 +127,53 @@ def analyze_request(displacement, tangential_force, normal_force=None, time=None
     return request
 
 
+_SET_KEYS = ("displacement", "tangential_force", "normal_force", "time",
+             "declared_normal_force")
+
+
 def _loop_set(index: int, item) -> an.FitLoopsRequest.LoopSet:
-    """One loop set: (displacement, tangential_force, normal_force), a dict with those keys, or
-    a FitLoopsRequest.LoopSet."""
+    """One loop set: (displacement, tangential_force, normal_force[, time]), a dict with those
+    keys (and optionally declared_normal_force), or a FitLoopsRequest.LoopSet. normal_force is
+    one number (the set's constant load, N) or an array (the measured normal force, replayed as
+    measured; declared_normal_force is then checked against it)."""
     if isinstance(item, an.FitLoopsRequest.LoopSet):
         return item
     name = f"sets[{index}]"
+    declared = None
+    time = None
     if isinstance(item, Mapping):
-        unknown = sorted(set(item) - {"displacement", "tangential_force", "normal_force"})
+        unknown = sorted(set(item) - set(_SET_KEYS))
         if unknown:
-            raise ValueError(f"{name}: unknown key {unknown[0]!r} (a set has displacement, "
-                             f"tangential_force and normal_force)")
+            raise ValueError(f"{name}: unknown key {unknown[0]!r} (a set has "
+                             f"{', '.join(_SET_KEYS)})")
         missing = [key for key in ("displacement", "tangential_force", "normal_force")
                    if key not in item]
         if missing:
             raise ValueError(f"{name} needs {missing[0]}")
         displacement, force, load = (item["displacement"], item["tangential_force"],
                                      item["normal_force"])
+        time, declared = item.get("time"), item.get("declared_normal_force")
     else:
         try:
-            displacement, force, load = item
+            displacement, force, load, *rest = item
         except (TypeError, ValueError):
-            raise ValueError(f"{name} must be (displacement, tangential_force, normal_force) or "
-                             f"a dict of them") from None
-    if np.ndim(load) != 0:
-        raise ValueError(f"{name}.normal_force must be one number (the set's constant normal "
-                         f"force in N), got shape {np.shape(load)}")
-    return an.FitLoopsRequest.LoopSet(
-        samples=loop_samples(displacement, force, prefix=f"{name}.samples."),
-        normal_force=_number(f"{name}.normal_force", load))
+            raise ValueError(f"{name} must be (displacement, tangential_force, normal_force"
+                             f"[, time]) or a dict of them") from None
+        if len(rest) > 1:
+            raise ValueError(f"{name} must be (displacement, tangential_force, normal_force"
+                             f"[, time]), got {len(rest) + 3} items")
+        time = rest[0] if rest else None
+    column = np.ndim(load) != 0
+    if not column and declared is not None:
+        raise ValueError(f"{name}.declared_normal_force needs normal_force as a column")
+    loop_set = an.FitLoopsRequest.LoopSet(
+        samples=loop_samples(displacement, force, load if column else None, time,
+                             prefix=f"{name}.samples."))
+    if not column:
+        loop_set.normal_force = _number(f"{name}.normal_force", load)
+    elif declared is not None:
+        loop_set.normal_force = _number(f"{name}.declared_normal_force", declared)
+    return loop_set
 
 
 def _parameter(name) -> int:
@@ -205,13 +223,18 @@ def free_parameters(free) -> list:
     return result
 
 
+NUISANCES = ("force_offset", "displacement_drift", "moving_mass")
+
+
 def fit_request(scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int] = None,
-                reversal_threshold: float = 0.0, max_iterations: int = 0
-                ) -> an.FitLoopsRequest:
+                reversal_threshold: float = 0.0, max_iterations: int = 0, nuisances=(),
+                displacement_noise: Optional[float] = None, force_noise: Optional[float] = None,
+                include_models: bool = False) -> an.FitLoopsRequest:
     """The FitLoopsRequest of Client.fit_loops (its arguments)."""
     request = an.FitLoopsRequest(scene=to_scene(scene),
                                  reversal_threshold=_number("reversal_threshold",
-                                                            reversal_threshold))
+                                                            reversal_threshold),
+                                 include_models=bool(include_models))
     request.sets.extend(_loop_set(i, item) for i, item in enumerate(sets))
     request.free.extend(free_parameters(free))
     for name, value in (("burn_in_reversals", burn_in_reversals),
@@ -223,6 +246,18 @@ def fit_request(scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int
     if burn_in_reversals is not None:
         request.burn_in_reversals = int(burn_in_reversals)
     request.max_iterations = int(max_iterations)
+    if isinstance(nuisances, str):
+        nuisances = (nuisances,)
+    for nuisance in nuisances:
+        if nuisance not in NUISANCES:
+            raise ValueError(f"unknown nuisance {nuisance!r}: expected one of "
+                             f"{', '.join(NUISANCES)} (every set's displacement offset is "
+                             f"fitted always)")
+        setattr(request.nuisances, nuisance, True)
+    if displacement_noise is not None:
+        request.displacement_noise = _number("displacement_noise", displacement_noise)
+    if force_noise is not None:
+        request.force_noise = _number("force_noise", force_noise)
     return request
 
 
@@ -312,6 +347,21 @@ class Estimate(NamedTuple):
     identified: bool
 
 
+class NuisanceFit(NamedTuple):
+    """One fitted nuisance: its name ("force_offset" N, "displacement_offset" m,
+    "displacement_drift" m over the set, "moving_mass" kg), the set it belongs to (None: the
+    fit's), value, standard error and Wald 95 % interval, whether the data determine it, and its
+    effect: {free parameter: how far the estimate would move if the nuisance were held at zero}."""
+    name: str
+    set: Optional[int]
+    value: float
+    standard_error: float
+    lower_95: float
+    upper_95: float
+    identified: bool
+    effect: dict
+
+
 def _figure_attribute(result, holder: str, name: str) -> np.ndarray:
     """result.<holder>[name] for attribute access to a result's figures (AttributeError else)."""
     figures = result.__dict__.get(holder)
@@ -394,7 +444,15 @@ class LoopFitResult:
     why not; fitted_scene: the request's scene with the estimates (mdr.v1.Scene);
     guessed_rig_compliance and its standard error (m/N): the practitioners' guess from sets at two
     or more loads, else None; the error is None with two loads too (no residual is left).
-    raw: the mdr.v1.FitResult as received."""
+    interval: how each interval was obtained ("wald", "half_cycle_sandwich"). adequate: the model
+    explains every set to its noise and no declared load contradicts its column (all_identified
+    requires it). sets: every SetFit figure as an array over the sets (displacement_noise,
+    force_noise, normal_force_noise, reduced_chi_square, structure_p_value, misfit,
+    load_mismatch, gross_slip, ...: docs/analysis.md, "Model adequacy"). nuisances: a
+    NuisanceFit per fitted nuisance. reduced_chi_square over every set; parameters: the fitted
+    coordinates, turning points and nuisances included. models: with include_models, per set
+    Figures of actuator_path, normal_force, contact_force and predicted_force (one per sample),
+    else None. raw: the mdr.v1.FitResult as received."""
     names: tuple
     value: np.ndarray
     standard_error: np.ndarray
@@ -413,6 +471,13 @@ class LoopFitResult:
     fitted_scene: scene_pb2.Scene
     guessed_rig_compliance: Optional[float]
     guessed_rig_compliance_error: Optional[float]
+    interval: tuple
+    adequate: bool
+    sets: Figures
+    nuisances: list
+    reduced_chi_square: float
+    parameters: int
+    models: Optional[list] = dataclasses.field(repr=False)
     raw: an.FitResult = dataclasses.field(repr=False)
 
     @property
@@ -445,7 +510,18 @@ class LoopFitResult:
             list(result.notes), result.fitted_scene,
             result.guessed_rig_compliance if guessed else None,
             result.guessed_rig_compliance_error
-            if result.HasField("guessed_rig_compliance_error") else None, result)
+            if result.HasField("guessed_rig_compliance_error") else None,
+            tuple(_enum_name(an.IntervalMethod.DESCRIPTOR, e.interval) for e in estimates),
+            result.adequate, figures_of(result.sets, an.SetFit),
+            [NuisanceFit(_enum_name(an.Nuisance.DESCRIPTOR, n.nuisance),
+                         n.set if n.HasField("set") else None, n.value, n.standard_error,
+                         n.lower_95, n.upper_95, n.identified, dict(zip(names, n.effect)))
+             for n in result.nuisances],
+            result.reduced_chi_square, result.parameters,
+            [Figures({f.name: np.array(getattr(m, f.name), dtype=np.float64)
+                      for f in an.SetModel.DESCRIPTOR.fields})
+             for m in result.models] if result.models else None,
+            result)
 
 
 def progress_caller(progress: Optional[Callable], request: an.FitLoopsRequest) -> Callable:

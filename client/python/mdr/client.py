@@ -257,24 +257,34 @@ class Client:
         return LoopAnalysisResult.of(self._call("AnalyzeLoops", request, idempotent=True))
 
     def fit_loops(self, scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int] = None,
-                  reversal_threshold: float = 0.0, max_iterations: int = 0, progress=None,
-                  timeout: Optional[float] = None) -> LoopFitResult:
+                  reversal_threshold: float = 0.0, max_iterations: int = 0, nuisances=(),
+                  displacement_noise: Optional[float] = None,
+                  force_noise: Optional[float] = None, include_models: bool = False,
+                  progress=None, timeout: Optional[float] = None) -> LoopFitResult:
         """Fits free parameters of a single-contact scene to measured loops (FitLoops) by
         replaying each set's actuator path through the exact engine with the scene's rig.
 
-        sets: 1 to 64 loop sets, each (displacement in m, tangential_force in N, normal_force in
-        N: the set's constant load) or a dict with those keys. free: {"friction": {"lower": 0.1,
+        sets: 1 to 64 loop sets, each (displacement in m, tangential_force in N, normal_force
+        in N[, time in s]) or a dict with those keys: normal_force one number (the set's constant
+        load) or an array (the measured normal force, replayed as measured; a dict's
+        declared_normal_force is then checked against it). free: {"friction": {"lower": 0.1,
         "upper": 1, "initial": 0.4}, "rig_compliance": {...}, ...} (initial optional: the
         scene's value), or a list of such dicts with a "parameter" key; names: friction,
         effective_modulus (Pa), profile_scale (m), rig_compliance (m/N), displacement_offset (m).
         burn_in_reversals: residuals count from this reversal of each set on (None: 2);
-        reversal_threshold in m (0: automatic); max_iterations (0: 200). progress: called as
+        reversal_threshold in m (0: automatic); max_iterations (0: 200). nuisances: any of
+        "force_offset", "displacement_drift" (per set) and "moving_mass" (needs time); every
+        set's displacement offset and turning points are fitted always. displacement_noise (m)
+        and force_noise (N): the sensors' noise where known (None: estimated from each set).
+        include_models: return each set's model sample by sample (result.models). progress: called as
         progress(iteration, residual_rms in N, {name: value}) while the fit runs; the server
         sends the latest iteration whenever it can, so iterations may be skipped. timeout:
         seconds for the whole fit (default: the client's)."""
         request = analysis.fit_request(scene, sets, free, burn_in_reversals=burn_in_reversals,
                                        reversal_threshold=reversal_threshold,
-                                       max_iterations=max_iterations)
+                                       max_iterations=max_iterations, nuisances=nuisances,
+                                       displacement_noise=displacement_noise,
+                                       force_noise=force_noise, include_models=include_models)
         on_progress = analysis.progress_caller(progress, request)
         results = []
 

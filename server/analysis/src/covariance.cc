@@ -131,6 +131,46 @@ double BlockCovariance::Variance(std::size_t coordinate) const {
   return b->pseudo_inverse(kk, kk) + c.dot(shared_ * c);
 }
 
+Eigen::MatrixXd BlockCovariance::ClusterRobust(const std::vector<SparseColumn>& jacobian,
+                                               const std::vector<double>& residuals,
+                                               const std::vector<std::size_t>& starts) const {
+  const auto ns = static_cast<Eigen::Index>(shared_coordinates_.size());
+  const auto n = static_cast<Eigen::Index>(residuals.size());
+  if (singular_ || starts.size() < 2 || ns == 0) {
+    return Eigen::MatrixXd::Constant(ns, ns, std::numeric_limits<double>::infinity());
+  }
+  // The shared columns with each set's own coordinates profiled out, row by row.
+  Eigen::MatrixXd profiled = Eigen::MatrixXd::Zero(n, ns);
+  for (Eigen::Index g = 0; g < ns; ++g) {
+    const SparseColumn& column = jacobian[shared_coordinates_[g]];
+    for (std::size_t i = 0; i < column.values.size(); ++i) {
+      profiled(static_cast<Eigen::Index>(column.begin + i), g) = column.values[i];
+    }
+  }
+  for (const Block& block : blocks_) {
+    for (std::size_t k = 0; k < block.coordinates.size(); ++k) {
+      const SparseColumn& column = jacobian[block.coordinates[k]];
+      const Eigen::VectorXd coupling = block.coupling.col(static_cast<Eigen::Index>(k));
+      for (std::size_t i = 0; i < column.values.size(); ++i) {
+        profiled.row(static_cast<Eigen::Index>(column.begin + i)) -=
+            column.values[i] * coupling.transpose();
+      }
+    }
+  }
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(ns, ns);
+  for (std::size_t c = 0; c < starts.size(); ++c) {
+    const auto begin = static_cast<Eigen::Index>(starts[c]);
+    const Eigen::Index end = c + 1 < starts.size() ? static_cast<Eigen::Index>(starts[c + 1]) : n;
+    Eigen::VectorXd score = Eigen::VectorXd::Zero(ns);
+    for (Eigen::Index i = begin; i < end; ++i) {
+      score += profiled.row(i).transpose() * residuals[static_cast<std::size_t>(i)];
+    }
+    meat += score * score.transpose();
+  }
+  const auto clusters = static_cast<double>(starts.size());
+  return clusters / (clusters - 1) * shared_ * meat * shared_;
+}
+
 double BlockCovariance::Covariance(std::size_t a, std::size_t b) const {
   std::size_t ka = 0, kb = 0;
   const Block* block_a = BlockOf(a, &ka);

@@ -35,6 +35,15 @@ class BlockCovariance {
   // How many independent combinations the data determine (the degrees of freedom used).
   std::size_t rank() const { return rank_; }
 
+  // The cluster-robust (sandwich) covariance of the shared coordinates, clusters the residual
+  // rows from each of `starts` (ascending) to the next: S^-1 (sum over clusters of g g^T) S^-1
+  // times G / (G - 1), g a cluster's score on the shared coordinates once each set's own are
+  // profiled out (J_shared - J_own P H_own,shared) against its residuals. What the residuals' own
+  // scatter says where s^2 (J^T J)^-1 assumes them independent. Infinite where singular().
+  Eigen::MatrixXd ClusterRobust(const std::vector<SparseColumn>& jacobian,
+                                const std::vector<double>& residuals,
+                                const std::vector<std::size_t>& starts) const;
+
  private:
   struct Block {
     std::vector<std::size_t> coordinates;

@@ -18,9 +18,12 @@ constexpr std::uint32_t kInterruptPeriod = 1024;  // samples between interrupt c
 // sub-steps changes with the parameters), and a step of 1e-7 would read its jumps as slopes.
 constexpr double kDifferenceStep = 1e-7;
 constexpr double kCurvedPathDifferenceStep = 1e-5;
-// The displacement's smoothing: a local quartic over at most 2 * 25 + 1 samples of its
-// half-cycle (bias of the sixth order in the window: far below the noise it removes).
-constexpr std::size_t kMaxSmoothingHalfWidth = 25;
+// The displacement's smoothing: a local quartic over half of its half-cycle at most (and at most
+// 2 * 50 + 1 samples): its bias, of the sixth order in the window, stays far below the noise it
+// removes, which under a varying normal load would enter the memory of every ring that comes
+// into contact (a quarter of the half-cycle halved the bias of mu there against an eighth, half
+// of it made E*'s worse: docs/analysis.md, "Coverage measured").
+constexpr std::size_t kMaxSmoothingHalfWidth = 50;
 constexpr int kSmoothingDegree = 4;
 // A channel whose estimated noise is below this fraction of its half-range is noise-free to the
 // fit (at most rounding of the recorded digits): it is replayed unsmoothed.
@@ -153,7 +156,7 @@ Result<PreparedSet> PrepareSet(const LoopSet& set, std::size_t index, const FitO
     const Stretch s = StretchOf(p.reversals, n, k);
     const std::size_t begin = k == 0 ? 0 : p.reversals[k - 1];  // its start reversal included
     const std::size_t half_width =
-        smooth ? std::clamp<std::size_t>((s.end - begin) / 8, 2, kMaxSmoothingHalfWidth) : 0;
+        smooth ? std::clamp<std::size_t>((s.end - begin) / 4, 2, kMaxSmoothingHalfWidth) : 0;
     const std::vector<double> fit =
         LocalPolynomial(sample_index, u, begin, s.end + 1, half_width, kSmoothingDegree);
     for (std::size_t i = s.begin; i <= s.end; ++i) p.smoothed[i] = fit[i - begin];

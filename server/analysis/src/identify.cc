@@ -182,6 +182,11 @@ class Assessment {
     s2_ = dof > 0 ? rss / dof : std::numeric_limits<double>::infinity();
     t_ = dof > 0 ? gsl_cdf_tdist_Pinv(0.975, dof) : std::numeric_limits<double>::infinity();
     result_->reduced_chi_square = s2_;
+    const std::vector<std::size_t> starts = HalfCycleStarts();
+    robust_ = covariance_->ClusterRobust(jacobian_, r_, starts);
+    t_robust_ = starts.size() > 1
+                    ? gsl_cdf_tdist_Pinv(0.975, static_cast<double>(starts.size() - 1))
+                    : std::numeric_limits<double>::infinity();
     Estimates();
     if (Status s = Sets(); !s.ok()) return s;
     Nuisances();
@@ -190,6 +195,20 @@ class Assessment {
   }
 
  private:
+  // Where each half-cycle's residual rows start, set by set: the clusters of the sandwich.
+  std::vector<std::size_t> HalfCycleStarts() const {
+    std::vector<std::size_t> starts;
+    for (const PreparedSet& set : model_.sets()) {
+      starts.push_back(set.row_offset);
+      for (std::size_t r : set.reversals) {
+        if (r + 1 > set.first_residual && r + 1 < set.samples) {
+          starts.push_back(set.row_offset + r + 1 - set.first_residual);
+        }
+      }
+    }
+    return starts;
+  }
+
   struct NuisanceCoordinate {
     Nuisance nuisance;
     std::optional<std::size_t> set;
@@ -254,19 +273,28 @@ class Assessment {
       e.value = values[k];
       e.standard_error = singular ? std::numeric_limits<double>::infinity()
                                   : std::sqrt(s2_ * relative(k, k)) * scale[k];
-      e.lower_95 = e.value - t_ * e.standard_error;
-      e.upper_95 = e.value + t_ * e.standard_error;
+      double quantile = t_;
+      // The half-cycles' sandwich where it is the larger: residuals that move together.
+      const auto kk = static_cast<Eigen::Index>(k);
+      const double robust = std::sqrt(robust_(kk, kk)) * derivative[kk];
+      if (!singular && robust > e.standard_error && std::isfinite(robust)) {
+        e.standard_error = robust;
+        e.interval = IntervalMethod::kHalfCycleSandwich;
+        quantile = t_robust_;
+      }
+      e.lower_95 = e.value - quantile * e.standard_error;
+      e.upper_95 = e.value + quantile * e.standard_error;
       double worst = 0;
       for (std::size_t b = 0; b < f; ++b) {
         if (b != k) worst = std::max(worst, std::abs(result_->correlation[k][b]));
       }
-      const double width = t_ * e.standard_error / scale[k];
+      const double width = quantile * e.standard_error / scale[k];
       e.identified =
           !singular && !ill_conditioned && worst < kCorrelationLimit && width < kRelativeWidthLimit;
       if (!(width < kRelativeWidthLimit)) {
         result_->notes.push_back(std::string(ParameterName(e.parameter)) +
                                  " is not determined by the data: its 95 % interval is +-" +
-                                 FormatNumber(t_ * e.standard_error) + " about " +
+                                 FormatNumber(quantile * e.standard_error) + " about " +
                                  FormatNumber(e.value));
       }
       for (std::size_t b = k + 1; b < f; ++b) {
@@ -323,11 +351,20 @@ class Assessment {
                               std::isfinite(variance) && variance > 0;
       e.standard_error =
           determined ? std::sqrt(s2_ * variance) * scale : std::numeric_limits<double>::infinity();
-      e.lower_95 = e.value - t_ * e.standard_error;
-      e.upper_95 = e.value + t_ * e.standard_error;
+      double quantile = t_;
+      if (shared && determined) {  // the mass: the half-cycles' sandwich where it is larger
+        const auto m = static_cast<Eigen::Index>(f_mass);
+        const double robust = std::sqrt(robust_(m, m)) * scale;
+        if (robust > e.standard_error && std::isfinite(robust)) {
+          e.standard_error = robust;
+          quantile = t_robust_;
+        }
+      }
+      e.lower_95 = e.value - quantile * e.standard_error;
+      e.upper_95 = e.value + quantile * e.standard_error;
       // Identified: its 95 % interval narrower than half its natural range (the set's force or
       // stroke amplitude; the mass whose inertia would match the force amplitude).
-      e.identified = determined && t_ * e.standard_error < kRelativeWidthLimit * scale;
+      e.identified = determined && quantile * e.standard_error < kRelativeWidthLimit * scale;
       // Held at zero (its coordinate at 0), the free parameters would move by
       // -cov(free, nuisance) / var(nuisance) times its coordinate, to first order.
       for (std::size_t k = 0; k < f; ++k) {
@@ -492,6 +529,8 @@ class Assessment {
   const std::vector<SparseColumn>& jacobian_;
   FitResult* result_;
   std::optional<internal::BlockCovariance> covariance_;
+  Eigen::MatrixXd robust_;  // the half-cycles' sandwich of the shared coordinates
+  double t_robust_ = 0;
   Eigen::VectorXd derivative_;
   double s2_ = 0, t_ = 0;
 };
@@ -529,7 +568,7 @@ const char* NuisanceName(Nuisance nuisance) {
 }
 
 const char* IntervalMethodName(IntervalMethod method) {
-  return method == IntervalMethod::kWald ? "wald" : "profile_likelihood";
+  return method == IntervalMethod::kWald ? "wald" : "half_cycle_sandwich";
 }
 
 Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet>& sets,

@@ -415,7 +415,7 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
     out->set_identified(e.identified);
     out->set_interval(e.interval == analysis::IntervalMethod::kWald
                           ? v1::INTERVAL_METHOD_WALD
-                          : v1::INTERVAL_METHOD_PROFILE_LIKELIHOOD);
+                          : v1::INTERVAL_METHOD_HALF_CYCLE_SANDWICH);
   }
   for (const analysis::NuisanceEstimate& e : fit->nuisances) ToProto(e, result->add_nuisances());
   for (const analysis::SetFit& s : fit->sets) ToProto(s, result->add_sets());

@@ -97,10 +97,12 @@ struct FitOptions {
 
 // How a reported interval was obtained.
 enum class IntervalMethod {
-  kWald,               // estimate +- t * standard error from the covariance
-  kProfileLikelihood,  // where the profiled sum of squares rises by t^2 s^2
+  kWald,  // estimate +- t * standard error from s^2 (J^T W J)^-1, t on n - rank
+  // The same from the cluster-robust covariance over the sets' half-cycles, t on (half-cycles -
+  // 1): reported where it is the larger (residuals that move together within half-cycles).
+  kHalfCycleSandwich,
 };
-// "wald", "profile_likelihood".
+// "wald", "half_cycle_sandwich".
 const char* IntervalMethodName(IntervalMethod method);
 
 struct ParameterEstimate {
