@@ -162,16 +162,39 @@ campaigns::Spec NoisySpec(double displacement_noise) {
   return spec;
 }
 
+// The fewest intervals of `replicates` that may hold the truth: of 100, 90 (what the issue asks);
+// of fewer, as strict a test of 95 % coverage: the count that intervals of true 95 % coverage
+// fall below with a probability of at most 2 % (the binomial's; 90 of 100: 1.1 %, 26 of 30:
+// 1.6 %, 17 of 20: 1.6 %).
+int FewestCovered(int replicates) {
+  if (replicates >= 100) return 90 * replicates / 100;
+  double below = 0;  // P(covered < m) for m = 0, 1, ...
+  for (int m = 0; m <= replicates; ++m) {
+    const double p = std::exp(std::lgamma(replicates + 1.0) - std::lgamma(m + 1.0) -
+                              std::lgamma(replicates - m + 1.0) + m * std::log(0.95) +
+                              (replicates - m) * std::log(0.05));
+    if (below + p > 0.02) return m;
+    below += p;
+  }
+  return replicates;
+}
+
+TEST(IdentifyTest, TheFewestCoveredIsAsStrictForFewerReplicates) {
+  EXPECT_EQ(FewestCovered(100), 90);
+  EXPECT_EQ(FewestCovered(30), 26);
+  EXPECT_EQ(FewestCovered(20), 17);
+}
+
 // The issue's criteria: every interval holds the truth in at least 90 of 100 replicates, the
 // estimates are unbiased to 0.3 standard errors, and clean data of the right model are called a
-// misfit in at most 5 of 100. Fewer replicates (the slow campaigns) scale the counts, and the
-// bias allowed grows with the mean's own scatter (1/sqrt(replicates) standard errors).
+// misfit in at most 5 of 100. Fewer replicates (the slow campaigns) take FewestCovered, and the
+// bias allowed grows with the mean's own scatter (3/sqrt(replicates) standard errors).
 void ExpectTrustworthy(const Tally& tally, int replicates) {
   const char* names[] = {"friction", "effective_modulus", "rig_compliance"};
   ASSERT_EQ(tally.replicates, replicates);
   const double bias = std::max(0.3, 3 / std::sqrt(static_cast<double>(replicates)));
   for (int k = 0; k < 3; ++k) {
-    EXPECT_GE(tally.covered[k], 90 * replicates / 100) << names[k];
+    EXPECT_GE(tally.covered[k], FewestCovered(replicates)) << names[k];
     EXPECT_LT(std::abs(tally.mean_z[k]), bias) << names[k];
   }
   EXPECT_LE(tally.misfit, 5 * replicates / 100);
@@ -302,7 +325,7 @@ TEST(IdentifyTest, AMovingMassIsRecoveredWithinItsInterval) {
   ExpectTrustworthy(tally, 20);
   const Tally::Nuisance& mass = tally.nuisances.at(Nuisance::kMovingMass);
   EXPECT_EQ(mass.identified, 20);
-  EXPECT_GE(mass.covered, 18);
+  EXPECT_GE(mass.covered, FewestCovered(20));
 }
 
 // A cone's loops declared as a sphere: the residuals carry a structure in every cycle, and the
