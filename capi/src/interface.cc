@@ -37,7 +37,7 @@ Status RequireInterface(const v1::Scene& scene, const char* field) {
 // The service's size check before anything is built; the library has no state budget, and its
 // snapshot's limit is protobuf's.
 Status CheckSize(const v1::Scene& scene, const ContactConfig& base) {
-  return service::CheckInterfaceSize(scene, base, 0, INT_MAX);
+  return service::CheckInterfaceSize(scene, base, {}, INT_MAX);
 }
 
 // A new interface of a scene, as CreateSession builds it.

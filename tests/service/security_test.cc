@@ -424,6 +424,47 @@ TEST_F(AuthTest, StateBytesPerTokenKeepRoomForTheOthers) {
   }
 }
 
+// An interface too large for the caller's own quota is refused naming that quota and its flag,
+// not the server's budget, which has room (issue #48: "the server's state budget has 6638 bytes
+// left (mdrd --max-state-bytes)" while 512 MiB were free). The next test: with the server's budget
+// the tighter, the server's is named.
+TEST_F(AuthTest, AnInterfaceBeyondTheCallersQuotaNamesThatQuota) {
+  service::ServiceLimits limits;
+  limits.max_state_bytes = 512 << 20;
+  limits.max_state_bytes_per_token = 64 << 10;
+  StartWithTokens(0, limits);
+  v1::CreateSessionRequest rough;
+  v1::Scene* scene = rough.mutable_session()->mutable_scene();
+  *scene = SteelSphereOnSteelFlat();
+  scene->mutable_interface()->set_kind(v1::Interface::KIND_SHARED_MOTION);
+  scene->mutable_interface()->mutable_generated()->set_count(2000);  // about 300 KB
+  scene->mutable_interface()->mutable_generated()->set_height_scale(1e-6);
+  v1::Session session;
+  grpc::Status status = stub_->CreateSession(As(Bearer(kAliceToken)).get(), rough, &session);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("this caller's session state quota has 65536"));
+  EXPECT_THAT(status.error_message(), HasSubstr("(mdrd --max-state-bytes-per-token)"));
+  EXPECT_THAT(status.error_message(), HasSubstr("session.scene.interface.generated.count"));
+}
+
+TEST_F(AuthTest, AnInterfaceBeyondTheServersBudgetNamesTheBudget) {
+  service::ServiceLimits limits;
+  limits.max_state_bytes = 64 << 10;
+  limits.max_state_bytes_per_token = 1 << 20;
+  StartWithTokens(0, limits);
+  v1::CreateSessionRequest rough;
+  v1::Scene* scene = rough.mutable_session()->mutable_scene();
+  *scene = SteelSphereOnSteelFlat();
+  scene->mutable_interface()->set_kind(v1::Interface::KIND_SHARED_MOTION);
+  scene->mutable_interface()->mutable_generated()->set_count(2000);
+  scene->mutable_interface()->mutable_generated()->set_height_scale(1e-6);
+  v1::Session session;
+  const grpc::Status status = stub_->CreateSession(As(Bearer(kAliceToken)).get(), rough, &session);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(status.error_message(), HasSubstr("the server's session state budget has 65536"));
+  EXPECT_THAT(status.error_message(), HasSubstr("(mdrd --max-state-bytes)"));
+}
+
 // A caller's queue is its own: with one worker held inside alice's batch and a queue of one call
 // per caller, alice's next calls are refused RESOURCE_EXHAUSTED naming the quota while bob's is
 // queued and answered.

@@ -294,8 +294,8 @@ void UseAsSession(Interface& interface) { interface.set_keep_step_forces(true); 
 
 }  // namespace
 
-Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
-                          std::size_t state_bytes_left, int max_message_bytes) {
+Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base, const StateRoom& room,
+                          int max_message_bytes) {
   const v1::Interface& interface = scene.interface();
   const bool generated = interface.population_case() == v1::Interface::kGenerated;
   const std::size_t count =
@@ -311,7 +311,7 @@ Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
                                         std::to_string(max_message_bytes) +
                                         " bytes (mdrd --max-message-bytes)");
   }
-  if (state_bytes_left == 0) return OkStatus();
+  if (room.bytes == 0) return OkStatus();
   // What one more contact adds (the interface's own fixed bytes are not per contact).
   Result<Interface> one =
       Interface::Create({.kind = InterfaceKind::kContactList, .contacts = {base}, .heights = {}});
@@ -321,11 +321,11 @@ Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
   UseAsSession(*one);
   UseAsSession(*two);
   const std::size_t per_contact = StateBytes(*two) - StateBytes(*one);
-  if (count > state_bytes_left / per_contact) {
-    return ResourceExhausted(
-        field, std::to_string(count) + " contacts need at least " + std::to_string(per_contact) +
-                   " bytes each; the server's state budget has " +
-                   std::to_string(state_bytes_left) + " bytes left (mdrd --max-state-bytes)");
+  if (count > room.bytes / per_contact) {
+    return ResourceExhausted(field, std::to_string(count) + " contacts need at least " +
+                                        std::to_string(per_contact) + " bytes each; " + room.whose +
+                                        " has " + std::to_string(room.bytes) +
+                                        " bytes left (mdrd " + room.flag + ")");
   }
   return OkStatus();
 }

@@ -207,7 +207,7 @@ Status ContactOperations::CreateSession(const Principal& caller,
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   if (resource.scene().has_interface()) {
     if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(),
-                                      StateBytesLeft(caller), limits_.max_message_bytes);
+                                      StateRoomOf(caller), limits_.max_message_bytes);
         !s.ok()) {
       return s.WithFieldPrefix("session");
     }
@@ -313,7 +313,7 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot, const Pri
   if (!contact.ok()) return contact.status();
   std::optional<Interface> interface;
   if (snapshot.scene().has_interface()) {
-    if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateBytesLeft(caller),
+    if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateRoomOf(caller),
                                       limits_.max_message_bytes);
         !s.ok()) {
       return s.WithFieldPrefix("snapshot");

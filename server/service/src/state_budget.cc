@@ -123,6 +123,14 @@ std::size_t StateBudget::Left() const {
   return left == 0 ? above : std::min(left, above);
 }
 
+StateRoom StateBudget::Room() const {
+  StateRoom room;
+  if (parent_ != nullptr) room = parent_->Room();
+  const std::size_t left = limit_ == 0 ? 0 : (used() < limit_ ? limit_ - used() : 1);
+  if (left > 0 && (room.bytes == 0 || left <= room.bytes)) room = {left, whose_, flag_};
+  return room;
+}
+
 Status StateCharge::Take(StateBudget* budget, std::size_t bytes, StateCharge* charge) {
   if (budget != nullptr) {
     if (Status status = budget->Charge(bytes); !status.ok()) return status;

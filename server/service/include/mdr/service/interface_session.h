@@ -12,6 +12,7 @@
 #include "mdr/core/interface.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/service/outputs.h"
+#include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -23,11 +24,11 @@ Result<Interface> CreateInterface(const v1::Scene& scene, const ContactConfig& b
 // Checked before anything of an interface is built, so that a client's count cannot make the
 // server allocate beyond its limits first: RESOURCE_EXHAUSTED (field ".generated.count" or
 // ".explicit_list.heights" under scene.interface) when count fresh contacts would already hold
-// more than state_bytes_left (0: no limit) or could not be exported within max_message_bytes (an
-// empty contact snapshot costs 2 bytes). A fresh contact's bytes come from probes of one and two
-// contacts (their difference).
-Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base,
-                          std::size_t state_bytes_left, int max_message_bytes);
+// more than the room left (room.bytes 0: no limit; the error names room's budget and flag) or could
+// not be exported within max_message_bytes (an empty contact snapshot costs 2 bytes). A fresh
+// contact's bytes come from probes of one and two contacts (their difference).
+Status CheckInterfaceSize(const v1::Scene& scene, const ContactConfig& base, const StateRoom& room,
+                          int max_message_bytes);
 // An interface restored from a snapshot's state; errors name "interface.contacts[i]..." (relative
 // to the snapshot) or the scene's fields as CreateInterface.
 Result<Interface> RestoreInterface(const v1::Scene& scene, const ContactConfig& base,

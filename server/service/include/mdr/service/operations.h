@@ -114,9 +114,10 @@ class ContactOperations {
   // (--max-state-bytes-per-token), or the server's for callers without a token or without
   // quotas. Created on first use, kept for the process.
   StateBudget* BudgetOf(const std::string& owner) const;
-  // What the caller's budget has left (0: no limit); for checks made before a state is built.
-  std::size_t StateBytesLeft(const Principal& caller) const {
-    return BudgetOf(caller.value_or(""))->Left();
+  // What the caller's budget and the server's have left, and which is the tighter; for checks
+  // made before a state is built.
+  StateRoom StateRoomOf(const Principal& caller) const {
+    return BudgetOf(caller.value_or(""))->Room();
   }
   // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
   Result<ContactConfig> SessionConfig(const v1::Scene& scene, const std::string& prefix,

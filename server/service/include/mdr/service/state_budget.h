@@ -58,6 +58,14 @@ StepBounds BoundsAfterOneStraightStep(const Contact& contact, std::size_t scene_
 // max_message_bytes.
 Status CheckExportable(std::size_t export_bytes, int max_message_bytes, const std::string& field);
 
+// What a budget and its parents still admit, and which of them is the tightest: the one a refusal
+// names.
+struct StateRoom {
+  std::size_t bytes = 0;  // 0: no limit
+  std::string whose;      // e.g. "this caller's session state quota"
+  std::string flag;       // its mdrd flag, e.g. "--max-state-bytes-per-token"
+};
+
 // The sum of the state bytes of sessions against a limit: the server's (every session), or one
 // caller's inside it (its parent), which every charge also goes to. Thread-safe.
 class StateBudget {
@@ -79,6 +87,8 @@ class StateBudget {
   std::size_t limit() const { return limit_; }
   // Bytes that can still be charged here and in the parents (0 when none limits).
   std::size_t Left() const;
+  // Left() with the budget it comes from.
+  StateRoom Room() const;
 
  private:
   const std::size_t limit_;
