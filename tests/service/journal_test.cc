@@ -8,10 +8,14 @@
 // binary are in journal_crash_test.py.
 #include "mdr/service/journal.h"
 
+#include <fcntl.h>
 #include <google/protobuf/util/message_differencer.h>
+#include <linux/fs.h>
 #include <sqlite3.h>
 #include <stdlib.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <filesystem>
@@ -379,6 +383,131 @@ TEST_F(JournalTest, BelowTheFloorNewWorkIsRefusedAndDeletionsGoOn) {
   EXPECT_EQ(restored->session_count(), 1u);
   ExpectSameSnapshot(Export(*restored, "sessions/kept"), kept_before);
   EXPECT_GT(service::JournalRoom(options.path), 0u);
+}
+
+// Sets or clears the immutable attribute (chattr +i) of each file; false where the file system
+// or the process's privileges do not allow it.
+bool SetImmutable(const std::vector<std::string>& files, bool immutable) {
+  for (const std::string& file : files) {
+    const int descriptor = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    if (descriptor < 0) return false;
+    int flags = 0;
+    bool done = ::ioctl(descriptor, FS_IOC_GETFLAGS, &flags) == 0;
+    flags = immutable ? (flags | FS_IMMUTABLE_FL) : (flags & ~FS_IMMUTABLE_FL);
+    done = done && ::ioctl(descriptor, FS_IOC_SETFLAGS, &flags) == 0;
+    ::close(descriptor);
+    if (!done) return false;
+  }
+  return true;
+}
+
+// The write-ahead log's index is in the process's heap: no "-shm" file is ever mapped, so an I/O
+// error of the journal's files is an error code, never a SIGBUS.
+TEST_F(JournalTest, TheLogsIndexIsNeverAMappedFile) {
+  const JournalOptions options = Options();
+  std::mt19937_64 random(11);
+  auto operations = Open(options);
+  Create(*operations, "a");
+  ApplyRandomBatches(*operations, "sessions/a", 20, random);
+  EXPECT_TRUE(std::filesystem::exists(options.path + "-wal"));
+  EXPECT_FALSE(std::filesystem::exists(options.path + "-shm"));
+}
+
+// Journal files made immutable under load: each Apply is refused UNAVAILABLE and changes nothing
+// (the process lives: before the log's index left its mapped file, this was a SIGBUS); once they
+// are writable again the work goes on, and a restart restores every acknowledged batch.
+TEST_F(JournalTest, ImmutableFilesRefuseWorkAndChangeNothing) {
+  const JournalOptions options = Options();
+  std::vector<std::string> files = {options.path, options.path + "-wal"};
+  std::mt19937_64 random(12);
+  v1::SessionSnapshot acknowledged;
+  {
+    auto operations = Open(options);
+    Create(*operations, "a");
+    ApplyRandomBatches(*operations, "sessions/a", 5, random);
+    acknowledged = Export(*operations, "sessions/a");
+    // Every file of the journal there is (an -shm file too, where SQLite made one).
+    if (std::filesystem::exists(options.path + "-shm")) files.push_back(options.path + "-shm");
+    if (!SetImmutable(files, true)) GTEST_SKIP() << "cannot set the immutable attribute here";
+    for (int i = 0; i < 20; ++i) {
+      v1::ApplyResponse applied;
+      const grpc::Status refused =
+          Apply(*operations, ApplyRequestFor("sessions/a", {DisplacementStep(1e-8 * i)}), &applied);
+      EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE) << refused.error_message();
+      ExpectSameSnapshot(Export(*operations, "sessions/a"), acknowledged);
+    }
+    ASSERT_TRUE(SetImmutable(files, false));
+    ApplyRandomBatches(*operations, "sessions/a", 3, random, "again");
+    acknowledged = Export(*operations, "sessions/a");
+  }
+  auto restored = Open(options);
+  ExpectSameSnapshot(Export(*restored, "sessions/a"), acknowledged);
+}
+
+// Journal files deleted under load (each alone, and all of them): the next write finds them gone
+// and rewrites the journal from the files it still has open, so that a restart restores every
+// acknowledged batch, those before the deletion included.
+TEST_F(JournalTest, DeletedFilesAreRewrittenWithEveryAcknowledgedBatch) {
+  const std::vector<std::vector<std::string>> cases = {
+      {""}, {"-wal"}, {".commit"}, {"", "-wal", ".commit"}};
+  for (const std::vector<std::string>& deleted : cases) {
+    const JournalOptions options = Options();
+    std::mt19937_64 random(13);
+    v1::SessionSnapshot acknowledged;
+    {
+      auto operations = Open(options);
+      Create(*operations, "a");
+      ApplyRandomBatches(*operations, "sessions/a", 5, random);
+      for (const std::string& suffix : deleted) {
+        ASSERT_TRUE(std::filesystem::remove(options.path + suffix)) << suffix;
+      }
+      ApplyRandomBatches(*operations, "sessions/a", 5, random, "after");
+      for (const std::string& suffix : {"", "-wal", ".commit"}) {
+        EXPECT_TRUE(std::filesystem::exists(options.path + suffix)) << suffix;
+      }
+      for (const std::string& suffix : deleted) {  // again, now without a write after it
+        ASSERT_TRUE(std::filesystem::remove(options.path + suffix)) << suffix;
+      }
+      acknowledged = Export(*operations, "sessions/a");
+    }
+    auto restored = Open(options);
+    ExpectSameSnapshot(Export(*restored, "sessions/a"), acknowledged);
+    restored.reset();
+    std::filesystem::remove(options.path + ".commit");
+    std::filesystem::remove(options.path + "-wal");
+    std::filesystem::remove(options.path);
+  }
+}
+
+// The journal's directory removed: writes are refused UNAVAILABLE and change nothing; once the
+// directory is back, the next write rewrites the journal there, everything acknowledged in it.
+TEST_F(JournalTest, AVanishedDirectoryRefusesWorkUntilItIsBack) {
+  JournalOptions options = Options();
+  const std::filesystem::path directory =
+      std::filesystem::path(options.path).parent_path() / "vanishing";
+  std::filesystem::create_directory(directory);
+  options.path = (directory / "journal.sqlite").string();
+  options.min_free_bytes = 0;  // the room of a missing directory reads 0
+  std::mt19937_64 random(14);
+  v1::SessionSnapshot acknowledged;
+  {
+    auto operations = Open(options);
+    Create(*operations, "a");
+    ApplyRandomBatches(*operations, "sessions/a", 5, random);
+    acknowledged = Export(*operations, "sessions/a");
+    std::filesystem::remove_all(directory);
+    v1::ApplyResponse applied;
+    const grpc::Status refused =
+        Apply(*operations, ApplyRequestFor("sessions/a", {DisplacementStep(1e-8)}), &applied);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE);
+    EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("was deleted or replaced"));
+    ExpectSameSnapshot(Export(*operations, "sessions/a"), acknowledged);
+    std::filesystem::create_directory(directory);
+    ApplyRandomBatches(*operations, "sessions/a", 3, random, "again");
+    acknowledged = Export(*operations, "sessions/a");
+  }
+  auto restored = Open(options);
+  ExpectSameSnapshot(Export(*restored, "sessions/a"), acknowledged);
 }
 
 // Whether the batch was replayed from the journal or is part of a snapshot (snapshot_every 1),

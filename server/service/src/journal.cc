@@ -188,7 +188,7 @@ std::optional<std::uint64_t> DecodeCommitSlot(const unsigned char* slot) {
   return commits;
 }
 
-// Opens the database file, creating it with mode 0600 (SQLite gives its -wal and -shm files the
+// Opens the database file, creating it with mode 0600 (SQLite gives its -wal file the
 // database file's mode), and takes the lock that keeps every other process out: an flock,
 // independent of SQLite's POSIX locks. The descriptor is kept, and closed only after SQLite's
 // connections (closing any descriptor of the file drops the process's POSIX locks on it); -1 and
@@ -207,6 +207,13 @@ int CreatePrivatelyAndLock(const std::string& path, std::string* error) {
   }
   return file;
 }
+
+// SQLite's unix VFS with the process holding the database's lock: the write-ahead log's index
+// lives in heap memory shared by this process's connections (the writer's and the
+// checkpointer's), never in a memory-mapped "-shm" file, whose pages would turn an I/O error
+// (a file made immutable, a full or vanished volume) into a SIGBUS instead of an error code.
+// The flock of CreatePrivatelyAndLock keeps other processes out anyway.
+constexpr const char* kVfs = "unix-excl";
 
 bool IsCorruption(int code) { return (code & 0xFF) == SQLITE_CORRUPT; }
 
@@ -318,13 +325,13 @@ Status Journal::Connect(std::vector<std::string>* damage) {
   if (lock_file_ < 0) return Unusable(path, error);
   if (sqlite3_open_v2(path.c_str(), &db_,
                       SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                      nullptr) != SQLITE_OK) {
+                      kVfs) != SQLITE_OK) {
     return Unusable(path, db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory");
   }
-  // Normal locking (the flock above keeps other processes out), so that the checkpointer's own
-  // connection can checkpoint while this one writes. No automatic checkpoints: one would run on
-  // the committing thread, under mutex_, and its fsyncs (5-20 ms measured here) would hold every
-  // caller's commit.
+  // Normal locking mode (the flock above keeps other processes out), so that the checkpointer's
+  // own connection can checkpoint while this one writes. No automatic checkpoints: one would run
+  // on the committing thread, under mutex_, and its fsyncs (5-20 ms measured here) would hold
+  // every caller's commit.
   if (!Execute("PRAGMA journal_mode=WAL", &error) ||
       !Execute("PRAGMA wal_autocheckpoint=0", &error) ||
       !Execute(SynchronousPragma(options_.sync), &error) ||
@@ -520,6 +527,7 @@ void Journal::Disconnect(bool keep_log) {
   commit_file_ = -1;
   if (lock_file_ >= 0) ::close(lock_file_);  // after SQLite's descriptors
   lock_file_ = -1;
+  log_inode_ = 0;
 }
 
 // SQLite calls it after every commit (on the writer's connection, under mutex_) with the pages
@@ -541,7 +549,7 @@ Status Journal::StartCheckpointer() {
   sqlite3* db = nullptr;
   std::string error;
   if (sqlite3_open_v2(options_.path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_NOMUTEX,
-                      nullptr) != SQLITE_OK ||
+                      kVfs) != SQLITE_OK ||
       sqlite3_exec(db, SynchronousPragma(options_.sync), nullptr, nullptr, nullptr) != SQLITE_OK) {
     error = db != nullptr ? sqlite3_errmsg(db) : "out of memory";
     sqlite3_close(db);
@@ -591,7 +599,15 @@ void Journal::RunCheckpointer(sqlite3* db) {
 }
 
 // A journal refused at open is closed as it was found (its log is not checkpointed away).
-Journal::~Journal() { Disconnect(/*keep_log=*/!checkpoint_on_close_); }
+// A journal whose files were deleted since its last write is rewritten first, so that the
+// restart finds what was acknowledged.
+Journal::~Journal() {
+  if (checkpoint_on_close_) {
+    std::lock_guard lock(mutex_);
+    EnsureFilesAreOurs("close");
+  }
+  Disconnect(/*keep_log=*/!checkpoint_on_close_);
+}
 
 Status Journal::Load(std::vector<JournaledSession>* sessions) {
   std::lock_guard lock(mutex_);
@@ -1031,6 +1047,7 @@ template <typename Body>
 Status Journal::InTransaction(const char* what, bool row_carries_commit, Body body) {
   std::lock_guard lock(mutex_);
   const JournalWriteTimer timer;
+  if (Status ours = EnsureFilesAreOurs(what); !ours.ok()) return ours;
   std::string error;
   if (!Execute(begin_, &error)) return WriteError(what, error);
   BindInteger(count_commit_, 1, commits_ + 1);
@@ -1047,6 +1064,150 @@ Status Journal::InTransaction(const char* what, bool row_carries_commit, Body bo
   std::string ignored;
   Execute(rollback_, &ignored);
   return WriteError(what, error);
+}
+
+namespace {
+
+bool SameFile(const struct stat& a, const struct stat& b) {
+  return a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+// Writes and syncs a file's whole content at `path` through a temporary file renamed over it.
+bool WriteFileAtomically(const std::string& path, const void* data, std::size_t size,
+                         std::string* error) {
+  const std::string temporary = path + ".new";
+  const int file = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  bool done =
+      file >= 0 && ::write(file, data, size) == static_cast<ssize_t>(size) && ::fsync(file) == 0;
+  if (!done) *error = "\"" + temporary + "\": " + std::strerror(errno);
+  if (file >= 0) ::close(file);
+  if (done && ::rename(temporary.c_str(), path.c_str()) != 0) {
+    *error = "\"" + path + "\": " + std::strerror(errno);
+    done = false;
+  }
+  if (!done) ::unlink(temporary.c_str());
+  return done;
+}
+
+bool SyncFile(const std::string& path, int flags, std::string* error) {
+  const int file = ::open(path.c_str(), flags | O_CLOEXEC);
+  const bool done = file >= 0 && ::fsync(file) == 0;
+  if (!done) *error = "\"" + path + "\": " + std::strerror(errno);
+  if (file >= 0) ::close(file);
+  return done;
+}
+
+}  // namespace
+
+bool Journal::FilesAreOurs(std::string* which) {
+  const std::string& path = options_.path;
+  struct stat held {
+  }, named{};
+  if (::fstat(lock_file_, &held) != 0 || held.st_nlink == 0 || ::stat(path.c_str(), &named) != 0 ||
+      !SameFile(held, named)) {
+    *which = path;
+    return false;
+  }
+  if (::fstat(commit_file_, &held) != 0 || ::stat((path + ".commit").c_str(), &named) != 0 ||
+      !SameFile(held, named)) {
+    *which = path + ".commit";
+    return false;
+  }
+  // The log is SQLite's: its inode is learnt when first seen and must stay the same (SQLite
+  // truncates it but never removes it while a connection is open).
+  const bool log_seen = log_inode_ != 0;
+  if (::stat((path + "-wal").c_str(), &named) != 0) {
+    if (!log_seen) return true;
+    *which = path + "-wal";
+    return false;
+  }
+  if (!log_seen) {
+    log_device_ = named.st_dev;
+    log_inode_ = named.st_ino;
+  } else if (named.st_dev != log_device_ || named.st_ino != log_inode_) {
+    *which = path + "-wal";
+    return false;
+  }
+  return true;
+}
+
+Status Journal::EnsureFilesAreOurs(const char* what) {
+  if (db_ == nullptr) {
+    return WriteError(what,
+                      "it was closed when it could not be reopened after a rewrite; what "
+                      "was acknowledged is in its files, restart mdrd");
+  }
+  std::string which;
+  if (FilesAreOurs(&which)) return OkStatus();
+  {
+    spdlog::error(
+        "event=journal_error path={} error=\"{} was deleted or replaced while mdrd had it open; "
+        "rewriting the journal from the open files\"",
+        options_.path, which);
+    if (Reestablish(which).ok()) return OkStatus();
+  }
+  return WriteError(what, "its file " + which +
+                              " was deleted or replaced while mdrd had it open, and the journal "
+                              "cannot be rewritten there yet; what was acknowledged is kept in "
+                              "the open files and rewritten at the next write that can");
+}
+
+Status Journal::Reestablish(const std::string& which) {
+  const std::string& path = options_.path;
+  const std::string copy = path + ".rewrite";
+  std::string error;
+  std::error_code ignored;
+  std::filesystem::remove(copy, ignored);
+  {
+    // Through the open connection: it reads the unlinked files, the log's commits included.
+    Statement vacuum(db_, "VACUUM INTO ?1");
+    const bool copied =
+        vacuum.ok() &&
+        sqlite3_bind_text(vacuum.get(), 1, copy.c_str(), -1, SQLITE_TRANSIENT) == SQLITE_OK &&
+        sqlite3_step(vacuum.get()) == SQLITE_DONE;
+    if (!copied) error = sqlite3_errmsg(db_);
+    if (!copied || !SyncFile(copy, O_RDONLY, &error)) {
+      std::filesystem::remove(copy, ignored);
+      spdlog::error("event=journal_error path={} error=\"cannot rewrite the journal: {}\"", path,
+                    error);
+      return Unavailable("", error);
+    }
+  }
+  std::array<unsigned char, 2 * kCommitSlotBytes> slots{};
+  const auto slot = EncodeCommitSlot(commits_);
+  std::copy(slot.begin(), slot.end(), slots.begin());
+  std::copy(slot.begin(), slot.end(), slots.begin() + kCommitSlotBytes);
+  const std::uint64_t commits = commits_;
+  // From here on the copy replaces the open files: the old log must not meet the new database.
+  Disconnect(/*keep_log=*/true);
+  for (const char* suffix : {"-wal", "-shm"}) {
+    std::filesystem::remove(path + suffix, ignored);
+  }
+  const std::string directory = std::filesystem::path(path).parent_path().string();
+  if (!WriteFileAtomically(path + ".commit", slots.data(), slots.size(), &error) ||
+      ::rename(copy.c_str(), path.c_str()) != 0 ||
+      !SyncFile(directory.empty() ? "." : directory, O_RDONLY | O_DIRECTORY, &error)) {
+    if (error.empty()) error = std::strerror(errno);
+  }
+  std::vector<std::string> damage;
+  Status connected = error.empty() ? Connect(&damage) : Unavailable("", error);
+  if (connected.ok() && !damage.empty()) connected = Unavailable("", Join(damage));
+  if (connected.ok() && commits_ != commits) connected = Unavailable("", "the copy lost commits");
+  if (connected.ok()) connected = StartCheckpointer();
+  if (!connected.ok()) {
+    // Nothing open is left to write to: every later write is refused (db_ is null).
+    Disconnect(/*keep_log=*/true);
+    spdlog::error(
+        "event=journal_error path={} error=\"cannot reconnect to the rewritten journal: "
+        "{}\"",
+        path, connected.ToString());
+    return connected;
+  }
+  spdlog::warn(
+      "event=journal_rewritten path={} commits={} note=\"{} had been deleted or "
+      "replaced; every acknowledged commit is in the new files\"",
+      path, commits, which);
+  return OkStatus();
 }
 
 Status Journal::WriteError(const char* what, const std::string& error) const {

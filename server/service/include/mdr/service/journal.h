@@ -21,6 +21,7 @@
 #pragma once
 
 #include <google/protobuf/timestamp.pb.h>
+#include <sys/types.h>
 
 #include <atomic>
 #include <condition_variable>
@@ -194,6 +195,16 @@ class Journal {
   // row it writes (row_carries_commit).
   Status InTransaction(const char* what, bool row_carries_commit, Body body);
   Status WriteError(const char* what, const std::string& error) const;
+  // Whether the database, its log and the side file at options_.path are still the files this
+  // journal has open (an operator may delete or replace them: SQLite would go on writing to the
+  // unlinked files, and a restart would find none of it); *which names the first that is not.
+  bool FilesAreOurs(std::string* which);
+  // Writes what the open files hold (every commit, the log's included) to new files at
+  // options_.path and reconnects to them; the open files are kept on failure, so that the next
+  // write tries again.
+  Status Reestablish(const std::string& which);
+  // OK if the files are ours or were rewritten; UNAVAILABLE naming the file otherwise.
+  Status EnsureFilesAreOurs(const char* what);
   // OK while the journal's room is at least options_.min_free_bytes; else UNAVAILABLE saying so.
   // Records the room in the metrics and logs when it crosses the floor.
   Status CheckRoom(const char* what);
@@ -204,6 +215,9 @@ class Journal {
   sqlite3* db_ = nullptr;
   int commit_file_ = -1;  // the side file "<path>.commit"
   int lock_file_ = -1;    // the database file, flock'ed: one process at a time
+  // The log's device and inode once it exists (st_ino 0: not yet seen).
+  dev_t log_device_ = 0;
+  ino_t log_inode_ = 0;
   std::thread checkpointer_;
   std::mutex checkpoint_mutex_;
   std::condition_variable checkpoint_wakeup_;
