@@ -15,6 +15,11 @@
 // - "heavy calls": runs N clients (default 4) of heavy calls back to back, each a
 //   CreateSession of a tabulated profile of 20000 samples or a 20-step batch on a grid of 2^20
 //   springs, both hundreds of milliseconds of a core.
+// Then bob as a newcomer (issue #48): idle for 2.5 s (longer than the executor's recent window,
+// so no worker is kept for him), then one one-step Apply and one AnalyzeLoops of a 3-cycle
+// record, --newcomer-rounds times; alone, while alice runs fits back to back (FitLoops of 120 000
+// noisy samples that run into their 10 s and 30 s deadlines, on two clients) and while she runs
+// the heavy calls above. With --journal the Apply is journaled, as by default in mdrd.
 // Alice's client runs at SCHED_IDLE, standing in for a client on its own machine (her 256 client
 // threads would otherwise take most of this machine's cores whatever mdrd does);
 // --alice-competes runs it at normal priority. Prints bob's p50/p99/max and refusals per phase,
@@ -50,6 +55,7 @@
 
 #include "child_process.h"
 #include "fixtures/reference_scenes.h"
+#include "fixtures/rig_simulator.h"
 #include "mdr/v1/contact_service.grpc.pb.h"
 
 namespace {
@@ -134,6 +140,66 @@ ProbeFigures Probe(Stub& stub, const std::string& session, double seconds) {
     std::this_thread::sleep_for(kProbePeriod);
   }
   return figures;
+}
+
+// A record of the H1 contact behind a rig (the simulator's, written apart from the analysis), as
+// loop samples; noisy as a rig's sensors.
+void Record(const mdr::rig_simulator::Run& run, mdr::v1::LoopSamples* samples) {
+  mdr::ContactConfig truth;
+  truth.profile = *mdr::MakeSphere(mdr::reference::H1::kRadius);
+  truth.material =
+      *mdr::ElasticPair(mdr::reference::H1::kYoungsModulus, mdr::reference::H1::kPoissonRatio,
+                        mdr::reference::H1::kYoungsModulus, mdr::reference::H1::kPoissonRatio);
+  truth.friction = mdr::reference::H1::kFriction;
+  truth.track_energy = false;
+  const mdr::rig_simulator::Record record = mdr::rig_simulator::Simulate(truth, run);
+  *samples->mutable_displacement() = {record.displacement.begin(), record.displacement.end()};
+  *samples->mutable_tangential_force() = {record.tangential_force.begin(),
+                                          record.tangential_force.end()};
+}
+
+mdr::v1::AnalyzeLoopsRequest BobsLoops() {
+  mdr::rig_simulator::Run run;
+  run.amplitude = 3e-6;
+  run.force_noise = 0.05;
+  mdr::v1::AnalyzeLoopsRequest request;
+  Record(run, request.mutable_samples());
+  return request;
+}
+
+// Six sets of 20 000 samples at three loads, with 5 nm and 0.1 N of noise: mu and the rig's
+// compliance free, a force offset and a drift per set. Far more than 10 s of a core here.
+mdr::v1::FitLoopsRequest AlicesFit() {
+  mdr::v1::FitLoopsRequest request;
+  *request.mutable_scene() = mdr::reference::H1Scene<mdr::v1::Scene>();
+  request.mutable_scene()->set_friction(0.4);
+  std::uint64_t seed = 0;
+  for (const double load : {50.0, 100.0, 150.0}) {
+    for (const double amplitude : {2e-6, 6e-6}) {
+      mdr::rig_simulator::Run run;
+      run.normal_force = load;
+      run.amplitude = amplitude;
+      run.cycles = 10;
+      run.samples_per_cycle = 2000;
+      run.displacement_noise = 5e-9;
+      run.force_noise = 0.1;
+      run.seed = ++seed;
+      auto* set = request.add_sets();
+      Record(run, set->mutable_samples());
+      set->set_normal_force(load);
+    }
+  }
+  auto* friction = request.add_free();
+  friction->set_parameter(mdr::v1::FIT_PARAMETER_FRICTION);
+  friction->set_lower(0.05);
+  friction->set_upper(2);
+  auto* rig = request.add_free();
+  rig->set_parameter(mdr::v1::FIT_PARAMETER_RIG_COMPLIANCE);
+  rig->set_lower(0);
+  rig->set_upper(1e-6);
+  request.mutable_nuisances()->set_force_offset(true);
+  request.mutable_nuisances()->set_displacement_drift(true);
+  return request;
 }
 
 double Percentile(std::vector<double> values, double p) {
@@ -256,6 +322,66 @@ class HeavyCalls {
   std::atomic<bool> stop_{false};
 };
 
+// Clients of fits back to back until the phase ends, client k with a deadline of 10 s (even k)
+// or 30 s (odd k): each fit runs until its deadline cancels it.
+class Fits {
+ public:
+  Fits(const std::string& address, int clients) {
+    for (int i = 0; i < clients; ++i) {
+      threads_.emplace_back([this, address, i] { Run(address, i); });
+    }
+  }
+  ~Fits() {
+    stop_ = true;
+    for (std::thread& thread : threads_) thread.join();
+  }
+
+ private:
+  void Run(const std::string& address, int client) {
+    auto stub = Connect(address);
+    const mdr::v1::FitLoopsRequest request = AlicesFit();
+    while (!stop_) {
+      auto context = As(kAliceToken, std::chrono::seconds(client % 2 == 0 ? 10 : 30));
+      auto reader = stub->FitLoops(context.get(), request);
+      mdr::v1::FitLoopsResponse response;
+      while (reader->Read(&response)) {
+      }
+      reader->Finish();
+    }
+  }
+
+  std::vector<std::thread> threads_;
+  std::atomic<bool> stop_{false};
+};
+
+// Bob as a newcomer: idle for longer than the executor's recent window, then one one-step Apply
+// and one AnalyzeLoops; each call's round trip is a sample.
+ProbeFigures NewcomerProbe(Stub& stub, const std::string& session, int rounds) {
+  constexpr auto kIdle = std::chrono::milliseconds(2500);
+  const mdr::v1::AnalyzeLoopsRequest loops = BobsLoops();
+  ProbeFigures figures;
+  mdr::v1::ApplyRequest apply;
+  apply.set_session(session);
+  mdr::v1::Step* step = apply.add_steps();
+  auto record = [&](const grpc::Status& status, Clock::time_point start) {
+    figures.millis.push_back(
+        std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+    if (!status.ok() && figures.refused++ == 0) figures.first_error = status.error_message();
+  };
+  for (int k = 0; k < rounds; ++k) {
+    std::this_thread::sleep_for(kIdle);
+    step->set_displacement(k % 2 == 0 ? kBobAmplitude : -kBobAmplitude);
+    mdr::v1::ApplyResponse applied;
+    Clock::time_point start = Clock::now();
+    record(stub.Apply(As(kBobToken, std::chrono::seconds(60)).get(), apply, &applied), start);
+    mdr::v1::AnalyzeLoopsResponse analysed;
+    start = Clock::now();
+    record(stub.AnalyzeLoops(As(kBobToken, std::chrono::seconds(60)).get(), loops, &analysed),
+           start);
+  }
+  return figures;
+}
+
 // ---------------------------------------------------------------------------------------------
 
 struct Settings {
@@ -266,6 +392,7 @@ struct Settings {
   std::vector<std::string> mdrd_args;  // passed on to mdrd
   bool alice_competes = false;         // her client at normal priority instead of SCHED_IDLE
   std::string journal;                 // mdrd's journal file; empty: --no-journal
+  int newcomer_rounds = 8;             // bob's idle-then-call rounds per phase; 0: none
   std::string abuse;                   // child mode: "streams" or "heavy"
   std::string connect;                 // child mode: mdrd's address
 };
@@ -285,11 +412,15 @@ Settings Parse(int argc, char** argv) {
   app.add_option("--journal", settings.journal,
                  "mdrd journals to this file (created; removed at the end) instead of running "
                  "without a journal");
+  app.add_option("--newcomer-rounds", settings.newcomer_rounds,
+                 "bob's rounds of 2.5 s idle, then an Apply and an AnalyzeLoops, per phase; 0: "
+                 "none")
+      ->check(CLI::Range(0, 100));
   app.add_flag("--alice-competes", settings.alice_competes,
                "run alice's client at normal priority (default: SCHED_IDLE, as if on its own "
                "machine)");
   app.add_option("--abuse", settings.abuse, "(internal) run as alice until killed")
-      ->check(CLI::IsMember({"streams", "heavy"}));
+      ->check(CLI::IsMember({"streams", "heavy", "fits"}));
   app.add_option("--connect", settings.connect, "(internal) alice's server address");
   try {
     app.parse(argc, argv);
@@ -410,8 +541,11 @@ int RunAlice(const Settings& settings) {
   if (settings.abuse == "streams") {
     AbandonedStreams abuse(settings.connect, settings.streams);
     pause();  // until SIGTERM ends the process
-  } else {
+  } else if (settings.abuse == "heavy") {
     HeavyCalls abuse(settings.connect, settings.heavy_clients);
+    pause();
+  } else {
+    Fits abuse(settings.connect, 2);
     pause();
   }
   return EXIT_SUCCESS;
@@ -452,7 +586,7 @@ int main(int argc, char** argv) {
   std::printf("  during it: mdrd used %.2f cores\n", quiet_cores);
   const double quiet_p99 = Percentile(quiet.millis, 0.99);
   const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
-  for (const char* kind : {"streams", "heavy"}) {
+  auto spawn_alice = [&](const char* kind) {
     std::vector<std::string> command = {self,
                                         "--abuse",
                                         kind,
@@ -465,6 +599,10 @@ int main(int argc, char** argv) {
     if (settings.alice_competes) command.push_back("--alice-competes");
     const pid_t alice = Spawn(command, nullptr);
     std::this_thread::sleep_for(std::chrono::seconds(2));  // her sessions and calls are going
+    return alice;
+  };
+  for (const char* kind : {"streams", "heavy"}) {
+    const pid_t alice = spawn_alice(kind);
     const CpuClock mdrd_cpu(mdrd), alice_cpu(alice);
     const ProbeFigures figures = Probe(*bob, session, settings.seconds);
     const double mdrd_cores = mdrd_cpu.Cores(), alice_cores = alice_cpu.Cores();
@@ -473,6 +611,20 @@ int main(int argc, char** argv) {
                             figures, quiet_p99);
     std::printf("  during it: mdrd used %.2f cores, alice's client %.2f\n", mdrd_cores,
                 alice_cores);
+  }
+  if (settings.newcomer_rounds > 0) {
+    std::printf("bob as a newcomer: %d rounds of 2.5 s idle, then an Apply and an AnalyzeLoops\n",
+                settings.newcomer_rounds);
+    const ProbeFigures alone = NewcomerProbe(*bob, session, settings.newcomer_rounds);
+    never_refused &= Report("newcomer quiet", alone, 0);
+    const double alone_p99 = Percentile(alone.millis, 0.99);
+    for (const char* kind : {"fits", "heavy"}) {
+      const pid_t alice = spawn_alice(kind);
+      const ProbeFigures figures = NewcomerProbe(*bob, session, settings.newcomer_rounds);
+      Stop(alice);
+      never_refused &= Report(std::strcmp(kind, "fits") == 0 ? "newcomer, fits" : "newcomer, heavy",
+                              figures, alone_p99);
+    }
   }
   Stop(mdrd);
   if (!settings.journal.empty()) {

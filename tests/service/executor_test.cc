@@ -6,6 +6,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <pthread.h>
 
 #include <atomic>
 #include <chrono>
@@ -64,7 +65,7 @@ class Order {
 };
 
 TEST(ExecutorTest, CallersAreServedInTurnWhateverTheirNumberOfStrands) {
-  Executor executor({.workers = 1});
+  Executor executor({.workers = 1, .reserve_workers = 0});
   Held gate;
   ASSERT_EQ(executor.Submit("alice", "s0", gate.Task()), Admission::kQueued);
   ASSERT_TRUE(gate.AwaitStart());
@@ -101,7 +102,8 @@ TEST(ExecutorTest, StrandsKeepTheirOrderAndTakeTurnsWithinACaller) {
 }
 
 TEST(ExecutorTest, ACallersOwnQueueIsBoundedWithoutTouchingTheOthers) {
-  Executor executor({.workers = 1, .max_queued = 100, .max_queued_per_caller = 2});
+  Executor executor(
+      {.workers = 1, .max_queued = 100, .max_queued_per_caller = 2, .reserve_workers = 0});
   Held gate;
   ASSERT_EQ(executor.Submit("alice", "", gate.Task()), Admission::kQueued);
   ASSERT_TRUE(gate.AwaitStart());  // running: not waiting
@@ -114,7 +116,7 @@ TEST(ExecutorTest, ACallersOwnQueueIsBoundedWithoutTouchingTheOthers) {
 }
 
 TEST(ExecutorTest, ACallerUnderItsShareIsAdmittedToAFullQueue) {
-  Executor executor({.workers = 1, .max_queued = 4});
+  Executor executor({.workers = 1, .max_queued = 4, .reserve_workers = 0});
   Held gate;
   ASSERT_EQ(executor.Submit("alice", "", gate.Task()), Admission::kQueued);
   ASSERT_TRUE(gate.AwaitStart());
@@ -161,6 +163,79 @@ TEST(ExecutorTest, AWorkerStaysFreeForAnotherActiveCaller) {
   first.Release();
   EXPECT_TRUE(second.AwaitStart());  // alice's turn once her first is done
   second.Release();
+}
+
+// The thread a task runs on: "mdr-worker" or "mdr-reserve".
+std::string ThreadName() {
+  char name[16] = {};
+  pthread_getname_np(pthread_self(), name, sizeof name);
+  return name;
+}
+
+// Bob was idle (no recent window to keep a worker for him) while alice's tasks hold every worker
+// and more of hers wait: his task starts at once on the reserve, and hers stay queued.
+TEST(ExecutorTest, ANewcomerNeverWaitsBehindAnothersWork) {
+  Executor executor({.workers = 1, .recent_window = std::chrono::milliseconds(0)});
+  ASSERT_EQ(executor.reserve_workers(), 1u);
+  Held first, second;
+  ASSERT_EQ(executor.Submit("alice", "a", first.Task()), Admission::kQueued);
+  ASSERT_TRUE(first.AwaitStart());
+  ASSERT_EQ(executor.Submit("alice", "b", second.Task()), Admission::kQueued);
+  std::promise<std::string> bob;
+  ASSERT_EQ(executor.Submit("bob", "", [&] { bob.set_value(ThreadName()); }), Admission::kQueued);
+  auto ran_on = bob.get_future();
+  ASSERT_EQ(ran_on.wait_for(kPatience), std::future_status::ready);
+  EXPECT_EQ(ran_on.get(), "mdr-reserve");
+  EXPECT_FALSE(second.Started()) << "the reserve took a task of a caller already running one";
+  first.Release();
+  EXPECT_TRUE(second.AwaitStart());
+  second.Release();
+}
+
+// Each reserve thread serves a caller with nothing running: a newcomer's second task waits for
+// its first (its turn on the workers comes as before), another newcomer gets the next thread.
+TEST(ExecutorTest, TheReserveServesEachNewcomerOneTaskAtATime) {
+  Executor executor(
+      {.workers = 1, .recent_window = std::chrono::milliseconds(0), .reserve_workers = 2});
+  Held alice, bob_first, bob_second, carol;
+  ASSERT_EQ(executor.Submit("alice", "a", alice.Task()), Admission::kQueued);
+  ASSERT_TRUE(alice.AwaitStart());
+  ASSERT_EQ(executor.Submit("bob", "1", bob_first.Task()), Admission::kQueued);
+  ASSERT_TRUE(bob_first.AwaitStart());
+  ASSERT_EQ(executor.Submit("bob", "2", bob_second.Task()), Admission::kQueued);
+  ASSERT_EQ(executor.Submit("carol", "", carol.Task()), Admission::kQueued);
+  EXPECT_TRUE(carol.AwaitStart());
+  EXPECT_FALSE(bob_second.Started());
+  bob_first.Release();
+  EXPECT_TRUE(bob_second.AwaitStart());  // bob has nothing running again: the reserve takes it
+  alice.Release();
+  bob_second.Release();
+  carol.Release();
+}
+
+// While a worker is free, the reserve takes nothing.
+TEST(ExecutorTest, TheReserveWaitsWhileAWorkerIsFree) {
+  Executor executor({.workers = 2, .recent_window = std::chrono::milliseconds(0)});
+  Held alice;
+  ASSERT_EQ(executor.Submit("alice", "a", alice.Task()), Admission::kQueued);
+  ASSERT_TRUE(alice.AwaitStart());
+  for (int i = 0; i < 20; ++i) {
+    std::promise<std::string> bob;
+    ASSERT_EQ(executor.Submit("bob", "", [&] { bob.set_value(ThreadName()); }), Admission::kQueued);
+    auto ran_on = bob.get_future();
+    ASSERT_EQ(ran_on.wait_for(kPatience), std::future_status::ready);
+    EXPECT_EQ(ran_on.get(), "mdr-worker");
+  }
+  alice.Release();
+}
+
+TEST(ExecutorTest, ReserveWorkersAreValidated) {
+  EXPECT_TRUE(ValidateExecutorOptions({.reserve_workers = -1}).ok());
+  EXPECT_TRUE(ValidateExecutorOptions({.reserve_workers = 0}).ok());
+  const Status refused = ValidateExecutorOptions({.reserve_workers = -2});
+  EXPECT_FALSE(refused.ok());
+  EXPECT_THAT(refused.ToString(), ::testing::HasSubstr("reserve-workers"));
+  EXPECT_THAT(refused.ToString(), ::testing::HasSubstr("[-1, 1024]"));
 }
 
 TEST(ExecutorTest, WorkSpreadByATaskStaysItsCallers) {

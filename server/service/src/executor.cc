@@ -45,13 +45,24 @@ Status ValidateExecutorOptions(const ExecutorOptions& options) {
   if (options.max_queued_per_caller < 1) {
     return InvalidArgument("max-queued-calls-per-caller", "must be >= 1, got 0");
   }
+  if (options.reserve_workers < -1 ||
+      options.reserve_workers > static_cast<int>(ExecutorOptions::kMaxWorkers)) {
+    return InvalidArgument("reserve-workers", "must be in [-1, " +
+                                                  std::to_string(ExecutorOptions::kMaxWorkers) +
+                                                  "] (-1: as many as the workers), got " +
+                                                  std::to_string(options.reserve_workers));
+  }
   return OkStatus();
 }
 
 Executor::Executor(const ExecutorOptions& options) : options_(options) {
   const std::size_t count = WorkerCount(options.workers);
   workers_.reserve(count);
-  for (std::size_t i = 0; i < count; ++i) workers_.emplace_back([this] { Work(); });
+  for (std::size_t i = 0; i < count; ++i) workers_.emplace_back([this] { Work(false); });
+  const std::size_t reserve =
+      options.reserve_workers < 0 ? count : static_cast<std::size_t>(options.reserve_workers);
+  reserve_.reserve(reserve);
+  for (std::size_t i = 0; i < reserve; ++i) reserve_.emplace_back([this] { Work(true); });
 }
 
 Executor::~Executor() { Stop(); }
@@ -59,6 +70,7 @@ Executor::~Executor() { Stop(); }
 const std::string& Executor::CurrentCaller() { return current_caller; }
 
 Executor::Admission Executor::Submit(std::string_view caller, std::string_view strand, Task task) {
+  bool newcomer = false;  // nothing of the caller's runs: the reserve may take it
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return Admission::kStopped;
@@ -97,8 +109,10 @@ Executor::Admission Executor::Submit(std::string_view caller, std::string_view s
     if (!new_strand || ClaimedLocked(queue, key)) return Admission::kQueued;
     queue.ready.push_back(std::move(key));
     if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
+    newcomer = queue.running == 0;
   }
   wakeup_.notify_one();
+  if (newcomer) reserve_wakeup_.notify_one();
   return Admission::kQueued;
 }
 
@@ -130,6 +144,7 @@ bool Executor::TryRunInline(std::string_view caller, std::string_view strand,
     queue.last_active = Clock::now();  // not read again at the release: the task is bounded
   }
   const bool ran = task();  // bounded: it spreads nothing over the pool (CurrentCaller unset)
+  bool newcomer = false;
   {
     const auto lock = LockSpinningFirst(mutex_);
     auto it = callers_.find(caller);  // active while it ran: not forgotten
@@ -141,22 +156,29 @@ bool Executor::TryRunInline(std::string_view caller, std::string_view strand,
     // Submitted while it ran: the strand's tasks go to the workers now.
     queue.ready.emplace_back(strand);
     if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
+    newcomer = queue.running == 0;
   }
   wakeup_.notify_one();
+  if (newcomer) reserve_wakeup_.notify_one();
   return ran;
 }
 
 void Executor::Stop() {
   {
     std::lock_guard lock(mutex_);
-    if (stopping_ && workers_.empty()) return;
+    if (stopping_ && workers_.empty() && reserve_.empty()) return;
     stopping_ = true;
   }
   wakeup_.notify_all();
+  reserve_wakeup_.notify_all();
   for (std::thread& worker : workers_) {
     if (worker.joinable()) worker.join();
   }
+  for (std::thread& worker : reserve_) {
+    if (worker.joinable()) worker.join();
+  }
   workers_.clear();
+  reserve_.clear();
 }
 
 std::size_t Executor::queued() const {
@@ -225,17 +247,31 @@ Executor::Callers::iterator Executor::NextRunnableLocked(Clock::time_point now) 
   return callers_.end();
 }
 
-void Executor::Work() {
-  pthread_setname_np(pthread_self(), "mdr-worker");  // tells them apart in top -H, perf and gdb
+Executor::Callers::iterator Executor::NextNewcomerLocked() {
+  if (workers_running_ < workers_.size()) return callers_.end();  // a worker takes it
+  for (auto name = ready_callers_.begin(); name != ready_callers_.end(); ++name) {
+    auto it = callers_.find(*name);
+    if (it->second.running > 0) continue;
+    ready_callers_.erase(name);
+    return it;
+  }
+  return callers_.end();
+}
+
+void Executor::Work(bool reserve) {
+  // Tells them apart in top -H, perf and gdb.
+  pthread_setname_np(pthread_self(), reserve ? "mdr-reserve" : "mdr-worker");
   clockid_t clock{};
   const bool has_clock = pthread_getcpuclockid(pthread_self(), &clock) == 0;
   std::unique_lock lock(mutex_);
   if (has_clock) worker_clocks_.push_back(clock);
   for (;;) {
-    auto it = NextRunnableLocked(Clock::now());
+    auto it = reserve ? NextNewcomerLocked() : NextRunnableLocked(Clock::now());
     if (it == callers_.end()) {
       if (stopping_ && queued_ == 0) return;  // every task has run or runs on another worker
-      if (ready_callers_.empty()) {
+      if (reserve) {
+        reserve_wakeup_.wait(lock);  // a newcomer's task, or the stop
+      } else if (ready_callers_.empty()) {
         wakeup_.wait(lock);
       } else {
         // Capped while others are active: look again when their activity may have expired.
@@ -255,6 +291,7 @@ void Executor::Work() {
     --queued_;
     ++queue.running;
     ++running_;
+    if (!reserve) ++workers_running_;
     lock.unlock();
     current_caller = caller;
     task();
@@ -264,11 +301,15 @@ void Executor::Work() {
     CallerQueue& after = callers_.at(caller);  // rehashing may have moved it
     --after.running;
     --running_;
+    if (!reserve) --workers_running_;
     after.last_active = Clock::now();
     std::deque<Task>& rest = after.strands.at(strand);
     if (rest.empty()) {
       after.strands.erase(strand);
-      if (stopping_ && queued_ == 0) wakeup_.notify_all();
+      if (stopping_ && queued_ == 0) {
+        wakeup_.notify_all();
+        reserve_wakeup_.notify_all();
+      }
     } else {
       after.ready.push_back(std::move(strand));  // behind its other strands: fair between them
       if (after.ready.size() == 1) ready_callers_.push_back(caller);

@@ -15,6 +15,13 @@
 //   others are active (a task queued or running, or one submitted or finished within
 //   recent_window), a worker stays free for them, so one caller's long tasks cannot hold every
 //   worker. A caller alone has every worker.
+// - A newcomer never waits behind the others' work: a caller with nothing running whose task
+//   finds every worker busy gets one of reserve_workers threads kept for that case (by default
+//   as many as the workers; each serves one such caller at a time, so the reserve never takes a
+//   second task of a caller already running one, nor the work a task spreads over the pool).
+//   The worker reservation above keeps a worker only for callers active within recent_window;
+//   the reserve holds for a caller arriving at any time. While it runs, the cores are shared by
+//   more threads than there are workers.
 // - Admission: a caller may have at most max_queued_per_caller tasks waiting (beyond:
 //   kCallerQueueFull). While max_queued tasks wait in total, a caller is still admitted below
 //   its fair share (max_queued / active callers, at least one), up to a hard total of
@@ -53,10 +60,13 @@ struct ExecutorOptions {
   // How long a caller counts as active after its last task was submitted or finished: the
   // workers kept free for it while it works call after call.
   std::chrono::milliseconds recent_window{1000};
+  // Threads for callers with nothing running while every worker is busy (see above); -1: as many
+  // as the workers, 0: none.
+  int reserve_workers = -1;
 };
 
 // Field names are the mdrd flags: workers in [0, kMaxWorkers], max-queued-calls >= 1,
-// max-queued-calls-per-caller >= 1.
+// max-queued-calls-per-caller >= 1, reserve-workers in [-1, kMaxWorkers].
 Status ValidateExecutorOptions(const ExecutorOptions& options);
 
 class Executor {
@@ -96,6 +106,7 @@ class Executor {
   static const std::string& CurrentCaller();
 
   std::size_t workers() const { return workers_.size(); }
+  std::size_t reserve_workers() const { return reserve_.size(); }
   std::size_t max_queued() const { return options_.max_queued; }
   std::size_t max_queued_per_caller() const { return options_.max_queued_per_caller; }
   // Tasks waiting for a worker now.
@@ -131,7 +142,11 @@ class Executor {
   };
   using Callers = std::unordered_map<std::string, CallerQueue, StringHash, std::equal_to<>>;
 
-  void Work();
+  // A worker's loop; a reserve thread's when `reserve`.
+  void Work(bool reserve);
+  // The first caller in turn with a ready strand and nothing running, while every worker is
+  // busy (taken out of ready_callers_); callers_.end() otherwise.
+  Callers::iterator NextNewcomerLocked();
   static bool ClaimedLocked(const CallerQueue& queue, std::string_view strand);
   // Whether a caller is active: a task waiting or running, or one submitted or finished within
   // recent_window.
@@ -147,15 +162,18 @@ class Executor {
 
   const ExecutorOptions options_;
   mutable std::mutex mutex_;
-  std::condition_variable wakeup_;
-  Callers callers_;                        // guarded by mutex_
-  std::deque<std::string> ready_callers_;  // guarded by mutex_; callers with a ready strand
-  std::size_t queued_ = 0;                 // guarded by mutex_
-  std::size_t running_ = 0;                // guarded by mutex_
-  bool stopping_ = false;                  // guarded by mutex_
-  std::vector<clockid_t> worker_clocks_;   // guarded by mutex_; read while !stopping_
+  std::condition_variable wakeup_;          // the workers'
+  std::condition_variable reserve_wakeup_;  // the reserve's
+  Callers callers_;                         // guarded by mutex_
+  std::deque<std::string> ready_callers_;   // guarded by mutex_; callers with a ready strand
+  std::size_t queued_ = 0;                  // guarded by mutex_
+  std::size_t running_ = 0;                 // guarded by mutex_; tasks running, reserve's included
+  std::size_t workers_running_ = 0;         // guarded by mutex_; tasks running on the workers
+  bool stopping_ = false;                   // guarded by mutex_
+  std::vector<clockid_t> worker_clocks_;    // guarded by mutex_; read while !stopping_
   mutable std::chrono::nanoseconds stopped_worker_cpu_{0};  // guarded by mutex_; last reading
   std::vector<std::thread> workers_;
+  std::vector<std::thread> reserve_;
 };
 
 }  // namespace mdr::service
