@@ -83,6 +83,13 @@ std::optional<int> ParseOptions(int argc, char** argv, Options* options) {
       ->envname("MDR_WORKERS")
       ->capture_default_str()
       ->check(CLI::Range(std::size_t{0}, mdr::service::ExecutorOptions::kMaxWorkers));
+  app.add_option("--reserve-workers", execution.reserve_workers,
+                 "Threads kept for a caller with nothing running whose call finds every worker "
+                 "busy, so that it never waits behind the others' calls; -1: as many as the "
+                 "workers, 0: none")
+      ->envname("MDR_RESERVE_WORKERS")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, static_cast<int>(mdr::service::ExecutorOptions::kMaxWorkers)));
   app.add_option("--max-queued-calls", execution.max_queued,
                  "Computing calls waiting for a worker at most; beyond, a call is refused at once "
                  "with UNAVAILABLE (retry with backoff)")
@@ -208,6 +215,14 @@ void LogEffectiveOptions(const Options& options) {
     spdlog::warn(
         "event=config_warning warning=\"bearer tokens without --tls-cert travel in clear text; "
         "use TLS or a TLS-terminating proxy on an untrusted network\"");
+  }
+  if (!server.tokens_file.empty() && limits.max_state_bytes > 0 &&
+      limits.max_state_bytes_per_token >= limits.max_state_bytes) {
+    spdlog::warn(
+        "event=config_warning warning=\"--max-state-bytes-per-token ({}) is not below "
+        "--max-state-bytes ({}): one token can take the whole state budget and leave nothing "
+        "for the others\"",
+        limits.max_state_bytes_per_token, limits.max_state_bytes);
   }
 }
 
