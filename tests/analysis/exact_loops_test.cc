@@ -182,6 +182,10 @@ TEST(ExactLoopsTest, BadInputIsRefusedNamingTheField) {
   EXPECT_EQ(Backbone(h1, 100, AmplitudeKind::kForce, {10, 40}).status().field(), "amplitudes[1]");
   EXPECT_EQ(FrettingMap(h1, {100, -1}, {0.5}).status().field(), "normal_forces[1]");
   EXPECT_EQ(FrettingMap(h1, {100}, {0.5, 0}).status().field(), "relative_amplitudes[1]");
+  // Issue #48: a load the engine cannot follow was named by its internal "tangential_force".
+  const Status huge = FrettingMap(h1, {100, 1e300}, {0.5}).status();
+  EXPECT_EQ(huge.field(), "normal_forces[1]") << huge.ToString();
+  EXPECT_EQ(GrossSlipOnset(h1, 1e300).status().field(), "normal_force");
   ContactConfig frictionless = h1;
   frictionless.friction = 0;
   EXPECT_EQ(GrossSlipOnset(frictionless, 100).status().code(), StatusCode::kFailedPrecondition);

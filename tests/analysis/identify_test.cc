@@ -393,6 +393,13 @@ TEST(IdentifyTest, BadInputIsRefusedNamingTheField) {
   options.free[1].upper = options.free[1].lower;
   EXPECT_EQ(FitLoops(truth, sets, options).status().field(), "free[1].upper");
   options = ThreeFree();
+  options.free[0].lower = -1e308;  // issue #48: was refused as "friction: ... got inf"
+  options.free[0].upper = 1e308;
+  EXPECT_EQ(FitLoops(truth, sets, options).status().field(), "free[0].upper");
+  options = ThreeFree();
+  options.free[0].lower = -0.5;  // a negative friction coefficient would be tried
+  EXPECT_EQ(FitLoops(truth, sets, options).status().field(), "free[0].lower");
+  options = ThreeFree();
   options.free[2].parameter = Parameter::kFriction;
   EXPECT_EQ(FitLoops(truth, sets, options).status().field(), "free[2].parameter");
   options = ThreeFree();

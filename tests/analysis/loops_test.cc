@@ -729,11 +729,13 @@ TEST(LoopsTest, RefusesNonFiniteSamples) {
     const char* message;
   };
   for (const Case& c : std::vector<Case>{
-           {&LoopSamples::displacement, "displacement", 12, nan, "finite"},
-           {&LoopSamples::displacement, "displacement", 0, -inf, "finite"},
-           {&LoopSamples::tangential_force, "tangential_force", 3, inf, "finite"},
-           {&LoopSamples::normal_force, "normal_force", 7, nan, ">= 0"},
-           {&LoopSamples::normal_force, "normal_force", 5, -1, ">= 0"},
+           {&LoopSamples::displacement, "displacement", 12, nan, "must be in [-1, 1], got nan"},
+           {&LoopSamples::displacement, "displacement", 0, -inf, "must be in [-1, 1]"},
+           {&LoopSamples::displacement, "displacement", 4, 1.7e308, "must be in [-1, 1]"},
+           {&LoopSamples::tangential_force, "tangential_force", 3, inf, "[-1000000000, 1000000000]"},
+           {&LoopSamples::tangential_force, "tangential_force", 2, -2e9, "[-1000000000, 1000000000]"},
+           {&LoopSamples::normal_force, "normal_force", 7, nan, "[0, 1000000000]"},
+           {&LoopSamples::normal_force, "normal_force", 5, -1, "[0, 1000000000]"},
            {&LoopSamples::time, "time", 9, inf, "finite"},
        }) {
     LoopSamples s = Valid();
@@ -746,6 +748,75 @@ TEST(LoopsTest, RefusesNonFiniteSamples) {
     LoopSamples s = Valid();
     s.time[3] = s.time[2] + dt;
     ExpectError(AnalyzeLoops(s, {}), StatusCode::kInvalidArgument, "time[3]", "increase strictly");
+  }
+}
+
+LoopSamples Scaled(LoopSamples s, double displacement_scale, double force_scale) {
+  for (double& u : s.displacement) u *= displacement_scale;
+  for (double& f : s.tangential_force) f *= force_scale;
+  for (double& p : s.normal_force) p *= force_scale;
+  return s;
+}
+
+// Finite samples whose figures would overflow or underflow (issue #48: |u| >= 1e160 m or a span
+// of 1e-160 m gave NaN stiffnesses, 1.7e308 m an infinite amplitude, 1e-310 m an infinite
+// secant stiffness) are refused naming the column and, for a sample, its index.
+TEST(LoopsTest, RefusesSamplesBeyondTheirRanges) {
+  const LoopSamples valid = Valid();  // |u| about 1e-6 m, forces about 10-100 N
+  ExpectError(AnalyzeLoops(Scaled(valid, 1e166, 1), {}), StatusCode::kInvalidArgument,
+              "displacement[1]", "must be in [-1, 1]");
+  for (const double tiny : {1e-154, 1e-304}) {
+    ExpectError(AnalyzeLoops(Scaled(valid, tiny, 1), {}), StatusCode::kInvalidArgument,
+                "displacement", "spans only");
+  }
+  ExpectError(AnalyzeLoops(Scaled(valid, 1, 1e-300), {}), StatusCode::kInvalidArgument,
+              "tangential_force", "spans only");
+  ExpectError(AnalyzeLoops(Scaled(valid, 1, 1e10), {}), StatusCode::kInvalidArgument,
+              "tangential_force[0]", "[-1000000000, 1000000000]");
+  LoopSamples constant = valid;  // a constant force is no error: no span to resolve
+  std::fill(constant.tangential_force.begin(), constant.tangential_force.end(), 0.0);
+  EXPECT_NE(AnalyzeLoops(constant, {}).status().field(), "tangential_force");
+}
+
+// Over the whole admitted range of scales, from the least span to the largest sample in either
+// column, every figure of a clean loop is finite.
+TEST(LoopsTest, EveryFigureIsFiniteOverTheAdmittedScales) {
+  const LoopSamples valid = Valid();
+  double u_span = 0, f_span = 0, u_max = 0, f_max = 0;
+  for (std::size_t i = 0; i < valid.displacement.size(); ++i) {
+    u_max = std::max(u_max, std::abs(valid.displacement[i]));
+    f_max = std::max({f_max, std::abs(valid.tangential_force[i]), valid.normal_force[i]});
+  }
+  const auto [u_lo, u_hi] =
+      std::minmax_element(valid.displacement.begin(), valid.displacement.end());
+  const auto [f_lo, f_hi] =
+      std::minmax_element(valid.tangential_force.begin(), valid.tangential_force.end());
+  u_span = *u_hi - *u_lo;
+  f_span = *f_hi - *f_lo;
+  const std::vector<double> u_scales = {kMinSampleSpan / u_span * 1.0000001, 1e-6, 1,
+                                        kMaxSampleDisplacement / u_max};
+  const std::vector<double> f_scales = {kMinSampleSpan / f_span * 1.0000001, 1e-3, 1,
+                                        kMaxSampleForce / f_max};
+  for (const double us : u_scales) {
+    for (const double fs : f_scales) {
+      LoopOptions options;
+      options.rig_compliance = 1e-9 * us / fs;
+      const Result<LoopAnalysis> r = AnalyzeLoops(Scaled(valid, us, fs), options);
+      ASSERT_TRUE(r.ok()) << us << " " << fs << ": " << r.status().ToString();
+      ASSERT_FALSE(r->cycles.empty());
+      for (const CycleMetrics& c : r->cycles) {
+        for (const double figure :
+             {c.force_amplitude, c.force_offset, c.dissipated_energy, c.half_opening,
+              c.system_free_ratio, c.normal_force, c.friction_coefficient,
+              c.energy_friction_coefficient, c.displacement_amplitude, c.energy_ratio,
+              c.sliding_ratio, c.secant_stiffness, c.stiffness_increasing,
+              c.stiffness_decreasing}) {
+          EXPECT_TRUE(std::isfinite(figure)) << "u x" << us << ", F x" << fs;
+        }
+        ASSERT_TRUE(c.contact.has_value());
+        EXPECT_TRUE(std::isfinite(c.contact->secant_stiffness)) << "u x" << us << ", F x" << fs;
+      }
+    }
   }
 }
 

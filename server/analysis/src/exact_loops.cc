@@ -71,16 +71,26 @@ Result<LoopFigures> ExactLoop(const ContactConfig& scene, double normal_force, A
                                             FormatNumber(c.friction_limit()) + " N], got " +
                                             FormatNumber(amplitude) + " N");
   }
+  // A step the engine refuses (its forces or displacements beyond its ranges) is the amplitude's
+  // doing, at this normal force: named so, not by the engine's internal step field.
+  auto step = [&](double target) {
+    const Status s = c.Apply(TangentialStep(kind, target));
+    if (s.ok() || s.code() != StatusCode::kInvalidArgument) return s;
+    return InvalidArgument("amplitude", "the loop of amplitude " + FormatNumber(amplitude) +
+                                            " at F_N = " + FormatNumber(normal_force) +
+                                            " N cannot be followed (" + s.field() + ": " +
+                                            s.message() + ")");
+  };
   // The virgin loading and one reversal make the loop steady: the cycle -a -> +a -> -a repeats.
   for (double target : {amplitude, -amplitude}) {
-    if (Status s = c.Apply(TangentialStep(kind, target)); !s.ok()) return s;
+    if (Status s = step(target); !s.ok()) return s;
   }
   if (Status s = interrupt.Check(); !s.ok()) return s;
   const double energy_at_start = c.dissipated_energy();
   const Contact lower = c;
-  if (Status s = c.Apply(TangentialStep(kind, amplitude)); !s.ok()) return s;
+  if (Status s = step(amplitude); !s.ok()) return s;
   const Contact upper = c;
-  if (Status s = c.Apply(TangentialStep(kind, -amplitude)); !s.ok()) return s;
+  if (Status s = step(-amplitude); !s.ok()) return s;
   const double energy = c.dissipated_energy() - energy_at_start;
   // The branches cross F_x = 0 at the upper reversal's way down and the lower one's way up.
   Result<double> down = ZeroForceDisplacement(upper), up = ZeroForceDisplacement(lower);
@@ -100,10 +110,16 @@ Result<LoopFigures> GrossSlipOnset(const ContactConfig& scene, double normal_for
   Result<Contact> contact = Contact::Create(scene);
   if (!contact.ok()) return contact.status();
   if (Status s = RequirePositive("normal_force", normal_force); !s.ok()) return s;
-  return ExactLoop(
+  Result<LoopFigures> onset = ExactLoop(
       scene, normal_force, AmplitudeKind::kForce,
       scene.friction * contact->NormalForceAtDepth(contact->DepthAtNormalForce(normal_force)),
       interrupt);
+  // Its amplitude is mu F_N: a refused amplitude is the normal force's.
+  if (!onset.ok() && onset.status().field() == "amplitude") {
+    return Status(onset.status().code(), "normal_force",
+                  "the onset of gross slip at it cannot be computed: " + onset.status().message());
+  }
+  return onset;
 }
 
 const char* RegimeName(Regime regime) {
@@ -153,7 +169,12 @@ Result<std::vector<FrettingMapLoad>> FrettingMap(const ContactConfig& scene,
       Result<LoopFigures> loop =
           ExactLoop(scene, normal_forces[i], AmplitudeKind::kActuatorDisplacement,
                     relative * onset->actuator_amplitude, interrupt);
-      if (!loop.ok()) return loop.status();
+      if (!loop.ok()) {
+        const Status& s = loop.status();  // the amplitude follows from the load's onset
+        return s.field() == "amplitude" || s.field() == "normal_force"
+                   ? Status(s.code(), Indexed("normal_forces", i), s.message())
+                   : s;
+      }
       load.loops.push_back(*loop);
       load.regimes.push_back(relative < 1 ? Regime::kPartialSlip : Regime::kGrossSlip);
     }

@@ -57,6 +57,21 @@ Status CheckFreeParameters(const FitOptions& options) {
       return InvalidArgument(field + ".upper", "must exceed lower = " + FormatNumber(free.lower) +
                                                    ", got " + FormatNumber(free.upper));
     }
+    // The search maps (lower, upper) onto the real line: its width must be a number.
+    if (!std::isfinite(free.upper - free.lower)) {
+      return InvalidArgument(field + ".upper",
+                             "upper - lower must be finite (the bounds' width overflows), got "
+                             "lower = " + FormatNumber(free.lower) +
+                                 ", upper = " + FormatNumber(free.upper));
+    }
+    // Every value inside the bounds must make a scene: the physical parameters cannot be
+    // negative (the offset can).
+    if (free.parameter != Parameter::kDisplacementOffset && free.lower < 0) {
+      return InvalidArgument(field + ".lower",
+                             std::string(ParameterName(free.parameter)) +
+                                 " cannot be negative: must be >= 0, got " +
+                                 FormatNumber(free.lower));
+    }
   }
   if (options.displacement_noise) {
     if (Status s = RequirePositive("displacement_noise", *options.displacement_noise); !s.ok()) {

@@ -81,6 +81,22 @@ Status CheckColumn(const std::vector<double>& values, const Interrupt& interrupt
   return OkStatus();
 }
 
+// A column that varies must vary by kMinSampleSpan at least: below it the products of the
+// figures (squares of displacements, force times displacement) underflow to zero or lose every
+// digit, and the figures would come out NaN or infinite. A constant column is no error (no
+// reversal, or a zero force: the figures say so).
+Status SpanAtLeast(const char* name, const std::vector<double>& v, const char* unit) {
+  if (v.empty()) return OkStatus();
+  const auto [lowest, highest] = std::minmax_element(v.begin(), v.end());
+  const double span = *highest - *lowest;
+  if (span == 0 || span >= kMinSampleSpan) return OkStatus();
+  return InvalidArgument(
+      name, "spans only " + FormatNumber(span) + " " + unit + " (samples " +
+                std::to_string(lowest - v.begin()) + " and " + std::to_string(highest - v.begin()) +
+                "); a column that varies must span at least " + FormatNumber(kMinSampleSpan) + " " +
+                unit + ", below any sensor's resolution");
+}
+
 Status ValidateSamples(const LoopSamples& s, const Interrupt& interrupt) {
   const std::size_t n = s.displacement.size();
   if (Status st = RequireLength("tangential_force", s.tangential_force.size(), n, false); !st.ok())
@@ -89,20 +105,28 @@ Status ValidateSamples(const LoopSamples& s, const Interrupt& interrupt) {
     return st;
   if (Status st = RequireLength("time", s.time.size(), n, true); !st.ok()) return st;
 
+  auto within = [&](const char* name, const std::vector<double>& v, double lo, double hi) {
+    return CheckColumn(
+        v, interrupt, [&](std::size_t i) { return v[i] >= lo && v[i] <= hi; },
+        [&](std::size_t i) { return RequireInRange(Indexed(name, i), v[i], lo, hi); });
+  };
+  if (Status st =
+          within("displacement", s.displacement, -kMaxSampleDisplacement, kMaxSampleDisplacement);
+      !st.ok()) {
+    return st;
+  }
+  if (Status st = within("tangential_force", s.tangential_force, -kMaxSampleForce, kMaxSampleForce);
+      !st.ok()) {
+    return st;
+  }
+  if (Status st = within("normal_force", s.normal_force, 0, kMaxSampleForce); !st.ok()) return st;
+  if (Status st = SpanAtLeast("displacement", s.displacement, "m"); !st.ok()) return st;
+  if (Status st = SpanAtLeast("tangential_force", s.tangential_force, "N"); !st.ok()) return st;
   auto finite = [&](const char* name, const std::vector<double>& v) {
     return CheckColumn(
         v, interrupt, [&](std::size_t i) { return std::isfinite(v[i]); },
         [&](std::size_t i) { return RequireFinite(Indexed(name, i), v[i]); });
   };
-  if (Status st = finite("displacement", s.displacement); !st.ok()) return st;
-  if (Status st = finite("tangential_force", s.tangential_force); !st.ok()) return st;
-  const std::vector<double>& p = s.normal_force;
-  if (Status st = CheckColumn(
-          p, interrupt, [&](std::size_t i) { return std::isfinite(p[i]) && p[i] >= 0; },
-          [&](std::size_t i) { return RequireNonNegative(Indexed("normal_force", i), p[i]); });
-      !st.ok()) {
-    return st;
-  }
   if (Status st = finite("time", s.time); !st.ok()) return st;
   const std::vector<double>& t = s.time;
   return CheckColumn(

@@ -26,11 +26,20 @@ enum class Measures {
   kContactAndRig,  // the contact plus the rig in series (biased by the rig)
 };
 
+// The ranges of the samples: beyond them the figures' products overflow or underflow (a
+// rig's stroke is millimetres, its forces kilonewtons, its sensors resolve nanometres and
+// millinewtons).
+inline constexpr double kMaxSampleDisplacement = 1;  // m, |u|
+inline constexpr double kMaxSampleForce = 1e9;       // N, |F_x| and F_N
+// m for u, N for F_x: the least span (max - min) of a column that is not constant.
+inline constexpr double kMinSampleSpan = 1e-15;
+
 // The samples of one run, in SI units, one value per sample in each non-empty column.
 struct LoopSamples {
-  std::vector<double> displacement;      // u, m: the actuator's (or sensor's) tangential position
-  std::vector<double> tangential_force;  // F_x, N
-  std::vector<double> normal_force;      // F_N, N, >= 0; empty: not measured
+  // u, m: the actuator's (or sensor's) tangential position; |u| <= kMaxSampleDisplacement.
+  std::vector<double> displacement;
+  std::vector<double> tangential_force;  // F_x, N; |F_x| <= kMaxSampleForce
+  std::vector<double> normal_force;      // F_N, N, in [0, kMaxSampleForce]; empty: not measured
   std::vector<double> time;              // t, s, strictly increasing; empty: not recorded
 };
 
@@ -144,9 +153,10 @@ struct LoopAnalysis {
 Status ValidateLoopOptions(const LoopOptions& options);
 
 // Analyses the samples. Errors (nothing is returned then): InvalidArgument naming the column and
-// sample ("displacement[12]: must be finite", "tangential_force: needs one value per
-// displacement sample, got 9 for 10", "time[3]: must increase strictly", "normal_force[5]: must be
-// >= 0") or the option ("reversal_threshold", "rig_compliance", "normal_force", the tolerances);
+// sample ("displacement[12]: must be in [-1, 1], got 1e+160", "tangential_force: needs one value
+// per displacement sample, got 9 for 10", "time[3]: must increase strictly", "normal_force[5]: must
+// be in [0, 1000000000]", "displacement: spans only 1e-160 m (samples 3 and 7) ...") or the option
+// ("reversal_threshold", "rig_compliance", "normal_force", the tolerances);
 // FailedPrecondition("displacement") when the samples hold no complete cycle (two upper
 // reversals with a lower one between them). The interrupt is checked every 65536 samples.
 Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions& options,
