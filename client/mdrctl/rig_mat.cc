@@ -1,6 +1,7 @@
 // A test rig's MATLAB file (rig_csv.h): the selected variables through matio, checked before
 // their data is read (class, shape, size), converted to SI.
 #include <matio.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <charconv>
@@ -375,6 +376,9 @@ class Mat5Elements {
           return parts;
         }
       }
+      if (tag->type == kCompressed) {
+        if (mdr::Status stream = CheckCompressed(*tag, variable); !stream.ok()) return stream;
+      }
       at = tag->type == kCompressed ? tag->end : Padded(tag->end);
     }
     return mdr::OkStatus();
@@ -394,6 +398,45 @@ class Mat5Elements {
     std::streamoff end;    // of the element, before its padding
   };
   static std::streamoff Padded(std::streamoff at) { return (at + 7) / 8 * 8; }
+
+  // A compressed variable is one zlib stream that must end within its element: matio reports a
+  // corrupt one as a file without variables. Inflated and discarded here, a chunk at a time.
+  mdr::Status CheckCompressed(const Tag& tag, int variable) {
+    auto corrupt = [&](const std::string& why) {
+      return mdr::InvalidArgument(path_, "its variable number " + std::to_string(variable) +
+                                             " (from byte " + std::to_string(tag.data - 8) +
+                                             ") is compressed and its data is corrupt (" + why +
+                                             "); the file is damaged");
+    };
+    z_stream stream{};
+    if (inflateInit(&stream) != Z_OK) return corrupt("zlib cannot start");
+    std::vector<unsigned char> input(1 << 16), output(1 << 16);
+    std::streamoff at = tag.data;
+    int result = Z_OK;
+    while (result != Z_STREAM_END) {
+      if (stream.avail_in == 0) {
+        const std::streamoff chunk =
+            std::min<std::streamoff>(tag.end - at, static_cast<std::streamoff>(input.size()));
+        if (chunk <= 0) break;
+        if (!in_.seekg(at) || !in_.read(reinterpret_cast<char*>(input.data()), chunk)) {
+          in_.clear();
+          break;
+        }
+        at += chunk;
+        stream.next_in = input.data();
+        stream.avail_in = static_cast<uInt>(chunk);
+      }
+      stream.next_out = output.data();
+      stream.avail_out = static_cast<uInt>(output.size());
+      result = inflate(&stream, Z_NO_FLUSH);
+      if (result != Z_OK && result != Z_STREAM_END) break;
+    }
+    const std::string message = stream.msg != nullptr ? stream.msg : "";
+    inflateEnd(&stream);
+    if (result == Z_STREAM_END) return mdr::OkStatus();
+    if (result == Z_OK || result == Z_BUF_ERROR) return corrupt("its zlib stream ends early");
+    return corrupt("zlib: " + (message.empty() ? std::to_string(result) : message));
+  }
 
   std::optional<std::uint32_t> Word(std::streamoff at) {
     std::uint32_t word;

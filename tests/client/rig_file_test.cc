@@ -396,6 +396,25 @@ TEST_F(RigFileTest, ACorruptByteCountOrDimensionIsRefusedBeforeMatioReadsIt) {
   }
 }
 
+// Issue #48: matio reported a corrupt zlib stream as a file without the variable ("its variables
+// are none"); the stream is inflated before matio reads it and refused as corrupt.
+TEST_F(RigFileTest, ACorruptCompressedVariableIsRefusedAsCorrupt) {
+  {
+    MatWriter mat(Path("z.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    WriteColumns(mat, MAT_COMPRESSION_ZLIB);
+  }
+  std::ifstream in(Path("z.mat"), std::ios::binary);
+  std::string bytes(std::istreambuf_iterator<char>(in), {});
+  ASSERT_TRUE(ReadRigFile(Path("z.mat").string(), Layout()).ok());
+  // Inside the first variable's zlib stream: after the header, its tag and zlib's own header.
+  for (std::size_t i = 128 + 8 + 4; i < 128 + 8 + 12; ++i) bytes[i] = static_cast<char>(0xff);
+  std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_THAT(ReadError("corrupt.mat").message(),
+              HasSubstr("its variable number 1 (from byte 128) is compressed and its data is "
+                        "corrupt"));
+}
+
 // The same rows with LF or CRLF line ends, a byte order mark, and cells long enough that rows
 // straddle the reader's 64 KiB blocks: the same samples and lines.
 TEST_F(RigFileTest, CsvRowsAcrossBlocksAndLineEndsReadTheSame) {
