@@ -438,7 +438,7 @@ class AnalysisTest(unittest.TestCase):
             self.client.analyze_loops(u, f)
         self.assertEqual(raised.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
         self.assertEqual(raised.exception.field, "samples.displacement[12]")
-        self.assertIn("finite", raised.exception.message)
+        self.assertIn("must be in [-1, 1], got nan", raised.exception.message)
         with self.assertRaises(mdr.MdrError) as raised:
             self.client.analyze_loops(self.loops.actuator, f[:-1])
         self.assertEqual(raised.exception.field, "samples.tangential_force")
