@@ -70,7 +70,9 @@ Executor::~Executor() { Stop(); }
 const std::string& Executor::CurrentCaller() { return current_caller; }
 
 Executor::Admission Executor::Submit(std::string_view caller, std::string_view strand, Task task) {
-  bool newcomer = false;  // nothing of the caller's runs: the reserve may take it
+  // Nothing of the caller's runs and every worker is busy: the reserve may take it. While a
+  // worker is free no reserve thread is woken (a rig's sequential calls would wake one each).
+  bool newcomer = false;
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return Admission::kStopped;
@@ -109,7 +111,7 @@ Executor::Admission Executor::Submit(std::string_view caller, std::string_view s
     if (!new_strand || ClaimedLocked(queue, key)) return Admission::kQueued;
     queue.ready.push_back(std::move(key));
     if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
-    newcomer = queue.running == 0;
+    newcomer = queue.running == 0 && workers_running_ >= workers_.size();
   }
   wakeup_.notify_one();
   if (newcomer) reserve_wakeup_.notify_one();
@@ -156,7 +158,7 @@ bool Executor::TryRunInline(std::string_view caller, std::string_view strand,
     // Submitted while it ran: the strand's tasks go to the workers now.
     queue.ready.emplace_back(strand);
     if (queue.ready.size() == 1) ready_callers_.push_back(it->first);
-    newcomer = queue.running == 0;
+    newcomer = queue.running == 0 && workers_running_ >= workers_.size();
   }
   wakeup_.notify_one();
   if (newcomer) reserve_wakeup_.notify_one();
@@ -291,8 +293,11 @@ void Executor::Work(bool reserve) {
     --queued_;
     ++queue.running;
     ++running_;
-    if (!reserve) ++workers_running_;
+    // The last free worker taken while tasks wait: a newcomer among them is the reserve's now.
+    const bool saturated =
+        !reserve && ++workers_running_ == workers_.size() && !ready_callers_.empty();
     lock.unlock();
+    if (saturated) reserve_wakeup_.notify_one();
     current_caller = caller;
     task();
     task = nullptr;  // destroyed outside the lock

@@ -1139,13 +1139,11 @@ Status Journal::EnsureFilesAreOurs(const char* what) {
   }
   std::string which;
   if (FilesAreOurs(&which)) return OkStatus();
-  {
-    spdlog::error(
-        "event=journal_error path={} error=\"{} was deleted or replaced while mdrd had it open; "
-        "rewriting the journal from the open files\"",
-        options_.path, which);
-    if (Reestablish(which).ok()) return OkStatus();
-  }
+  spdlog::error(
+      "event=journal_error path={} error=\"{} was deleted or replaced while mdrd had it open; "
+      "rewriting the journal from the open files\"",
+      options_.path, which);
+  if (Reestablish(which).ok()) return OkStatus();
   return WriteError(what, "its file " + which +
                               " was deleted or replaced while mdrd had it open, and the journal "
                               "cannot be rewritten there yet; what was acknowledged is kept in "
