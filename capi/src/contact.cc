@@ -49,57 +49,6 @@ CallStatus CreateContact(const v1::Scene& scene, mdr_contact** out) {
   return OkStatus();
 }
 
-// A core step of a control pair: the proto's semantics (ToCoreStep; HOLD is an unset channel).
-// The enum values are the proto Step's field numbers.
-Result<Step> ToStep(int normal_control, double normal_value, int tangential_control,
-                    double tangential_value) {
-  v1::Step step;
-  switch (normal_control) {
-    case MDR_NORMAL_HOLD:
-      break;
-    case MDR_NORMAL_DEPTH:
-      step.set_depth(normal_value);
-      break;
-    case MDR_NORMAL_DEPTH_INCREMENT:
-      step.set_depth_increment(normal_value);
-      break;
-    case MDR_NORMAL_FORCE:
-      step.set_normal_force(normal_value);
-      break;
-    default:
-      return InvalidArgument("normal_control",
-                             "must be MDR_NORMAL_HOLD (0), _DEPTH (1), _DEPTH_INCREMENT (2) or "
-                             "_FORCE (3), got " +
-                                 std::to_string(normal_control));
-  }
-  switch (tangential_control) {
-    case MDR_TANGENTIAL_HOLD:
-      break;
-    case MDR_TANGENTIAL_DISPLACEMENT:
-      step.set_displacement(tangential_value);
-      break;
-    case MDR_TANGENTIAL_DISPLACEMENT_INCREMENT:
-      step.set_displacement_increment(tangential_value);
-      break;
-    case MDR_TANGENTIAL_FORCE:
-      step.set_tangential_force(tangential_value);
-      break;
-    default:
-      return InvalidArgument("tangential_control",
-                             "must be MDR_TANGENTIAL_HOLD (0), _DISPLACEMENT (4), "
-                             "_DISPLACEMENT_INCREMENT (5) or _FORCE (6), got " +
-                                 std::to_string(tangential_control));
-  }
-  // A held channel has no value: a non-zero one is a caller's mistake, not something to ignore.
-  if (normal_control == MDR_NORMAL_HOLD && normal_value != 0) {
-    return InvalidArgument("normal_value", "must be 0 with MDR_NORMAL_HOLD");
-  }
-  if (tangential_control == MDR_TANGENTIAL_HOLD && tangential_value != 0) {
-    return InvalidArgument("tangential_value", "must be 0 with MDR_TANGENTIAL_HOLD");
-  }
-  return service::ToCoreStep(step);
-}
-
 // The core names a step's value by its proto field ("depth", "tangential_force"); the C caller
 // passed it as normal_value or tangential_value, which the error names instead.
 Status ToArgumentStatus(const Status& status, const Step& step) {
@@ -112,14 +61,20 @@ Status ToArgumentStatus(const Status& status, const Step& step) {
 
 CallStatus Step(mdr_contact* handle, int normal_control, double normal_value,
                 int tangential_control, double tangential_value, mdr_step_report* report) {
-  if (Status s = RequireNonNull(handle, "contact"); !s.ok()) return s;
-  if (Status s = CheckStepCount(handle->applied_steps, "contact"); !s.ok()) return s;
-  Result<mdr::Step> step =
-      ToStep(normal_control, normal_value, tangential_control, tangential_value);
-  if (!step.ok()) return step.status();
+  // The checks build no Status unless they fail: this is a rig loop's hot path.
+  if (handle == nullptr) return RequireNonNull(handle, "contact");
+  if (handle->applied_steps >= Session::kMaxAppliedSteps) {
+    return CheckStepCount(handle->applied_steps, "contact");
+  }
+  StepControls controls;
+  if (!DecodeStepControls(normal_control, normal_value, tangential_control, tangential_value,
+                          &controls)) {
+    return StepControlsError(normal_control, normal_value, tangential_control, tangential_value);
+  }
+  const mdr::Step step = controls.ToCoreStep();
   StepReport core_report;
-  if (Status s = handle->contact.Apply(*step, &core_report); !s.ok()) {
-    return ToArgumentStatus(s, *step);
+  if (Status s = handle->contact.Apply(step, &core_report); !s.ok()) {
+    return ToArgumentStatus(s, step);
   }
   ++handle->applied_steps;
   if (report != nullptr) {
@@ -265,6 +220,19 @@ using mdr::capi::CallStatus;
 
 int mdr_version(void) { return MDR_C_API_VERSION; }
 
+int mdr_api_revision(void) { return MDR_C_API_REVISION; }
+
+size_t mdr_struct_size(int id) {
+  switch (id) {
+    case MDR_STRUCT_STATE:
+      return sizeof(mdr_state);
+    case MDR_STRUCT_STEP_REPORT:
+      return sizeof(mdr_step_report);
+    default:
+      return 0;
+  }
+}
+
 const char* mdr_version_string(void) { return MDR_C_VERSION_STRING; }
 
 int mdr_contact_create(const void* scene, size_t size, mdr_contact** out) {
@@ -295,8 +263,8 @@ int mdr_contact_step(mdr_contact* contact, int normal_control, double normal_val
 
 int mdr_contact_state(const mdr_contact* contact, mdr_state* out) {
   return Boundary("mdr_contact_state", [&]() -> CallStatus {
-    if (mdr::Status s = mdr::capi::RequireNonNull(contact, "contact"); !s.ok()) return s;
-    if (mdr::Status s = mdr::capi::RequireNonNull(out, "out"); !s.ok()) return s;
+    if (contact == nullptr) return mdr::capi::RequireNonNull(contact, "contact");
+    if (out == nullptr) return mdr::capi::RequireNonNull(out, "out");
     mdr::capi::ReadState(contact->contact, contact->applied_steps, out);
     return mdr::OkStatus();
   });

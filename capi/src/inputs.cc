@@ -57,7 +57,12 @@ Result<SceneText> ParseSceneText(const char* text, const char* name) {
   if (Status s = RequireNonNull(text, "text"); !s.ok()) return s;
   Result<client::SceneDocument> document =
       client::SceneDocument::Parse(text, name != nullptr ? name : "scene");
-  if (!document.ok()) return document.status();
+  if (!document.ok()) {
+    // A syntax error belongs to no field of the scene: it is the text argument's.
+    const Status& s = document.status();
+    if (s.field().empty()) return Status(s.code(), "text", s.message());
+    return s;
+  }
   if (!document->file().has_scene()) {
     return document->Error("scene", "required: the scene file has no scene");
   }
@@ -112,6 +117,32 @@ void ReadState(const Contact& c, std::uint64_t applied_steps, mdr_state* out) {
                    .last_step_dissipation = c.last_step_dissipation(),
                    .applied_steps = applied_steps,
                    .memory_vertices = c.memory().vertex_count()};
+}
+
+Status StepControlsError(int normal_control, double normal_value, int tangential_control,
+                         double tangential_value) {
+  std::optional<NormalControl> normal;
+  std::optional<TangentialControl> tangential;
+  if (!DecodeNormalControl(normal_control, &normal)) {
+    return InvalidArgument("normal_control",
+                           "must be MDR_NORMAL_HOLD (0), _DEPTH (1), _DEPTH_INCREMENT (2) or "
+                           "_FORCE (3), got " +
+                               std::to_string(normal_control));
+  }
+  if (!DecodeTangentialControl(tangential_control, &tangential)) {
+    return InvalidArgument("tangential_control",
+                           "must be MDR_TANGENTIAL_HOLD (0), _DISPLACEMENT (1), "
+                           "_DISPLACEMENT_INCREMENT (2) or _FORCE (3), got " +
+                               std::to_string(tangential_control));
+  }
+  // A held channel has no value: a non-zero one is a caller's mistake, not something to ignore.
+  if (!normal && normal_value != 0) {
+    return InvalidArgument("normal_value", "must be 0 with MDR_NORMAL_HOLD");
+  }
+  if (!tangential && tangential_value != 0) {
+    return InvalidArgument("tangential_value", "must be 0 with MDR_TANGENTIAL_HOLD");
+  }
+  return Internal("", "StepControlsError called for valid controls");
 }
 
 Status CheckStepCount(std::uint64_t applied_steps, const char* argument) {

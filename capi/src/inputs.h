@@ -65,6 +65,93 @@ CallStatus WriteMessage(const google::protobuf::Message& message, void* buffer,
 // The state record of a contact after applied_steps steps.
 void ReadState(const Contact& contact, std::uint64_t applied_steps, mdr_state* out);
 
+// The channels of a step as the caller chose them: a control per channel, or none (HOLD: the
+// channel stays, its value must be 0). The controls' values are checked here, the values by the
+// core (or the service's interface step).
+struct StepControls {
+  std::optional<NormalControl> normal;
+  double normal_value = 0;
+  std::optional<TangentialControl> tangential;
+  double tangential_value = 0;
+
+  // The core step: a held channel is an increment of 0 (the proto Step's unset channel).
+  Step ToCoreStep() const {
+    return Step{.normal = normal.value_or(NormalControl::kDepthIncrement),
+                .normal_value = normal_value,
+                .tangential = tangential.value_or(TangentialControl::kDisplacementIncrement),
+                .tangential_value = tangential_value};
+  }
+};
+// The controls' values: the tangential ones are 0..3; 4..6 (the proto Step's field numbers, the
+// values of the header's revision 1) are read as 1..3. Inline and without strings: a step's hot
+// path (docs/capi.md, "Timing").
+inline bool DecodeNormalControl(int control, std::optional<NormalControl>* out) {
+  switch (control) {
+    case MDR_NORMAL_HOLD:
+      *out = std::nullopt;
+      return true;
+    case MDR_NORMAL_DEPTH:
+      *out = NormalControl::kDepth;
+      return true;
+    case MDR_NORMAL_DEPTH_INCREMENT:
+      *out = NormalControl::kDepthIncrement;
+      return true;
+    case MDR_NORMAL_FORCE:
+      *out = NormalControl::kForce;
+      return true;
+    default:
+      return false;
+  }
+}
+inline bool DecodeTangentialControl(int control, std::optional<TangentialControl>* out) {
+  switch (control) {
+    case MDR_TANGENTIAL_HOLD:
+      *out = std::nullopt;
+      return true;
+    case MDR_TANGENTIAL_DISPLACEMENT:
+    case v1::Step::kDisplacementFieldNumber:
+      *out = TangentialControl::kDisplacement;
+      return true;
+    case MDR_TANGENTIAL_DISPLACEMENT_INCREMENT:
+    case v1::Step::kDisplacementIncrementFieldNumber:
+      *out = TangentialControl::kDisplacementIncrement;
+      return true;
+    case MDR_TANGENTIAL_FORCE:
+    case v1::Step::kTangentialForceFieldNumber:
+      *out = TangentialControl::kForce;
+      return true;
+    default:
+      return false;
+  }
+}
+static_assert(v1::Step::kDisplacementFieldNumber == 4 &&
+              v1::Step::kDisplacementIncrementFieldNumber == 5 &&
+              v1::Step::kTangentialForceFieldNumber == 6);
+
+// A step's controls and values, or false when a control is not one or a held channel has a
+// value other than 0 (StepControlsError then names the argument).
+inline bool DecodeStepControls(int normal_control, double normal_value, int tangential_control,
+                               double tangential_value, StepControls* out) {
+  out->normal_value = normal_value;
+  out->tangential_value = tangential_value;
+  return DecodeNormalControl(normal_control, &out->normal) &&
+         DecodeTangentialControl(tangential_control, &out->tangential) &&
+         (out->normal || normal_value == 0) && (out->tangential || tangential_value == 0);
+}
+// The error of arguments DecodeStepControls refused, naming normal_control, tangential_control,
+// normal_value or tangential_value.
+Status StepControlsError(int normal_control, double normal_value, int tangential_control,
+                         double tangential_value);
+inline Result<StepControls> ReadStepControls(int normal_control, double normal_value,
+                                             int tangential_control, double tangential_value) {
+  StepControls controls;
+  if (DecodeStepControls(normal_control, normal_value, tangential_control, tangential_value,
+                         &controls)) {
+    return controls;
+  }
+  return StepControlsError(normal_control, normal_value, tangential_control, tangential_value);
+}
+
 // FAILED_PRECONDITION naming `argument` once applied_steps reached the session's limit.
 Status CheckStepCount(std::uint64_t applied_steps, const char* argument);
 

@@ -79,41 +79,35 @@ CallStatus Restore(const void* bytes, std::size_t size, mdr_interface** out) {
 Result<v1::Step> ToProtoStep(int normal_control, double normal_value, int tangential_control,
                              double tangential_value, const double* normal_values,
                              const double* tangential_values, std::size_t n) {
-  v1::Step step;
-  switch (normal_control) {
-    case MDR_NORMAL_HOLD:
-      if (normal_value != 0) return InvalidArgument("normal_value", "must be 0 with HOLD");
-      break;
-    case MDR_NORMAL_DEPTH:
-      step.set_depth(normal_value);
-      break;
-    case MDR_NORMAL_DEPTH_INCREMENT:
-      step.set_depth_increment(normal_value);
-      break;
-    case MDR_NORMAL_FORCE:
-      step.set_normal_force(normal_value);
-      break;
-    default:
-      return InvalidArgument("normal_control", "must be 0, 1, 2 or 3 (mdr_normal_control), got " +
-                                                   std::to_string(normal_control));
+  Result<StepControls> controls =
+      ReadStepControls(normal_control, normal_value, tangential_control, tangential_value);
+  if (!controls.ok()) return controls.status();
+  v1::Step step;  // a held channel stays unset
+  if (controls->normal) {
+    switch (*controls->normal) {
+      case NormalControl::kDepth:
+        step.set_depth(normal_value);
+        break;
+      case NormalControl::kDepthIncrement:
+        step.set_depth_increment(normal_value);
+        break;
+      case NormalControl::kForce:
+        step.set_normal_force(normal_value);
+        break;
+    }
   }
-  switch (tangential_control) {
-    case MDR_TANGENTIAL_HOLD:
-      if (tangential_value != 0) return InvalidArgument("tangential_value", "must be 0 with HOLD");
-      break;
-    case MDR_TANGENTIAL_DISPLACEMENT:
-      step.set_displacement(tangential_value);
-      break;
-    case MDR_TANGENTIAL_DISPLACEMENT_INCREMENT:
-      step.set_displacement_increment(tangential_value);
-      break;
-    case MDR_TANGENTIAL_FORCE:
-      step.set_tangential_force(tangential_value);
-      break;
-    default:
-      return InvalidArgument("tangential_control",
-                             "must be 0, 4, 5 or 6 (mdr_tangential_control), got " +
-                                 std::to_string(tangential_control));
+  if (controls->tangential) {
+    switch (*controls->tangential) {
+      case TangentialControl::kDisplacement:
+        step.set_displacement(tangential_value);
+        break;
+      case TangentialControl::kDisplacementIncrement:
+        step.set_displacement_increment(tangential_value);
+        break;
+      case TangentialControl::kForce:
+        step.set_tangential_force(tangential_value);
+        break;
+    }
   }
   if (normal_values != nullptr)
     step.mutable_contact_normal_values()->Add(normal_values, normal_values + n);

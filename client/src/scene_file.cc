@@ -151,7 +151,7 @@ Status ParseYamlMessage(const std::string& text, google::protobuf::Message* mess
 
 Result<SceneDocument> SceneDocument::Load(const std::string& path) {
   std::ifstream in(path);
-  if (!in) return InvalidArgument(path, "cannot open the scene file");
+  if (!in) return InvalidArgument("", path + ": cannot open the scene file");
   std::stringstream text;
   text << in.rdbuf();
   return Parse(text.str(), path);
@@ -161,7 +161,9 @@ Result<SceneDocument> SceneDocument::Parse(const std::string& text, const std::s
   SceneDocument document;
   document.name_ = name;
   auto json = YamlToJson(text, &document.lines_);
-  if (!json.ok()) return InvalidArgument(name, json.status().message());
+  // A syntax error is the document's, not a field's: the field stays empty and the message
+  // names the document and the line.
+  if (!json.ok()) return InvalidArgument("", name + ": " + std::string(json.status().message()));
   const Status parsed = ParseJson(*json, &document.file_);
   if (!parsed.ok()) return document.Error(parsed.field(), parsed.message());
   return document;

@@ -10,6 +10,7 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mdr/mdr.h"
@@ -155,6 +156,11 @@ TEST(CapiCreate, InvalidScenesNameTheField) {
   ExpectError(mdr_contact_create_from_text(kScene, nullptr, nullptr), MDR_INVALID_ARGUMENT, "out");
   ExpectError(mdr_contact_create_from_text("path: []", "x.yaml", &contact), MDR_INVALID_ARGUMENT,
               "scene");
+  // A YAML syntax error is the text's, located by line and column; the file is not a field.
+  ExpectError(mdr_contact_create_from_text("scene: [1, 2\n", "broken.yaml", &contact),
+              MDR_INVALID_ARGUMENT, "text");
+  EXPECT_NE(std::string(mdr_last_error_message()).find("broken.yaml: line "), std::string::npos)
+      << mdr_last_error_message();
   ExpectError(mdr_contact_create("\xff\xff\xff", 3, &contact), MDR_INVALID_ARGUMENT, "scene");
   ExpectError(mdr_contact_create(nullptr, 4, &contact), MDR_INVALID_ARGUMENT, "scene");
   // An empty Scene has no profile.
@@ -315,7 +321,7 @@ TEST_F(CapiTest, BadStepsNameTheArgumentAndChangeNothing) {
   ExpectError(Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 31), MDR_FAILED_PRECONDITION,
               "tangential_value");
   ExpectError(Step(7, 0, MDR_TANGENTIAL_HOLD, 0), MDR_INVALID_ARGUMENT, "normal_control");
-  ExpectError(Step(MDR_NORMAL_HOLD, 0, 3, 0), MDR_INVALID_ARGUMENT, "tangential_control");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, 7, 0), MDR_INVALID_ARGUMENT, "tangential_control");
   ExpectError(Step(MDR_NORMAL_HOLD, 1e-6, MDR_TANGENTIAL_HOLD, 0), MDR_INVALID_ARGUMENT,
               "normal_value");
   ExpectUnchanged(before);
@@ -448,6 +454,75 @@ TEST_F(CapiTest, SteadyForceFrettingAllocatesNothing) {
   };
   cycles(2);
   EXPECT_EQ(CountAllocations([&] { cycles(500); }), 0);
+}
+
+// The buffers a step reuses are the handle's, not the thread's: a handle warmed up on one thread
+// steps without allocating on any other, from its very first step there (LabVIEW runs a call in
+// any thread of its pool). Each new thread runs a cycle by displacement targets and one by
+// tangential force, counted from the first step.
+TEST_F(CapiTest, AWarmHandleAllocatesNothingOnANewThread) {
+  constexpr int kPerCycle = 200;
+  auto cycle = [&] {
+    for (int i = 0; i < kPerCycle; ++i) {
+      const double phase = std::sin(2 * std::numbers::pi * (i + 1) / kPerCycle);
+      if (Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, 1e-6 * phase) != MDR_OK) {
+        ADD_FAILURE() << mdr_last_error_message();
+        return;
+      }
+    }
+    for (int i = 0; i < kPerCycle; ++i) {
+      const double phase = std::sin(2 * std::numbers::pi * (i + 1) / kPerCycle);
+      if (Step(MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_FORCE, 15 * phase) != MDR_OK) {
+        ADD_FAILURE() << mdr_last_error_message();
+        return;
+      }
+    }
+  };
+  cycle();
+  cycle();
+  for (int thread = 0; thread < 4; ++thread) {
+    long counted = -1;
+    std::thread([&] { counted = CountAllocations(cycle); }).join();
+    EXPECT_EQ(counted, 0) << "thread " << thread;
+  }
+  EXPECT_EQ(State().applied_steps, 1u + 6u * 2 * kPerCycle);
+}
+
+// The tangential controls are numbered 0..3; 4..6, the values of the header's revision 1 (the
+// proto Step's field numbers), still mean the same controls, bit for bit.
+TEST_F(CapiTest, RevisionOneControlValuesStillMeanTheSame) {
+  mdr_contact* other = nullptr;
+  ASSERT_EQ(mdr_contact_create_from_text(kScene, "h1.yaml", &other), MDR_OK);
+  ASSERT_EQ(mdr_contact_step(other, MDR_NORMAL_FORCE, 100, MDR_TANGENTIAL_HOLD, 0, nullptr),
+            MDR_OK);
+  const int controls[][2] = {{MDR_TANGENTIAL_DISPLACEMENT, 4},
+                             {MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, 5},
+                             {MDR_TANGENTIAL_FORCE, 6}};
+  const double values[] = {4e-7, -1e-7, -5};
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_EQ(controls[k][0], k + 1);
+    ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, controls[k][0], values[k]), MDR_OK);
+    ASSERT_EQ(mdr_contact_step(other, MDR_NORMAL_HOLD, 0, controls[k][1], values[k], nullptr),
+              MDR_OK);
+  }
+  std::size_t size = 0;
+  ASSERT_EQ(mdr_contact_snapshot(other, nullptr, 0, &size), MDR_OUT_OF_RANGE);
+  std::vector<unsigned char> bytes(size);
+  ASSERT_EQ(mdr_contact_snapshot(other, bytes.data(), size, &size), MDR_OK);
+  EXPECT_EQ(bytes, Snapshot());
+  mdr_contact_destroy(other);
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, 7, 0), MDR_INVALID_ARGUMENT, "tangential_control");
+}
+
+// A caller that declares the structs itself checks their layout against the library's.
+TEST(CapiVersion, StructSizesAndRevisionAreReported) {
+  EXPECT_EQ(mdr_version(), MDR_C_API_VERSION);
+  EXPECT_EQ(mdr_api_revision(), MDR_C_API_REVISION);
+  EXPECT_EQ(mdr_struct_size(MDR_STRUCT_STATE), 96u);
+  EXPECT_EQ(mdr_struct_size(MDR_STRUCT_STEP_REPORT), 24u);
+  EXPECT_EQ(mdr_struct_size(0), 0u);
+  EXPECT_EQ(mdr_struct_size(99), 0u);
+  EXPECT_TRUE(MDR_LAYOUT_MATCHES());
 }
 
 }  // namespace

@@ -15,7 +15,7 @@
 //
 // Formats (one line each, values as the 16 upper-case hex digits of a double's bits):
 //   history.txt:   NORMAL_CONTROL NORMAL_VALUE TANGENTIAL_CONTROL TANGENTIAL_VALUE
-//                  (controls as the mdr.h enum numbers, i.e. the proto Step's field numbers)
+//                  (controls as the mdr.h enum numbers: 0..3 for each channel)
 //   reference.txt: "S depth ux a F_N F_x W" after every step of the history, then again after
 //                  every step from kRestoreAt on, continued from snapshot.pb; then of the final
 //                  state "K k+ k-", "J count edge_weight" and count lines "W r_begin r_end weight",
@@ -51,7 +51,7 @@ constexpr int kRestoreAt = 100;
 constexpr char kSessionId[] = "capi";
 constexpr char kSessionName[] = "sessions/capi";
 
-// One step of the history, with the mdr.h control numbers (= the proto Step's field numbers).
+// One step of the history, with the mdr.h control numbers (0 holds; 1..3 for each channel).
 struct HistoryStep {
   int normal_control;
   double normal_value;
@@ -66,15 +66,15 @@ std::vector<HistoryStep> History() {
   std::vector<HistoryStep> steps{{3, 100, 0, 0}};
   constexpr int kPerCycle = 40;
   for (int i = 1; i <= 3 * kPerCycle; ++i) {
-    steps.push_back({0, 0, 4, 1e-6 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
+    steps.push_back({0, 0, 1, 1e-6 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
   }
   for (int i = 1; i <= 2 * kPerCycle; ++i) {
-    steps.push_back({0, 0, 6, 15 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
+    steps.push_back({0, 0, 3, 15 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
   }
-  steps.push_back({3, 120, 6, 10});
-  for (int i = 0; i < 10; ++i) steps.push_back({2, 1e-8, 5, -2e-8});
-  steps.push_back({3, 100, 6, 15});
-  steps.push_back({1, 3e-6, 5, 1e-7});
+  steps.push_back({3, 120, 3, 10});
+  for (int i = 0; i < 10; ++i) steps.push_back({2, 1e-8, 2, -2e-8});
+  steps.push_back({3, 100, 3, 15});
+  steps.push_back({1, 3e-6, 2, 1e-7});
   return steps;
 }
 
@@ -102,13 +102,13 @@ v1::Step ToProto(const HistoryStep& s) {
       break;
   }
   switch (s.tangential_control) {
-    case 4:
+    case 1:
       step.set_displacement(s.tangential_value);
       break;
-    case 5:
+    case 2:
       step.set_displacement_increment(s.tangential_value);
       break;
-    case 6:
+    case 3:
       step.set_tangential_force(s.tangential_value);
       break;
     default:
@@ -260,10 +260,10 @@ std::vector<ListStep> ListHistory() {
   std::vector<ListStep> steps{{1, 0, {3.5e-6, 2e-6, 1e-6}, {0, 0, 0}}};
   for (int k = 1; k <= 40; ++k) {
     const double s = std::sin(2 * std::numbers::pi * k / 20);
-    steps.push_back({0, 4, {0, 0, 0}, {8e-7 * s, 4e-7 * s, 1e-7 * s}});
+    steps.push_back({0, 1, {0, 0, 0}, {8e-7 * s, 4e-7 * s, 1e-7 * s}});
   }
-  steps.push_back({3, 6, {100, 50, 20}, {10, -5, 2}});
-  for (int k = 0; k < 5; ++k) steps.push_back({2, 5, {1e-8, -1e-8, 2e-8}, {-3e-8, 1e-8, 0}});
+  steps.push_back({3, 3, {100, 50, 20}, {10, -5, 2}});
+  for (int k = 0; k < 5; ++k) steps.push_back({2, 2, {1e-8, -1e-8, 2e-8}, {-3e-8, 1e-8, 0}});
   return steps;
 }
 

@@ -82,6 +82,7 @@ TEST(SceneFileTest, ErrorsNameFieldAndLine) {
   auto syntax = SceneDocument::Parse("scene: [1, 2\n", "f.yaml");
   ASSERT_FALSE(syntax.ok());
   EXPECT_THAT(syntax.status().ToString(), HasSubstr("f.yaml: line "));
+  EXPECT_EQ(syntax.status().field(), "");  // the document's error, not a field's
   auto scalar = SceneDocument::Parse("just text", "f.yaml");
   EXPECT_THAT(scalar.status().ToString(), HasSubstr("must be a mapping"));
   // yaml-cpp stops at its nesting limit with the message "bad file", as if it could not open it.

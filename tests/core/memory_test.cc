@@ -164,9 +164,10 @@ TEST(MemoryTest, IncrementForIntegralUGivesTheTargetAfterTheStep) {
       };
       const double lo = integral_after(memory.GrossSlipIncrement(depth1, m, -1));
       const double hi = integral_after(memory.GrossSlipIncrement(depth1, m, +1));
+      ForceSolveBuffers buffers;
       for (double q : {1e-9, 0.1, 0.5 + 0.4 * uniform(rng), 1 - 1e-9}) {
         const double target = lo + q * (hi - lo);
-        const double dux = memory.IncrementForIntegralU(depth1, m, *profile, target);
+        const double dux = memory.IncrementForIntegralU(depth1, m, *profile, target, buffers);
         ASSERT_LE(std::abs(integral_after(dux) - target), 1e-12 * std::max(-lo, hi))
             << profile->Describe() << " step " << i << " q " << q;
       }

@@ -131,7 +131,7 @@ void Step(mdr_contact* contact, FuzzedDataProvider& input) {
                                     MDR_NORMAL_FORCE, 42};
   static constexpr int kTangential[] = {MDR_TANGENTIAL_HOLD, MDR_TANGENTIAL_DISPLACEMENT,
                                         MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, MDR_TANGENTIAL_FORCE,
-                                        -1};
+                                        -1, 5 /* revision 1's displacement increment */};
   const int normal = input.PickValueInArray(kNormal);
   const double normal_value =
       normal == MDR_NORMAL_HOLD && input.ConsumeBool() ? 0 : AnyDouble(input);

@@ -462,7 +462,7 @@ TEST_F(JournalTest, DeletedFilesAreRewrittenWithEveryAcknowledgedBatch) {
         ASSERT_TRUE(std::filesystem::remove(options.path + suffix)) << suffix;
       }
       ApplyRandomBatches(*operations, "sessions/a", 5, random, "after");
-      for (const std::string& suffix : {"", "-wal", ".commit"}) {
+      for (const char* suffix : {"", "-wal", ".commit"}) {
         EXPECT_TRUE(std::filesystem::exists(options.path + suffix)) << suffix;
       }
       for (const std::string& suffix : deleted) {  // again, now without a write after it

@@ -43,6 +43,10 @@ extern "C" {
 /* The version of this interface. It changes only when a function's signature or a struct's
  * layout changes incompatibly; additions keep it. Compare with mdr_version() at run time. */
 #define MDR_C_API_VERSION 1
+/* The revision within that version: it counts additions (functions, enum values, structs). A
+ * caller that needs revision R checks mdr_api_revision() >= R. Revision 2: the tangential
+ * controls numbered 0..3 (4..6 still accepted), mdr_api_revision, mdr_struct_size. */
+#define MDR_C_API_REVISION 2
 
 /* Status codes: the numbers of the gRPC status codes the service answers with. */
 typedef enum mdr_status {
@@ -59,8 +63,10 @@ typedef enum mdr_status {
   MDR_DATA_LOSS = 15
 } mdr_status;
 
-/* How each channel of a step is driven; the numbers of the proto Step's fields. HOLD leaves the
- * channel where it is (the value must be 0). Increments are relative to the current state. */
+/* How each channel of a step is driven: 0..3 for each channel, so that a LabVIEW ring or a
+ * MATLAB index maps onto them directly. HOLD leaves the channel where it is (the value must be
+ * 0). Increments are relative to the current state. The tangential values 4, 5 and 6 of revision
+ * 1 (the proto Step's field numbers) are still accepted, meaning 1, 2 and 3. */
 typedef enum mdr_normal_control {
   MDR_NORMAL_HOLD = 0,
   MDR_NORMAL_DEPTH = 1,           /* target depth delta in m, finite */
@@ -70,9 +76,9 @@ typedef enum mdr_normal_control {
 
 typedef enum mdr_tangential_control {
   MDR_TANGENTIAL_HOLD = 0,
-  MDR_TANGENTIAL_DISPLACEMENT = 4,           /* target ux in m, finite */
-  MDR_TANGENTIAL_DISPLACEMENT_INCREMENT = 5, /* change of ux in m, finite */
-  MDR_TANGENTIAL_FORCE = 6                   /* target F_x in N, |F_x| <= mu F_N at the end */
+  MDR_TANGENTIAL_DISPLACEMENT = 1,           /* target ux in m, finite */
+  MDR_TANGENTIAL_DISPLACEMENT_INCREMENT = 2, /* change of ux in m, finite */
+  MDR_TANGENTIAL_FORCE = 3                   /* target F_x in N, |F_x| <= mu F_N at the end */
 } mdr_tangential_control;
 
 /* Routes of the surface tractions (the proto's TractionRoute). */
@@ -114,6 +120,24 @@ typedef struct mdr_contact mdr_contact;
 
 /* MDR_C_API_VERSION of the loaded library. */
 MDR_API int mdr_version(void);
+/* MDR_C_API_REVISION of the loaded library (since revision 2; a library of revision 1 lacks the
+ * symbol, which dlsym reports as missing). */
+MDR_API int mdr_api_revision(void);
+
+/* The structs whose layout is part of the interface, for mdr_struct_size. */
+typedef enum mdr_struct_id {
+  MDR_STRUCT_STATE = 1,       /* mdr_state */
+  MDR_STRUCT_STEP_REPORT = 2  /* mdr_step_report */
+} mdr_struct_id;
+/* The size in bytes of a struct as the loaded library lays it out (0 for an unknown id): a
+ * caller that declares the struct itself (LabVIEW's cluster, a ctypes Structure, a dlopen
+ * caller) compares it with its own size before the first call that fills one. */
+MDR_API size_t mdr_struct_size(int id);
+/* Nonzero when the loaded library lays out this header's structs as this header does. */
+#define MDR_LAYOUT_MATCHES()                                            \
+  (mdr_version() == MDR_C_API_VERSION &&                                \
+   mdr_struct_size(MDR_STRUCT_STATE) == sizeof(struct mdr_state) &&     \
+   mdr_struct_size(MDR_STRUCT_STEP_REPORT) == sizeof(struct mdr_step_report))
 /* The library's release, e.g. "0.1.0" (static storage). */
 MDR_API const char* mdr_version_string(void);
 

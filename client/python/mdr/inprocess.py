@@ -27,7 +27,7 @@ from .v1 import contact_service_pb2 as api
 
 _OUT_OF_RANGE = 11
 _NORMAL = {"depth": 1, "depth_increment": 2, "normal_force": 3}
-_TANGENTIAL = {"displacement": 4, "displacement_increment": 5, "tangential_force": 6}
+_TANGENTIAL = {"displacement": 1, "displacement_increment": 2, "tangential_force": 3}
 _ROUTES = {"both": 1, "abel": 2, "jager": 3}
 # The ContactState fields that mdr_state carries, in its order (mdr.h).
 _STATE_DOUBLES = ("depth", "tangential_displacement", "contact_radius", "normal_force",

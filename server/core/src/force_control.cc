@@ -52,7 +52,7 @@ Result<double> Contact::SolveTangentialIncrement(double depth1, double fx) const
   }
   const double target = fx / (2 * config_.material.g_star);  // integral_0^a u dx
   return grid ? grid->IncrementForIntegralU(depth1, m, target)
-              : memory().IncrementForIntegralU(depth1, m, *config_.profile, target);
+              : memory().IncrementForIntegralU(depth1, m, *config_.profile, target, solve_buffers_);
 }
 
 double Contact::SolveActuatorIncrement(double depth1, double u_act) const {
@@ -63,7 +63,8 @@ double Contact::SolveActuatorIncrement(double depth1, double u_act) const {
   const GridMemory* grid = grid_memory();
   return grid
              ? grid->IncrementForIntegralU(depth1, mu_kappa(), target, spring)
-             : memory().IncrementForIntegralU(depth1, mu_kappa(), *config_.profile, target, spring);
+             : memory().IncrementForIntegralU(depth1, mu_kappa(), *config_.profile, target,
+                                              solve_buffers_, spring);
 }
 
 double Contact::DepthAtActuatorDepth(double actuator) const {

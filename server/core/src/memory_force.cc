@@ -15,13 +15,7 @@ namespace {
 using internal::Interpolate;
 using internal::ValueAndSlope;
 
-// A vertex of the polyline before the step, with what the integral after the step needs of it.
-struct StepVertex {
-  double z, u, x;
-  double bound;          // b1 = CoulombBound(mu_kappa, depth1, z)
-  double up, lo;         // the dux at which it reaches the upper / lower bound: +-b1 - u
-  PieceIntegrals piece;  // J_0, J_1 of the segment to the next vertex
-};
+using Vertex = ForceSolveBuffers::Vertex;
 
 // integral_0^a1 u dx after a linear step from depth0 to depth1 with increment dux, as a function
 // of dux, with its slope. As the step does it (memory.cc, ShiftAndResize and the clamp), a spring
@@ -34,8 +28,8 @@ struct StepVertex {
 class IntegralAfterStep {
  public:
   IntegralAfterStep(const PiecewiseLinearMemory& memory, double depth1, double mu_kappa,
-                    const Profile& profile)
-      : depth1_(depth1), mu_kappa_(mu_kappa), profile_(profile), vertices_(Buffer()) {
+                    const Profile& profile, std::vector<Vertex>& vertices)
+      : depth1_(depth1), mu_kappa_(mu_kappa), profile_(profile), vertices_(vertices) {
     vertices_.clear();
     AddStayingSprings(memory);
     AddEnteringSprings(memory.depth());
@@ -63,15 +57,6 @@ class IntegralAfterStep {
   }
 
  private:
-  using Vertex = StepVertex;
-
-  // The vertices live in a per-thread buffer: a force-controlled step does not allocate once it
-  // has grown (the solve is not reentrant; each thread has its own).
-  static std::vector<Vertex>& Buffer() {
-    thread_local std::vector<Vertex> buffer;
-    return buffer;
-  }
-
   double Bound(double z) const { return CoulombBound(mu_kappa_, depth1_, z); }
 
   // Springs in [0, min(depth0, depth1)], the polyline cut at depth1 as the step cuts it.
@@ -168,14 +153,14 @@ class IntegralAfterStep {
 
 double PiecewiseLinearMemory::IncrementForIntegralU(double depth1, double mu_kappa,
                                                     const Profile& profile, double target,
+                                                    ForceSolveBuffers& buffers,
                                                     double spring) const {
   const double lo = GrossSlipIncrement(depth1, mu_kappa, -1);
   const double hi = GrossSlipIncrement(depth1, mu_kappa, +1);
   if (!(depth1 > 0)) return spring > 0 ? target / spring : 0;
-  const IntegralAfterStep integral(*this, depth1, mu_kappa, profile);
-  thread_local std::vector<double> breakpoints;  // as the vertices: no allocation once grown
-  integral.Breakpoints(breakpoints);
-  return internal::SolveWithSpring(integral, breakpoints, lo, hi, target, spring);
+  const IntegralAfterStep integral(*this, depth1, mu_kappa, profile, buffers.vertices);
+  integral.Breakpoints(buffers.breakpoints);
+  return internal::SolveWithSpring(integral, buffers.breakpoints, lo, hi, target, spring);
 }
 
 }  // namespace mdr

@@ -281,6 +281,9 @@ class Contact {
     std::variant<PiecewiseLinearMemory, GridMemory> memory;
   };
   UndoBuffer undo_;
+  // The force solves' work arrays: the contact's own, so that a handle warmed up on one thread
+  // steps without allocating on any other (a contact is used by one thread at a time).
+  mutable ForceSolveBuffers solve_buffers_;
 };
 
 // The Jäger picture and the tangential tractions are functions of the exact memory; the grid

@@ -106,6 +106,24 @@ struct MemoryPiece {
   BoundTag bound;
 };
 
+// The work arrays of a force-controlled step's solve (IncrementForIntegralU), kept by their owner
+// (a Contact) across steps: once grown, a solve allocates nothing, on whichever thread it runs.
+// Not part of any state: a copy starts empty.
+struct ForceSolveBuffers {
+  // A vertex of the polyline before the step, with what the integral after the step needs.
+  struct Vertex {
+    double z, u, x;
+    double bound;          // b1 = CoulombBound(mu_kappa, depth1, z)
+    double up, lo;         // the dux at which it reaches the upper / lower bound: +-b1 - u
+    PieceIntegrals piece;  // J_0, J_1 of the segment to the next vertex
+  };
+  ForceSolveBuffers() = default;
+  ForceSolveBuffers(const ForceSolveBuffers&) {}
+  ForceSolveBuffers& operator=(const ForceSolveBuffers&) { return *this; }
+  std::vector<Vertex> vertices;
+  std::vector<double> breakpoints;
+};
+
 // Slip state (docs/engine.md, "Slip state, decided structurally"): every segment of the polyline
 // is on the upper bound, on the lower one or sticking, and the vertex tags say which (a segment is
 // on a bound iff both its ends are tagged with it). The step decides this per segment from what
@@ -153,8 +171,10 @@ class PiecewiseLinearMemory {
   // (memory_force.cc). Targets beyond the range give its ends. With spring > 0 the solve is
   // of integral + spring * dux = target instead (a rig in series, Contact), which has one root
   // for every target: beyond gross slip the integral is constant.
+  // buffers: the solve's work arrays, kept by the caller across steps.
   double IncrementForIntegralU(double depth1, double mu_kappa, const Profile& profile,
-                               double target, double spring = 0) const;
+                               double target, ForceSolveBuffers& buffers,
+                               double spring = 0) const;
   // The pieces in x (one per polyline segment, plus the z = 0 atom of a flat punch when present).
   std::vector<MemoryPiece> Pieces(const Profile& profile) const;
 
