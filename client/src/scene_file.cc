@@ -111,13 +111,13 @@ Status ParserError(const std::string& error) {
   return InvalidArgument(field, match[3]);
 }
 
-Status ParseJson(const std::string& json, google::protobuf::Message* message) {
+}  // namespace
+
+Status ParseJsonMessage(const std::string& json, google::protobuf::Message* message) {
   const auto status = google::protobuf::util::JsonStringToMessage(json, message);
   if (status.ok()) return OkStatus();
   return ParserError(std::string(status.message()));
 }
-
-}  // namespace
 
 std::string DescribeYamlError(const YAML::Exception& error) {
   const auto* deep = dynamic_cast<const YAML::DeepRecursion*>(&error);
@@ -146,7 +146,7 @@ Status ParseYamlMessage(const std::string& text, google::protobuf::Message* mess
   std::map<std::string, int> lines;
   auto json = YamlToJson(text, &lines);
   if (!json.ok()) return json.status();
-  return ParseJson(*json, message);
+  return ParseJsonMessage(*json, message);
 }
 
 Result<SceneDocument> SceneDocument::Load(const std::string& path) {
@@ -164,7 +164,7 @@ Result<SceneDocument> SceneDocument::Parse(const std::string& text, const std::s
   // A syntax error is the document's, not a field's: the field stays empty and the message
   // names the document and the line.
   if (!json.ok()) return InvalidArgument("", name + ": " + std::string(json.status().message()));
-  const Status parsed = ParseJson(*json, &document.file_);
+  const Status parsed = ParseJsonMessage(*json, &document.file_);
   if (!parsed.ok()) return document.Error(parsed.field(), parsed.message());
   return document;
 }

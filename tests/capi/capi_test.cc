@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -512,6 +513,159 @@ TEST_F(CapiTest, RevisionOneControlValuesStillMeanTheSame) {
   EXPECT_EQ(bytes, Snapshot());
   mdr_contact_destroy(other);
   ExpectError(Step(MDR_NORMAL_HOLD, 0, 7, 0), MDR_INVALID_ARGUMENT, "tangential_control");
+}
+
+// ---- The analysis (mdr_analysis_run) on loops the library's own contact recorded ----
+
+// Three fretting cycles of H1 at F_N = 100 N by displacement targets, as JSON arrays of the
+// displacement and the tangential force (%.17g: every double exactly).
+struct RecordedLoops {
+  std::string displacement = "[", force = "[";
+};
+RecordedLoops RecordLoops(double amplitude = 1e-6) {
+  mdr_contact* contact = nullptr;
+  EXPECT_EQ(mdr_contact_create_from_text(kScene, "h1.yaml", &contact), MDR_OK);
+  EXPECT_EQ(mdr_contact_step(contact, MDR_NORMAL_FORCE, 100, MDR_TANGENTIAL_HOLD, 0, nullptr),
+            MDR_OK);
+  RecordedLoops loops;
+  char number[40];
+  for (int i = 0; i <= 300; ++i) {
+    const double ux = amplitude * std::sin(2 * std::numbers::pi * i / 100);
+    EXPECT_EQ(mdr_contact_step(contact, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, ux,
+                               nullptr),
+              MDR_OK);
+    mdr_state state;
+    mdr_contact_state(contact, &state);
+    const char* comma = i > 0 ? "," : "";
+    std::snprintf(number, sizeof number, "%s%.17g", comma, state.tangential_displacement);
+    loops.displacement += number;
+    std::snprintf(number, sizeof number, "%s%.17g", comma, state.tangential_force);
+    loops.force += number;
+  }
+  loops.displacement += "]";
+  loops.force += "]";
+  mdr_contact_destroy(contact);
+  return loops;
+}
+
+constexpr char kSceneJson[] =
+    R"({"sphere": {"radius": 0.01}, "elastic_pair": {"youngs_modulus_1": 210e9,
+        "poisson_ratio_1": 0.3, "youngs_modulus_2": 210e9, "poisson_ratio_2": 0.3},
+        "friction": 0.3})";
+
+std::string RunAnalysis(int analysis, const std::string& request, int expected = MDR_OK,
+                mdr_progress_callback progress = nullptr, void* user = nullptr) {
+  mdr_buffer* response = reinterpret_cast<mdr_buffer*>(1);
+  const int status = mdr_analysis_run(analysis, MDR_ENCODING_JSON, request.data(), request.size(),
+                                      progress, user, &response);
+  EXPECT_EQ(status, expected) << mdr_last_error_message();
+  if (status != MDR_OK) {
+    EXPECT_EQ(response, nullptr);
+    return "";
+  }
+  std::string json(static_cast<const char*>(mdr_buffer_data(response)), mdr_buffer_size(response));
+  EXPECT_EQ(std::strlen(static_cast<const char*>(mdr_buffer_data(response))), json.size());
+  mdr_buffer_destroy(response);
+  return json;
+}
+
+// Three cycles found, each with the loop's figures; the scene classifies them.
+TEST(CapiAnalysis, AnalyzesLoopsGivenAsJson) {
+  const RecordedLoops loops = RecordLoops();
+  const std::string json = RunAnalysis(
+      MDR_ANALYZE_LOOPS, R"({"samples": {"displacement": )" + loops.displacement +
+                             R"(, "tangential_force": )" + loops.force +
+                             R"(}, "options": {"normal_force": 100}, "scene": )" + kSceneJson + "}");
+  std::size_t cycles = 0;
+  for (std::size_t at = json.find("\"first_sample\""); at != std::string::npos;
+       at = json.find("\"first_sample\"", at + 1)) {
+    ++cycles;
+  }
+  EXPECT_GE(cycles, 2u) << json;
+  EXPECT_NE(json.find("\"regime\":\"REGIME_PARTIAL_SLIP\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"compute_seconds\""), std::string::npos);
+}
+
+// Bad requests are refused naming the argument or the request's field; nothing is returned.
+TEST(CapiAnalysis, BadRequestsNameTheField) {
+  mdr_buffer* response = reinterpret_cast<mdr_buffer*>(1);
+  ExpectError(mdr_analysis_run(0, MDR_ENCODING_JSON, "{}", 2, nullptr, nullptr, &response),
+              MDR_INVALID_ARGUMENT, "analysis");
+  EXPECT_EQ(response, nullptr);
+  ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, 7, "{}", 2, nullptr, nullptr, &response),
+              MDR_INVALID_ARGUMENT, "encoding");
+  ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, nullptr, 4, nullptr, nullptr,
+                               &response),
+              MDR_INVALID_ARGUMENT, "request");
+  ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, "{}", 2, nullptr, nullptr,
+                               nullptr),
+              MDR_INVALID_ARGUMENT, "response");
+  ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, "{oops", 5, nullptr, nullptr,
+                               &response),
+              MDR_INVALID_ARGUMENT, "request");
+  ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_PROTO, "\xff\xff\xff", 3, nullptr,
+                               nullptr, &response),
+              MDR_INVALID_ARGUMENT, "request");
+  EXPECT_EQ(response, nullptr);
+  // The service's checks, with its fields.
+  RunAnalysis(MDR_ANALYZE_LOOPS, R"({"samples": {"displacement": [0, 1e-6, 0], "tangential_force": [0]}})",
+      MDR_INVALID_ARGUMENT);
+  EXPECT_EQ(std::string(mdr_last_error_field()), "samples.tangential_force");
+  RunAnalysis(MDR_BACKBONE, std::string(R"({"scene": )") + kSceneJson +
+                        R"(, "normal_force": 100, "kind": "AMPLITUDE_KIND_FORCE", "amplitudes": [40]})",
+      MDR_INVALID_ARGUMENT);
+  EXPECT_EQ(std::string(mdr_last_error_field()).rfind("amplitudes", 0), 0u)
+      << mdr_last_error_field();
+  RunAnalysis(MDR_FRETTING_MAP, std::string(R"({"scene": )") + kSceneJson +
+                            R"(, "normal_forces": [100], "relative_amplitudes": [0]})",
+      MDR_INVALID_ARGUMENT);
+  EXPECT_EQ(std::string(mdr_last_error_field()).rfind("relative_amplitudes", 0), 0u)
+      << mdr_last_error_field();
+}
+
+// A backbone and a fretting map of the scene.
+TEST(CapiAnalysis, BackboneAndFrettingMap) {
+  const std::string backbone =
+      RunAnalysis(MDR_BACKBONE, std::string(R"({"scene": )") + kSceneJson +
+                            R"(, "normal_force": 100, "kind": "AMPLITUDE_KIND_FORCE",
+                               "amplitudes": [5, 15, 29]})");
+  EXPECT_NE(backbone.find("\"dissipated_energy\""), std::string::npos) << backbone;
+  const std::string map =
+      RunAnalysis(MDR_FRETTING_MAP, std::string(R"({"scene": )") + kSceneJson +
+                                R"(, "normal_forces": [50, 100], "relative_amplitudes": [0.5, 2]})");
+  EXPECT_NE(map.find("REGIME_GROSS_SLIP"), std::string::npos) << map;
+}
+
+std::string FitRequest(const RecordedLoops& loops) {
+  return std::string(R"({"scene": )") + kSceneJson + R"(, "sets": [{"samples": {"displacement": )" +
+         loops.displacement + R"(, "tangential_force": )" + loops.force +
+         R"(}, "normal_force": 100}], "free": [{"parameter": "FIT_PARAMETER_FRICTION",
+         "initial": 0.25, "lower": 0.05, "upper": 0.9}], "displacement_noise": 1e-9,
+         "force_noise": 0.01})";
+}
+
+// The fit reports its progress through the callback, and stops when the callback asks.
+TEST(CapiAnalysis, FitReportsProgressAndStopsWhenAsked) {
+  const RecordedLoops loops = RecordLoops();
+  struct Calls {
+    int count = 0;
+    int stop_at = 0;  // 0: never
+  };
+  auto progress = [](const void* message, size_t size, void* user) -> int {
+    Calls& calls = *static_cast<Calls*>(user);
+    ++calls.count;
+    const std::string json(static_cast<const char*>(message), size);
+    EXPECT_NE(json.find("\"iteration\""), std::string::npos) << json;
+    return calls.count == calls.stop_at ? 1 : 0;
+  };
+  Calls all;
+  const std::string result = RunAnalysis(MDR_FIT_LOOPS, FitRequest(loops), MDR_OK, progress, &all);
+  EXPECT_GT(all.count, 0);
+  EXPECT_NE(result.find("\"estimates\""), std::string::npos) << result;
+  Calls stopped{.stop_at = 1};
+  RunAnalysis(MDR_FIT_LOOPS, FitRequest(loops), MDR_CANCELLED, progress, &stopped);
+  EXPECT_EQ(stopped.count, 1);
+  EXPECT_EQ(std::string(mdr_last_error_field()), "progress");
 }
 
 // A caller that declares the structs itself checks their layout against the library's.

@@ -81,7 +81,41 @@ with local, mdr.Client.embedded(os.environ["MDRD"]) as server:
         except mdr.MdrError as error:
             assert error.field == "steps[1].depth", error.field
         assert s.export() == before
-print("in-process session identical to mdrd's")
+    # The analysis in process: the service's own operations, the same answers but for the time.
+    with local.session(H1) as s:
+        s.apply(LOAD)
+        ux = 1e-6 * np.sin(2 * np.pi * np.arange(301) / 100)
+        loop = s.apply([{"displacement": u} for u in ux])
+    u, fx = loop.tangential_displacement, loop.tangential_force
+    rng = np.random.default_rng(47)
+    u_noisy, fx_noisy = u + 5e-9 * rng.standard_normal(u.size), fx + 0.05 * rng.standard_normal(u.size)
+
+    def untimed(message):
+        message.compute_seconds = 0
+        return message.SerializeToString(deterministic=True)
+
+    answers = {}
+    for where, client in (("local", local), ("server", server)):
+        progress = []
+        answers[where] = {
+            "loops": client.analyze_loops(u_noisy, fx_noisy, 100, scene=H1).raw,
+            "fit": client.fit_loops(H1, [(u_noisy, fx_noisy, 100)],
+                                    {"friction": {"lower": 0.05, "upper": 0.9, "initial": 0.25}},
+                                    progress=lambda *p: progress.append(p)).raw,
+            "map": client.fretting_map(H1, [50, 100], [0.3, 1, 3]).raw,
+            "backbone": client.backbone(H1, 100, [5, 15, 25]).raw}
+        assert progress, f"{where}: no progress reported"
+    for name, answer in answers["local"].items():
+        assert answer.compute_seconds > 0, name
+        assert untimed(answer) == untimed(answers["server"][name]), name
+    assert len(answers["local"]["loops"].cycles) >= 2
+    assert answers["local"]["fit"].estimates[0].value > 0
+    try:
+        local.analyze_loops([0, 1e-6, 0], [0.0], None)
+        raise AssertionError("mismatched samples were accepted")
+    except mdr.MdrError as error:
+        assert error.field == "samples.tangential_force", error.field
+print("in-process session and analysis identical to mdrd's")
 '''
 
 

@@ -9,6 +9,14 @@
 //   capi_service_reference contact_list SCENE_FILE OUT_DIR
 //     the same for a contact list (an interface session of 3 contacts): list_history.txt and
 //     list_reference.txt.
+//   capi_service_reference analysis SCENE_FILE OUT_DIR
+//     records three noisy fretting loops of the scene's contact (the service's conversion, the
+//     core's steps, seeded noise) and writes a request of every analysis, analysis_K.request.pb
+//     (K: the mdr_analysis number), with the service's answer analysis_K.service.pb
+//     (compute_seconds 0, deterministic serialization).
+//   capi_service_reference compare_analysis OUT_DIR
+//     parses the library's answers analysis_K.library.pb (written by c_analysis.c) and checks
+//     that each, compute_seconds cleared, is the service's answer byte for byte.
 //   capi_service_reference import OUT_DIR SNAPSHOT
 //     imports a snapshot written by the library and checks that the service's export of it has
 //     the contact, scene and step count of final.pb: a state moves from the library to the service.
@@ -26,6 +34,8 @@
 //   list_reference.txt: after every step "S" and per contact "depth ux F_N F_x W", then "T F_N F_x
 //   W"
 //                  of the interface's totals
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <google/protobuf/util/message_differencer.h>
 
 #include <cinttypes>
@@ -35,11 +45,14 @@
 #include <fstream>
 #include <iostream>
 #include <numbers>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "mdr/client/scene_file.h"
+#include "mdr/service/analysis_ops.h"
+#include "mdr/service/conversion.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::capi_testing {
@@ -339,6 +352,133 @@ int CheckImport(const std::string& dir, const std::string& snapshot_path) {
   return same ? 0 : 1;
 }
 
+// The analyses the library offers, by their mdr_analysis numbers (mdr.h).
+constexpr int kAnalyzeLoops = 1, kFitLoops = 2, kFrettingMap = 3, kBackbone = 4;
+
+std::string AnalysisPath(const std::string& dir, int k, const char* what) {
+  return dir + "/analysis_" + std::to_string(k) + "." + what + ".pb";
+}
+
+std::string Deterministic(const google::protobuf::Message& message) {
+  std::string bytes;
+  google::protobuf::io::StringOutputStream stream(&bytes);
+  google::protobuf::io::CodedOutputStream coded(&stream);
+  coded.SetSerializationDeterministic(true);
+  message.SerializeToCodedStream(&coded);
+  coded.Trim();
+  return bytes;
+}
+
+// Three fretting cycles at F_N = 100 N, 100 samples a cycle, with a rig's noise: 5 nm on the
+// displacement, 0.05 N on the force (a fixed seed).
+Result<v1::LoopSamples> RecordLoops(const v1::Scene& scene) {
+  Result<ContactConfig> config = service::ToContactConfig(scene, 65536);
+  if (!config.ok()) return config.status();
+  Result<Contact> contact = Contact::Create(std::move(config).value());
+  if (!contact.ok()) return contact.status();
+  if (Status s = contact->Apply({.normal = NormalControl::kForce, .normal_value = 100}); !s.ok()) {
+    return s;
+  }
+  std::mt19937_64 random(47);
+  std::normal_distribution<double> noise(0, 1);
+  v1::LoopSamples samples;
+  for (int i = 0; i <= 300; ++i) {
+    const double ux = 1e-6 * std::sin(2 * std::numbers::pi * i / 100);
+    const Step step{.normal_value = 0,
+                    .tangential = TangentialControl::kDisplacement,
+                    .tangential_value = ux};
+    if (Status s = contact->Apply(step); !s.ok()) return s;
+    samples.add_displacement(contact->tangential_displacement() + 5e-9 * noise(random));
+    samples.add_tangential_force(contact->tangential_force() + 0.05 * noise(random));
+  }
+  return samples;
+}
+
+template <typename Request, typename Response, typename Run>
+bool WriteAnalysis(const std::string& dir, int k, const Request& request, Run run) {
+  Response response;
+  if (!Check(run(request, &response), "analysis")) return false;
+  response.set_compute_seconds(0);
+  return WriteFile(AnalysisPath(dir, k, "request"), request.SerializeAsString()) &&
+         WriteFile(AnalysisPath(dir, k, "service"), Deterministic(response));
+}
+
+int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
+  Result<client::SceneDocument> document = client::SceneDocument::Load(scene_file);
+  if (!Check(document.status(), "scene file")) return 1;
+  const v1::Scene& scene = document->file().scene();
+  Result<v1::LoopSamples> samples = RecordLoops(scene);
+  if (!Check(samples.status(), "recording the loops")) return 1;
+  const service::ServiceLimits limits;
+  const Interrupt never;
+
+  v1::AnalyzeLoopsRequest loops;
+  *loops.mutable_samples() = *samples;
+  *loops.mutable_scene() = scene;
+  loops.mutable_options()->set_normal_force(100);
+  v1::FitLoopsRequest fit;
+  *fit.mutable_scene() = scene;
+  v1::FitLoopsRequest::LoopSet* set = fit.add_sets();
+  *set->mutable_samples() = *samples;
+  set->set_normal_force(100);
+  v1::FitLoopsRequest::FreeParameter* free = fit.add_free();
+  free->set_parameter(v1::FIT_PARAMETER_FRICTION);
+  free->set_initial(0.25);
+  free->set_lower(0.05);
+  free->set_upper(0.9);
+  v1::FrettingMapRequest map;
+  *map.mutable_scene() = scene;
+  for (double f : {50.0, 100.0}) map.add_normal_forces(f);
+  for (double a : {0.3, 1.0, 3.0}) map.add_relative_amplitudes(a);
+  v1::BackboneRequest backbone;
+  *backbone.mutable_scene() = scene;
+  backbone.set_normal_force(100);
+  backbone.set_kind(v1::BackboneRequest::AMPLITUDE_KIND_FORCE);
+  for (double q : {5.0, 15.0, 25.0}) backbone.add_amplitudes(q);
+
+  const bool written =
+      WriteAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
+          dir, kAnalyzeLoops, loops,
+          [&](const auto& r, auto* out) { return service::RunAnalyzeLoops(r, limits, never, out); }) &&
+      WriteAnalysis<v1::FitLoopsRequest, v1::FitResult>(
+          dir, kFitLoops, fit,
+          [&](const auto& r, auto* out) {
+            return service::RunFitLoops(r, limits, never, [](const v1::FitProgress&) {}, out);
+          }) &&
+      WriteAnalysis<v1::FrettingMapRequest, v1::FrettingMapResponse>(
+          dir, kFrettingMap, map,
+          [&](const auto& r, auto* out) { return service::RunFrettingMap(r, limits, never, out); }) &&
+      WriteAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
+          dir, kBackbone, backbone,
+          [&](const auto& r, auto* out) { return service::RunBackbone(r, limits, never, out); });
+  return written ? 0 : 1;
+}
+
+template <typename Response>
+bool SameAnswer(const std::string& dir, int k) {
+  Response library, service;
+  if (!ReadMessage(AnalysisPath(dir, k, "library"), &library) ||
+      !ReadMessage(AnalysisPath(dir, k, "service"), &service)) {
+    return false;
+  }
+  if (!(library.compute_seconds() > 0)) {
+    std::cerr << "analysis " << k << ": the library's compute_seconds is not filled\n";
+    return false;
+  }
+  library.set_compute_seconds(0);
+  if (Deterministic(library) == Deterministic(service)) return true;
+  std::cerr << "analysis " << k << ": the library's answer differs from the service's\n";
+  return false;
+}
+
+int CompareAnalysis(const std::string& dir) {
+  const bool same = SameAnswer<v1::AnalyzeLoopsResponse>(dir, kAnalyzeLoops) &
+                    SameAnswer<v1::FitResult>(dir, kFitLoops) &
+                    SameAnswer<v1::FrettingMapResponse>(dir, kFrettingMap) &
+                    SameAnswer<v1::BackboneResponse>(dir, kBackbone);
+  return same ? 0 : 1;
+}
+
 }  // namespace
 }  // namespace mdr::capi_testing
 
@@ -348,8 +488,10 @@ int main(int argc, char** argv) {
   if (mode == "generate" && argc == 4) return Generate(argv[2], argv[3]);
   if (mode == "import" && argc == 4) return CheckImport(argv[2], argv[3]);
   if (mode == "contact_list" && argc == 4) return GenerateContactList(argv[2], argv[3]);
+  if (mode == "analysis" && argc == 4) return GenerateAnalysis(argv[2], argv[3]);
+  if (mode == "compare_analysis" && argc == 3) return CompareAnalysis(argv[2]);
   std::cerr << "usage: " << argv[0]
             << " generate SCENE_FILE OUT_DIR | contact_list SCENE_FILE OUT_DIR | import OUT_DIR "
-               "SNAPSHOT\n";
+               "SNAPSHOT | analysis SCENE_FILE OUT_DIR | compare_analysis OUT_DIR\n";
   return 2;
 }

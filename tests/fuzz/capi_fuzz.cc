@@ -10,7 +10,9 @@
 //
 // Input: byte 0 chooses the contact's origin (mod 3: scene bytes, H1 text, H1 snapshot
 // overwritten); for scene bytes the next two bytes give the scene's length; the rest drives
-// steps and queries.
+// steps and queries. A byte 0 of 0xF0 or more runs one analysis (mdr_analysis_run) instead: on
+// fuzzed bytes in either encoding, or on a JSON request of fuzzed numbers and sizes, with a
+// progress callback that may stop a fit; an error has no response and names its field.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
@@ -18,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include "mdr/mdr.h"
@@ -206,8 +209,103 @@ void Query(const mdr_contact* contact, FuzzedDataProvider& input) {
 
 }  // namespace
 
+// A number as proto3 JSON writes it (NaN and infinities as strings).
+std::string JsonNumber(double value) {
+  if (std::isnan(value)) return "\"NaN\"";
+  if (std::isinf(value)) return value > 0 ? "\"Infinity\"" : "\"-Infinity\"";
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", value);
+  return text;
+}
+
+std::string JsonArray(FuzzedDataProvider& input, int max_count, double scale) {
+  std::string array = "[";
+  const int count = input.ConsumeIntegralInRange(0, max_count);
+  for (int i = 0; i < count; ++i) {
+    const double value = input.ConsumeIntegralInRange(0, 15) == 0
+                             ? AnyDouble(input)
+                             : scale * std::sin(0.3 * i) + input.ConsumeFloatingPointInRange(-0.1, 0.1) * scale;
+    array += (i > 0 ? "," : "") + JsonNumber(value);
+  }
+  return array + "]";
+}
+
+// A request of the analysis in JSON with fuzzed numbers and sizes around H1's scene, so that the
+// service's checks of every field are reached (random bytes seldom parse as JSON).
+std::string StructuredRequest(int analysis, FuzzedDataProvider& input) {
+  const std::string scene =
+      R"("scene": {"sphere": {"radius": )" + JsonNumber(input.ConsumeBool() ? 0.01 : AnyDouble(input)) +
+      R"(}, "elastic_pair": {"youngs_modulus_1": 210e9, "poisson_ratio_1": 0.3,
+      "youngs_modulus_2": 210e9, "poisson_ratio_2": 0.3}, "friction": )" +
+      JsonNumber(input.ConsumeBool() ? 0.3 : AnyDouble(input)) + "}";
+  switch (analysis) {
+    case MDR_ANALYZE_LOOPS:
+      return "{" + scene + R"(, "samples": {"displacement": )" + JsonArray(input, 200, 1e-6) +
+             R"(, "tangential_force": )" + JsonArray(input, 200, 20) +
+             R"(}, "options": {"normal_force": )" + JsonNumber(AnyDouble(input)) +
+             R"(, "reversal_threshold": )" + JsonNumber(AnyDouble(input)) + "}}";
+    case MDR_FIT_LOOPS:
+      return "{" + scene + R"(, "sets": [{"samples": {"displacement": )" +
+             JsonArray(input, 200, 1e-6) + R"(, "tangential_force": )" + JsonArray(input, 200, 20) +
+             R"(}, "normal_force": )" + JsonNumber(AnyDouble(input)) +
+             R"(}], "free": [{"parameter": "FIT_PARAMETER_FRICTION", "lower": )" +
+             JsonNumber(input.ConsumeBool() ? 0.05 : AnyDouble(input)) + R"(, "upper": )" +
+             JsonNumber(input.ConsumeBool() ? 0.9 : AnyDouble(input)) +
+             R"(}], "max_iterations": )" + std::to_string(input.ConsumeIntegralInRange(-2, 20)) +
+             "}";
+    case MDR_FRETTING_MAP:
+      return "{" + scene + R"(, "normal_forces": )" + JsonArray(input, 4, 100) +
+             R"(, "relative_amplitudes": )" + JsonArray(input, 4, 2) + "}";
+    default:
+      return "{" + scene + R"(, "normal_force": )" + JsonNumber(AnyDouble(input)) +
+             R"(, "kind": )" + std::to_string(input.ConsumeIntegralInRange(0, 3)) +
+             R"(, "amplitudes": )" + JsonArray(input, 8, 10) + "}";
+  }
+}
+
+// One analysis on fuzzed bytes (either encoding) or on a structured JSON request: an error has
+// no response and names a field; an answer is a NUL-terminated buffer (JSON: an object).
+void Analysis(FuzzedDataProvider& input) {
+  const int analysis = input.ConsumeIntegralInRange(0, 5);
+  const bool structured = input.ConsumeBool();
+  const int encoding = structured ? MDR_ENCODING_JSON : input.ConsumeIntegralInRange(0, 2);
+  const std::string request = structured ? StructuredRequest(analysis, input)
+                                         : input.ConsumeRemainingBytesAsString();
+  const int stop_after = input.ConsumeIntegralInRange(0, 3);  // 0: never
+  struct Progress {
+    int calls = 0, stop_after = 0;
+  } progress{0, stop_after};
+  auto callback = [](const void* message, size_t size, void* user) -> int {
+    if (message == nullptr || size == 0) Fail("a progress call without a message");
+    Progress& p = *static_cast<Progress*>(user);
+    return ++p.calls == p.stop_after ? 1 : 0;
+  };
+  mdr_buffer* response = reinterpret_cast<mdr_buffer*>(1);
+  const int status = mdr_analysis_run(analysis, encoding, request.data(), request.size(),
+                                      callback, &progress, &response);
+  CheckError(status);
+  if (status != MDR_OK) {
+    if (response != nullptr) Fail("an analysis error with a response");
+    if (status == MDR_CANCELLED && progress.calls != progress.stop_after) {
+      Fail("cancelled without the callback asking");
+    }
+    return;
+  }
+  if (response == nullptr) Fail("an analysis answered without a response");
+  const char* data = static_cast<const char*>(mdr_buffer_data(response));
+  if (data[mdr_buffer_size(response)] != '\0') Fail("a response not followed by a NUL byte");
+  if (encoding == MDR_ENCODING_JSON && data[0] != '{') Fail("a JSON response that is no object");
+  mdr_buffer_destroy(response);
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   FuzzedDataProvider input(data, size);
+  // Inputs whose first byte is 0xF0 or more run the analysis (mdr_analysis_run) instead.
+  if (size > 0 && data[0] >= 0xF0) {
+    input.ConsumeIntegral<std::uint8_t>();
+    Analysis(input);
+    return 0;
+  }
   // Null handles and outputs are refused, never dereferenced.
   mdr_state state{};
   CheckError(mdr_contact_state(nullptr, &state));

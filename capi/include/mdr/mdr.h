@@ -45,7 +45,8 @@ extern "C" {
 #define MDR_C_API_VERSION 1
 /* The revision within that version: it counts additions (functions, enum values, structs). A
  * caller that needs revision R checks mdr_api_revision() >= R. Revision 2: the tangential
- * controls numbered 0..3 (4..6 still accepted), mdr_api_revision, mdr_struct_size. */
+ * controls numbered 0..3 (4..6 still accepted), mdr_api_revision, mdr_struct_size, the analysis
+ * (mdr_analysis_run) and mdr_buffer. */
 #define MDR_C_API_REVISION 2
 
 /* Status codes: the numbers of the gRPC status codes the service answers with. */
@@ -263,6 +264,48 @@ MDR_API int mdr_interface_contact_states(const mdr_interface* interface, mdr_sta
  * mdr_contact_snapshot (the service's ImportSession accepts it). */
 MDR_API int mdr_interface_snapshot(const mdr_interface* interface, void* buffer, size_t capacity,
                                    size_t* size);
+
+/* ---- The analysis of measured loops (docs/analysis.md, docs/capi.md "Analysis") ---- */
+
+/* The service's analysis operations, in-process: the request and the response are the proto's
+ * messages (analysis.proto), so that the validation, the limits and the error fields are the
+ * service's ("samples.displacement", "sets[2].normal_force", "free[0].lower", ...). */
+typedef enum mdr_analysis {
+  MDR_ANALYZE_LOOPS = 1, /* AnalyzeLoopsRequest -> AnalyzeLoopsResponse */
+  MDR_FIT_LOOPS = 2,     /* FitLoopsRequest -> FitResult (progress: FitProgress) */
+  MDR_FRETTING_MAP = 3,  /* FrettingMapRequest -> FrettingMapResponse */
+  MDR_BACKBONE = 4       /* BackboneRequest -> BackboneResponse */
+} mdr_analysis;
+
+/* How the request, the response and the progress messages are written. */
+typedef enum mdr_encoding {
+  MDR_ENCODING_PROTO = 0, /* the serialized message */
+  MDR_ENCODING_JSON = 1   /* proto3 JSON (UTF-8; the proto's field names; NaN and infinities as
+                             "NaN", "Infinity"), for MATLAB, Octave, LabVIEW and scripts */
+} mdr_encoding;
+
+/* Bytes the library owns: a response. mdr_buffer_data is followed by a NUL byte (a JSON
+ * response is a C string); both accessors accept NULL (NULL, 0). */
+typedef struct mdr_buffer mdr_buffer;
+MDR_API const void* mdr_buffer_data(const mdr_buffer* buffer);
+MDR_API size_t mdr_buffer_size(const mdr_buffer* buffer);
+MDR_API void mdr_buffer_destroy(mdr_buffer* buffer);
+
+/* Called on the calling thread after every iteration of a fit with a FitProgress message (size
+ * bytes, in the request's encoding; valid during the call only). A non-zero return stops the fit:
+ * mdr_analysis_run then returns MDR_CANCELLED naming "progress" and no response. */
+typedef int (*mdr_progress_callback)(const void* progress, size_t size, void* user);
+
+/* Runs one analysis on a request of size bytes in `encoding`. On success *response receives the
+ * response (release it with mdr_buffer_destroy), with compute_seconds filled; on an error it is
+ * NULL and the last error names the request's field, "request" (not a message of the type, or
+ * not JSON), "analysis", "encoding" or "progress". progress and user may be NULL; progress is
+ * called by MDR_FIT_LOOPS only. The work is bounded by the request's checked sizes (the
+ * service's: analysis.proto); a fit is cancellable through progress. Allocates (the request, the
+ * response, the work): call it outside a real-time loop. Handles of contacts are not involved;
+ * any thread may call it. */
+MDR_API int mdr_analysis_run(int analysis, int encoding, const void* request, size_t size,
+                             mdr_progress_callback progress, void* user, mdr_buffer** response);
 
 #ifdef __cplusplus
 } /* extern "C" */

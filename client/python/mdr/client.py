@@ -51,7 +51,7 @@ def _mask(paths: Optional[Sequence[str]]):
     return field_mask_pb2.FieldMask(paths=list(paths or ()))
 
 
-class Client:
+class Client(analysis.AnalysisCalls):
     """A connection to mdrd.
 
     address: "host:port". tls: False (plaintext), True (TLS with the system's roots), or a dict
@@ -229,63 +229,11 @@ class Client:
             target.CopyFrom(source)
         return self._call("Transform", request, idempotent=True)
 
-    # The analysis of measured loops (docs/analysis.md): stateless, SI units, numpy arrays.
-    def analyze_loops(self, displacement, tangential_force, normal_force=None, time=None, *,
-                      scene: Optional[SceneLike] = None, rig_compliance: Optional[float] = None,
-                      reversal_threshold: float = 0.0, displacement_resolution: float = 0.0,
-                      closure_tolerance: Optional[float] = None,
-                      asymmetry_tolerance: Optional[float] = None,
-                      hook_tolerance: Optional[float] = None,
-                      drift_tolerance: Optional[float] = None) -> LoopAnalysisResult:
-        """The figures of every complete cycle of a run (AnalyzeLoops).
+    # The analysis (AnalysisCalls): unary calls, and FitLoops' stream of progress and result.
+    def _analyze(self, method: str, request):
+        return self._call(method, request, idempotent=True)
 
-        displacement u (m) and tangential_force F_x (N): one value per sample (sequences or numpy
-        arrays); normal_force F_N (N): one value per sample, or one number for a constant load
-        that was not measured; time t (s): one per sample, strictly increasing. scene (a Scene,
-        dict or scene file): classifies each cycle against the scene's onset of gross slip at
-        the cycle's normal force (which must then be given). rig_compliance C_t (m/N): adds the
-        contact's own figures. reversal_threshold (m; 0: 5 % of the median peak-to-peak
-        displacement), displacement_resolution (m: narrower loops stick, their C is NaN), the
-        flag tolerances (None: the server's defaults). The server checks lengths and values and names them
-        (MdrError, field "samples.displacement[12]")."""
-        request = analysis.analyze_request(
-            displacement, tangential_force, normal_force, time, scene=scene,
-            rig_compliance=rig_compliance, reversal_threshold=reversal_threshold,
-            displacement_resolution=displacement_resolution,
-            closure_tolerance=closure_tolerance, asymmetry_tolerance=asymmetry_tolerance,
-            hook_tolerance=hook_tolerance, drift_tolerance=drift_tolerance)
-        return LoopAnalysisResult.of(self._call("AnalyzeLoops", request, idempotent=True))
-
-    def fit_loops(self, scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int] = None,
-                  reversal_threshold: float = 0.0, max_iterations: int = 0, nuisances=(),
-                  displacement_noise: Optional[float] = None,
-                  force_noise: Optional[float] = None, include_models: bool = False,
-                  progress=None, timeout: Optional[float] = None) -> LoopFitResult:
-        """Fits free parameters of a single-contact scene to measured loops (FitLoops) by
-        replaying each set's actuator path through the exact engine with the scene's rig.
-
-        sets: 1 to 64 loop sets, each (displacement in m, tangential_force in N, normal_force
-        in N[, time in s]) or a dict with those keys: normal_force one number (the set's constant
-        load) or an array (the measured normal force, replayed as measured; a dict's
-        declared_normal_force is then checked against it). free: {"friction": {"lower": 0.1,
-        "upper": 1, "initial": 0.4}, "rig_compliance": {...}, ...} (initial optional: the
-        scene's value), or a list of such dicts with a "parameter" key; names: friction,
-        effective_modulus (Pa), profile_scale (m), rig_compliance (m/N), displacement_offset (m).
-        burn_in_reversals: residuals count from this reversal of each set on (None: 2);
-        reversal_threshold in m (0: automatic); max_iterations (0: 200). nuisances: any of
-        "force_offset", "displacement_drift" (per set) and "moving_mass" (needs time); every
-        set's displacement offset and turning points are fitted always. displacement_noise (m)
-        and force_noise (N): the sensors' noise where known (None: estimated from each set).
-        include_models: return each set's model sample by sample (result.models). progress: called as
-        progress(iteration, residual_rms in N, {name: value}) while the fit runs; the server
-        sends the latest iteration whenever it can, so iterations may be skipped. timeout:
-        seconds for the whole fit (default: the client's)."""
-        request = analysis.fit_request(scene, sets, free, burn_in_reversals=burn_in_reversals,
-                                       reversal_threshold=reversal_threshold,
-                                       max_iterations=max_iterations, nuisances=nuisances,
-                                       displacement_noise=displacement_noise,
-                                       force_noise=force_noise, include_models=include_models)
-        on_progress = analysis.progress_caller(progress, request)
+    def _fit(self, request, on_progress, timeout: Optional[float]):
         results = []
 
         def on_message(message):
@@ -298,26 +246,7 @@ class Client:
         if not results:
             raise MdrError(grpc.StatusCode.UNKNOWN, "",
                            "the FitLoops stream ended without a result")
-        return LoopFitResult.of(results[-1])
-
-    def fretting_map(self, scene: SceneLike, normal_forces, relative_amplitudes
-                     ) -> FrettingMapResult:
-        """The exact steady loops of a single-contact scene (with its rig) at 1 to 100 normal
-        forces (N) and 1 to 200 actuator amplitudes relative to the onset of gross slip at each
-        force (in (0, 100]), each a sequence, an array or one number: (loads, amplitudes)
-        arrays and each force's onset (FrettingMap)."""
-        request = analysis.fretting_map_request(scene, normal_forces, relative_amplitudes)
-        return FrettingMapResult.of(request, self._call("FrettingMap", request,
-                                                        idempotent=True))
-
-    def backbone(self, scene: SceneLike, normal_force: float, amplitudes,
-                 kind: str = "force") -> BackboneResult:
-        """Secant stiffness and damping ratio of the exact steady loops against amplitude at one
-        normal force in N (Backbone). kind: "force" (amplitudes Q* in N, in (0, mu F_N]) or
-        "actuator_displacement" (amplitudes in m, > 0); 1 to 1000 amplitudes."""
-        request = analysis.backbone_request(scene, normal_force, amplitudes, kind)
-        return BackboneResult.of(request, self._call("Backbone", request, idempotent=True))
-
+        return results[-1]
 
 def _route(route: str) -> int:
     if route not in _ROUTES:

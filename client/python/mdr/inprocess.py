@@ -10,22 +10,28 @@ by one argument:
 
 The numbers are the service's, bit for bit (the library runs the service's conversion and the
 same engine), and snapshots move both ways (export() / import_session()). One contact per session:
-interface scenes need a server. The library is found at $MDR_C_LIBRARY, next to this package, or
+interface scenes need a server. The analysis (analyze_loops, fit_loops, fretting_map, backbone)
+runs the service's own operations through mdr_analysis_run. The library is found at $MDR_C_LIBRARY, next to this package, or
 by the system's loader (libmdr_c.so.1).
 """
 import ctypes
 import ctypes.util
 import itertools
 import os
+import time
 from typing import Iterable, Optional, Sequence, Union
 
 import grpc
 
+from . import analysis
 from .errors import MdrError
 from .messages import ApplyResult, QueryResult, SceneLike, StepLike, to_scene, to_steps
+from .v1 import analysis_pb2 as an
 from .v1 import contact_service_pb2 as api
 
 _OUT_OF_RANGE = 11
+# mdr_progress_callback: int (*)(const void* progress, size_t size, void* user)
+_PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p)
 _NORMAL = {"depth": 1, "depth_increment": 2, "normal_force": 3}
 _TANGENTIAL = {"displacement": 1, "displacement_increment": 2, "tangential_force": 3}
 _ROUTES = {"both": 1, "abel": 2, "jager": 3}
@@ -76,10 +82,15 @@ def load_library(path: Optional[str] = None) -> ctypes.CDLL:
         "mdr_contact_snapshot": [handle, ctypes.c_void_p, size, ctypes.POINTER(size)],
         "mdr_last_error_code": [],
     }
+    signatures["mdr_analysis_run"] = [ctypes.c_int, ctypes.c_int, ctypes.c_char_p, size,
+                                      _PROGRESS, ctypes.c_void_p, ctypes.POINTER(handle)]
     for name, arguments in signatures.items():
         getattr(lib, name).argtypes = arguments
         getattr(lib, name).restype = ctypes.c_int
     lib.mdr_contact_destroy.argtypes, lib.mdr_contact_destroy.restype = [handle], None
+    lib.mdr_buffer_data.argtypes, lib.mdr_buffer_data.restype = [handle], ctypes.c_void_p
+    lib.mdr_buffer_size.argtypes, lib.mdr_buffer_size.restype = [handle], size
+    lib.mdr_buffer_destroy.argtypes, lib.mdr_buffer_destroy.restype = [handle], None
     lib.mdr_last_error_message.restype = ctypes.c_char_p
     lib.mdr_last_error_field.restype = ctypes.c_char_p
     if lib.mdr_version() != 1:
@@ -95,8 +106,9 @@ def _code_of(number: int) -> grpc.StatusCode:
     return grpc.StatusCode.UNKNOWN
 
 
-class InProcessClient:
-    """Client's session calls, in this process. As a context manager: nothing to stop."""
+class InProcessClient(analysis.AnalysisCalls):
+    """Client's session and analysis calls, in this process. As a context manager: nothing to
+    stop."""
 
     def __init__(self, library: Optional[str] = None):
         self._lib = load_library(library)
@@ -121,6 +133,51 @@ class InProcessClient:
         if field and message.startswith(field + ": "):
             message = message[len(field) + 2:]
         raise MdrError(_code_of(status), field, message)
+
+    # The analysis: mdr_analysis_run on the serialized request, the service's own operations.
+    _ANALYSES = {"AnalyzeLoops": (1, an.AnalyzeLoopsResponse), "FitLoops": (2, an.FitResult),
+                 "FrettingMap": (3, an.FrettingMapResponse), "Backbone": (4, an.BackboneResponse)}
+
+    def _run_analysis(self, method: str, request, callback=None):
+        number, response_type = self._ANALYSES[method]
+        data = request.SerializeToString()
+        response = ctypes.c_void_p()
+        status = self._lib.mdr_analysis_run(number, 0, data, len(data),
+                                            callback or _PROGRESS(), None,
+                                            ctypes.byref(response))
+        self._check(status)
+        try:
+            size = self._lib.mdr_buffer_size(response)
+            return response_type.FromString(ctypes.string_at(self._lib.mdr_buffer_data(response),
+                                                             size))
+        finally:
+            self._lib.mdr_buffer_destroy(response)
+
+    def _analyze(self, method: str, request):
+        return self._run_analysis(method, request)
+
+    def _fit(self, request, on_progress, timeout: Optional[float]):
+        deadline = None if timeout is None else time.monotonic() + timeout
+        raised = []
+
+        def progress(message, size, user):
+            try:
+                on_progress(an.FitProgress.FromString(ctypes.string_at(message, size)))
+            except BaseException as error:  # a caller's exception stops the fit, then is raised
+                raised.append(error)
+                return 1
+            return 1 if deadline is not None and time.monotonic() > deadline else 0
+
+        callback = _PROGRESS(progress)
+        try:
+            return self._run_analysis("FitLoops", request, callback)
+        except MdrError as error:
+            if raised:
+                raise raised[0] from None
+            if error.code == grpc.StatusCode.CANCELLED and deadline is not None:
+                raise MdrError(grpc.StatusCode.DEADLINE_EXCEEDED, "timeout",
+                               f"the fit took longer than {timeout} s") from None
+            raise
 
     def _adopt(self, handle: ctypes.c_void_p, session_id: str) -> "InProcessSession":
         session_id = session_id or f"local-{next(self._ids)}"

@@ -54,4 +54,9 @@ Result<std::string> YamlToJson(const std::string& text, std::map<std::string, in
 // A message parsed from one YAML/JSON value such as "{normal_force: 100}" (for command lines).
 Status ParseYamlMessage(const std::string& text, google::protobuf::Message* message);
 
+// A message parsed from proto3 JSON as it is (no YAML: large sample arrays parse at protobuf's
+// speed). Errors name the field protobuf's parser names ("sets[0].normal_force"), or none for a
+// syntax error.
+Status ParseJsonMessage(const std::string& json, google::protobuf::Message* message);
+
 }  // namespace mdr::client
