@@ -23,6 +23,7 @@ BUILD_PACKAGES=(
   python3 python3-grpcio python3-grpc-tools python3-numpy python3-yaml python3-matplotlib
   gnuplot-nox prometheus
   gfortran python3-venv python3-setuptools
+  octave liboctave-dev
 )
 if [ "${1:-}" = "--runtime" ]; then
   PACKAGES=("${RUNTIME_PACKAGES[@]}")

@@ -77,6 +77,7 @@ Status WriteResponse(int encoding, const google::protobuf::Message& message, std
     }
     return OkStatus();
   }
+  out->clear();  // MessageToJsonString appends; the progress buffer is reused
   google::protobuf::util::JsonPrintOptions options;
   options.preserve_proto_field_names = true;  // the proto's names, as docs/analysis.md uses
   options.always_print_primitive_fields = true;  // a figure of 0 is there, not missing

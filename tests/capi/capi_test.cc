@@ -654,8 +654,11 @@ TEST(CapiAnalysis, FitReportsProgressAndStopsWhenAsked) {
   auto progress = [](const void* message, size_t size, void* user) -> int {
     Calls& calls = *static_cast<Calls*>(user);
     ++calls.count;
+    // One FitProgress object per call, this iteration's alone.
     const std::string json(static_cast<const char*>(message), size);
-    EXPECT_NE(json.find("\"iteration\""), std::string::npos) << json;
+    EXPECT_EQ(json.find("\"iteration\""), 1u) << json;
+    EXPECT_EQ(json.find("\"iteration\"", 2), std::string::npos) << json;
+    EXPECT_EQ(json.back(), '}') << json;
     return calls.count == calls.stop_at ? 1 : 0;
   };
   Calls all;

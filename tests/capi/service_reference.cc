@@ -36,6 +36,7 @@
 //                  of the interface's totals
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+#include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
 
 #include <cinttypes>
@@ -436,6 +437,20 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
   backbone.set_kind(v1::BackboneRequest::AMPLITUDE_KIND_FORCE);
   for (double q : {5.0, 15.0, 25.0}) backbone.add_amplitudes(q);
 
+  // For the MATLAB/Octave package (tests/matlab/analysis_caller.m): the scene as JSON, the
+  // samples in hex, and the service's figures in hex.
+  std::string scene_json;
+  google::protobuf::util::JsonPrintOptions json_options;
+  json_options.preserve_proto_field_names = true;
+  if (!google::protobuf::util::MessageToJsonString(scene, &scene_json, json_options).ok() ||
+      !WriteFile(dir + "/analysis_scene.json", scene_json)) {
+    return 1;
+  }
+  std::string sample_lines;
+  for (int i = 0; i < samples->displacement_size(); ++i) {
+    sample_lines += Hex(samples->displacement(i)) + " " + Hex(samples->tangential_force(i)) + "\n";
+  }
+  if (!WriteFile(dir + "/analysis_samples.txt", sample_lines)) return 1;
   const bool written =
       WriteAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
           dir, kAnalyzeLoops, loops,
@@ -451,7 +466,32 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
       WriteAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
           dir, kBackbone, backbone,
           [&](const auto& r, auto* out) { return service::RunBackbone(r, limits, never, out); });
-  return written ? 0 : 1;
+  if (!written) return 1;
+  // The figures the Octave caller prints, from the service's answers.
+  v1::AnalyzeLoopsResponse loops_answer;
+  v1::FitResult fit_answer;
+  v1::BackboneResponse backbone_answer;
+  if (!ReadMessage(AnalysisPath(dir, kAnalyzeLoops, "service"), &loops_answer) ||
+      !ReadMessage(AnalysisPath(dir, kFitLoops, "service"), &fit_answer) ||
+      !ReadMessage(AnalysisPath(dir, kBackbone, "service"), &backbone_answer)) {
+    return 1;
+  }
+  std::string figures;
+  for (const v1::CycleFigures& c : loops_answer.cycles()) {
+    figures += "C " + Hex(c.force_amplitude()) + " " + Hex(c.dissipated_energy()) + " " +
+               Hex(c.half_opening()) + " " + Hex(c.energy_ratio()) + " " +
+               Hex(c.sliding_ratio()) + " " + Hex(c.secant_stiffness()) + " " +
+               v1::Regime_Name(c.regime()) + "\n";
+  }
+  for (const v1::ParameterEstimate& e : fit_answer.estimates()) {
+    figures += "E " + Hex(e.value()) + " " + Hex(e.standard_error()) + " " + Hex(e.lower_95()) +
+               " " + Hex(e.upper_95()) + (e.identified() ? " identified" : " not_identified") +
+               "\n";
+  }
+  for (const v1::LoopFigures& l : backbone_answer.loops()) {
+    figures += "B " + Hex(l.secant_stiffness()) + " " + Hex(l.damping_ratio()) + "\n";
+  }
+  return WriteFile(dir + "/analysis_reference.txt", figures) ? 0 : 1;
 }
 
 template <typename Response>
