@@ -1,16 +1,20 @@
 #!/usr/bin/python3
 """pip install of the Python package from the repository into a clean virtual environment, then
-a session in process (through libmdr_c, no server) beside the same session on a local mdrd, bit
-for bit, with snapshots moving both ways. As the README says:
+a session in process (through the bundled libmdr_c, no server) beside the same session on the
+bundled mdrd (Client.embedded()), bit for bit, with snapshots moving both ways, and the analysis
+in process against the server's. As the README says:
 
     python3 -m venv --system-site-packages venv
     venv/bin/pip install --no-index --no-build-isolation client/python
 
-Usage: pip_install_test.py --source-dir REPO --work-dir DIR --library LIBMDR_C --mdrd MDRD
+Usage: pip_install_test.py --source-dir REPO --work-dir DIR --build-dir BUILD
 
 The sources (client/python and proto/) are copied to DIR first, so that the build leaves nothing
-in the repository; the venv is made anew in DIR; the check runs from DIR with no PYTHONPATH, so
-`import mdr` can only find the installed package.
+in the repository; the venv is made anew in DIR. The install bundles libmdr_c and mdrd from the
+CMake build BUILD (MDR_CMAKE_BUILD_DIR: built already, nothing is recompiled). The check runs
+from DIR with no PYTHONPATH, no MDR_C_LIBRARY and no MDR_MDRD, so `import mdr` can only find the
+installed package and it can only use what it bundled. A missing library is an ImportError that
+names the fix.
 """
 import argparse
 import os
@@ -24,6 +28,9 @@ import numpy as np
 import mdr
 
 assert mdr.__file__.startswith(sys.prefix), f"mdr imported from {mdr.__file__}, not the venv"
+import mdr.embedded, mdr.inprocess
+assert mdr.inprocess._library_path().startswith(sys.prefix), mdr.inprocess._library_path()
+assert mdr.embedded.find_mdrd().startswith(sys.prefix), mdr.embedded.find_mdrd()
 H1 = {"sphere": {"radius": 0.01}, "friction": 0.3,
       "elastic_pair": {"youngs_modulus_1": 210e9, "poisson_ratio_1": 0.3,
                        "youngs_modulus_2": 210e9, "poisson_ratio_2": 0.3}}
@@ -54,7 +61,7 @@ def run(client):
 
 
 local = mdr.Client.embedded(in_process=True)
-with local, mdr.Client.embedded(os.environ["MDRD"]) as server:
+with local, mdr.Client.embedded() as server:
     a, qa, snap_a = run(local)
     b, qb, snap_b = run(server)
     same(a, b, "apply")
@@ -115,13 +122,20 @@ with local, mdr.Client.embedded(os.environ["MDRD"]) as server:
         raise AssertionError("mismatched samples were accepted")
     except mdr.MdrError as error:
         assert error.field == "samples.tangential_force", error.field
+# Without its library the package says what to do.
+os.environ["MDR_C_LIBRARY"] = "/nonexistent/libmdr_c.so.1"
+try:
+    mdr.Client.embedded(in_process=True)
+    raise AssertionError("a missing libmdr_c was not reported")
+except ImportError as error:
+    assert "pip install client/python" in str(error) and "MDR_C_LIBRARY" in str(error), error
 print("in-process session and analysis identical to mdrd's")
 '''
 
 
 def main():
     parser = argparse.ArgumentParser()
-    for name in ("--source-dir", "--work-dir", "--library", "--mdrd"):
+    for name in ("--source-dir", "--work-dir", "--build-dir"):
         parser.add_argument(name, required=True)
     args = parser.parse_args()
     work = os.path.abspath(args.work_dir)
@@ -133,11 +147,12 @@ def main():
     venv = os.path.join(work, "venv")
     subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", venv], check=True)
     python = os.path.join(venv, "bin", "python")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONPATH", "MDR_C_LIBRARY", "MDR_MDRD")}
+    install_env = dict(env, MDR_CMAKE_BUILD_DIR=os.path.abspath(args.build_dir))
     subprocess.run([python, "-m", "pip", "install", "--no-index", "--no-build-isolation",
                     "--quiet", os.path.join(work, "src", "client", "python")], check=True,
-                   cwd=work)
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env.update(MDR_C_LIBRARY=os.path.abspath(args.library), MDRD=os.path.abspath(args.mdrd))
+                   cwd=work, env=install_env)
     check = subprocess.run([python, "-c", CHECK], cwd=work, env=env)
     if check.returncode != 0:
         sys.exit("the in-process check failed (its traceback above)")

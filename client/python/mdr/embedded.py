@@ -13,15 +13,18 @@ from typing import Optional, Sequence
 
 
 def find_mdrd(explicit: Optional[str] = None) -> str:
-    """The mdrd binary: the argument, $MDR_MDRD, mdrd on PATH, or the build tree this package
-    was generated into (build/<preset>/python/mdr -> build/<preset>/server/mdrd/mdrd)."""
+    """The mdrd binary: the argument, $MDR_MDRD, the one bundled in this package (pip install
+    from the repository), mdrd on PATH, or the build tree this package was generated into
+    (build/<preset>/python/mdr -> build/<preset>/server/mdrd/mdrd)."""
     here = os.path.dirname(os.path.abspath(__file__))
-    candidates = [explicit, os.environ.get("MDR_MDRD"), shutil.which("mdrd"),
-                  os.path.join(here, "..", "..", "server", "mdrd", "mdrd")]
+    candidates = [explicit, os.environ.get("MDR_MDRD"), os.path.join(here, "mdrd"),
+                  shutil.which("mdrd"), os.path.join(here, "..", "..", "server", "mdrd", "mdrd")]
     for candidate in candidates:
         if candidate and os.path.isfile(candidate) and os.access(candidate, os.X_OK):
             return os.path.abspath(candidate)
-    raise FileNotFoundError("mdrd not found: pass mdrd=PATH, set MDR_MDRD, or put mdrd on PATH")
+    raise FileNotFoundError("mdrd not found: pass mdrd=PATH, set MDR_MDRD, put mdrd on PATH, or "
+                            "install the package from the repository (pip install client/python "
+                            "bundles mdrd)")
 
 
 # The message limit of a server started for one script, as mdrctl's own (kEmbeddedMaxMessageBytes):

@@ -65,7 +65,15 @@ def _library_path() -> str:
 
 def load_library(path: Optional[str] = None) -> ctypes.CDLL:
     """libmdr_c with the signatures of mdr.h (interface version 1)."""
-    lib = ctypes.CDLL(path or _library_path())
+    where = path or _library_path()
+    try:
+        lib = ctypes.CDLL(where)
+    except OSError as error:
+        raise ImportError(
+            f"libmdr_c could not be loaded ({error}). Install the package from the repository "
+            f"(pip install client/python builds and bundles libmdr_c.so.1), or set "
+            f"MDR_C_LIBRARY to the library's path (built as build/release/capi/libmdr_c.so.1)"
+        ) from None
     handle, size, dbl = ctypes.c_void_p, ctypes.c_size_t, ctypes.POINTER(ctypes.c_double)
     signatures = {
         "mdr_version": [],
