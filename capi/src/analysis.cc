@@ -79,7 +79,7 @@ Status WriteResponse(int encoding, const google::protobuf::Message& message, std
   }
   out->clear();  // MessageToJsonString appends; the progress buffer is reused
   google::protobuf::util::JsonPrintOptions options;
-  options.preserve_proto_field_names = true;  // the proto's names, as docs/analysis.md uses
+  options.preserve_proto_field_names = true;     // the proto's names, as docs/analysis.md uses
   options.always_print_primitive_fields = true;  // a figure of 0 is there, not missing
   const auto status = google::protobuf::util::MessageToJsonString(message, out, options);
   if (!status.ok()) return Internal("", "the response could not be written as JSON");
@@ -106,8 +106,9 @@ CallStatus Run(int analysis, int encoding, const void* request, std::size_t size
   if (Status s = RequireNonNull(response, "response"); !s.ok()) return s;
   *response = nullptr;
   if (encoding != MDR_ENCODING_PROTO && encoding != MDR_ENCODING_JSON) {
-    return InvalidArgument("encoding", "must be MDR_ENCODING_PROTO (0) or MDR_ENCODING_JSON (1), got " +
-                                           std::to_string(encoding));
+    return InvalidArgument(
+        "encoding",
+        "must be MDR_ENCODING_PROTO (0) or MDR_ENCODING_JSON (1), got " + std::to_string(encoding));
   }
   std::atomic<bool> cancelled{false};
   std::string bytes;
@@ -139,8 +140,8 @@ CallStatus Run(int analysis, int encoding, const void* request, std::size_t size
                      const Interrupt& interrupt, v1::FitResult* result) {
         return service::RunFitLoops(r, limits, interrupt, report, result);
       };
-      status = RunAnalysis<v1::FitLoopsRequest, v1::FitResult>(encoding, request, size,
-                                                               cancelled, run, &bytes);
+      status = RunAnalysis<v1::FitLoopsRequest, v1::FitResult>(encoding, request, size, cancelled,
+                                                               run, &bytes);
       break;
     }
     default:

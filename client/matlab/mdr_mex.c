@@ -371,12 +371,12 @@ static void ExactNumbers(const char* json, size_t size, mxArray** text, mxArray*
 }
 
 /* The fit's progress into a MATLAB function: mdr.internal.call_progress(progress, json, numbers)
- * decodes it and calls progress(p), whose true stops the fit. An error inside it stops the fit too and
- * is raised after the call returns. */
+ * decodes it and calls progress(p), whose true stops the fit. An error inside it stops the fit too
+ * and is raised after the call returns. */
 typedef struct {
   const mxArray* function;
   int failed;
-  char message[512];  /* the progress function's error */
+  char message[512]; /* the progress function's error */
 } Progress;
 
 static int CallProgress(const void* message, size_t size, void* user) {
@@ -401,7 +401,7 @@ static int CallProgress(const void* message, size_t size, void* user) {
     mxDestroyArray(error);
     return 1;
   }
-  if (output != NULL && mxIsChar(output)) {  /* the progress function's error message */
+  if (output != NULL && mxIsChar(output)) { /* the progress function's error message */
     progress->failed = 1;
     mxGetString(output, progress->message, sizeof progress->message);
     mxDestroyArray(output);
@@ -429,8 +429,10 @@ static void Analysis(int nrhs, mxArray* plhs[], const mxArray* prhs[]) {
                             progress.function != NULL ? CallProgress : NULL, &progress, &response);
   mxFree(request);
   if (progress.failed) {
-    mexErrMsgIdAndTxt("mdr:progressFailed", "the progress function raised an error, so the fit "
-                      "stopped: %s", progress.message);
+    mexErrMsgIdAndTxt("mdr:progressFailed",
+                      "the progress function raised an error, so the fit "
+                      "stopped: %s",
+                      progress.message);
   }
   Check(status);
   ExactNumbers((const char*)mdr_buffer_data(response), mdr_buffer_size(response), &plhs[0],
@@ -466,8 +468,9 @@ void mexFunction(int nlhs, mxArray* plhs[], int nrhs, const mxArray* prhs[]) {
     Arguments(nrhs, 2, "usage: mdr_mex('destroy', handle)");
     Destroy(prhs);
   } else if (strcmp(command, "step") == 0) {
-    Arguments(nrhs, 6, "usage: mdr_mex('step', handle, normal_control, normal_value, "
-                       "tangential_control, tangential_value)");
+    Arguments(nrhs, 6,
+              "usage: mdr_mex('step', handle, normal_control, normal_value, "
+              "tangential_control, tangential_value)");
     Step(plhs, prhs);
   } else if (strcmp(command, "state") == 0) {
     Arguments(nrhs, 2, "usage: mdr_mex('state', handle)");

@@ -11,7 +11,8 @@ static unsigned char* ReadFile(const char* path, size_t* size) {
   unsigned char* bytes = NULL;
   long length;
   if (file == NULL) return NULL;
-  if (fseek(file, 0, SEEK_END) == 0 && (length = ftell(file)) >= 0 && fseek(file, 0, SEEK_SET) == 0) {
+  if (fseek(file, 0, SEEK_END) == 0 && (length = ftell(file)) >= 0 &&
+      fseek(file, 0, SEEK_SET) == 0) {
     bytes = malloc((size_t)length + 1);
     if (bytes != NULL && fread(bytes, 1, (size_t)length, file) != (size_t)length) {
       free(bytes);
@@ -30,8 +31,7 @@ static int CountProgress(const void* progress, size_t size, void* user) {
 }
 
 int main(int argc, char** argv) {
-  static const int kAnalyses[] = {MDR_ANALYZE_LOOPS, MDR_FIT_LOOPS, MDR_FRETTING_MAP,
-                                  MDR_BACKBONE};
+  static const int kAnalyses[] = {MDR_ANALYZE_LOOPS, MDR_FIT_LOOPS, MDR_FRETTING_MAP, MDR_BACKBONE};
   char path[4096];
   int progress_calls = 0;
   size_t i;

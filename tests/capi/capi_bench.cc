@@ -6,7 +6,8 @@
 // Pairs of equal work:
 //   cpp_apply        Contact::Apply of the step, nothing read   | c_step        mdr_contact_step
 //   cpp_apply_state  Apply, then every field of mdr_state read   | c_step_state  mdr_contact_step,
-//                    from the contact (what mdr_contact_state does)                then mdr_contact_state
+//                    from the contact (what mdr_contact_state does)                then
+//                    mdr_contact_state
 // and, for reference, cpp_move_to: Contact::MoveTo (the exact linear step without validation).
 // BM_StepOverhead times whole cycles (no clock call per step), the variants alternating cycle by
 // cycle, and reports each variant's median ns per step and each pair's median ratio over the
@@ -99,7 +100,7 @@ class Variants {
  public:
   static constexpr int kCount = 5;
   static constexpr const char* kNames[kCount] = {"cpp_move_to", "cpp_apply", "c_step",
-                                                  "cpp_apply_state", "c_step_state"};
+                                                 "cpp_apply_state", "c_step_state"};
 
   Variants()
       : move_to_(mdr::reference::LoadedH1Contact()),
@@ -132,7 +133,9 @@ class Variants {
     };
     return same(apply_, c_step) && same(apply_state_, c_step_state);
   }
-  double TargetAt(int k) const { return mdr::reference::TriangleWave(amplitude_, k, kStepsPerHalf); }
+  double TargetAt(int k) const {
+    return mdr::reference::TriangleWave(amplitude_, k, kStepsPerHalf);
+  }
 
   // Step k of the cycle by variant v.
   void Step(int v, double ux) {

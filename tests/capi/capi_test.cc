@@ -531,9 +531,9 @@ RecordedLoops RecordLoops(double amplitude = 1e-6) {
   char number[40];
   for (int i = 0; i <= 300; ++i) {
     const double ux = amplitude * std::sin(2 * std::numbers::pi * i / 100);
-    EXPECT_EQ(mdr_contact_step(contact, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, ux,
-                               nullptr),
-              MDR_OK);
+    EXPECT_EQ(
+        mdr_contact_step(contact, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, ux, nullptr),
+        MDR_OK);
     mdr_state state;
     mdr_contact_state(contact, &state);
     const char* comma = i > 0 ? "," : "";
@@ -554,7 +554,7 @@ constexpr char kSceneJson[] =
         "friction": 0.3})";
 
 std::string RunAnalysis(int analysis, const std::string& request, int expected = MDR_OK,
-                mdr_progress_callback progress = nullptr, void* user = nullptr) {
+                        mdr_progress_callback progress = nullptr, void* user = nullptr) {
   mdr_buffer* response = reinterpret_cast<mdr_buffer*>(1);
   const int status = mdr_analysis_run(analysis, MDR_ENCODING_JSON, request.data(), request.size(),
                                       progress, user, &response);
@@ -573,9 +573,9 @@ std::string RunAnalysis(int analysis, const std::string& request, int expected =
 TEST(CapiAnalysis, AnalyzesLoopsGivenAsJson) {
   const RecordedLoops loops = RecordLoops();
   const std::string json = RunAnalysis(
-      MDR_ANALYZE_LOOPS, R"({"samples": {"displacement": )" + loops.displacement +
-                             R"(, "tangential_force": )" + loops.force +
-                             R"(}, "options": {"normal_force": 100}, "scene": )" + kSceneJson + "}");
+      MDR_ANALYZE_LOOPS,
+      R"({"samples": {"displacement": )" + loops.displacement + R"(, "tangential_force": )" +
+          loops.force + R"(}, "options": {"normal_force": 100}, "scene": )" + kSceneJson + "}");
   std::size_t cycles = 0;
   for (std::size_t at = json.find("\"first_sample\""); at != std::string::npos;
        at = json.find("\"first_sample\"", at + 1)) {
@@ -597,9 +597,9 @@ TEST(CapiAnalysis, BadRequestsNameTheField) {
   ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, nullptr, 4, nullptr, nullptr,
                                &response),
               MDR_INVALID_ARGUMENT, "request");
-  ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, "{}", 2, nullptr, nullptr,
-                               nullptr),
-              MDR_INVALID_ARGUMENT, "response");
+  ExpectError(
+      mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, "{}", 2, nullptr, nullptr, nullptr),
+      MDR_INVALID_ARGUMENT, "response");
   ExpectError(mdr_analysis_run(MDR_ANALYZE_LOOPS, MDR_ENCODING_JSON, "{oops", 5, nullptr, nullptr,
                                &response),
               MDR_INVALID_ARGUMENT, "request");
@@ -608,17 +608,20 @@ TEST(CapiAnalysis, BadRequestsNameTheField) {
               MDR_INVALID_ARGUMENT, "request");
   EXPECT_EQ(response, nullptr);
   // The service's checks, with its fields.
-  RunAnalysis(MDR_ANALYZE_LOOPS, R"({"samples": {"displacement": [0, 1e-6, 0], "tangential_force": [0]}})",
-      MDR_INVALID_ARGUMENT);
+  RunAnalysis(MDR_ANALYZE_LOOPS,
+              R"({"samples": {"displacement": [0, 1e-6, 0], "tangential_force": [0]}})",
+              MDR_INVALID_ARGUMENT);
   EXPECT_EQ(std::string(mdr_last_error_field()), "samples.tangential_force");
-  RunAnalysis(MDR_BACKBONE, std::string(R"({"scene": )") + kSceneJson +
-                        R"(, "normal_force": 100, "kind": "AMPLITUDE_KIND_FORCE", "amplitudes": [40]})",
-      MDR_INVALID_ARGUMENT);
+  RunAnalysis(MDR_BACKBONE,
+              std::string(R"({"scene": )") + kSceneJson +
+                  R"(, "normal_force": 100, "kind": "AMPLITUDE_KIND_FORCE", "amplitudes": [40]})",
+              MDR_INVALID_ARGUMENT);
   EXPECT_EQ(std::string(mdr_last_error_field()).rfind("amplitudes", 0), 0u)
       << mdr_last_error_field();
-  RunAnalysis(MDR_FRETTING_MAP, std::string(R"({"scene": )") + kSceneJson +
-                            R"(, "normal_forces": [100], "relative_amplitudes": [0]})",
-      MDR_INVALID_ARGUMENT);
+  RunAnalysis(MDR_FRETTING_MAP,
+              std::string(R"({"scene": )") + kSceneJson +
+                  R"(, "normal_forces": [100], "relative_amplitudes": [0]})",
+              MDR_INVALID_ARGUMENT);
   EXPECT_EQ(std::string(mdr_last_error_field()).rfind("relative_amplitudes", 0), 0u)
       << mdr_last_error_field();
 }
@@ -627,12 +630,12 @@ TEST(CapiAnalysis, BadRequestsNameTheField) {
 TEST(CapiAnalysis, BackboneAndFrettingMap) {
   const std::string backbone =
       RunAnalysis(MDR_BACKBONE, std::string(R"({"scene": )") + kSceneJson +
-                            R"(, "normal_force": 100, "kind": "AMPLITUDE_KIND_FORCE",
+                                    R"(, "normal_force": 100, "kind": "AMPLITUDE_KIND_FORCE",
                                "amplitudes": [5, 15, 29]})");
   EXPECT_NE(backbone.find("\"dissipated_energy\""), std::string::npos) << backbone;
-  const std::string map =
-      RunAnalysis(MDR_FRETTING_MAP, std::string(R"({"scene": )") + kSceneJson +
-                                R"(, "normal_forces": [50, 100], "relative_amplitudes": [0.5, 2]})");
+  const std::string map = RunAnalysis(
+      MDR_FRETTING_MAP, std::string(R"({"scene": )") + kSceneJson +
+                            R"(, "normal_forces": [50, 100], "relative_amplitudes": [0.5, 2]})");
   EXPECT_NE(map.find("REGIME_GROSS_SLIP"), std::string::npos) << map;
 }
 

@@ -385,9 +385,8 @@ Result<v1::LoopSamples> RecordLoops(const v1::Scene& scene) {
   v1::LoopSamples samples;
   for (int i = 0; i <= 300; ++i) {
     const double ux = 1e-6 * std::sin(2 * std::numbers::pi * i / 100);
-    const Step step{.normal_value = 0,
-                    .tangential = TangentialControl::kDisplacement,
-                    .tangential_value = ux};
+    const Step step{
+        .normal_value = 0, .tangential = TangentialControl::kDisplacement, .tangential_value = ux};
     if (Status s = contact->Apply(step); !s.ok()) return s;
     samples.add_displacement(contact->tangential_displacement() + 5e-9 * noise(random));
     samples.add_tangential_force(contact->tangential_force() + 0.05 * noise(random));
@@ -451,21 +450,26 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
     sample_lines += Hex(samples->displacement(i)) + " " + Hex(samples->tangential_force(i)) + "\n";
   }
   if (!WriteFile(dir + "/analysis_samples.txt", sample_lines)) return 1;
-  const bool written =
-      WriteAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
-          dir, kAnalyzeLoops, loops,
-          [&](const auto& r, auto* out) { return service::RunAnalyzeLoops(r, limits, never, out); }) &&
-      WriteAnalysis<v1::FitLoopsRequest, v1::FitResult>(
-          dir, kFitLoops, fit,
-          [&](const auto& r, auto* out) {
-            return service::RunFitLoops(r, limits, never, [](const v1::FitProgress&) {}, out);
-          }) &&
-      WriteAnalysis<v1::FrettingMapRequest, v1::FrettingMapResponse>(
-          dir, kFrettingMap, map,
-          [&](const auto& r, auto* out) { return service::RunFrettingMap(r, limits, never, out); }) &&
-      WriteAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
-          dir, kBackbone, backbone,
-          [&](const auto& r, auto* out) { return service::RunBackbone(r, limits, never, out); });
+  const bool written = WriteAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
+                           dir, kAnalyzeLoops, loops,
+                           [&](const auto& r, auto* out) {
+                             return service::RunAnalyzeLoops(r, limits, never, out);
+                           }) &&
+                       WriteAnalysis<v1::FitLoopsRequest, v1::FitResult>(
+                           dir, kFitLoops, fit,
+                           [&](const auto& r, auto* out) {
+                             return service::RunFitLoops(
+                                 r, limits, never, [](const v1::FitProgress&) {}, out);
+                           }) &&
+                       WriteAnalysis<v1::FrettingMapRequest, v1::FrettingMapResponse>(
+                           dir, kFrettingMap, map,
+                           [&](const auto& r, auto* out) {
+                             return service::RunFrettingMap(r, limits, never, out);
+                           }) &&
+                       WriteAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
+                           dir, kBackbone, backbone, [&](const auto& r, auto* out) {
+                             return service::RunBackbone(r, limits, never, out);
+                           });
   if (!written) return 1;
   // The figures the Octave caller prints, from the service's answers.
   v1::AnalyzeLoopsResponse loops_answer;
@@ -479,9 +483,8 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
   std::string figures;
   for (const v1::CycleFigures& c : loops_answer.cycles()) {
     figures += "C " + Hex(c.force_amplitude()) + " " + Hex(c.dissipated_energy()) + " " +
-               Hex(c.half_opening()) + " " + Hex(c.energy_ratio()) + " " +
-               Hex(c.sliding_ratio()) + " " + Hex(c.secant_stiffness()) + " " +
-               v1::Regime_Name(c.regime()) + "\n";
+               Hex(c.half_opening()) + " " + Hex(c.energy_ratio()) + " " + Hex(c.sliding_ratio()) +
+               " " + Hex(c.secant_stiffness()) + " " + v1::Regime_Name(c.regime()) + "\n";
   }
   for (const v1::ParameterEstimate& e : fit_answer.estimates()) {
     figures += "E " + Hex(e.value()) + " " + Hex(e.standard_error()) + " " + Hex(e.lower_95()) +

@@ -132,9 +132,12 @@ double AnyDouble(FuzzedDataProvider& input) {
 void Step(mdr_contact* contact, FuzzedDataProvider& input) {
   static constexpr int kNormal[] = {MDR_NORMAL_HOLD, MDR_NORMAL_DEPTH, MDR_NORMAL_DEPTH_INCREMENT,
                                     MDR_NORMAL_FORCE, 42};
-  static constexpr int kTangential[] = {MDR_TANGENTIAL_HOLD, MDR_TANGENTIAL_DISPLACEMENT,
-                                        MDR_TANGENTIAL_DISPLACEMENT_INCREMENT, MDR_TANGENTIAL_FORCE,
-                                        -1, 5 /* revision 1's displacement increment */};
+  static constexpr int kTangential[] = {MDR_TANGENTIAL_HOLD,
+                                        MDR_TANGENTIAL_DISPLACEMENT,
+                                        MDR_TANGENTIAL_DISPLACEMENT_INCREMENT,
+                                        MDR_TANGENTIAL_FORCE,
+                                        -1,
+                                        5 /* revision 1's displacement increment */};
   const int normal = input.PickValueInArray(kNormal);
   const double normal_value =
       normal == MDR_NORMAL_HOLD && input.ConsumeBool() ? 0 : AnyDouble(input);
@@ -222,9 +225,10 @@ std::string JsonArray(FuzzedDataProvider& input, int max_count, double scale) {
   std::string array = "[";
   const int count = input.ConsumeIntegralInRange(0, max_count);
   for (int i = 0; i < count; ++i) {
-    const double value = input.ConsumeIntegralInRange(0, 15) == 0
-                             ? AnyDouble(input)
-                             : scale * std::sin(0.3 * i) + input.ConsumeFloatingPointInRange(-0.1, 0.1) * scale;
+    const double value =
+        input.ConsumeIntegralInRange(0, 15) == 0
+            ? AnyDouble(input)
+            : scale * std::sin(0.3 * i) + input.ConsumeFloatingPointInRange(-0.1, 0.1) * scale;
     array += (i > 0 ? "," : "") + JsonNumber(value);
   }
   return array + "]";
@@ -234,7 +238,8 @@ std::string JsonArray(FuzzedDataProvider& input, int max_count, double scale) {
 // service's checks of every field are reached (random bytes seldom parse as JSON).
 std::string StructuredRequest(int analysis, FuzzedDataProvider& input) {
   const std::string scene =
-      R"("scene": {"sphere": {"radius": )" + JsonNumber(input.ConsumeBool() ? 0.01 : AnyDouble(input)) +
+      R"("scene": {"sphere": {"radius": )" +
+      JsonNumber(input.ConsumeBool() ? 0.01 : AnyDouble(input)) +
       R"(}, "elastic_pair": {"youngs_modulus_1": 210e9, "poisson_ratio_1": 0.3,
       "youngs_modulus_2": 210e9, "poisson_ratio_2": 0.3}, "friction": )" +
       JsonNumber(input.ConsumeBool() ? 0.3 : AnyDouble(input)) + "}";
@@ -269,8 +274,8 @@ void Analysis(FuzzedDataProvider& input) {
   const int analysis = input.ConsumeIntegralInRange(0, 5);
   const bool structured = input.ConsumeBool();
   const int encoding = structured ? MDR_ENCODING_JSON : input.ConsumeIntegralInRange(0, 2);
-  const std::string request = structured ? StructuredRequest(analysis, input)
-                                         : input.ConsumeRemainingBytesAsString();
+  const std::string request =
+      structured ? StructuredRequest(analysis, input) : input.ConsumeRemainingBytesAsString();
   const int stop_after = input.ConsumeIntegralInRange(0, 3);  // 0: never
   struct Progress {
     int calls = 0, stop_after = 0;
@@ -281,8 +286,8 @@ void Analysis(FuzzedDataProvider& input) {
     return ++p.calls == p.stop_after ? 1 : 0;
   };
   mdr_buffer* response = reinterpret_cast<mdr_buffer*>(1);
-  const int status = mdr_analysis_run(analysis, encoding, request.data(), request.size(),
-                                      callback, &progress, &response);
+  const int status = mdr_analysis_run(analysis, encoding, request.data(), request.size(), callback,
+                                      &progress, &response);
   CheckError(status);
   if (status != MDR_OK) {
     if (response != nullptr) Fail("an analysis error with a response");

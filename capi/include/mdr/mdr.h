@@ -127,17 +127,17 @@ MDR_API int mdr_api_revision(void);
 
 /* The structs whose layout is part of the interface, for mdr_struct_size. */
 typedef enum mdr_struct_id {
-  MDR_STRUCT_STATE = 1,       /* mdr_state */
-  MDR_STRUCT_STEP_REPORT = 2  /* mdr_step_report */
+  MDR_STRUCT_STATE = 1,      /* mdr_state */
+  MDR_STRUCT_STEP_REPORT = 2 /* mdr_step_report */
 } mdr_struct_id;
 /* The size in bytes of a struct as the loaded library lays it out (0 for an unknown id): a
  * caller that declares the struct itself (LabVIEW's cluster, a ctypes Structure, a dlopen
  * caller) compares it with its own size before the first call that fills one. */
 MDR_API size_t mdr_struct_size(int id);
 /* Nonzero when the loaded library lays out this header's structs as this header does. */
-#define MDR_LAYOUT_MATCHES()                                            \
-  (mdr_version() == MDR_C_API_VERSION &&                                \
-   mdr_struct_size(MDR_STRUCT_STATE) == sizeof(struct mdr_state) &&     \
+#define MDR_LAYOUT_MATCHES()                                        \
+  (mdr_version() == MDR_C_API_VERSION &&                            \
+   mdr_struct_size(MDR_STRUCT_STATE) == sizeof(struct mdr_state) && \
    mdr_struct_size(MDR_STRUCT_STEP_REPORT) == sizeof(struct mdr_step_report))
 /* The library's release, e.g. "0.1.0" (static storage). */
 MDR_API const char* mdr_version_string(void);

@@ -61,10 +61,9 @@ double Contact::SolveActuatorIncrement(double depth1, double u_act) const {
   const double compliance = 2 * config_.material.g_star * config_.rig.tangential;
   const double spring = 1 / compliance, target = (u_act - ux_) / compliance;
   const GridMemory* grid = grid_memory();
-  return grid
-             ? grid->IncrementForIntegralU(depth1, mu_kappa(), target, spring)
-             : memory().IncrementForIntegralU(depth1, mu_kappa(), *config_.profile, target,
-                                              solve_buffers_, spring);
+  return grid ? grid->IncrementForIntegralU(depth1, mu_kappa(), target, spring)
+              : memory().IncrementForIntegralU(depth1, mu_kappa(), *config_.profile, target,
+                                               solve_buffers_, spring);
 }
 
 double Contact::DepthAtActuatorDepth(double actuator) const {

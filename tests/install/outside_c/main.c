@@ -26,8 +26,8 @@ int main(void) {
     fprintf(stderr, "%s\n", mdr_last_error_message());
     return 1;
   }
-  printf("libmdr_c %s: F_x = %.6g N at ux = %.3g m\n", mdr_version_string(),
-         state.tangential_force, state.tangential_displacement);
+  printf("libmdr_c %s: F_x = %.6g N at ux = %.3g m\n", mdr_version_string(), state.tangential_force,
+         state.tangential_displacement);
   mdr_contact_destroy(contact);
   return state.tangential_force > 0 ? 0 : 1;
 }

@@ -173,8 +173,7 @@ class PiecewiseLinearMemory {
   // for every target: beyond gross slip the integral is constant.
   // buffers: the solve's work arrays, kept by the caller across steps.
   double IncrementForIntegralU(double depth1, double mu_kappa, const Profile& profile,
-                               double target, ForceSolveBuffers& buffers,
-                               double spring = 0) const;
+                               double target, ForceSolveBuffers& buffers, double spring = 0) const;
   // The pieces in x (one per polyline segment, plus the z = 0 atom of a flat punch when present).
   std::vector<MemoryPiece> Pieces(const Profile& profile) const;
 
