@@ -627,8 +627,8 @@ class AnalysisCalls(abc.ABC):
         the cycle's normal force (which must then be given). rig_compliance C_t (m/N): adds the
         contact's own figures. reversal_threshold (m; 0: 5 % of the median peak-to-peak
         displacement), displacement_resolution (m: narrower loops stick, their C is NaN), the
-        flag tolerances (None: the server's defaults). The server checks lengths and values and names them
-        (MdrError, field "samples.displacement[12]")."""
+        flag tolerances (None: the service's defaults). The service's checks of lengths and
+        values name them (MdrError, field "samples.displacement[12]")."""
         request = analyze_request(
             displacement, tangential_force, normal_force, time, scene=scene,
             rig_compliance=rig_compliance, reversal_threshold=reversal_threshold,
@@ -658,14 +658,15 @@ class AnalysisCalls(abc.ABC):
         set's displacement offset and turning points are fitted always. displacement_noise (m)
         and force_noise (N): the sensors' noise where known (None: estimated from each set).
         include_models: return each set's model sample by sample (result.models). progress: called as
-        progress(iteration, residual_rms in N, {name: value}) while the fit runs; the server
-        sends the latest iteration whenever it can, so iterations may be skipped. timeout:
-        seconds for the whole fit (default: the client's)."""
+        progress(iteration, residual_rms in N, {name: value}) while the fit runs (a server sends
+        the latest iteration whenever it can, so iterations may be skipped; in process every
+        iteration is reported). timeout: seconds for the whole fit (default: the client's; in
+        process: none, else checked after each iteration)."""
         request = fit_request(scene, sets, free, burn_in_reversals=burn_in_reversals,
-                                       reversal_threshold=reversal_threshold,
-                                       max_iterations=max_iterations, nuisances=nuisances,
-                                       displacement_noise=displacement_noise,
-                                       force_noise=force_noise, include_models=include_models)
+                              reversal_threshold=reversal_threshold,
+                              max_iterations=max_iterations, nuisances=nuisances,
+                              displacement_noise=displacement_noise,
+                              force_noise=force_noise, include_models=include_models)
         on_progress = progress_caller(progress, request)
         return LoopFitResult.of(self._fit(request, on_progress, timeout))
 
@@ -685,4 +686,3 @@ class AnalysisCalls(abc.ABC):
         "actuator_displacement" (amplitudes in m, > 0); 1 to 1000 amplitudes."""
         request = backbone_request(scene, normal_force, amplitudes, kind)
         return BackboneResult.of(request, self._analyze("Backbone", request))
-

@@ -13,8 +13,6 @@ from mdr.v1 import contact_service_pb2 as api
 from mdr.v1 import contact_service_pb2_grpc as api_grpc
 
 from . import analysis
-from .analysis import (BackboneResult, FrettingMapResult, LoopAnalysisResult,
-                       LoopFitResult)
 from .embedded import EmbeddedServer
 from .errors import MdrError, from_rpc_error, from_status
 from .messages import ApplyResult, QueryResult, SceneLike, StepLike, to_scene, to_steps
