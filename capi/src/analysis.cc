@@ -13,10 +13,10 @@
 #include <utility>
 
 #include "boundary.h"
-#include "mdr/client/scene_file.h"
+#include "inputs.h"
+#include "mdr/bridge/analysis_ops.h"
+#include "mdr/bridge/scene_file.h"
 #include "mdr/mdr.h"
-#include "mdr/service/analysis_ops.h"
-#include "mdr/service/limits.h"
 #include "mdr/v1/analysis.pb.h"
 
 // A response: its bytes, owned by the library until mdr_buffer_destroy.
@@ -54,7 +54,7 @@ Status ReadRequest(int encoding, const void* request, std::size_t size,
     return OkStatus();
   }
   const std::string json(static_cast<const char*>(request), size);
-  Status parsed = client::ParseJsonMessage(json, message);
+  Status parsed = bridge::ParseJsonMessage(json, message);
   if (parsed.ok()) return parsed;
   if (parsed.field().empty()) {
     return InvalidArgument("request", "is not proto3 JSON of mdr.v1." +
@@ -96,7 +96,7 @@ CallStatus RunAnalysis(int encoding, const void* request, std::size_t size,
   Response response;
   const Clock::time_point start = Clock::now();
   const Interrupt interrupt(Clock::time_point::max(), &cancelled);
-  if (Status s = run(parsed, service::ServiceLimits{}, interrupt, &response); !s.ok()) return s;
+  if (Status s = run(parsed, MaxMemoryVertices(), interrupt, &response); !s.ok()) return s;
   response.set_compute_seconds(SecondsSince(start));
   return WriteResponse(encoding, response, out);
 }
@@ -116,15 +116,15 @@ CallStatus Run(int analysis, int encoding, const void* request, std::size_t size
   switch (analysis) {
     case MDR_ANALYZE_LOOPS:
       status = RunAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
-          encoding, request, size, cancelled, service::RunAnalyzeLoops, &bytes);
+          encoding, request, size, cancelled, bridge::RunAnalyzeLoops, &bytes);
       break;
     case MDR_FRETTING_MAP:
       status = RunAnalysis<v1::FrettingMapRequest, v1::FrettingMapResponse>(
-          encoding, request, size, cancelled, service::RunFrettingMap, &bytes);
+          encoding, request, size, cancelled, bridge::RunFrettingMap, &bytes);
       break;
     case MDR_BACKBONE:
       status = RunAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
-          encoding, request, size, cancelled, service::RunBackbone, &bytes);
+          encoding, request, size, cancelled, bridge::RunBackbone, &bytes);
       break;
     case MDR_FIT_LOOPS: {
       // The progress of every iteration, in the request's encoding; a non-zero return cancels.
@@ -136,9 +136,9 @@ CallStatus Run(int analysis, int encoding, const void* request, std::size_t size
           cancelled.store(true);
         }
       };
-      auto run = [&](const v1::FitLoopsRequest& r, const service::ServiceLimits& limits,
+      auto run = [&](const v1::FitLoopsRequest& r, std::size_t max_memory_vertices,
                      const Interrupt& interrupt, v1::FitResult* result) {
-        return service::RunFitLoops(r, limits, interrupt, report, result);
+        return bridge::RunFitLoops(r, max_memory_vertices, interrupt, report, result);
       };
       status = RunAnalysis<v1::FitLoopsRequest, v1::FitResult>(encoding, request, size, cancelled,
                                                                run, &bytes);

@@ -8,11 +8,10 @@
 
 #include "boundary.h"
 #include "inputs.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/traction.h"
 #include "mdr/mdr.h"
-#include "mdr/service/conversion.h"
-#include "mdr/service/session.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"
 
@@ -27,8 +26,6 @@ struct mdr_contact {
 namespace mdr::capi {
 namespace {
 
-using service::Session;
-
 // An interface scene has its own handle (mdr_interface).
 Status RefuseInterface(const v1::Scene& scene, const char* field) {
   if (!scene.has_interface()) return OkStatus();
@@ -41,7 +38,7 @@ Status RefuseInterface(const v1::Scene& scene, const char* field) {
 // A new contact of a validated scene, as CreateSession builds it.
 CallStatus CreateContact(const v1::Scene& scene, mdr_contact** out) {
   if (Status s = RefuseInterface(scene, "scene.interface"); !s.ok()) return s;
-  Result<ContactConfig> config = service::ToContactConfig(scene, MaxMemoryVertices());
+  Result<ContactConfig> config = bridge::ToContactConfig(scene, MaxMemoryVertices());
   if (!config.ok()) return config.status();
   Result<Contact> contact = Contact::Create(std::move(config).value());
   if (!contact.ok()) return contact.status().WithFieldPrefix("scene");
@@ -63,7 +60,7 @@ CallStatus Step(mdr_contact* handle, int normal_control, double normal_value,
                 int tangential_control, double tangential_value, mdr_step_report* report) {
   // The checks build no Status unless they fail: this is a rig loop's hot path.
   if (handle == nullptr) return RequireNonNull(handle, "contact");
-  if (handle->applied_steps >= Session::kMaxAppliedSteps) {
+  if (handle->applied_steps >= bridge::kMaxAppliedSteps) {
     return CheckStepCount(handle->applied_steps, "contact");
   }
   StepControls controls;
@@ -113,7 +110,7 @@ CallStatus Weights(const mdr_contact* handle, double* r_begin, double* r_end, do
   // The service's jager_weights output: the same checks and the same core call.
   if (Status s = RequireExactMethod(handle->contact, "jager_weights"); !s.ok()) return s;
   Result<JagerWeights> computed = ComputeJagerWeights(handle->contact);
-  if (!computed.ok()) return service::ToSceneStatus(computed.status());
+  if (!computed.ok()) return bridge::ToSceneStatus(computed.status());
   const std::vector<WeightInterval>& intervals = computed->intervals;
   *count = intervals.size();
   if (CallStatus s = RequireCapacity(capacity, intervals.size(), "capacity"); !s.ok()) return s;
@@ -148,8 +145,8 @@ CallStatus Tractions(const mdr_contact* handle, const double* radii, std::size_t
   if (CallStatus s = RequireCapacity(capacity, n, "capacity"); !s.ok()) return s;
   // The service's validation of radii and route (ToRadialSampling), then its two outputs.
   google::protobuf::RepeatedField<double> proto_radii(radii, radii + n);
-  Result<service::RadialSampling> sampling =
-      service::ToRadialSampling(proto_radii, static_cast<v1::TractionRoute>(route));
+  Result<bridge::RadialSampling> sampling =
+      bridge::ToRadialSampling(proto_radii, static_cast<v1::TractionRoute>(route));
   if (!sampling.ok()) {
     const Status& s = sampling.status();
     if (s.field() != "traction_route") return s;
@@ -181,9 +178,9 @@ CallStatus Tractions(const mdr_contact* handle, const double* radii, std::size_t
 // (Session::ExportLocked), without the session's name and limits, which a library has not.
 v1::SessionSnapshot ToSessionSnapshot(const mdr_contact& handle) {
   v1::SessionSnapshot snapshot;
-  snapshot.set_version(Session::kSnapshotVersion);
-  *snapshot.mutable_scene() = service::WithEffectiveOptions(handle.scene, handle.contact.config());
-  service::ToProtoSnapshot(handle.contact.Snapshot(), snapshot.mutable_contact());
+  snapshot.set_version(bridge::kSnapshotVersion);
+  *snapshot.mutable_scene() = bridge::WithEffectiveOptions(handle.scene, handle.contact.config());
+  bridge::ToProtoSnapshot(handle.contact.Snapshot(), snapshot.mutable_contact());
   snapshot.set_applied_steps(handle.applied_steps);
   return snapshot;
 }
@@ -204,7 +201,7 @@ CallStatus Restore(const void* bytes, std::size_t size, mdr_contact** out) {
   if (Status s = RefuseInterface(snapshot->scene(), "snapshot.scene.interface"); !s.ok()) {
     return s;
   }
-  Result<Contact> contact = service::ToCoreContact(*snapshot, MaxMemoryVertices());
+  Result<Contact> contact = bridge::ToCoreContact(*snapshot, MaxMemoryVertices());
   if (!contact.ok()) return contact.status();
   *out = new mdr_contact{snapshot->scene(), std::move(contact).value(), snapshot->applied_steps()};
   return OkStatus();

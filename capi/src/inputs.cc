@@ -6,14 +6,10 @@
 #include <string>
 #include <utility>
 
-#include "mdr/service/conversion.h"
-#include "mdr/service/limits.h"
-#include "mdr/service/session.h"
+#include "mdr/bridge/conversion.h"
 
 namespace mdr::capi {
 namespace {
-
-using service::Session;
 
 Status CheckBytes(const void* bytes, std::size_t size, const char* argument) {
   if (size > 0 && bytes == nullptr) {
@@ -36,7 +32,7 @@ bool QuietParse(const void* bytes, std::size_t size, google::protobuf::Message* 
 
 }  // namespace
 
-std::size_t MaxMemoryVertices() { return service::ServiceLimits{}.max_memory_vertices; }
+std::size_t MaxMemoryVertices() { return bridge::kDefaultMaxMemoryVertices; }
 
 Result<v1::Scene> ParseScene(const void* bytes, std::size_t size) {
   if (Status s = CheckBytes(bytes, size, "scene"); !s.ok()) return s;
@@ -55,8 +51,8 @@ CallStatus SceneText::Locate(CallStatus call) const {
 
 Result<SceneText> ParseSceneText(const char* text, const char* name) {
   if (Status s = RequireNonNull(text, "text"); !s.ok()) return s;
-  Result<client::SceneDocument> document =
-      client::SceneDocument::Parse(text, name != nullptr ? name : "scene");
+  Result<bridge::SceneDocument> document =
+      bridge::SceneDocument::Parse(text, name != nullptr ? name : "scene");
   if (!document.ok()) {
     // A syntax error belongs to no field of the scene: it is the text argument's.
     const Status& s = document.status();
@@ -75,15 +71,7 @@ Result<v1::SessionSnapshot> ParseSnapshot(const void* bytes, std::size_t size) {
   if (!QuietParse(bytes, size, &snapshot)) {
     return InvalidArgument("snapshot", "is not a serialized mdr.v1.SessionSnapshot");
   }
-  if (snapshot.version() != Session::kSnapshotVersion) {
-    return InvalidArgument("snapshot.version",
-                           "must be " + std::to_string(Session::kSnapshotVersion) +
-                               " (the snapshot format this library reads), got " +
-                               std::to_string(snapshot.version()));
-  }
-  if (Status s = service::CheckSnapshotCounters(snapshot, Session::kMaxAppliedSteps); !s.ok()) {
-    return s;
-  }
+  if (Status s = bridge::CheckSnapshotHeader(snapshot); !s.ok()) return s;
   return snapshot;
 }
 
@@ -146,9 +134,9 @@ Status StepControlsError(int normal_control, double normal_value, int tangential
 }
 
 Status CheckStepCount(std::uint64_t applied_steps, const char* argument) {
-  if (applied_steps < Session::kMaxAppliedSteps) return OkStatus();
+  if (applied_steps < bridge::kMaxAppliedSteps) return OkStatus();
   return FailedPrecondition(argument, "has applied the most steps a session may apply (" +
-                                          std::to_string(Session::kMaxAppliedSteps) + ")");
+                                          std::to_string(bridge::kMaxAppliedSteps) + ")");
 }
 
 }  // namespace mdr::capi

@@ -9,7 +9,7 @@
 
 #include "boundary.h"
 #include "mdr/base/status.h"
-#include "mdr/client/scene_file.h"
+#include "mdr/bridge/scene_file.h"
 #include "mdr/core/contact.h"
 #include "mdr/mdr.h"
 #include "mdr/v1/contact_service.pb.h"
@@ -26,7 +26,7 @@ Result<v1::Scene> ParseScene(const void* bytes, std::size_t size);
 // A scene from a scene file's YAML or JSON text, as mdrctl reads it; its document places the
 // errors of later checks (Locate).
 struct SceneText {
-  client::SceneDocument document;
+  bridge::SceneDocument document;
   const v1::Scene& scene() const { return document.file().scene(); }
   // `call` with the scene file's line of its field in the message.
   CallStatus Locate(CallStatus call) const;

@@ -9,11 +9,10 @@
 
 #include "boundary.h"
 #include "inputs.h"
+#include "mdr/bridge/conversion.h"
+#include "mdr/bridge/interface_session.h"
+#include "mdr/bridge/outputs.h"
 #include "mdr/mdr.h"
-#include "mdr/service/conversion.h"
-#include "mdr/service/interface_session.h"
-#include "mdr/service/outputs.h"
-#include "mdr/service/session.h"
 
 // The handle: the scene as given, its contact config (what the scene resolves), the interface and
 // the step counter a SessionSnapshot carries.
@@ -37,16 +36,16 @@ Status RequireInterface(const v1::Scene& scene, const char* field) {
 // The service's size check before anything is built; the library has no state budget, and its
 // snapshot's limit is protobuf's.
 Status CheckSize(const v1::Scene& scene, const ContactConfig& base) {
-  return service::CheckInterfaceSize(scene, base, {}, INT_MAX);
+  return bridge::CheckInterfaceSize(scene, base, {}, INT_MAX);
 }
 
 // A new interface of a scene, as CreateSession builds it.
 CallStatus CreateInterface(const v1::Scene& scene, mdr_interface** out) {
   if (Status s = RequireInterface(scene, "scene.interface"); !s.ok()) return s;
-  Result<ContactConfig> config = service::ToContactConfig(scene, MaxMemoryVertices());
+  Result<ContactConfig> config = bridge::ToContactConfig(scene, MaxMemoryVertices());
   if (!config.ok()) return config.status();
   if (Status s = CheckSize(scene, *config); !s.ok()) return s;
-  Result<Interface> interface = service::CreateInterface(scene, *config);
+  Result<Interface> interface = bridge::CreateInterface(scene, *config);
   if (!interface.ok()) return interface.status();
   *out = new mdr_interface{scene, std::move(config).value(), std::move(interface).value()};
   return OkStatus();
@@ -61,13 +60,13 @@ CallStatus Restore(const void* bytes, std::size_t size, mdr_interface** out) {
   if (Status s = RequireInterface(snapshot->scene(), "snapshot.scene.interface"); !s.ok()) {
     return s;
   }
-  Result<Contact> contact = service::ToCoreContact(*snapshot, MaxMemoryVertices());
+  Result<Contact> contact = bridge::ToCoreContact(*snapshot, MaxMemoryVertices());
   if (!contact.ok()) return contact.status();
   if (Status s = CheckSize(snapshot->scene(), contact->config()); !s.ok()) {
     return s.WithFieldPrefix("snapshot");
   }
   Result<Interface> interface =
-      service::RestoreInterface(snapshot->scene(), contact->config(), snapshot->interface());
+      bridge::RestoreInterface(snapshot->scene(), contact->config(), snapshot->interface());
   if (!interface.ok()) return interface.status().WithFieldPrefix("snapshot");
   *out = new mdr_interface{snapshot->scene(), contact->config(), std::move(interface).value(),
                            snapshot->applied_steps()};
@@ -150,7 +149,7 @@ CallStatus Step(mdr_interface* handle, int normal_control, double normal_value,
   Result<v1::Step> step = ToProtoStep(normal_control, normal_value, tangential_control,
                                       tangential_value, normal_values, tangential_values, n);
   if (!step.ok()) return step.status();
-  if (Status s = service::ApplyInterfaceStep(handle->interface, *step, {}); !s.ok()) {
+  if (Status s = bridge::ApplyInterfaceStep(handle->interface, *step, {}); !s.ok()) {
     return ToArgumentStatus(s);
   }
   ++handle->applied_steps;
@@ -162,8 +161,8 @@ CallStatus State(const mdr_interface* handle, mdr_state* out) {
   if (Status s = RequireNonNull(handle, "interface"); !s.ok()) return s;
   if (Status s = RequireNonNull(out, "out"); !s.ok()) return s;
   v1::ContactState state;
-  service::WriteInterfaceState(handle->interface, handle->applied_steps,
-                               service::OutputSelection::FullState(), &state);
+  bridge::WriteInterfaceState(handle->interface, handle->applied_steps,
+                              bridge::OutputSelection::FullState(), &state);
   *out = mdr_state{.depth = state.depth(),
                    .tangential_displacement = state.tangential_displacement(),
                    .contact_radius = state.contact_radius(),
@@ -201,9 +200,9 @@ CallStatus Snapshot(const mdr_interface* handle, void* buffer, std::size_t capac
                     std::size_t* size) {
   if (Status s = RequireNonNull(handle, "interface"); !s.ok()) return s;
   v1::SessionSnapshot snapshot;
-  snapshot.set_version(service::Session::kSnapshotVersion);
-  *snapshot.mutable_scene() = service::WithEffectiveOptions(handle->scene, handle->base);
-  service::ToProtoInterfaceSnapshot(handle->interface, snapshot.mutable_interface());
+  snapshot.set_version(bridge::kSnapshotVersion);
+  *snapshot.mutable_scene() = bridge::WithEffectiveOptions(handle->scene, handle->base);
+  bridge::ToProtoInterfaceSnapshot(handle->interface, snapshot.mutable_interface());
   snapshot.set_applied_steps(handle->applied_steps);
   return WriteMessage(snapshot, buffer, capacity, size);
 }

@@ -24,8 +24,8 @@
 #include "loop_sessions.h"
 #include "mdr/analysis/identify.h"
 #include "mdr/base/validate.h"
+#include "mdr/bridge/scene_file.h"
 #include "mdr/client/error_details.h"
-#include "mdr/client/scene_file.h"
 #include "mdr/core/material.h"
 #include "plot.h"
 #include "report_format.h"
@@ -109,7 +109,7 @@ mdr::Status WriteReport(const std::string& dir, const std::string& markdown,
 // An AnalyzeLoops error in the command line's terms: a sample or column at its CSV line, an
 // option by its flag, the scene at its file's line.
 mdr::Status LoopsError(const grpc::Status& status, const RigData& csv, const CsvLayout& layout,
-                       const mdr::client::SceneDocument* scene) {
+                       const mdr::bridge::SceneDocument* scene) {
   const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
   const std::string& field = details.field;
   if (field.starts_with("samples.")) return SampleError(status, csv, layout);
@@ -169,7 +169,7 @@ mdr::Result<std::vector<RigData>> LoopsRuns(const LoopsArgs& args, const CsvLayo
 mdr::Result<ReportSet> AnalyzeRun(Connection& connection, const LoopsArgs& args,
                                   const CsvLayout& layout,
                                   const mdr::v1::LoopAnalysisOptions& options,
-                                  const mdr::client::SceneDocument* document, RigData run) {
+                                  const mdr::bridge::SceneDocument* document, RigData run) {
   const mdr::v1::Scene* scene = document ? &document->file().scene() : nullptr;
   const mdr::v1::AnalyzeLoopsRequest request = AnalysisRequest(run, options, scene);
   auto analysis = connection.client().AnalyzeLoops(request);
@@ -229,9 +229,9 @@ int LoopsCommand(const Common& common, const LoopsArgs& args) {
   if (!file.ok()) return Fail(file.status());
   auto runs = LoopsRuns(args, *layout, *file);
   if (!runs.ok()) return Fail(runs.status());
-  std::optional<mdr::client::SceneDocument> document;
+  std::optional<mdr::bridge::SceneDocument> document;
   if (!args.scene.empty()) {
-    auto loaded = mdr::client::SceneDocument::Load(args.scene);
+    auto loaded = mdr::bridge::SceneDocument::Load(args.scene);
     if (!loaded.ok()) return Fail(loaded.status());
     document = std::move(loaded).value();
   }

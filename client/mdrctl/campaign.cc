@@ -10,7 +10,7 @@
 #include <string_view>
 
 #include "mdr/base/validate.h"
-#include "mdr/client/scene_file.h"
+#include "mdr/bridge/scene_file.h"
 
 namespace mdrctl {
 namespace {
@@ -35,7 +35,7 @@ class YamlDoc {
     } catch (const YAML::BadFile&) {
       return mdr::InvalidArgument(path, "cannot open");
     } catch (const YAML::Exception& e) {
-      return mdr::InvalidArgument(path, mdr::client::DescribeYamlError(e));
+      return mdr::InvalidArgument(path, mdr::bridge::DescribeYamlError(e));
     }
     if (!doc.root_.IsMap()) return mdr::InvalidArgument(path, "must be a YAML mapping of fields");
     doc.RecordLines(doc.root_, "");
@@ -142,14 +142,14 @@ class YamlDoc {
                     std::string* source) const {
     if (node.IsScalar()) {
       *source = Resolve(node.Scalar());
-      auto document = mdr::client::SceneDocument::Load(*source);
+      auto document = mdr::bridge::SceneDocument::Load(*source);
       if (!document.ok()) return document.status();
       *scene = document->file().scene();
       return mdr::OkStatus();
     }
     if (!node.IsMap()) return Error(field, "must be a scene file's path or an inline scene");
     *source = "inline";
-    const mdr::Status parsed = mdr::client::ParseYamlMessage(YAML::Dump(node), scene);
+    const mdr::Status parsed = mdr::bridge::ParseYamlMessage(YAML::Dump(node), scene);
     if (!parsed.ok()) return Error(Join(field, parsed.field()), parsed.message());
     return mdr::OkStatus();
   }

@@ -11,9 +11,9 @@
 #include <sstream>
 
 #include "connection.h"
+#include "mdr/bridge/scene_file.h"
 #include "mdr/client/contact_client.h"
 #include "mdr/client/loading_path.h"
-#include "mdr/client/scene_file.h"
 #include "mdr/client/scene_runner.h"
 #include "plot.h"
 
@@ -66,7 +66,7 @@ int RunCommand(const Common& common, const RunArgs& args) {
     const mdr::Status gnuplot = CheckGnuplot();
     if (!gnuplot.ok()) return Fail(gnuplot.ToString());
   }
-  auto document = mdr::client::SceneDocument::Load(args.scene);
+  auto document = mdr::bridge::SceneDocument::Load(args.scene);
   if (!document.ok()) return Fail(document.status().ToString());
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
@@ -84,7 +84,7 @@ int RunCommand(const Common& common, const RunArgs& args) {
 }
 
 int SessionCreateCommand(const Common& common, const std::string& scene, const std::string& id) {
-  auto document = mdr::client::SceneDocument::Load(scene);
+  auto document = mdr::bridge::SceneDocument::Load(scene);
   if (!document.ok()) return Fail(document.status().ToString());
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
@@ -127,7 +127,7 @@ int ApplyCommand(const Common& common, const ApplyArgs& args) {
   request.set_request_id(args.request_id);
   request.mutable_step_mask()->add_paths("state");
   for (std::size_t i = 0; i < args.steps.size(); ++i) {
-    const mdr::Status parsed = mdr::client::ParseYamlMessage(args.steps[i], request.add_steps());
+    const mdr::Status parsed = mdr::bridge::ParseYamlMessage(args.steps[i], request.add_steps());
     if (!parsed.ok()) {
       return Fail(parsed.WithFieldPrefix("steps[" + std::to_string(i) + "]").ToString());
     }
@@ -212,7 +212,7 @@ int TransformCommand(const Common& common, const std::string& request_file) {
   auto text = ReadFile(request_file);
   if (!text.ok()) return Fail(text.status().ToString());
   mdr::v1::TransformRequest request;
-  const mdr::Status parsed = mdr::client::ParseYamlMessage(*text, &request);
+  const mdr::Status parsed = mdr::bridge::ParseYamlMessage(*text, &request);
   if (!parsed.ok()) return Fail(request_file + ": " + parsed.ToString());
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mdr/client/scene_file.h"
+#include "mdr/bridge/scene_file.h"
 
 namespace mdrctl {
 
@@ -37,7 +37,7 @@ class JsonWriter {
   bool after_key_ = false;
 };
 
-using mdr::client::JsonQuoted;  // a JSON string literal (mdr/client/scene_file.h)
+using mdr::bridge::JsonQuoted;  // a JSON string literal (mdr/bridge/scene_file.h)
 
 // A message as proto3 JSON the way every mdrctl output writes it (--format json, report.json):
 // field names as in the .proto, and every field present, zeros, false and empty lists included,

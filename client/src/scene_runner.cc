@@ -33,7 +33,7 @@ struct BatchOrigin {
 
 class Runner {
  public:
-  Runner(ContactClient& client, const SceneDocument& document, const RunOptions& options)
+  Runner(ContactClient& client, const bridge::SceneDocument& document, const RunOptions& options)
       : client_(client), document_(document), options_(options) {}
 
   RpcResult<v1::RunReport> Run() {
@@ -297,7 +297,7 @@ class Runner {
   }
 
   ContactClient& client_;
-  const SceneDocument& document_;
+  const bridge::SceneDocument& document_;
   const RunOptions& options_;
   v1::RunReport report_;
   v1::ContactState state_;
@@ -309,7 +309,7 @@ class Runner {
 
 }  // namespace
 
-RpcResult<v1::RunReport> RunScene(ContactClient& client, const SceneDocument& document,
+RpcResult<v1::RunReport> RunScene(ContactClient& client, const bridge::SceneDocument& document,
                                   const RunOptions& options) {
   return Runner(client, document, options).Run();
 }

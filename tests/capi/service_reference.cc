@@ -51,9 +51,9 @@
 #include <string>
 #include <vector>
 
-#include "mdr/client/scene_file.h"
-#include "mdr/service/analysis_ops.h"
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/analysis_ops.h"
+#include "mdr/bridge/conversion.h"
+#include "mdr/bridge/scene_file.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::capi_testing {
@@ -234,7 +234,7 @@ bool ReadMessage(const std::string& path, google::protobuf::Message* message) {
 }
 
 int Generate(const std::string& scene_file, const std::string& dir) {
-  Result<client::SceneDocument> document = client::SceneDocument::Load(scene_file);
+  Result<bridge::SceneDocument> document = bridge::SceneDocument::Load(scene_file);
   if (!Check(document.status(), "scene file")) return 1;
   const v1::Scene& scene = document->file().scene();
   const std::vector<HistoryStep> steps = History();
@@ -282,7 +282,7 @@ std::vector<ListStep> ListHistory() {
 }
 
 int GenerateContactList(const std::string& scene_file, const std::string& dir) {
-  Result<client::SceneDocument> document = client::SceneDocument::Load(scene_file);
+  Result<bridge::SceneDocument> document = bridge::SceneDocument::Load(scene_file);
   if (!Check(document.status(), "scene file")) return 1;
   ContactOperations ops(service::ServiceLimits{}, service::TestHooks{});
   if (!CreateSession(ops, document->file().scene())) return 1;
@@ -373,7 +373,7 @@ std::string Deterministic(const google::protobuf::Message& message) {
 // Three fretting cycles at F_N = 100 N, 100 samples a cycle, with a rig's noise: 5 nm on the
 // displacement, 0.05 N on the force (a fixed seed).
 Result<v1::LoopSamples> RecordLoops(const v1::Scene& scene) {
-  Result<ContactConfig> config = service::ToContactConfig(scene, 65536);
+  Result<ContactConfig> config = bridge::ToContactConfig(scene, 65536);
   if (!config.ok()) return config.status();
   Result<Contact> contact = Contact::Create(std::move(config).value());
   if (!contact.ok()) return contact.status();
@@ -404,7 +404,7 @@ bool WriteAnalysis(const std::string& dir, int k, const Request& request, Run ru
 }
 
 int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
-  Result<client::SceneDocument> document = client::SceneDocument::Load(scene_file);
+  Result<bridge::SceneDocument> document = bridge::SceneDocument::Load(scene_file);
   if (!Check(document.status(), "scene file")) return 1;
   const v1::Scene& scene = document->file().scene();
   Result<v1::LoopSamples> samples = RecordLoops(scene);
@@ -450,26 +450,27 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
     sample_lines += Hex(samples->displacement(i)) + " " + Hex(samples->tangential_force(i)) + "\n";
   }
   if (!WriteFile(dir + "/analysis_samples.txt", sample_lines)) return 1;
-  const bool written = WriteAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
-                           dir, kAnalyzeLoops, loops,
-                           [&](const auto& r, auto* out) {
-                             return service::RunAnalyzeLoops(r, limits, never, out);
-                           }) &&
-                       WriteAnalysis<v1::FitLoopsRequest, v1::FitResult>(
-                           dir, kFitLoops, fit,
-                           [&](const auto& r, auto* out) {
-                             return service::RunFitLoops(
-                                 r, limits, never, [](const v1::FitProgress&) {}, out);
-                           }) &&
-                       WriteAnalysis<v1::FrettingMapRequest, v1::FrettingMapResponse>(
-                           dir, kFrettingMap, map,
-                           [&](const auto& r, auto* out) {
-                             return service::RunFrettingMap(r, limits, never, out);
-                           }) &&
-                       WriteAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
-                           dir, kBackbone, backbone, [&](const auto& r, auto* out) {
-                             return service::RunBackbone(r, limits, never, out);
-                           });
+  const bool written =
+      WriteAnalysis<v1::AnalyzeLoopsRequest, v1::AnalyzeLoopsResponse>(
+          dir, kAnalyzeLoops, loops,
+          [&](const auto& r, auto* out) {
+            return bridge::RunAnalyzeLoops(r, limits.max_memory_vertices, never, out);
+          }) &&
+      WriteAnalysis<v1::FitLoopsRequest, v1::FitResult>(dir, kFitLoops, fit,
+                                                        [&](const auto& r, auto* out) {
+                                                          return bridge::RunFitLoops(
+                                                              r, limits.max_memory_vertices, never,
+                                                              [](const v1::FitProgress&) {}, out);
+                                                        }) &&
+      WriteAnalysis<v1::FrettingMapRequest, v1::FrettingMapResponse>(
+          dir, kFrettingMap, map,
+          [&](const auto& r, auto* out) {
+            return bridge::RunFrettingMap(r, limits.max_memory_vertices, never, out);
+          }) &&
+      WriteAnalysis<v1::BackboneRequest, v1::BackboneResponse>(
+          dir, kBackbone, backbone, [&](const auto& r, auto* out) {
+            return bridge::RunBackbone(r, limits.max_memory_vertices, never, out);
+          });
   if (!written) return 1;
   // The figures the Octave caller prints, from the service's answers.
   v1::AnalyzeLoopsResponse loops_answer;

@@ -1,6 +1,6 @@
 // Scene files: YAML and JSON give the same message, lines are remembered for every field, and
 // the loading path expands to the steps it promises.
-#include "mdr/client/scene_file.h"
+#include "mdr/bridge/scene_file.h"
 
 #include <gmock/gmock.h>
 #include <google/protobuf/util/message_differencer.h>
@@ -13,7 +13,7 @@
 
 namespace {
 
-using mdr::client::SceneDocument;
+using mdr::bridge::SceneDocument;
 using mdr::v1::Step;
 using ::testing::HasSubstr;
 
@@ -70,7 +70,7 @@ TEST(SceneFileTest, RemembersTheLineOfEveryField) {
 
 TEST(SceneFileTest, YamlInfinityReachesTheServiceAsInfinity) {
   mdr::v1::Step step;
-  ASSERT_TRUE(mdr::client::ParseYamlMessage("{depth: .inf, tangential_force: -.inf}", &step).ok());
+  ASSERT_TRUE(mdr::bridge::ParseYamlMessage("{depth: .inf, tangential_force: -.inf}", &step).ok());
   EXPECT_EQ(step.depth(), std::numeric_limits<double>::infinity());
   EXPECT_EQ(step.tangential_force(), -std::numeric_limits<double>::infinity());
 }

@@ -12,8 +12,8 @@
 
 namespace {
 
+using mdr::bridge::SceneDocument;
 using mdr::client::RunOptions;
-using mdr::client::SceneDocument;
 using ::testing::HasSubstr;
 
 // Three Hertz contacts (R = 0.1, 0.1, 0.2 mm) on a rigid-on-half-space steel: pressed by their

@@ -31,7 +31,7 @@
 #include "fixtures/slip_state_check.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/service/grpc_status.h"
 #include "mdr/service/operations.h"
 
@@ -305,10 +305,10 @@ void CheckError(const grpc::Status& status) {
 // The contact of a single-contact session as the core holds it, rebuilt from its export.
 std::optional<mdr::Contact> CoreContact(const mdr::v1::SessionSnapshot& snapshot) {
   if (snapshot.scene().has_interface()) return std::nullopt;
-  mdr::Result<mdr::ContactConfig> config = mdr::service::ToContactConfig(
+  mdr::Result<mdr::ContactConfig> config = mdr::bridge::ToContactConfig(
       snapshot.scene(), snapshot.scene().options().max_memory_vertices(), {});
   Check(config.ok(), "an exported scene converts");
-  mdr::Result<mdr::ContactSnapshot> state = mdr::service::ToCoreSnapshot(snapshot.contact());
+  mdr::Result<mdr::ContactSnapshot> state = mdr::bridge::ToCoreSnapshot(snapshot.contact());
   Check(state.ok(), "an exported state converts");
   mdr::Result<mdr::Contact> contact = mdr::Contact::Restore(std::move(config).value(), *state);
   Check(contact.ok(), "an exported state restores");

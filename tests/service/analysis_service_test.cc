@@ -12,7 +12,7 @@
 #include "mdr/analysis/exact_loops.h"
 #include "mdr/analysis/identify.h"
 #include "mdr/analysis/loops.h"
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -29,7 +29,7 @@ v1::Scene RigScene() {
 }
 
 ContactConfig CoreOf(const v1::Scene& scene) {
-  Result<ContactConfig> config = service::ToContactConfig(scene, 1'000'000, Interrupt());
+  Result<ContactConfig> config = bridge::ToContactConfig(scene, 1'000'000, Interrupt());
   EXPECT_TRUE(config.ok()) << config.status().ToString();
   return std::move(config).value();
 }

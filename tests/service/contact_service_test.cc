@@ -11,8 +11,8 @@
 namespace mdr::service_testing {
 namespace {
 
+using bridge::Output;
 using google::protobuf::util::MessageDifferencer;
-using service::Output;
 using ::testing::HasSubstr;
 
 using ContactServiceTest = ServiceTest;

@@ -3,7 +3,7 @@
 // 2.5 to 19 times mu p and its Jäger weights, read +-1, summed to 3.6 times the force), the same
 // on the grid, and a depth whose normal force is not finite. States the engine reaches import as
 // before (the stability suite and both fuzzers restore every state they reach).
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -34,7 +34,7 @@ class CraftedImportTest : public ServiceTest {
   // mu kappa of the snapshot's scene, as the engine clamps with.
   static double MuKappa(const v1::SessionSnapshot& snapshot) {
     Result<ContactConfig> config =
-        service::ToContactConfig(snapshot.scene(), 1'000'000, Interrupt());
+        bridge::ToContactConfig(snapshot.scene(), 1'000'000, Interrupt());
     EXPECT_TRUE(config.ok());
     return config->friction * config->material.kappa();
   }

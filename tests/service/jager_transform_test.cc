@@ -14,7 +14,7 @@
 namespace mdr::service_testing {
 namespace {
 
-using service::Output;
+using bridge::Output;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 

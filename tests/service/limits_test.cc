@@ -139,5 +139,46 @@ TEST_F(SlowBatchTest, CancellationAbortsTheBatchAtomically) {
   ExpectAbandonedEarlyAndUnchanged();
 }
 
+// The limits themselves, without a server.
+TEST(LimitsUnitTest, ServerLimitsNameTheirFlag) {
+  service::ServiceLimits limits;
+  EXPECT_TRUE(service::ValidateServiceLimits(limits).ok());
+  limits.max_message_bytes = 100;
+  EXPECT_EQ(service::ValidateServiceLimits(limits).field(), "max-message-bytes");
+  limits = {};
+  limits.max_memory_vertices = 4;
+  EXPECT_EQ(service::ValidateServiceLimits(limits).field(), "max-memory-vertices");
+  limits = {};
+  limits.max_sessions = 0;
+  EXPECT_EQ(service::ValidateServiceLimits(limits).field(), "max-sessions");
+}
+
+TEST(LimitsUnitTest, SessionLimitsTakeTheServersUnlessSetWithinThem) {
+  service::ServiceLimits server;
+  server.max_steps_per_batch = 500;
+  server.session_idle_timeout = std::chrono::minutes(10);
+  const v1::SessionLimits defaults = *service::ResolveSessionLimits({}, server);
+  EXPECT_EQ(defaults.max_steps_per_batch(), 500u);
+  EXPECT_EQ(service::IdleTimeout(defaults), std::chrono::minutes(10));
+
+  v1::SessionLimits requested;
+  requested.set_max_steps_per_batch(20);
+  requested.mutable_idle_timeout()->set_seconds(30);
+  const v1::SessionLimits own = *service::ResolveSessionLimits(requested, server);
+  EXPECT_EQ(own.max_steps_per_batch(), 20u);
+  EXPECT_EQ(service::IdleTimeout(own), std::chrono::seconds(30));
+
+  requested.set_max_steps_per_batch(501);
+  EXPECT_EQ(service::ResolveSessionLimits(requested, server).status().field(),
+            "max_steps_per_batch");
+  requested.set_max_steps_per_batch(20);
+  requested.mutable_idle_timeout()->set_seconds(601);
+  EXPECT_EQ(service::ResolveSessionLimits(requested, server).status().field(), "idle_timeout");
+  requested.mutable_idle_timeout()->set_seconds(1);
+  requested.mutable_idle_timeout()->set_nanos(-5);
+  EXPECT_EQ(service::ResolveSessionLimits(requested, server).status().field(),
+            "idle_timeout.nanos");
+}
+
 }  // namespace
 }  // namespace mdr::service_testing

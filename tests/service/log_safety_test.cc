@@ -16,8 +16,8 @@
 #include <thread>
 #include <vector>
 
-#include "mdr/service/log_value.h"
-#include "mdr/service/outputs.h"
+#include "mdr/base/log_value.h"
+#include "mdr/bridge/outputs.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -51,20 +51,19 @@ std::vector<std::string> LogfmtKeys(const std::string& line, std::string* event)
 }
 
 TEST(LogValueTest, ValidNamesStayBareEverythingElseIsQuotedAndEscaped) {
-  EXPECT_EQ(service::LogValue("sessions/run-1"), "sessions/run-1");
-  EXPECT_EQ(service::LogValue(""), "\"\"");
-  EXPECT_EQ(service::LogValue("a b"), "\"a b\"");
-  EXPECT_EQ(service::LogValue("x\nlevel=info \"q\" \\"), R"("x\nlevel=info \"q\" \\")");
-  EXPECT_EQ(service::LogValue(std::string("\r\t\x01\x7f\xc3\xa9\0", 7)),
-            R"("\r\t\x01\x7F\xC3\xA9\x00")");
-  EXPECT_EQ(service::Quoted("sessions/run-1"), "\"sessions/run-1\"");
+  EXPECT_EQ(LogValue("sessions/run-1"), "sessions/run-1");
+  EXPECT_EQ(LogValue(""), "\"\"");
+  EXPECT_EQ(LogValue("a b"), "\"a b\"");
+  EXPECT_EQ(LogValue("x\nlevel=info \"q\" \\"), R"("x\nlevel=info \"q\" \\")");
+  EXPECT_EQ(LogValue(std::string("\r\t\x01\x7f\xc3\xa9\0", 7)), R"("\r\t\x01\x7F\xC3\xA9\x00")");
+  EXPECT_EQ(Quoted("sessions/run-1"), "\"sessions/run-1\"");
 }
 
 TEST(LogValueTest, LongValuesShowABoundedPrefixAndTheirLength) {
   const std::string huge(1 << 20, 'a');
-  const std::string shown = service::LogValue(huge);
-  EXPECT_EQ(shown, "\"" + std::string(service::kMaxShownValueBytes, 'a') + "...(1048576 bytes)\"");
-  EXPECT_EQ(service::Quoted(huge, 4), "\"aaaa...(1048576 bytes)\"");
+  const std::string shown = LogValue(huge);
+  EXPECT_EQ(shown, "\"" + std::string(kMaxShownValueBytes, 'a') + "...(1048576 bytes)\"");
+  EXPECT_EQ(Quoted(huge, 4), "\"aaaa...(1048576 bytes)\"");
 }
 
 // A server whose log lines (info and debug) are captured, one string per line.
@@ -319,8 +318,8 @@ TEST_F(ServiceTest, QueryRadiiAreLimitedByTheResponseSizeBeforeAnyWork) {
   ASSERT_TRUE(
       Apply(session, {DepthStep(kDepth), DisplacementStep(kDisplacementAt15N)}, &applied).ok());
   const std::vector<std::string> radial = {"springs", "tractions", "pressure"};
-  service::OutputSelection selection = *service::SelectQueryOutputs(Mask(radial));
-  const std::size_t max_radii = service::MaxRadii(selection, options.limits.max_message_bytes);
+  bridge::OutputSelection selection = *bridge::SelectQueryOutputs(Mask(radial));
+  const std::size_t max_radii = bridge::MaxRadii(selection, options.limits.max_message_bytes);
   ASSERT_GT(max_radii, 100u);
   const double contact_radius = std::sqrt(kRadius * kDepth);
   std::vector<double> radii(max_radii + 1);
@@ -333,8 +332,8 @@ TEST_F(ServiceTest, QueryRadiiAreLimitedByTheResponseSizeBeforeAnyWork) {
   EXPECT_THAT(status.error_message(),
               HasSubstr("at most " + std::to_string(max_radii) + " radii fit in one response"));
   EXPECT_THAT(status.error_message(), HasSubstr("got " + std::to_string(max_radii + 1)));
-  EXPECT_EQ(counters_[service::Output::kTractions], 0u);
-  EXPECT_EQ(counters_[service::Output::kPressure], 0u);
+  EXPECT_EQ(counters_[bridge::Output::kTractions], 0u);
+  EXPECT_EQ(counters_[bridge::Output::kPressure], 0u);
   // The maximum itself fits: the limit and the message size agree.
   radii.pop_back();
   status = Query(session, &response, radial, radii);
@@ -347,10 +346,10 @@ TEST_F(ServiceTest, TransformRadiiAreLimitedByTheResponseSize) {
   v1::TransformRequest request;
   *request.mutable_scene() = SteelSphereOnSteelFlat();
   request.mutable_superposition()->set_depth(kDepth);
-  service::OutputSelection tractions;
-  tractions.add(service::Output::kTractions);
+  bridge::OutputSelection tractions;
+  tractions.add(bridge::Output::kTractions);
   const std::size_t max_radii =
-      service::MaxRadii(tractions, service::ServiceLimits{}.max_message_bytes);
+      bridge::MaxRadii(tractions, service::ServiceLimits{}.max_message_bytes);
   request.mutable_radii()->Resize(static_cast<int>(max_radii) + 1, 0.0);
   v1::TransformResponse response;
   const grpc::Status status = stub_->Transform(Context().get(), request, &response);

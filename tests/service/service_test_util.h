@@ -1,5 +1,5 @@
-// Shared helpers for the service tests: the H1 reference scene (steel sphere on steel flat), step
-// builders, closed forms, and a fixture with a real server on a free port driven through the stub.
+// Shared helpers for the service tests: those of the bridge's tests (bridge_test_util.h), and
+// a fixture with a real server on a free port driven through the stub.
 #pragma once
 
 #include <gmock/gmock.h>
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "fixtures/reference_scenes.h"
+#include "bridge/bridge_test_util.h"
 #include "google/rpc/error_details.pb.h"
 #include "google/rpc/status.pb.h"
 #include "mdr/service/server.h"
@@ -23,67 +23,26 @@
 
 namespace mdr::service_testing {
 
-// Reference vector H1 (tests/fixtures/reference_scenes.h): steel sphere R = 10 mm on a steel
-// flat, mu = 0.3.
-constexpr double kYoungsModulus = reference::H1::kYoungsModulus;
-constexpr double kPoissonRatio = reference::H1::kPoissonRatio;
-constexpr double kRadius = reference::H1::kRadius;
-constexpr double kFriction = reference::H1::kFriction;
-constexpr double kDepth = reference::H1::kDepth;                          // gives F_N = 100 N
-constexpr double kDisplacementAt15N = reference::H1::kDisplacementAt15N;  // gives F_x = 15 N
-
-// Closed forms (docs/physics.md) for two equal elastic bodies.
-inline double EffectiveYoungsModulus() {
-  return 1 / (2 * (1 - kPoissonRatio * kPoissonRatio) / kYoungsModulus);
-}
-inline double EffectiveShearModulus() {
-  const double shear_modulus = kYoungsModulus / (2 * (1 + kPoissonRatio));
-  return 1 / (2 * (2 - kPoissonRatio) / (4 * shear_modulus));
-}
-inline double Kappa() { return EffectiveYoungsModulus() / EffectiveShearModulus(); }
-inline double HertzNormalForce(double depth) {
-  return 4.0 / 3.0 * EffectiveYoungsModulus() * std::sqrt(kRadius) * std::pow(depth, 1.5);
-}
-// Cattaneo-Mindlin at constant depth: ux = mu kappa d [1 - (1-s)^(2/3)], F_x = s mu F_N.
-inline double CattaneoMindlinTangentialForce(double depth, double displacement) {
-  const double full_slip = kFriction * Kappa() * depth;
-  const double s = 1 - std::pow(1 - displacement / full_slip, 1.5);
-  return s * kFriction * HertzNormalForce(depth);
-}
-
-inline v1::Scene SteelSphereOnSteelFlat() { return reference::H1Scene<v1::Scene>(); }
-
-inline v1::Step DepthStep(double depth) {
-  v1::Step step;
-  step.set_depth(depth);
-  return step;
-}
-inline v1::Step DisplacementStep(double displacement) {
-  v1::Step step;
-  step.set_displacement(displacement);
-  return step;
-}
-inline v1::Step DisplacementIncrementStep(double increment) {
-  v1::Step step;
-  step.set_displacement_increment(increment);
-  return step;
-}
-inline v1::Step TangentialForceStep(double force) {
-  v1::Step step;
-  step.set_tangential_force(force);
-  return step;
-}
-inline v1::Step NormalForceStep(double force) {
-  v1::Step step;
-  step.set_normal_force(force);
-  return step;
-}
-
-inline google::protobuf::FieldMask Mask(const std::vector<std::string>& paths) {
-  google::protobuf::FieldMask mask;
-  for (const std::string& path : paths) mask.add_paths(path);
-  return mask;
-}
+// The scenes, steps, closed forms and masks of bridge_test_util.h.
+using bridge_testing::CattaneoMindlinTangentialForce;
+using bridge_testing::DepthStep;
+using bridge_testing::DisplacementIncrementStep;
+using bridge_testing::DisplacementStep;
+using bridge_testing::EffectiveShearModulus;
+using bridge_testing::EffectiveYoungsModulus;
+using bridge_testing::ExpectRelativelyNear;
+using bridge_testing::HertzNormalForce;
+using bridge_testing::Kappa;
+using bridge_testing::kDepth;
+using bridge_testing::kDisplacementAt15N;
+using bridge_testing::kFriction;
+using bridge_testing::kPoissonRatio;
+using bridge_testing::kRadius;
+using bridge_testing::kYoungsModulus;
+using bridge_testing::Mask;
+using bridge_testing::NormalForceStep;
+using bridge_testing::SteelSphereOnSteelFlat;
+using bridge_testing::TangentialForceStep;
 
 inline v1::ApplyRequest ApplyRequestFor(const std::string& session,
                                         const std::vector<v1::Step>& steps,
@@ -127,10 +86,6 @@ inline void ExpectInvalidArgument(const grpc::Status& status, const std::string&
   ASSERT_EQ(bad_request.field_violations_size(), 1) << status.error_message();
   EXPECT_EQ(bad_request.field_violations(0).field(), field);
   EXPECT_FALSE(bad_request.field_violations(0).description().empty());
-}
-
-inline void ExpectRelativelyNear(double actual, double expected, double tolerance) {
-  EXPECT_NEAR(actual, expected, tolerance * std::abs(expected));
 }
 
 inline service::ServerOptions LocalServerOptions() {
@@ -215,7 +170,7 @@ class ServiceTest : public ::testing::Test {
     return snapshot;
   }
 
-  service::OutputCounters counters_;
+  bridge::OutputCounters counters_;
   std::unique_ptr<service::ContactServer> server_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::ContactService::Stub> stub_;

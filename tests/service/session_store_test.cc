@@ -8,7 +8,7 @@
 #include <future>
 #include <thread>
 
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -24,7 +24,7 @@ SessionOrigin FreshState(std::chrono::nanoseconds idle_timeout = std::chrono::ho
   const v1::Scene scene = SteelSphereOnSteelFlat();
   SessionOrigin state{.scene = scene,
                       .limits = {},
-                      .contact = *Contact::Create(*service::ToContactConfig(scene, 1 << 16))};
+                      .contact = *Contact::Create(*bridge::ToContactConfig(scene, 1 << 16))};
   state.limits.set_max_steps_per_batch(100);
   state.limits.mutable_idle_timeout()->set_seconds(
       std::chrono::duration_cast<std::chrono::seconds>(idle_timeout).count());

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <chrono>
 
+#include "mdr/base/log_value.h"
 #include "mdr/service/grpc_status.h"
-#include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
 
 namespace mdr::service {

@@ -7,11 +7,16 @@
 #include <string>
 #include <utility>
 
-#include "mdr/service/analysis_ops.h"
+#include "mdr/bridge/analysis_ops.h"
 #include "mdr/service/call_context.h"
 #include "mdr/service/grpc_status.h"
 
 namespace mdr::service {
+
+using bridge::RunAnalyzeLoops;
+using bridge::RunBackbone;
+using bridge::RunFitLoops;
+using bridge::RunFrettingMap;
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -390,7 +395,8 @@ grpc::ServerUnaryReactor* ContactServiceImpl::AnalyzeLoops(grpc::CallbackServerC
   return Queue(context, "AnalyzeLoops", "", "",
                [this, request, response](const Principal&, const Interrupt& interrupt) {
                  return Timed(response, [&](v1::AnalyzeLoopsResponse* r) {
-                   return RunAnalyzeLoops(*request, operations_.limits(), interrupt, r);
+                   return RunAnalyzeLoops(*request, operations_.limits().max_memory_vertices,
+                                          interrupt, r);
                  });
                });
 }
@@ -410,7 +416,7 @@ grpc::ServerWriteReactor<v1::FitLoopsResponse>* ContactServiceImpl::FitLoops(
         Status status = call->interrupt().Check();
         if (status.ok()) {
           status = RunFitLoops(
-              *request, operations_.limits(), call->interrupt(),
+              *request, operations_.limits().max_memory_vertices, call->interrupt(),
               [call](const v1::FitProgress& progress) { call->Progress(progress); }, &result);
         }
         if (status.ok()) {
@@ -432,7 +438,8 @@ grpc::ServerUnaryReactor* ContactServiceImpl::FrettingMap(grpc::CallbackServerCo
   return Queue(context, "FrettingMap", "", "",
                [this, request, response](const Principal&, const Interrupt& interrupt) {
                  return Timed(response, [&](v1::FrettingMapResponse* r) {
-                   return RunFrettingMap(*request, operations_.limits(), interrupt, r);
+                   return RunFrettingMap(*request, operations_.limits().max_memory_vertices,
+                                         interrupt, r);
                  });
                });
 }
@@ -443,7 +450,8 @@ grpc::ServerUnaryReactor* ContactServiceImpl::Backbone(grpc::CallbackServerConte
   return Queue(context, "Backbone", "", "",
                [this, request, response](const Principal&, const Interrupt& interrupt) {
                  return Timed(response, [&](v1::BackboneResponse* r) {
-                   return RunBackbone(*request, operations_.limits(), interrupt, r);
+                   return RunBackbone(*request, operations_.limits().max_memory_vertices, interrupt,
+                                      r);
                  });
                });
 }

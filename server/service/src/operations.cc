@@ -9,14 +9,33 @@
 #include <string>
 #include <utility>
 
+#include "mdr/base/log_value.h"
 #include "mdr/base/validate.h"
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/service/journal.h"
-#include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
 #include "mdr/service/transform.h"
 
 namespace mdr::service {
+
+using bridge::CheckExportable;
+using bridge::CheckInterfaceSize;
+using bridge::CheckRadiiCount;
+using bridge::CheckSnapshotHeader;
+using bridge::CreateInterface;
+using bridge::ExportBytesBound;
+using bridge::InterfaceQuery;
+using bridge::OutputSelection;
+using bridge::RadialSampling;
+using bridge::RestoreInterface;
+using bridge::SelectQueryOutputs;
+using bridge::SelectStepOutputs;
+using bridge::StateBudget;
+using bridge::StateBytes;
+using bridge::StateCharge;
+using bridge::ToContactConfig;
+using bridge::ToCoreContact;
+using bridge::ToRadialSampling;
 namespace {
 
 constexpr int kDefaultPageSize = 100;
@@ -206,8 +225,8 @@ Status ContactOperations::CreateSession(const Principal& caller,
   SessionOrigin state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
   if (resource.scene().has_interface()) {
-    if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(),
-                                      StateRoomOf(caller), limits_.max_message_bytes);
+    if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(), StateRoomOf(caller),
+                                      limits_.max_message_bytes);
         !s.ok()) {
       return s.WithFieldPrefix("session");
     }
@@ -293,19 +312,11 @@ Status ContactOperations::ExportSession(const Principal& caller,
 Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot, const Principal& caller,
                                   std::optional<SessionOrigin>* state,
                                   const Interrupt& interrupt) const {
-  if (snapshot.version() != Session::kSnapshotVersion) {
-    return InvalidArgument("snapshot.version",
-                           "must be " + std::to_string(Session::kSnapshotVersion) +
-                               " (the snapshot format this server reads), got " +
-                               std::to_string(snapshot.version()));
-  }
+  if (Status s = CheckSnapshotHeader(snapshot); !s.ok()) return s;
   if (!snapshot.source_name().empty() && !SessionStore::IsSessionName(snapshot.source_name())) {
     return InvalidArgument("snapshot.source_name",
                            "must be empty or a session name \"sessions/{session_id}\" (session_id: "
                            "1-63 characters of [a-z0-9-] starting with a letter)");
-  }
-  if (Status s = CheckSnapshotCounters(snapshot, Session::kMaxAppliedSteps); !s.ok()) {
-    return s;
   }
   Result<v1::SessionLimits> limits = ResolveSessionLimits(snapshot.limits(), limits_);
   if (!limits.ok()) return limits.status().WithFieldPrefix("snapshot.limits");

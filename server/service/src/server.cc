@@ -16,8 +16,8 @@
 #include <sstream>
 #include <vector>
 
+#include "mdr/base/log_value.h"
 #include "mdr/service/journal.h"
-#include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
 #include "mdr/service/pool_parallel_for.h"
 #include "mdr/service/request_parse_errors.h"

@@ -7,13 +7,42 @@
 #include <optional>
 #include <utility>
 
-#include "mdr/service/conversion.h"
+#include "mdr/base/log_value.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
-#include "mdr/service/log_value.h"
 #include "mdr/service/metrics.h"
 
 namespace mdr::service {
+
+using bridge::ApplyInterfaceStep;
+using bridge::BoundsAfterOneStraightStep;
+using bridge::BoundsAtCommit;
+using bridge::CheckExportable;
+using bridge::CheckSingleContactQuery;
+using bridge::CheckSingleContactStep;
+using bridge::ExportBytesBound;
+using bridge::ExportedSceneBytes;
+using bridge::InterfaceQuery;
+using bridge::kMaxAppliedSteps;
+using bridge::kSnapshotVersion;
+using bridge::MovesEveryContactOnce;
+using bridge::OutputCounters;
+using bridge::OutputSelection;
+using bridge::RadialSampling;
+using bridge::StateBytes;
+using bridge::StepBounds;
+using bridge::ToCoreStep;
+using bridge::ToProtoInterfaceSnapshot;
+using bridge::ToProtoSnapshot;
+using bridge::WithEffectiveOptions;
+using bridge::WriteApproximationErrors;
+using bridge::WriteInterfaceQueryOutputs;
+using bridge::WriteInterfaceState;
+using bridge::WriteInterfaceStepResult;
+using bridge::WriteQueryOutputs;
+using bridge::WriteState;
+using bridge::WriteStepResult;
 namespace {
 
 using google::protobuf::util::TimeUtil;

@@ -10,9 +10,9 @@
 #include <string_view>
 #include <utility>
 
+#include "mdr/base/log_value.h"
 #include "mdr/base/status.h"
 #include "mdr/service/journal.h"
-#include "mdr/service/log_value.h"
 
 namespace mdr::service {
 namespace {

@@ -4,14 +4,25 @@
 #include <utility>
 #include <vector>
 
+#include "mdr/bridge/conversion.h"
+#include "mdr/bridge/outputs.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/memory.h"
 #include "mdr/core/sampled_weight.h"
 #include "mdr/core/traction.h"
-#include "mdr/service/conversion.h"
-#include "mdr/service/outputs.h"
 
 namespace mdr::service {
+
+using bridge::CheckRadiiCount;
+using bridge::Output;
+using bridge::OutputSelection;
+using bridge::RadialSampling;
+using bridge::ToContactConfig;
+using bridge::ToCoreTerms;
+using bridge::ToProtoMemory;
+using bridge::ToProtoRadialValues;
+using bridge::ToProtoSampledWeight;
+using bridge::ToRadialSampling;
 namespace {
 
 // AnalyzeSampledDisplacement names its inputs "x[i]", "u[i]", "options.tolerance",

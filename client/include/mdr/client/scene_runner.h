@@ -9,8 +9,8 @@
 #include <functional>
 #include <optional>
 
+#include "mdr/bridge/scene_file.h"
 #include "mdr/client/contact_client.h"
-#include "mdr/client/scene_file.h"
 #include "mdr/v1/scene_file.pb.h"
 
 namespace mdr::client {
@@ -30,7 +30,7 @@ struct RunOptions {
 
 // Errors point at the scene file: "scene.sphere.radius: ... (file:line)" for the scene,
 // "path[2] (step 4 of 40): tangential_force: ... (file:line)" for a step.
-RpcResult<v1::RunReport> RunScene(ContactClient& client, const SceneDocument& document,
+RpcResult<v1::RunReport> RunScene(ContactClient& client, const bridge::SceneDocument& document,
                                   const RunOptions& options = {});
 
 }  // namespace mdr::client

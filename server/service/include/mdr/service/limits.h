@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "mdr/base/status.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/service/stream_pacer.h"
 #include "mdr/v1/contact_service.pb.h"
 
@@ -27,7 +28,7 @@ struct ServiceLimits {
   std::uint32_t max_steps_per_batch = 10000;
   // Largest scene.options.max_memory_vertices a session may ask for (and its default when
   // lower than the core's default of 65536).
-  std::size_t max_memory_vertices = std::size_t{1} << 20;
+  std::size_t max_memory_vertices = bridge::kDefaultMaxMemoryVertices;
   // Sessions idle this long are deleted (and the sessions' longest idle timeout); 0: never.
   std::chrono::milliseconds session_idle_timeout = std::chrono::hours(1);
   // Largest request or response message in bytes (RESOURCE_EXHAUSTED beyond). A batch whose

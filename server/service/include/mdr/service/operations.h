@@ -14,13 +14,13 @@
 #include <vector>
 
 #include "mdr/base/status.h"
+#include "mdr/bridge/outputs.h"
+#include "mdr/bridge/state_budget.h"
 #include "mdr/core/interface.h"
 #include "mdr/core/interrupt.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
-#include "mdr/service/outputs.h"
 #include "mdr/service/session_store.h"
-#include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -28,7 +28,7 @@ namespace mdr::service {
 // Hooks for tests; all default to off.
 struct TestHooks {
   // Counts every Query output computed.
-  OutputCounters* output_counters = nullptr;
+  bridge::OutputCounters* output_counters = nullptr;
   // Called before every step of every batch (e.g. to make a batch outlast a deadline).
   std::function<void(int step_index)> before_step;
   // Called by CreateSession and ImportSession after the state is built, before the call's
@@ -113,10 +113,10 @@ class ContactOperations {
   // The budget a caller's sessions are charged to: its own quota inside the server's
   // (--max-state-bytes-per-token), or the server's for callers without a token or without
   // quotas. Created on first use, kept for the process.
-  StateBudget* BudgetOf(const std::string& owner) const;
+  bridge::StateBudget* BudgetOf(const std::string& owner) const;
   // What the caller's budget and the server's have left, and which is the tighter; for checks
   // made before a state is built.
-  StateRoom StateRoomOf(const Principal& caller) const {
+  bridge::StateRoom StateRoomOf(const Principal& caller) const {
     return BudgetOf(caller.value_or(""))->Room();
   }
   // Builds the contact of a new session from a scene; errors prefixed with scene_path's parent.
@@ -140,10 +140,10 @@ class ContactOperations {
   const TestHooks hooks_;
   std::shared_ptr<ParallelFor> parallel_;  // for interface sessions
   // Thread-safe; mutable for Restore, which charges the restored sessions.
-  mutable StateBudget budget_;  // before sessions_, whose charges it holds
+  mutable bridge::StateBudget budget_;  // before sessions_, whose charges it holds
   mutable std::mutex owner_budgets_mutex_;
   // Per token, inside budget_ (before sessions_ too).
-  mutable std::map<std::string, std::unique_ptr<StateBudget>> owner_budgets_;
+  mutable std::map<std::string, std::unique_ptr<bridge::StateBudget>> owner_budgets_;
   std::unique_ptr<Journal> journal_;  // before sessions_: they write to it until destroyed
   SessionStore sessions_;
 };

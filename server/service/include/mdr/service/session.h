@@ -19,13 +19,13 @@
 #include <vector>
 
 #include "mdr/base/status.h"
+#include "mdr/bridge/interface_session.h"
+#include "mdr/bridge/outputs.h"
+#include "mdr/bridge/state_budget.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
 #include "mdr/service/completed_requests.h"
-#include "mdr/service/interface_session.h"
-#include "mdr/service/outputs.h"
 #include "mdr/service/principal.h"
-#include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
 namespace mdr::service {
@@ -50,7 +50,7 @@ struct SessionOrigin {
   // The responses remembered for request ids, oldest first.
   std::vector<CompletedRequest> completed{};
   // The contact's bytes, charged to the server's state budget; every commit resizes it.
-  StateCharge charge{};
+  bridge::StateCharge charge{};
   // The message limit that every export of the session must fit (0: unchecked).
   int max_message_bytes = 0;
   // Set for an interface session (scene.interface).
@@ -77,11 +77,6 @@ class Session {
   // Called before every step of a batch; a non-OK status (deadline, cancellation) abandons the
   // batch, which then changes nothing.
   using StepGuard = std::function<Status(int step_index)>;
-  // SessionSnapshot.version written by Export and accepted by ImportSession.
-  static constexpr std::uint32_t kSnapshotVersion = 1;
-  // Most steps a session applies in its life (applied_steps stays exact in a double and far from
-  // wrapping); a step beyond fails with FAILED_PRECONDITION.
-  static constexpr std::uint64_t kMaxAppliedSteps = std::uint64_t{1} << 53;
 
   Session(std::string name, SessionOrigin state);
   // An unavailable session: Apply, Query and Export fail with FAILED_PRECONDITION naming the
@@ -113,7 +108,7 @@ class Session {
   // A response above max_response_bytes fails with RESOURCE_EXHAUSTED, uncommitted; so does a
   // batch whose state would exceed the state budget or no longer fit one export message.
   // interrupt reaches inside long steps (curved force paths).
-  Status Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+  Status Apply(const v1::ApplyRequest& request, const bridge::OutputSelection& step_outputs,
                const StepGuard& guard, std::size_t max_response_bytes, v1::ApplyResponse* response,
                const Interrupt& interrupt = {});
 
@@ -121,16 +116,16 @@ class Session {
   // steps"): one straight step (StraightStepLocked) on a single exact contact, not journaled, of
   // at most max_vertices memory vertices; nothing happens otherwise (nullopt).
   std::optional<Status> ApplyIfBounded(const v1::ApplyRequest& request,
-                                       const OutputSelection& step_outputs,
+                                       const bridge::OutputSelection& step_outputs,
                                        std::size_t max_vertices, std::size_t max_response_bytes,
                                        v1::ApplyResponse* response);
 
   // The selected outputs of the current state; on error (an output this contact does not have)
   // the response is cleared. interface_query: contact_index and histogram bins of an interface
   // session (a single session refuses them).
-  Status Query(const OutputSelection& selection, const RadialSampling& sampling,
-               OutputCounters* counters, v1::QueryResponse* response,
-               const InterfaceQuery& interface_query = {}) const;
+  Status Query(const bridge::OutputSelection& selection, const bridge::RadialSampling& sampling,
+               bridge::OutputCounters* counters, v1::QueryResponse* response,
+               const bridge::InterfaceQuery& interface_query = {}) const;
 
   // Scene, limits, state, creation and expiry time, availability as the API resource. The state
   // is the one after the last committed batch: read without waiting for a batch that is running.
@@ -162,26 +157,27 @@ class Session {
 
  private:
   Status RemoveLocked(const std::function<Status()>& remove_entry);
-  Status RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+  Status RunBatch(const v1::ApplyRequest& request, const bridge::OutputSelection& step_outputs,
                   const StepGuard& guard, std::size_t max_response_bytes,
                   v1::ApplyResponse* response, const Interrupt& interrupt);
   // A one-step batch in place when it can (RunInterfaceStepInPlace), else on a copy.
-  Status RunInterfaceBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
-                           const StepGuard& guard, std::size_t max_response_bytes,
-                           v1::ApplyResponse* response, const Interrupt& interrupt);
+  Status RunInterfaceBatch(const v1::ApplyRequest& request,
+                           const bridge::OutputSelection& step_outputs, const StepGuard& guard,
+                           std::size_t max_response_bytes, v1::ApplyResponse* response,
+                           const Interrupt& interrupt);
   // One step on interface_ itself: the core's step is atomic, and what could still refuse it
   // (the budget and the export limit, from bounds of the step's growth, and the journal) is done
   // in its commit gate, before it changes anything. Sets *fall_back (nothing changed) when the
   // bounds do not fit: the exact check of a batch copy decides then.
   Status RunInterfaceStepInPlace(const v1::ApplyRequest& request,
-                                 const OutputSelection& step_outputs, const StepGuard& guard,
-                                 v1::ApplyResponse* response, const Interrupt& interrupt,
-                                 bool* fall_back);
+                                 const bridge::OutputSelection& step_outputs,
+                                 const StepGuard& guard, v1::ApplyResponse* response,
+                                 const Interrupt& interrupt, bool* fall_back);
   // Every step on a copy of the interface, swapped in at the commit.
   Status RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
-                                 const OutputSelection& step_outputs, const StepGuard& guard,
-                                 std::size_t max_response_bytes, v1::ApplyResponse* response,
-                                 const Interrupt& interrupt);
+                                 const bridge::OutputSelection& step_outputs,
+                                 const StepGuard& guard, std::size_t max_response_bytes,
+                                 v1::ApplyResponse* response, const Interrupt& interrupt);
   // The guard and the step counter's limit before step i.
   static Status CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied);
   // Whether `step` is one exact linear step of this session's single exact contact whatever its
@@ -192,11 +188,11 @@ class Session {
   // A one-step batch of a straight step on an exact contact without a journal, made in place
   // (Contact::Apply is atomic) once the bounds of the state after it are charged; *fall_back
   // when only those bounds did not fit (the exact state after the step may: RunBatch's copy).
-  Status RunStepInPlace(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
-                        const StepGuard& guard, v1::ApplyResponse* response,
-                        const Interrupt& interrupt, bool* fall_back);
+  Status RunStepInPlace(const v1::ApplyRequest& request,
+                        const bridge::OutputSelection& step_outputs, const StepGuard& guard,
+                        v1::ApplyResponse* response, const Interrupt& interrupt, bool* fall_back);
   // Apply's work with mutex_ held (the batch size checked).
-  Status ApplyLocked(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+  Status ApplyLocked(const v1::ApplyRequest& request, const bridge::OutputSelection& step_outputs,
                      const StepGuard& guard, std::size_t max_response_bytes,
                      v1::ApplyResponse* response, const Interrupt& interrupt);
   // The end of a batch whose steps all succeeded: the response size and state checks, the
@@ -211,7 +207,7 @@ class Session {
                           std::size_t export_bytes);
   // After the state changed: counters, the committed state and the response's state.
   void FinishBatchLocked(std::uint64_t applied, double path_error, v1::ApplyResponse* response);
-  void WriteStateLocked(const OutputSelection& selection, v1::ContactState* state) const;
+  void WriteStateLocked(const bridge::OutputSelection& selection, v1::ContactState* state) const;
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
   // Resizes charge_ to state_bytes, unless it exceeds the budget or export_bytes the export
   // limit.
@@ -245,7 +241,7 @@ class Session {
   Journal* journal_ = nullptr;               // guarded by mutex_
   std::uint64_t journal_sequence_;           // guarded by mutex_
   std::uint64_t journal_snapshot_sequence_;  // guarded by mutex_
-  StateCharge charge_;                       // guarded by mutex_
+  bridge::StateCharge charge_;               // guarded by mutex_
 
   // The state after the last commit, for ReadResource (GetSession, ListSessions are cheap calls
   // that must not wait for a running batch on mutex_).

@@ -1,4 +1,4 @@
-#include "mdr/service/outputs.h"
+#include "mdr/bridge/outputs.h"
 
 #include <algorithm>
 #include <limits>
@@ -6,12 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "mdr/base/log_value.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/core/jager.h"
 #include "mdr/core/tabulated_profile.h"
-#include "mdr/service/conversion.h"
-#include "mdr/service/log_value.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 namespace {
 
 struct Leaf {
@@ -407,4 +407,4 @@ Status WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
   return OkStatus();
 }
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

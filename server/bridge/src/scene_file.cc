@@ -1,4 +1,4 @@
-#include "mdr/client/scene_file.h"
+#include "mdr/bridge/scene_file.h"
 
 #include <google/protobuf/util/json_util.h>
 #include <yaml-cpp/depthguard.h>
@@ -9,7 +9,7 @@
 #include <regex>
 #include <sstream>
 
-namespace mdr::client {
+namespace mdr::bridge {
 namespace {
 
 // "normalForce" -> "normal_force": the proto field name the parser and the server report.
@@ -201,4 +201,4 @@ std::string JsonQuoted(std::string_view text) {
   return quoted + "\"";
 }
 
-}  // namespace mdr::client
+}  // namespace mdr::bridge

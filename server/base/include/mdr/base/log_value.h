@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-namespace mdr::service {
+namespace mdr {
 
 // Bytes of a client value shown at most; longer values are cut and end in "...(N bytes)".
 inline constexpr std::size_t kMaxShownValueBytes = 128;
@@ -23,4 +23,4 @@ std::string LogValue(std::string_view value, std::size_t max_bytes = kMaxShownVa
 // The value for an error message: always double-quoted, escaped and cut as by LogValue.
 std::string Quoted(std::string_view value, std::size_t max_bytes = kMaxShownValueBytes);
 
-}  // namespace mdr::service
+}  // namespace mdr

@@ -1,12 +1,12 @@
-#include "mdr/service/state_budget.h"
+#include "mdr/bridge/state_budget.h"
 
 #include <algorithm>
 #include <string>
 #include <utility>
 
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 namespace {
 
 constexpr std::size_t kBytesPerSpring = GridMemory::kBytesPerSpring;
@@ -185,4 +185,4 @@ Status StateCharge::Resize(std::size_t bytes) {
   return OkStatus();
 }
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

@@ -16,7 +16,7 @@
 #include "mdr/core/interface.h"
 #include "mdr/v1/scene.pb.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 
 // Bytes of the contact's state in memory: its profile's (Profile::MemoryBytes: a tabulated
 // profile's tables), and 41 per grid spring and per memory vertex (z, u, the slip tag and the
@@ -124,4 +124,4 @@ class StateCharge {
   std::size_t bytes_ = 0;
 };
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

@@ -14,12 +14,12 @@
 #include <vector>
 
 #include "mdr/base/status.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/traction.h"
-#include "mdr/service/conversion.h"
 #include "mdr/v1/contact_service.pb.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 
 // The leaves a field mask can select.
 enum class Output : std::uint8_t {
@@ -127,4 +127,4 @@ Status WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
                          const OutputSelection& selection, const RadialSampling& sampling,
                          v1::QueryResponse* response, OutputCounters* counters);
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

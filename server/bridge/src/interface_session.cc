@@ -1,4 +1,4 @@
-#include "mdr/service/interface_session.h"
+#include "mdr/bridge/interface_session.h"
 
 #include <span>
 #include <string>
@@ -6,11 +6,11 @@
 #include <vector>
 
 #include "mdr/base/validate.h"
+#include "mdr/bridge/conversion.h"
+#include "mdr/bridge/state_budget.h"
 #include "mdr/core/population.h"
-#include "mdr/service/conversion.h"
-#include "mdr/service/state_budget.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 namespace {
 
 // A core status whose field starts with `from` renamed to start with `to`; others unchanged.
@@ -478,4 +478,4 @@ Status CheckSingleContactQuery(const OutputSelection& selection, const Interface
   return OkStatus();
 }
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

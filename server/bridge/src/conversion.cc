@@ -1,4 +1,4 @@
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include "mdr/core/profile.h"
 #include "mdr/core/tabulated_profile.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 namespace {
 
 // The core names parameters bare ("radius"); prefix them with their proto path.
@@ -404,15 +404,20 @@ Result<ContactSnapshot> ToCoreSnapshot(const v1::ContactSnapshot& snapshot) {
   return core;
 }
 
-Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t max_applied_steps) {
+Status CheckSnapshotHeader(const v1::SessionSnapshot& snapshot) {
+  if (snapshot.version() != kSnapshotVersion) {
+    return InvalidArgument("snapshot.version", "must be " + std::to_string(kSnapshotVersion) +
+                                                   " (the snapshot format of this build), got " +
+                                                   std::to_string(snapshot.version()));
+  }
   if (Status s = RequireNonNegative("snapshot.contact.last_step_dissipated_energy",
                                     snapshot.contact().last_step_dissipated_energy());
       !s.ok()) {
     return s;
   }
-  if (snapshot.applied_steps() > max_applied_steps) {
+  if (snapshot.applied_steps() > kMaxAppliedSteps) {
     return InvalidArgument("snapshot.applied_steps",
-                           "must be in [0, " + std::to_string(max_applied_steps) + "], got " +
+                           "must be in [0, " + std::to_string(kMaxAppliedSteps) + "], got " +
                                std::to_string(snapshot.applied_steps()));
   }
   return OkStatus();
@@ -600,4 +605,4 @@ void ToProtoSampledWeight(const SampledWeight& weight, v1::SampledWeight* proto)
   proto->set_max_residual(weight.max_residual);
 }
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

@@ -20,13 +20,17 @@
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene.pb.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 
 // Where the radial outputs (springs, tractions, pressure) are evaluated, validated.
 struct RadialSampling {
   std::vector<double> radii;  // m, finite, >= 0
   TractionOptions traction_options;
 };
+
+// The largest scene.options.max_memory_vertices a scene may ask for unless a server sets a lower
+// limit (mdrd --max-memory-vertices); the C library's limit.
+inline constexpr std::size_t kDefaultMaxMemoryVertices = std::size_t{1} << 20;
 
 // Builds and validates the core's configuration. max_memory_vertices is the server's limit: the
 // default when scene.options leaves it unset (if below the core's default) and the largest value
@@ -51,14 +55,21 @@ Step ToCoreStep(const v1::Step& step);
 // grid anchors whose values do not line up with their bytes are refused (InvalidArgument naming
 // grid_anchor_displacements or grid_anchor_depths, relative to the ContactSnapshot).
 Result<ContactSnapshot> ToCoreSnapshot(const v1::ContactSnapshot& snapshot);
+// The SessionSnapshot format that every export writes (the service's and the C library's) and
+// every import reads.
+inline constexpr std::uint32_t kSnapshotVersion = 1;
+// Most steps a session applies in its life (applied_steps stays exact in a double and far from
+// wrapping); a step beyond fails with FAILED_PRECONDITION.
+inline constexpr std::uint64_t kMaxAppliedSteps = std::uint64_t{1} << 53;
 // What a SessionSnapshot carries beyond the contact, which Contact::Restore checks (its
-// dissipated_energy included): snapshot.contact.last_step_dissipated_energy finite and >= 0, and
-// snapshot.applied_steps <= max_applied_steps so that the step counter cannot wrap later.
-Status CheckSnapshotCounters(const v1::SessionSnapshot& snapshot, std::uint64_t max_applied_steps);
+// dissipated_energy included): snapshot.version == kSnapshotVersion,
+// snapshot.contact.last_step_dissipated_energy finite and >= 0, and snapshot.applied_steps <=
+// kMaxAppliedSteps so that the step counter cannot wrap later.
+Status CheckSnapshotHeader(const v1::SessionSnapshot& snapshot);
 // The contact of a SessionSnapshot (ImportSession, the journal and the C library restore with it):
 // the scene's config (max_memory_vertices as for ToContactConfig), the state in the member of the
 // scene's kind and method, at most the config's vertices, then Contact::Restore. The counters and
-// the version are the caller's to check (CheckSnapshotCounters). For an interface scene the contact
+// the version are the caller's to check (CheckSnapshotHeader). For an interface scene the contact
 // is the unloaded one of its scene. Errors name "snapshot.<field>".
 Result<Contact> ToCoreContact(const v1::SessionSnapshot& snapshot, std::size_t max_memory_vertices,
                               const Interrupt& interrupt = {});
@@ -88,4 +99,4 @@ Result<std::vector<CattaneoMindlinTerm>> ToCoreTerms(
     const v1::CattaneoMindlinSuperposition& superposition, const Profile& profile);
 void ToProtoSampledWeight(const SampledWeight& weight, v1::SampledWeight* proto);
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

@@ -1,26 +1,26 @@
 // Unit tests of the proto <-> core conversion (conversion.h), without a server: field paths of
 // errors, effective options, step and snapshot round trips.
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "service_test_util.h"
+#include "bridge_test_util.h"
 
-namespace mdr::service_testing {
+namespace mdr::bridge_testing {
 namespace {
 
 constexpr std::size_t kServerVertexLimit = 4096;
 
 Status ConfigError(const v1::Scene& scene) {
-  return service::ToContactConfig(scene, kServerVertexLimit).status();
+  return bridge::ToContactConfig(scene, kServerVertexLimit).status();
 }
 
 TEST(ConversionTest, TheReferenceSceneBecomesItsCoreConfig) {
   Result<ContactConfig> config =
-      service::ToContactConfig(SteelSphereOnSteelFlat(), kServerVertexLimit);
+      bridge::ToContactConfig(SteelSphereOnSteelFlat(), kServerVertexLimit);
   ASSERT_TRUE(config.ok()) << config.status().ToString();
   EXPECT_EQ(config->friction, kFriction);
   EXPECT_DOUBLE_EQ(config->material.e_star, EffectiveYoungsModulus());
@@ -58,10 +58,10 @@ TEST(ConversionTest, ErrorsNameTheSceneField) {
 }
 
 TEST(ConversionTest, CoreFieldsAreRenamedToTheirScenePaths) {
-  EXPECT_EQ(service::ToSceneStatus(InvalidArgument("friction", "x")).field(), "scene.friction");
-  EXPECT_EQ(service::ToSceneStatus(InvalidArgument("grid_size", "x")).field(), "scene.grid.size");
-  EXPECT_TRUE(service::ToSceneStatus(OkStatus()).ok());
-  const Status other = service::ToSceneStatus(FailedPrecondition("x", "y"));
+  EXPECT_EQ(bridge::ToSceneStatus(InvalidArgument("friction", "x")).field(), "scene.friction");
+  EXPECT_EQ(bridge::ToSceneStatus(InvalidArgument("grid_size", "x")).field(), "scene.grid.size");
+  EXPECT_TRUE(bridge::ToSceneStatus(OkStatus()).ok());
+  const Status other = bridge::ToSceneStatus(FailedPrecondition("x", "y"));
   EXPECT_EQ(other.code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(other.message(), "y");
 }
@@ -73,12 +73,12 @@ TEST(ConversionTest, EffectiveOptionsResolveToTheSameConfig) {
   grid.set_method(v1::METHOD_GRID);
   grid.mutable_grid()->set_max_radius(3e-4);
   for (const v1::Scene& scene : {SteelSphereOnSteelFlat(), grid}) {
-    const ContactConfig config = *service::ToContactConfig(scene, kServerVertexLimit);
-    const v1::Scene effective = service::WithEffectiveOptions(scene, config);
+    const ContactConfig config = *bridge::ToContactConfig(scene, kServerVertexLimit);
+    const v1::Scene effective = bridge::WithEffectiveOptions(scene, config);
     EXPECT_TRUE(effective.options().has_force_path_tolerance());
     EXPECT_EQ(effective.options().force_path_tolerance(), config.force_path_tolerance);
     EXPECT_EQ(effective.options().max_memory_vertices(), config.max_memory_vertices);
-    const ContactConfig again = *service::ToContactConfig(effective, 1u << 20);
+    const ContactConfig again = *bridge::ToContactConfig(effective, 1u << 20);
     EXPECT_EQ(again.max_memory_vertices, config.max_memory_vertices);
     EXPECT_EQ(again.force_path_tolerance, config.force_path_tolerance);
     EXPECT_EQ(again.track_energy, config.track_energy);
@@ -89,12 +89,12 @@ TEST(ConversionTest, EffectiveOptionsResolveToTheSameConfig) {
 }
 
 TEST(ConversionTest, AnUnsetChannelHolds) {
-  const Step held = service::ToCoreStep(v1::Step());
+  const Step held = bridge::ToCoreStep(v1::Step());
   EXPECT_EQ(held.normal, NormalControl::kDepthIncrement);
   EXPECT_EQ(held.normal_value, 0);
   EXPECT_EQ(held.tangential, TangentialControl::kDisplacementIncrement);
   EXPECT_EQ(held.tangential_value, 0);
-  const Step force = service::ToCoreStep(TangentialForceStep(12.5));
+  const Step force = bridge::ToCoreStep(TangentialForceStep(12.5));
   EXPECT_EQ(force.tangential, TangentialControl::kForce);
   EXPECT_EQ(force.tangential_value, 12.5);
   EXPECT_EQ(force.normal_value, 0);
@@ -102,7 +102,7 @@ TEST(ConversionTest, AnUnsetChannelHolds) {
 
 // Snapshot -> proto -> snapshot is the identity over random histories (the export's form).
 TEST(ConversionTest, SnapshotsRoundTripBitForBit) {
-  Contact contact = *Contact::Create(*service::ToContactConfig(SteelSphereOnSteelFlat(), 1 << 16));
+  Contact contact = *Contact::Create(*bridge::ToContactConfig(SteelSphereOnSteelFlat(), 1 << 16));
   std::mt19937_64 random(7);
   std::uniform_real_distribution<double> depth(-0.1 * kDepth, 1.5 * kDepth);
   std::uniform_real_distribution<double> slide(-1, 1);
@@ -111,8 +111,8 @@ TEST(ConversionTest, SnapshotsRoundTripBitForBit) {
     ASSERT_TRUE(contact.MoveTo(depth(random), slide(random) * kFriction * Kappa() * kDepth).ok());
     const ContactSnapshot snapshot = contact.Snapshot();
     v1::ContactSnapshot proto;
-    service::ToProtoSnapshot(snapshot, &proto);
-    const ContactSnapshot back = service::ToCoreSnapshot(proto).value();
+    bridge::ToProtoSnapshot(snapshot, &proto);
+    const ContactSnapshot back = bridge::ToCoreSnapshot(proto).value();
     ASSERT_EQ(back.depth, snapshot.depth);
     ASSERT_EQ(back.tangential_displacement, snapshot.tangential_displacement);
     ASSERT_EQ(back.dissipated_energy, snapshot.dissipated_energy);
@@ -132,34 +132,31 @@ TEST(ConversionTest, AnUnknownBoundIsOneTheCoreRejects) {
     proto.set_depth(1e-6);
     v1::MemoryVertex* first = proto.add_memory();
     first->set_z(0);
-    first->set_bound(service::ToProtoBound(tag));
+    first->set_bound(bridge::ToProtoBound(tag));
     v1::MemoryVertex* edge = proto.add_memory();
     edge->set_z(1e-6);
-    EXPECT_EQ(service::ToCoreSnapshot(proto)->tags.front(), tag);
+    EXPECT_EQ(bridge::ToCoreSnapshot(proto)->tags.front(), tag);
   }
   v1::ContactSnapshot proto;
   proto.set_depth(1e-6);
   proto.add_memory()->set_bound(static_cast<v1::MemoryBound>(77));
   proto.add_memory()->set_z(1e-6);
-  EXPECT_GT(service::ToCoreSnapshot(proto)->tags.front(), kOnBoth);
+  EXPECT_GT(bridge::ToCoreSnapshot(proto)->tags.front(), kOnBoth);
 }
 
 TEST(ConversionTest, RadialSamplingNamesTheBadRadiusAndRoute) {
   google::protobuf::RepeatedField<double> radii;
   radii.Add(1e-5);
   radii.Add(-1e-5);
-  EXPECT_EQ(service::ToRadialSampling(radii, v1::TRACTION_ROUTE_JAGER).status().field(),
-            "radii[1]");
+  EXPECT_EQ(bridge::ToRadialSampling(radii, v1::TRACTION_ROUTE_JAGER).status().field(), "radii[1]");
   radii.Set(1, NAN);
-  EXPECT_EQ(service::ToRadialSampling(radii, v1::TRACTION_ROUTE_JAGER).status().field(),
-            "radii[1]");
+  EXPECT_EQ(bridge::ToRadialSampling(radii, v1::TRACTION_ROUTE_JAGER).status().field(), "radii[1]");
   radii.Set(1, 2e-5);
-  EXPECT_TRUE(service::ToRadialSampling(radii, v1::TRACTION_ROUTE_BOTH).ok());
-  const Status route =
-      service::ToRadialSampling(radii, static_cast<v1::TractionRoute>(99)).status();
+  EXPECT_TRUE(bridge::ToRadialSampling(radii, v1::TRACTION_ROUTE_BOTH).ok());
+  const Status route = bridge::ToRadialSampling(radii, static_cast<v1::TractionRoute>(99)).status();
   EXPECT_EQ(route.code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(route.field(), "traction_route");
 }
 
 }  // namespace
-}  // namespace mdr::service_testing
+}  // namespace mdr::bridge_testing

@@ -1,9 +1,9 @@
-#include "mdr/service/log_value.h"
+#include "mdr/base/log_value.h"
 
 #include <algorithm>
 #include <cstdio>
 
-namespace mdr::service {
+namespace mdr {
 namespace {
 
 bool IsBareByte(char c) {
@@ -59,4 +59,4 @@ std::string LogValue(std::string_view value, std::size_t max_bytes) {
   return bare ? std::string(value) : Quoted(value, max_bytes);
 }
 
-}  // namespace mdr::service
+}  // namespace mdr

@@ -15,7 +15,7 @@ namespace YAML {
 class Exception;
 }  // namespace YAML
 
-namespace mdr::client {
+namespace mdr::bridge {
 
 // A JSON string literal of `text` (UTF-8 passes; '"', '\\' and control characters are escaped).
 std::string JsonQuoted(std::string_view text);
@@ -59,4 +59,4 @@ Status ParseYamlMessage(const std::string& text, google::protobuf::Message* mess
 // syntax error.
 Status ParseJsonMessage(const std::string& json, google::protobuf::Message* message);
 
-}  // namespace mdr::client
+}  // namespace mdr::bridge

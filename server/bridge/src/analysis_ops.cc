@@ -1,4 +1,4 @@
-#include "mdr/service/analysis_ops.h"
+#include "mdr/bridge/analysis_ops.h"
 
 #include <cmath>
 #include <cstdint>
@@ -11,21 +11,21 @@
 #include "mdr/analysis/identify.h"
 #include "mdr/analysis/loops.h"
 #include "mdr/base/validate.h"
-#include "mdr/service/conversion.h"
+#include "mdr/bridge/conversion.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 namespace {
 
 using analysis::CycleMetrics;
 using analysis::LoopFigures;
 
 // The scene of a single contact, converted as a session's (errors name "scene...").
-Result<ContactConfig> AnalysisScene(const v1::Scene& scene, const ServiceLimits& limits,
+Result<ContactConfig> AnalysisScene(const v1::Scene& scene, std::size_t max_memory_vertices,
                                     const Interrupt& interrupt) {
   if (scene.has_interface()) {
     return InvalidArgument("scene.interface", "must be unset: the loop analysis is of one contact");
   }
-  return ToContactConfig(scene, limits.max_memory_vertices, interrupt);
+  return ToContactConfig(scene, max_memory_vertices, interrupt);
 }
 
 analysis::LoopSamples ToCore(const v1::LoopSamples& s) {
@@ -284,7 +284,7 @@ void ToProto(const analysis::SetFit& s, v1::SetFit* out) {
 
 }  // namespace
 
-Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimits& limits,
+Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, std::size_t max_memory_vertices,
                        const Interrupt& interrupt, v1::AnalyzeLoopsResponse* response) {
   const std::size_t samples = static_cast<std::size_t>(request.samples().displacement_size());
   if (samples > kMaxAnalyzedSamples) {
@@ -294,7 +294,7 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
   }
   std::optional<ContactConfig> scene;
   if (request.has_scene()) {
-    Result<ContactConfig> config = AnalysisScene(request.scene(), limits, interrupt);
+    Result<ContactConfig> config = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
     if (!config.ok()) return config.status();
     scene = std::move(config).value();
   }
@@ -331,7 +331,7 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, const ServiceLimi
   return OkStatus();
 }
 
-Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limits,
+Status RunFitLoops(const v1::FitLoopsRequest& request, std::size_t max_memory_vertices,
                    const Interrupt& interrupt,
                    const std::function<void(const v1::FitProgress&)>& progress,
                    v1::FitResult* result) {
@@ -347,7 +347,7 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
                                                  "], got " +
                                                  std::to_string(request.max_iterations()));
   }
-  Result<ContactConfig> scene = AnalysisScene(request.scene(), limits, interrupt);
+  Result<ContactConfig> scene = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
   if (!scene.ok()) return scene.status();
   const std::optional<ProfileFamily> family = FamilyOf(request.scene());
   analysis::FitOptions options;
@@ -457,7 +457,7 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, const ServiceLimits& limi
   return OkStatus();
 }
 
-Status RunFrettingMap(const v1::FrettingMapRequest& request, const ServiceLimits& limits,
+Status RunFrettingMap(const v1::FrettingMapRequest& request, std::size_t max_memory_vertices,
                       const Interrupt& interrupt, v1::FrettingMapResponse* response) {
   if (Status s = CheckCount("normal_forces", request.normal_forces_size(), kMaxMapForces);
       !s.ok()) {
@@ -468,7 +468,7 @@ Status RunFrettingMap(const v1::FrettingMapRequest& request, const ServiceLimits
       !s.ok()) {
     return s;
   }
-  Result<ContactConfig> scene = AnalysisScene(request.scene(), limits, interrupt);
+  Result<ContactConfig> scene = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
   if (!scene.ok()) return scene.status();
   Result<std::vector<analysis::FrettingMapLoad>> map = analysis::FrettingMap(
       *scene, {request.normal_forces().begin(), request.normal_forces().end()},
@@ -485,7 +485,7 @@ Status RunFrettingMap(const v1::FrettingMapRequest& request, const ServiceLimits
   return OkStatus();
 }
 
-Status RunBackbone(const v1::BackboneRequest& request, const ServiceLimits& limits,
+Status RunBackbone(const v1::BackboneRequest& request, std::size_t max_memory_vertices,
                    const Interrupt& interrupt, v1::BackboneResponse* response) {
   if (Status s = CheckCount("amplitudes", request.amplitudes_size(), kMaxBackboneAmplitudes);
       !s.ok()) {
@@ -497,7 +497,7 @@ Status RunBackbone(const v1::BackboneRequest& request, const ServiceLimits& limi
                            "must be AMPLITUDE_KIND_FORCE or "
                            "AMPLITUDE_KIND_ACTUATOR_DISPLACEMENT");
   }
-  Result<ContactConfig> scene = AnalysisScene(request.scene(), limits, interrupt);
+  Result<ContactConfig> scene = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
   if (!scene.ok()) return scene.status();
   Result<std::vector<LoopFigures>> backbone =
       analysis::Backbone(*scene, request.normal_force(),
@@ -510,4 +510,4 @@ Status RunBackbone(const v1::BackboneRequest& request, const ServiceLimits& limi
   return OkStatus();
 }
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge

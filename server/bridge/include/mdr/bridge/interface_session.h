@@ -8,14 +8,14 @@
 #include <optional>
 
 #include "mdr/base/status.h"
+#include "mdr/bridge/outputs.h"
+#include "mdr/bridge/state_budget.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
 #include "mdr/core/interrupt.h"
-#include "mdr/service/outputs.h"
-#include "mdr/service/state_budget.h"
 #include "mdr/v1/contact_service.pb.h"
 
-namespace mdr::service {
+namespace mdr::bridge {
 
 // The interface a scene with scene.interface describes: Hertz spheres of base's material,
 // friction and options. Errors name the field from the Scene down ("scene.interface.kind",
@@ -69,4 +69,4 @@ Status WriteInterfaceQueryOutputs(const Interface& interface, std::uint64_t appl
 // A single session refuses interface outputs and contact_index.
 Status CheckSingleContactQuery(const OutputSelection& selection, const InterfaceQuery& query);
 
-}  // namespace mdr::service
+}  // namespace mdr::bridge
