@@ -1,0 +1,120 @@
+// Torsion of an axisymmetric contact about its own axis, exact (docs/physics.md, "Torsion").
+//
+// A twist phi maps to independent 1D play springs: v(x) (a rotation) with |v(x)| <= B(x; a),
+// weight 16 G_t x^2, the same input phi for every spring. The memory v is kept exactly as a list
+// of pieces, each a constant or +-B(x; a_k) + constant for the contact radius a_k at which it was
+// made; a twist clips it to the current bound, a normal-load decrease clips it to the smaller
+// bound and forgets the springs outside the new radius, a growth adds springs at v = 0.
+//
+// The spring state is the exact 3D state while Jager's |F| <= 1 holds. That is decided
+// structurally: every piece on a bound belongs to a radius a_k <= a (its slope can then not
+// exceed the current bound's). A normal-load decrease that would leave a piece of a larger radius
+// is refused (FailedPrecondition): a ring model of the half-space is the state's exact solver
+// there, and the springs would be wrong by up to a few percent of the full-slip moment.
+//
+// This is the core of the torsion channel: the Hertz bound in closed form (Carlson's integrals,
+// no cancellation at either end of the contact); sessions, the proto and the other profiles build
+// on it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "mdr/base/status.h"
+
+namespace mdr {
+
+// The bound B(x; a) of the torsional springs of one profile and its slope in x; x in [0, a).
+class TorsionBound {
+ public:
+  virtual ~TorsionBound() = default;
+  // B(x; a) >= 0, strictly decreasing in x and increasing in a; 0 for x >= a; +inf at x = 0.
+  virtual double Bound(double x, double a) const = 0;
+  // dB/dx (x; a) < 0 for 0 < x < a.
+  virtual double Slope(double x, double a) const = 0;
+};
+
+// Hertz (g = x^2/R): B = (mu p0 / (2 G_t)) [K(m) - E(m)], m = 1 - x^2/a^2, p0 = 2 E* a / (pi R).
+// Fields of the errors: friction, effective_modulus, torsional_modulus, radius.
+Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double friction,
+                                                                  double effective_modulus,
+                                                                  double torsional_modulus,
+                                                                  double radius);
+
+// One piece of the torsional memory on [start, end): v = sign * B(x; radius) + offset.
+struct TorsionPiece {
+  double end = 0;
+  std::int8_t sign = 0;  // -1, 0 (a constant) or +1
+  double radius = 0;     // a_k of the bound (unused for a constant)
+  double offset = 0;
+
+  friend bool operator==(const TorsionPiece&, const TorsionPiece&) = default;
+};
+
+// A slip interval [start, end) of the springs on the bound of the given sign.
+struct TorsionSlipInterval {
+  double start = 0, end = 0;
+  int sign = 0;
+};
+
+class TorsionalMemory {
+ public:
+  // An unloaded contact of radius contact_radius >= 0 at twist 0; torsional_modulus G_t > 0
+  // (1/G_t = 1/G_1 + 1/G_2). Fields: bound, torsional_modulus, contact_radius.
+  static Result<TorsionalMemory> Create(std::shared_ptr<const TorsionBound> bound,
+                                        double torsional_modulus, double contact_radius);
+
+  // Twists by increment (rad, finite) at the current contact radius: v <- clamp(v + increment,
+  // -B, B), exact for any size. Field: twist_increment.
+  Status Twist(double increment);
+  // The normal load changes at fixed twist so that the contact radius becomes contact_radius
+  // (finite, >= 0). Growing adds springs at v = 0; shrinking clips to the smaller bound and
+  // forgets the springs outside (their energy is dissipated). A decrease whose result would break
+  // |F| <= 1 fails with FailedPrecondition and changes nothing. Field: contact_radius.
+  Status SetContactRadius(double contact_radius);
+
+  double twist() const { return twist_; }
+  double contact_radius() const { return radius_; }
+  // M = 16 G_t integral_0^a x^2 v dx (N m).
+  double Moment() const;
+  // dM/dphi for a further twist of the given direction (+1 or -1): 16 G_t times the integral of
+  // x^2 over the springs not on the bound of that sign.
+  double Stiffness(int direction) const;
+  // The smallest x on the bound of the given direction (the stick radius of a twist that way);
+  // the contact radius if no spring is on it.
+  double StickRadius(int direction) const;
+  std::vector<TorsionSlipInterval> SlipIntervals() const;
+  // Energy dissipated since creation (J) and in the last successful call.
+  double dissipated_energy() const { return dissipated_; }
+  double last_step_dissipation() const { return last_dissipation_; }
+  // Energy held by the springs, 8 G_t integral x^2 v^2 dx (J).
+  double StoredEnergy() const;
+  // v at x (rad), 0 outside the contact.
+  double SpringDisplacement(double x) const;
+  // Whether the spring state is the exact 3D state (|F| <= 1, decided from the pieces). Always
+  // true for a state this class accepted; kept as the structural check its tests assert.
+  bool IsExact() const;
+  const std::vector<TorsionPiece>& pieces() const { return pieces_; }
+
+ private:
+  TorsionalMemory(std::shared_ptr<const TorsionBound> bound, double torsional_modulus,
+                  double contact_radius);
+  double Value(const TorsionPiece& piece, double x) const;
+  double Slope(const TorsionPiece& piece, double x) const;
+  // The pieces v + shift clipped to +-B(x; radius) on [0, radius), and the energy the clipped
+  // springs dissipate: sliding at the bound (twist) or while the bound shrinks (load decrease).
+  std::vector<TorsionPiece> Clipped(double shift, double radius, bool shrinking,
+                                    double* dissipation) const;
+  void Merge(std::vector<TorsionPiece>& pieces) const;
+
+  std::shared_ptr<const TorsionBound> bound_;
+  double modulus_ = 0;
+  double radius_ = 0;
+  double twist_ = 0;
+  double dissipated_ = 0;
+  double last_dissipation_ = 0;
+  std::vector<TorsionPiece> pieces_;  // cover [0, radius_), ends increasing, the last = radius_
+};
+
+}  // namespace mdr

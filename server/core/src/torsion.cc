@@ -1,0 +1,378 @@
+#include "mdr/core/torsion.h"
+
+#include <gsl/gsl_mode.h>
+#include <gsl/gsl_sf_ellint.h>
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "mdr/base/validate.h"
+#include "monotone_solve.h"
+#include "numerics.h"
+
+namespace mdr {
+namespace {
+
+using internal::kInf;
+using internal::kPi;
+
+// Carlson's R_F(0, y, 1) and R_D(0, y, 1): K(m) = R_F and K(m) - E(m) = (m/3) R_D with
+// y = 1 - m, which keeps K - E exact near the edge (m -> 0) and K exact near the centre (y -> 0).
+double CarlsonF(double y) { return gsl_sf_ellint_RF(0, y, 1, GSL_PREC_DOUBLE); }
+double CarlsonD(double y) { return gsl_sf_ellint_RD(0, y, 1, GSL_PREC_DOUBLE); }
+
+class HertzTorsionBound final : public TorsionBound {
+ public:
+  // scale = mu E* / (pi R G_t): B = scale * a * (K - E).
+  explicit HertzTorsionBound(double scale) : scale_(scale) { internal::ReturnGslErrorCodes(); }
+
+  double Bound(double x, double a) const override {
+    if (x >= a) return 0;
+    if (x <= 0) return kInf;
+    // Where (x/a)^2 would underflow: K - E = ln(4 a / x) - 1 to far below round-off.
+    if (x < kTinyRatio * a) return scale_ * a * (std::log(4 * (a / x)) - 1);
+    const double y = (x / a) * (x / a);
+    const double m = ((a - x) / a) * ((a + x) / a);
+    return scale_ * a * (m / 3) * CarlsonD(y);
+  }
+  double Slope(double x, double a) const override {
+    if (x >= a || x <= 0) return x <= 0 ? -kInf : 0;
+    if (x < kTinyRatio * a) return -scale_ * a / x;  // E = 1 there
+    const double y = (x / a) * (x / a);
+    const double m = ((a - x) / a) * ((a + x) / a);
+    const double e = CarlsonF(y) - (m / 3) * CarlsonD(y);
+    return -scale_ * a * e / x;
+  }
+
+ private:
+  static constexpr double kTinyRatio = 1e-150;
+  double scale_;
+};
+
+// integral_lo^hi f over intervals at most a factor 2 apart in x (16-point Gauss-Legendre on each):
+// the bound varies like log x near the centre, smoothly on each such interval. From lo = 0 the
+// first interval is [0, hi 2^-60], where every integrand here (a factor x^2) is below round-off.
+template <typename F>
+double Integrate(const F& f, double lo, double hi) {
+  static const internal::GaussLegendreRule rule(16);
+  if (!(hi > lo)) return 0;
+  double sum = 0;
+  auto add = [&](double a, double b) {
+    const double half = (b - a) / 2, mid = (a + b) / 2;
+    double part = 0;
+    for (std::size_t i = 0; i < rule.size; ++i)
+      part += rule.weights[i] * f(mid + half * rule.nodes[i]);
+    sum += half * part;
+  };
+  double a = lo;
+  if (a == 0) {
+    a = std::ldexp(hi, -60);
+    add(0, a);
+  }
+  while (a < hi) {
+    const double b = std::min(2 * a, hi);
+    add(a, b);
+    a = b;
+  }
+  return sum;
+}
+
+double CubeDifference(double lo, double hi) { return (hi * hi * hi - lo * lo * lo) / 3; }
+
+}  // namespace
+
+Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double friction,
+                                                                  double effective_modulus,
+                                                                  double torsional_modulus,
+                                                                  double radius) {
+  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
+  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
+  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  if (Status s = RequirePositive("radius", radius); !s.ok()) return s;
+  const double scale = friction * effective_modulus / (kPi * radius * torsional_modulus);
+  if (!std::isfinite(scale) || scale <= 0) {
+    return InvalidArgument("friction", "mu E* / (pi R G_t) must be a positive finite number");
+  }
+  return std::shared_ptr<const TorsionBound>(std::make_shared<HertzTorsionBound>(scale));
+}
+
+TorsionalMemory::TorsionalMemory(std::shared_ptr<const TorsionBound> bound,
+                                 double torsional_modulus, double contact_radius)
+    : bound_(std::move(bound)), modulus_(torsional_modulus), radius_(contact_radius) {
+  if (radius_ > 0) pieces_.push_back({.end = radius_});
+}
+
+Result<TorsionalMemory> TorsionalMemory::Create(std::shared_ptr<const TorsionBound> bound,
+                                                double torsional_modulus, double contact_radius) {
+  if (bound == nullptr) return InvalidArgument("bound", "required");
+  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  if (Status s = RequireNonNegative("contact_radius", contact_radius); !s.ok()) return s;
+  return TorsionalMemory(std::move(bound), torsional_modulus, contact_radius);
+}
+
+double TorsionalMemory::Value(const TorsionPiece& piece, double x) const {
+  return piece.sign == 0 ? piece.offset
+                         : piece.sign * bound_->Bound(x, piece.radius) + piece.offset;
+}
+
+double TorsionalMemory::Slope(const TorsionPiece& piece, double x) const {
+  return piece.sign == 0 ? 0 : piece.sign * bound_->Slope(x, piece.radius);
+}
+
+std::vector<TorsionPiece> TorsionalMemory::Clipped(double shift, double radius, bool shrinking,
+                                                   double* dissipation) const {
+  std::vector<TorsionPiece> out;
+  double integral = 0;  // of x^2 B |slide| (twist) or x^2 (v^2 - B^2) / 2 (shrink)
+  double start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    const double end = std::min(piece.end, radius);
+    if (end <= start) break;
+    TorsionPiece shifted = piece;
+    shifted.offset += shift;
+    auto w = [&](double x) { return Value(shifted, x); };
+    // Clipped to +B where up(x) = w - B > 0, to -B where down(x) = w + B < 0. Each is monotone
+    // on a piece (physics.md), so each region is an end of [start, end).
+    auto up = [&](double x) { return w(x) - bound_->Bound(x, radius); };
+    auto down = [&](double x) { return w(x) + bound_->Bound(x, radius); };
+    auto up_slope = [&](double x) { return Slope(shifted, x) - bound_->Slope(x, radius); };
+    auto down_slope = [&](double x) { return Slope(shifted, x) + bound_->Slope(x, radius); };
+    // The region [lo, hi) of [start, end) where sign * f > 0, as a root of the monotone f.
+    auto region = [&](const auto& f, const auto& slope, int sign, double* lo, double* hi) {
+      // The centre never slips (B = +inf there): search from just above it.
+      const double from = start > 0 ? start : std::ldexp(end, -200);
+      const double f_start = sign * f(from), f_end = sign * f(end);
+      if (!(f_start > 0) && !(f_end > 0)) return false;
+      if (f_start > 0 && f_end > 0) {
+        *lo = start, *hi = end;
+        return true;
+      }
+      const bool rising = f_end > f_start;
+      auto g = [&](double x) {
+        const double s = rising ? sign : -sign;
+        return internal::ValueAndSlope{s * f(x), s * slope(x)};
+      };
+      std::vector<double> no_breakpoints;
+      const double root = internal::SolveNondecreasing(g, no_breakpoints, from, end, 0);
+      if (rising) {
+        *lo = root, *hi = end;
+      } else {
+        *lo = start, *hi = root;
+      }
+      return *hi > *lo;
+    };
+    double up_lo = 0, up_hi = 0, down_lo = 0, down_hi = 0;
+    bool clipped_up = false, clipped_down = false;
+    // A piece on the current bound is its own clip: decided structurally, not by root finding.
+    if (piece.sign != 0 && piece.radius == radius) {
+      if (shifted.offset >= 0 && piece.sign > 0) clipped_up = true, up_lo = start, up_hi = end;
+      if (shifted.offset <= 0 && piece.sign < 0) {
+        clipped_down = true, down_lo = start, down_hi = end;
+      }
+      if (!clipped_up && !clipped_down) {
+        // A piece on the other bound moved back towards this one: only its far side can cross.
+        if (piece.sign > 0) clipped_down = region(down, down_slope, -1, &down_lo, &down_hi);
+        if (piece.sign < 0) clipped_up = region(up, up_slope, +1, &up_lo, &up_hi);
+      }
+    } else {
+      clipped_up = region(up, up_slope, +1, &up_lo, &up_hi);
+      clipped_down = region(down, down_slope, -1, &down_lo, &down_hi);
+    }
+    std::vector<double> cuts = {start, end};
+    if (clipped_up) cuts.insert(cuts.end(), {up_lo, up_hi});
+    if (clipped_down) cuts.insert(cuts.end(), {down_lo, down_hi});
+    std::sort(cuts.begin(), cuts.end());
+    cuts.erase(std::unique(cuts.begin(), cuts.end()), cuts.end());
+    for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+      const double lo = cuts[i], hi = cuts[i + 1];
+      const bool is_up = clipped_up && lo >= up_lo && hi <= up_hi;
+      const bool is_down = clipped_down && lo >= down_lo && hi <= down_hi;
+      if (!is_up && !is_down) {
+        out.push_back(shifted), out.back().end = hi;
+        continue;
+      }
+      const int sign = is_up ? 1 : -1;
+      out.push_back({.end = hi, .sign = static_cast<std::int8_t>(sign), .radius = radius});
+      if (shrinking) {
+        integral += Integrate(
+            [&](double x) {
+              const double v = w(x), b = bound_->Bound(x, radius);
+              return x * x * (v * v - b * b) / 2;
+            },
+            lo, hi);
+      } else {
+        integral += Integrate(
+            [&](double x) {
+              const double b = bound_->Bound(x, radius);
+              return x * x * b * std::abs(w(x) - sign * b);
+            },
+            lo, hi);
+      }
+    }
+    start = piece.end;
+  }
+  *dissipation = 16 * modulus_ * integral;
+  return out;
+}
+
+void TorsionalMemory::Merge(std::vector<TorsionPiece>& pieces) const {
+  std::vector<TorsionPiece> merged;
+  for (const TorsionPiece& piece : pieces) {
+    const bool same = !merged.empty() && merged.back().sign == piece.sign &&
+                      merged.back().offset == piece.offset &&
+                      (piece.sign == 0 || merged.back().radius == piece.radius);
+    if (same) {
+      merged.back().end = piece.end;
+    } else {
+      merged.push_back(piece);
+    }
+  }
+  for (TorsionPiece& piece : merged) {
+    if (piece.sign == 0) piece.radius = 0;  // a constant has no radius: one spelling per state
+  }
+  pieces = std::move(merged);
+}
+
+Status TorsionalMemory::Twist(double increment) {
+  if (Status s = RequireFinite("twist_increment", increment); !s.ok()) return s;
+  const double twist = twist_ + increment;
+  if (!std::isfinite(twist)) {
+    return InvalidArgument("twist_increment", "takes the twist beyond the finite doubles");
+  }
+  double dissipation = 0;
+  std::vector<TorsionPiece> next = Clipped(increment, radius_, false, &dissipation);
+  Merge(next);
+  pieces_ = std::move(next);
+  twist_ = twist;
+  last_dissipation_ = dissipation;
+  dissipated_ += dissipation;
+  return OkStatus();
+}
+
+Status TorsionalMemory::SetContactRadius(double contact_radius) {
+  if (Status s = RequireFinite("contact_radius", contact_radius); !s.ok()) return s;
+  if (Status s = RequireNonNegative("contact_radius", contact_radius); !s.ok()) return s;
+  if (contact_radius == radius_) {
+    last_dissipation_ = 0;
+    return OkStatus();
+  }
+  std::vector<TorsionPiece> next;
+  double dissipation = 0;
+  if (contact_radius > radius_) {
+    next = pieces_;
+    next.push_back({.end = contact_radius});
+  } else {
+    next = Clipped(0, contact_radius, true, &dissipation);
+    // The springs outside the new radius slide to 0 as their bound vanishes.
+    double start = 0;
+    double forgotten = 0;
+    for (const TorsionPiece& piece : pieces_) {
+      const double lo = std::max(start, contact_radius);
+      if (piece.end > lo) {
+        forgotten += Integrate(
+            [&](double x) {
+              const double v = Value(piece, x);
+              return x * x * v * v / 2;
+            },
+            lo, piece.end);
+      }
+      start = piece.end;
+    }
+    dissipation += 16 * modulus_ * forgotten;
+  }
+  Merge(next);
+  for (const TorsionPiece& piece : next) {
+    if (piece.sign != 0 && piece.radius > contact_radius) {
+      return FailedPrecondition(
+          "contact_radius",
+          "this normal-load decrease would leave springs on the bound of the larger contact "
+          "(Jager's |F| > 1), where the spring model is not guaranteed to be the exact state (a "
+          "ring model of the half-space is needed there): lower the load before a twist "
+          "reversal, or by enough to wipe the reversal out");
+    }
+  }
+  pieces_ = std::move(next);
+  radius_ = contact_radius;
+  last_dissipation_ = dissipation;
+  dissipated_ += dissipation;
+  return OkStatus();
+}
+
+double TorsionalMemory::Moment() const {
+  double sum = 0, start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    sum += piece.offset * CubeDifference(start, piece.end);
+    if (piece.sign != 0) {
+      sum +=
+          piece.sign * Integrate([&](double x) { return x * x * bound_->Bound(x, piece.radius); },
+                                 start, piece.end);
+    }
+    start = piece.end;
+  }
+  return 16 * modulus_ * sum;
+}
+
+double TorsionalMemory::StoredEnergy() const {
+  double sum = 0, start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    if (piece.sign == 0) {
+      sum += piece.offset * piece.offset * CubeDifference(start, piece.end);
+    } else {
+      sum += Integrate(
+          [&](double x) {
+            const double v = Value(piece, x);
+            return x * x * v * v;
+          },
+          start, piece.end);
+    }
+    start = piece.end;
+  }
+  return 8 * modulus_ * sum;
+}
+
+double TorsionalMemory::Stiffness(int direction) const {
+  double sum = 0, start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    const bool on_bound = piece.sign == direction && piece.radius == radius_ && piece.offset == 0;
+    if (!on_bound) sum += CubeDifference(start, piece.end);
+    start = piece.end;
+  }
+  return 16 * modulus_ * sum;
+}
+
+double TorsionalMemory::StickRadius(int direction) const {
+  double start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    if (piece.sign == direction && piece.radius == radius_ && piece.offset == 0) return start;
+    start = piece.end;
+  }
+  return radius_;
+}
+
+std::vector<TorsionSlipInterval> TorsionalMemory::SlipIntervals() const {
+  std::vector<TorsionSlipInterval> intervals;
+  double start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    if (piece.sign != 0 && piece.radius == radius_ && piece.offset == 0) {
+      intervals.push_back({.start = start, .end = piece.end, .sign = piece.sign});
+    }
+    start = piece.end;
+  }
+  return intervals;
+}
+
+double TorsionalMemory::SpringDisplacement(double x) const {
+  if (!(x >= 0) || x >= radius_) return 0;
+  for (const TorsionPiece& piece : pieces_) {
+    if (x < piece.end) return Value(piece, x);
+  }
+  return 0;
+}
+
+bool TorsionalMemory::IsExact() const {
+  return std::all_of(pieces_.begin(), pieces_.end(), [&](const TorsionPiece& piece) {
+    return piece.sign == 0 || piece.radius <= radius_;
+  });
+}
+
+}  // namespace mdr

@@ -1,0 +1,278 @@
+// The exact torsional memory (torsion.h) against the torsion reference values (closed forms and
+// an independent ring model of the half-space; docs/physics.md, "Torsion"): the virgin curve,
+// the stiffness and the full-slip moment, Masing's rule, the loss per cycle, normal-load changes
+// that stay exact, the decrease that would not (refused, nothing changed), and random histories.
+#include "mdr/core/torsion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace mdr {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// The reference units: G = 1, nu = 0 (E* = 2, G_t = 1), mu = 1, R = 1, a = 1; F_N = 8/3 and the
+// full-slip moment M_slip = 3 pi mu F_N a / 16 = pi / 2.
+constexpr double kSlipMoment = kPi / 2;
+
+std::shared_ptr<const TorsionBound> UnitHertz() { return *MakeHertzTorsionBound(1, 2, 1, 1); }
+TorsionalMemory UnitMemory(double radius = 1) {
+  return *TorsionalMemory::Create(UnitHertz(), 1, radius);
+}
+
+void ExpectRelative(double actual, double expected, double tolerance) {
+  EXPECT_NEAR(actual, expected, tolerance * std::abs(expected)) << "expected " << expected;
+}
+
+struct VirginPoint {
+  double stick_radius, twist, moment_over_slip;
+};
+
+TEST(TorsionTest, TheVirginCurveIsTheReferences) {
+  const VirginPoint points[] = {{0.9, 0.1027036775, 0.2993732176},
+                                {0.7, 0.3291633346, 0.6955936469},
+                                {0.5, 0.6018982880, 0.8973384290},
+                                {0.3, 0.9748531930, 0.9793216052},
+                                {0.1, 1.705914237, 0.9992721527}};
+  for (const VirginPoint& point : points) {
+    SCOPED_TRACE(point.stick_radius);
+    const double twist = UnitHertz()->Bound(point.stick_radius, 1);
+    ExpectRelative(twist, point.twist, 1e-9);
+    TorsionalMemory memory = UnitMemory();
+    ASSERT_TRUE(memory.Twist(twist).ok());
+    ExpectRelative(memory.StickRadius(+1), point.stick_radius, 1e-13);
+    ExpectRelative(memory.Moment() / kSlipMoment, point.moment_over_slip, 1e-9);
+    EXPECT_TRUE(memory.IsExact());
+    // The stick disk turns rigidly; the outer annulus slides: stiffness 16 G_t c^3 / 3.
+    ExpectRelative(memory.Stiffness(+1), 16 * std::pow(point.stick_radius, 3) / 3, 1e-13);
+    ExpectRelative(memory.Stiffness(-1), 16.0 / 3, 1e-15);
+    ASSERT_EQ(memory.SlipIntervals().size(), 1u);
+    EXPECT_EQ(memory.SlipIntervals()[0].sign, 1);
+    EXPECT_EQ(memory.SlipIntervals()[0].end, 1);
+  }
+}
+
+TEST(TorsionTest, SteelOnSteelGivesTheReferenceStiffnessAndMoments) {
+  // Test vector H1: steel sphere R = 10 mm on a steel flat, mu = 0.3, F_N = 100 N.
+  const double young = 210e9, poisson = 0.3, radius = 0.01, friction = 0.3;
+  const double effective_modulus = young / (2 * (1 - poisson * poisson));
+  const double torsional_modulus = young / (2 * (1 + poisson)) / 2;
+  const double contact_radius = 1.8662555784e-4;
+  auto bound = *MakeHertzTorsionBound(friction, effective_modulus, torsional_modulus, radius);
+  TorsionalMemory memory = *TorsionalMemory::Create(bound, torsional_modulus, contact_radius);
+  ExpectRelative(memory.Stiffness(+1), 1.4, 1e-9);
+  const double twist = bound->Bound(contact_radius / 2, contact_radius);
+  ExpectRelative(twist, 4.8141258757e-3, 1e-9);
+  ASSERT_TRUE(memory.Twist(twist).ok());
+  ExpectRelative(memory.Moment(), 2.9593735330e-3, 1e-9);
+  // Deep in full slip the moment tends to M_slip = 3 pi mu F_N a / 16 (logarithmically).
+  ASSERT_TRUE(memory.Twist(1e3 * twist).ok());
+  EXPECT_LT(memory.Moment(), 3.2979458334e-3);
+  EXPECT_GT(memory.Moment(), 3.2979458334e-3 * (1 - 1e-5));
+}
+
+TEST(TorsionTest, AnyStepSizeGivesTheSameState) {
+  TorsionalMemory once = UnitMemory(), many = UnitMemory();
+  ASSERT_TRUE(once.Twist(0.9).ok());
+  ASSERT_TRUE(once.Twist(-1.3).ok());
+  for (int i = 0; i < 900; ++i) ASSERT_TRUE(many.Twist(0.001).ok());
+  for (int i = 0; i < 1300; ++i) ASSERT_TRUE(many.Twist(-0.001).ok());
+  ExpectRelative(many.Moment(), once.Moment(), 1e-12);
+  ExpectRelative(many.dissipated_energy(), once.dissipated_energy(), 1e-12);
+  ASSERT_EQ(many.pieces().size(), once.pieces().size());
+  for (std::size_t i = 0; i < once.pieces().size(); ++i) {
+    ExpectRelative(many.pieces()[i].end, once.pieces()[i].end, 1e-12);
+    EXPECT_EQ(many.pieces()[i].sign, once.pieces()[i].sign);
+  }
+}
+
+// M_v(phi): the virgin moment at twist phi.
+double VirginMoment(double twist) {
+  TorsionalMemory memory = UnitMemory();
+  EXPECT_TRUE(memory.Twist(twist).ok());
+  return memory.Moment();
+}
+
+TEST(TorsionTest, UnloadingFollowsMasingAndTheLoopCloses) {
+  const double peak = UnitHertz()->Bound(0.3, 1);
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(peak).ok());
+  const double peak_moment = memory.Moment();
+  const std::vector<TorsionPiece> virgin = memory.pieces();
+  double twist = peak;
+  for (double to : {0.8 * peak, 0.2 * peak, -0.5 * peak, -peak}) {
+    ASSERT_TRUE(memory.Twist(to - twist).ok());
+    twist = to;
+    EXPECT_NEAR(memory.Moment(), peak_moment - 2 * VirginMoment((peak - twist) / 2),
+                1e-14 * kSlipMoment)
+        << twist;
+  }
+  // Reloading to the peak wipes the reversal out: the virgin state again.
+  ASSERT_TRUE(memory.Twist(2 * peak).ok());
+  EXPECT_NEAR(memory.Moment(), peak_moment, 1e-14 * kSlipMoment);
+  ASSERT_EQ(memory.pieces().size(), virgin.size());
+  EXPECT_EQ(memory.pieces().back(), virgin.back());
+}
+
+TEST(TorsionTest, TheLossPerCycleIsTheReferences) {
+  const std::pair<double, double> cases[] = {
+      {0.9, 0.0101546934808}, {0.5, 1.08221447558}, {0.1, 7.34107074862}};
+  for (const auto& [stick_radius, loss] : cases) {
+    SCOPED_TRACE(stick_radius);
+    const double peak = UnitHertz()->Bound(stick_radius, 1);
+    TorsionalMemory memory = UnitMemory();
+    ASSERT_TRUE(memory.Twist(peak).ok());
+    ASSERT_TRUE(memory.Twist(-2 * peak).ok());
+    const double before = memory.dissipated_energy();
+    ASSERT_TRUE(memory.Twist(2 * peak).ok());
+    ASSERT_TRUE(memory.Twist(-2 * peak).ok());
+    // A steady cycle: +peak -> -peak -> +peak dissipates W twice over half-cycles.
+    ExpectRelative(memory.dissipated_energy() - before, loss, 1e-10);
+  }
+}
+
+TEST(TorsionTest, LoadChangesThatKeepTheBoundOrderAreExact) {
+  // D1: twist to c = 0.5, halve F_N, twist to -0.3, restore F_N, twist to 0.8. The ring model
+  // of the half-space ends at 0.943727 M_slip (the springs agree with it to 3.4e-6 M_slip).
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(UnitHertz()->Bound(0.5, 1)).ok());
+  ASSERT_TRUE(memory.SetContactRadius(std::cbrt(0.5)).ok());
+  EXPECT_TRUE(memory.IsExact());
+  ASSERT_TRUE(memory.Twist(-0.3 - memory.twist()).ok());
+  ASSERT_TRUE(memory.SetContactRadius(1).ok());
+  EXPECT_TRUE(memory.IsExact());
+  ASSERT_TRUE(memory.Twist(0.8 - memory.twist()).ok());
+  EXPECT_NEAR(memory.Moment() / kSlipMoment, 0.943727, 4e-6);
+  EXPECT_GT(memory.dissipated_energy(), 0);
+}
+
+TEST(TorsionTest, ADecreaseThatBreaksTheMappingIsRefusedAndChangesNothing) {
+  // X: twist to c = 0.1, back to 0.7 of it, then F_N / 5. The springs would give 0.969 M_slip'
+  // where the half-space gives 0.99985: refused.
+  TorsionalMemory memory = UnitMemory();
+  const double peak = UnitHertz()->Bound(0.1, 1);
+  ASSERT_TRUE(memory.Twist(peak).ok());
+  ASSERT_TRUE(memory.Twist(-0.3 * peak).ok());
+  EXPECT_NEAR(memory.Moment() / kSlipMoment, -0.197623, 1e-6);
+  const std::vector<TorsionPiece> before = memory.pieces();
+  const double moment = memory.Moment(), dissipated = memory.dissipated_energy();
+  const Status refused = memory.SetContactRadius(std::cbrt(0.2));
+  EXPECT_EQ(refused.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(refused.field(), "contact_radius");
+  EXPECT_NE(refused.message().find("|F| > 1"), std::string::npos) << refused.message();
+  EXPECT_EQ(memory.pieces(), before);
+  EXPECT_EQ(memory.Moment(), moment);
+  EXPECT_EQ(memory.dissipated_energy(), dissipated);
+  EXPECT_EQ(memory.contact_radius(), 1);
+  EXPECT_TRUE(memory.IsExact());
+  // Below a' = 0.561 a the decrease wipes the reversed memory out: exact again, accepted.
+  ASSERT_TRUE(memory.SetContactRadius(0.55).ok());
+  EXPECT_TRUE(memory.IsExact());
+}
+
+TEST(TorsionTest, TheRuleIsSufficientNotNecessaryAndSaysSo) {
+  // D2 (twist 0.8, -0.4, a -> 0.8 a, ...) leaves a piece with |F| = 1.19 whose state the ring
+  // model still confirms (|tau| <= mu p, one outer slip interval). The structural rule cannot see
+  // that and refuses the decrease: conservative, never silently wrong.
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(0.8).ok());
+  ASSERT_TRUE(memory.Twist(-1.2).ok());
+  EXPECT_EQ(memory.SetContactRadius(0.8).code(), StatusCode::kFailedPrecondition);
+  // The same decrease before the reversal is exact and accepted.
+  TorsionalMemory monotone = UnitMemory();
+  ASSERT_TRUE(monotone.Twist(0.8).ok());
+  ASSERT_TRUE(monotone.SetContactRadius(0.8).ok());
+  EXPECT_EQ(monotone.SlipIntervals().size(), 1u);
+}
+
+// Simpson's rule for the work integral_phi^(phi + increment) M dphi of one twist step, on a copy.
+double TwistWork(TorsionalMemory memory, double increment) {
+  constexpr int kIntervals = 1024;
+  const double h = increment / kIntervals;
+  double sum = memory.Moment();
+  for (int i = 1; i <= kIntervals; ++i) {
+    EXPECT_TRUE(memory.Twist(h).ok());
+    sum += (i == kIntervals ? 1 : (i % 2 == 1 ? 4 : 2)) * memory.Moment();
+  }
+  return sum * h / 3;
+}
+
+// Seeded random histories of twists and load changes (loss and regain of contact included):
+// after every accepted step the pieces cover the contact in order, |v| <= B, the state is exact,
+// the energy balances (work = stored + dissipated); every refusal changes nothing.
+TEST(TorsionTest, RandomHistoriesKeepTheInvariants) {
+  std::mt19937_64 random(47);
+  std::uniform_real_distribution<double> twist(-1.5, 1.5), radius(0.2, 1.4), unit(0, 1);
+  int refused = 0, steps = 0;
+  for (int history = 0; history < 60; ++history) {
+    TorsionalMemory memory = UnitMemory();
+    for (int step = 0; step < 25; ++step, ++steps) {
+      const std::vector<TorsionPiece> before = memory.pieces();
+      const double stored = memory.StoredEnergy();
+      const double dissipated = memory.dissipated_energy();
+      if (unit(random) < 0.6) {
+        const double increment = twist(random) * (unit(random) < 0.3 ? 0.05 : 1);
+        const double work = history % 20 == 0 ? TwistWork(memory, increment) : NAN;
+        ASSERT_TRUE(memory.Twist(increment).ok());
+        if (!std::isnan(work)) {
+          EXPECT_NEAR(memory.StoredEnergy() - stored + memory.dissipated_energy() - dissipated,
+                      work, 1e-6 * (std::abs(work) + 1e-3));
+        }
+      } else {
+        const double to = unit(random) < 0.05 ? 0 : radius(random);
+        const Status status = memory.SetContactRadius(to);
+        if (!status.ok()) {
+          ++refused;
+          EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
+          EXPECT_EQ(memory.pieces(), before);
+          EXPECT_EQ(memory.dissipated_energy(), dissipated);
+          continue;
+        }
+        // At fixed twist the load does no work on the springs: what they lose is dissipated.
+        EXPECT_NEAR(memory.StoredEnergy() - stored + memory.dissipated_energy() - dissipated, 0,
+                    1e-12 * (stored + 1));
+      }
+      ASSERT_TRUE(memory.IsExact());
+      EXPECT_GE(memory.last_step_dissipation(), 0);
+      double start = 0;
+      for (const TorsionPiece& piece : memory.pieces()) {
+        ASSERT_GT(piece.end, start);
+        for (double t : {0.1, 0.5, 0.9}) {
+          const double x = start + t * (piece.end - start);
+          const double bound = UnitHertz()->Bound(x, memory.contact_radius());
+          EXPECT_LE(std::abs(memory.SpringDisplacement(x)), bound * (1 + 1e-12) + 1e-300);
+        }
+        start = piece.end;
+      }
+      EXPECT_EQ(start, memory.contact_radius());
+    }
+  }
+  EXPECT_GT(refused, 10);  // the histories do reach decreases that would break the mapping
+  EXPECT_EQ(steps, 60 * 25);
+}
+
+TEST(TorsionTest, BadInputsNameTheirFieldAndChangeNothing) {
+  EXPECT_EQ(MakeHertzTorsionBound(0, 2, 1, 1).status().field(), "friction");
+  EXPECT_EQ(MakeHertzTorsionBound(1, NAN, 1, 1).status().field(), "effective_modulus");
+  EXPECT_EQ(MakeHertzTorsionBound(1, 2, -1, 1).status().field(), "torsional_modulus");
+  EXPECT_EQ(MakeHertzTorsionBound(1, 2, 1, INFINITY).status().field(), "radius");
+  EXPECT_EQ(TorsionalMemory::Create(nullptr, 1, 1).status().field(), "bound");
+  EXPECT_EQ(TorsionalMemory::Create(UnitHertz(), 0, 1).status().field(), "torsional_modulus");
+  EXPECT_EQ(TorsionalMemory::Create(UnitHertz(), 1, -1).status().field(), "contact_radius");
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(0.4).ok());
+  const std::vector<TorsionPiece> before = memory.pieces();
+  EXPECT_EQ(memory.Twist(NAN).field(), "twist_increment");
+  EXPECT_EQ(memory.Twist(INFINITY).field(), "twist_increment");
+  EXPECT_EQ(memory.SetContactRadius(-1).field(), "contact_radius");
+  EXPECT_EQ(memory.SetContactRadius(NAN).field(), "contact_radius");
+  EXPECT_EQ(memory.pieces(), before);
+  EXPECT_EQ(memory.twist(), 0.4);
+}
+
+}  // namespace
+}  // namespace mdr
