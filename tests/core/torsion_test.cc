@@ -56,6 +56,60 @@ TEST(TorsionTest, TheVirginCurveIsTheReferences) {
   }
 }
 
+TEST(TorsionTest, PowerLawsGiveTheReferences) {
+  struct Case {
+    double exponent;
+    VirginPoint points[5];
+  };
+  const Case cases[] = {
+      {1,
+       {{0.9, 0.05407988336, 0.2358207552},
+        {0.7, 0.1946903750, 0.5997585839},
+        {0.5, 0.4097797360, 0.8334750372},
+        {0.3, 0.7984051816, 0.9569796158},
+        {0.1, 1.902682350, 0.9978241277}}},
+      {2,
+       {{0.9, 0.1027036775, 0.2993732176},
+        {0.7, 0.3291633346, 0.6955936469},
+        {0.5, 0.6018982880, 0.8973384290},
+        {0.3, 0.9748531930, 0.9793216052},
+        {0.1, 1.705914237, 0.9992721527}}},
+      {4,
+       {{0.9, 0.1857202297, 0.4082047175},
+        {0.7, 0.4852962919, 0.8116977452},
+        {0.5, 0.7251371838, 0.9488842044},
+        {0.3, 0.9712143601, 0.9903675061},
+        {0.1, 1.429450694, 0.9996441609}}},
+  };
+  for (const Case& c : cases) {
+    // M_slip = pi (n+1)/(4 (n+2)) mu F_N a = pi n / (n+2) in the reference units.
+    const double slip_moment = kPi * c.exponent / (c.exponent + 2);
+    auto bound = *MakePowerLawTorsionBound(1, 2, 1, 1, c.exponent);
+    for (const VirginPoint& point : c.points) {
+      SCOPED_TRACE(testing::Message() << "n = " << c.exponent << ", c = " << point.stick_radius);
+      const double twist = bound->Bound(point.stick_radius, 1);
+      ExpectRelative(twist, point.twist, 1e-9);
+      // The slope is the bound's derivative (central difference, h = 1e-5).
+      const double h = 1e-5, x = point.stick_radius;
+      ExpectRelative(bound->Slope(x, 1),
+                     (bound->Bound(x + h, 1) - bound->Bound(x - h, 1)) / (2 * h), 1e-8);
+      TorsionalMemory memory = *TorsionalMemory::Create(bound, 1, 1);
+      ASSERT_TRUE(memory.Twist(twist).ok());
+      ExpectRelative(memory.StickRadius(+1), point.stick_radius, 1e-12);
+      ExpectRelative(memory.Moment() / slip_moment, point.moment_over_slip, 1e-9);
+    }
+  }
+  // n = 2 is Hertz: the quadrature equals the closed form to round-off, at every scale.
+  auto power = *MakePowerLawTorsionBound(0.3, 1.2e11, 4e10, 100, 2);
+  auto hertz = *MakeHertzTorsionBound(0.3, 1.2e11, 4e10, 0.01);
+  for (double x : {1e-9, 1e-6, 3e-5, 9.9e-5, 9.99999e-5}) {
+    ExpectRelative(power->Bound(x, 1e-4), hertz->Bound(x, 1e-4), 1e-13);
+    ExpectRelative(power->Slope(x, 1e-4), hertz->Slope(x, 1e-4), 1e-13);
+  }
+  EXPECT_EQ(MakePowerLawTorsionBound(1, 2, 1, 1, 0.2).status().field(), "exponent");
+  EXPECT_EQ(MakePowerLawTorsionBound(1, 2, 1, 0, 2).status().field(), "coefficient");
+}
+
 TEST(TorsionTest, SteelOnSteelGivesTheReferenceStiffnessAndMoments) {
   // Test vector H1: steel sphere R = 10 mm on a steel flat, mu = 0.3, F_N = 100 N.
   const double young = 210e9, poisson = 0.3, radius = 0.01, friction = 0.3;
@@ -204,19 +258,21 @@ double TwistWork(TorsionalMemory memory, double increment) {
 // Seeded random histories of twists and load changes (loss and regain of contact included):
 // after every accepted step the pieces cover the contact in order, |v| <= B, the state is exact,
 // the energy balances (work = stored + dissipated); every refusal changes nothing.
-TEST(TorsionTest, RandomHistoriesKeepTheInvariants) {
+void RunRandomHistories(const std::shared_ptr<const TorsionBound>& bound, int histories,
+                        int steps_per_history, int work_every) {
   std::mt19937_64 random(47);
   std::uniform_real_distribution<double> twist(-1.5, 1.5), radius(0.2, 1.4), unit(0, 1);
   int refused = 0, steps = 0;
-  for (int history = 0; history < 60; ++history) {
-    TorsionalMemory memory = UnitMemory();
-    for (int step = 0; step < 25; ++step, ++steps) {
+  for (int history = 0; history < histories; ++history) {
+    TorsionalMemory memory = *TorsionalMemory::Create(bound, 1, 1);
+    for (int step = 0; step < steps_per_history; ++step, ++steps) {
       const std::vector<TorsionPiece> before = memory.pieces();
       const double stored = memory.StoredEnergy();
       const double dissipated = memory.dissipated_energy();
       if (unit(random) < 0.6) {
         const double increment = twist(random) * (unit(random) < 0.3 ? 0.05 : 1);
-        const double work = history % 20 == 0 ? TwistWork(memory, increment) : NAN;
+        const double work =
+            work_every > 0 && history % work_every == 0 ? TwistWork(memory, increment) : NAN;
         ASSERT_TRUE(memory.Twist(increment).ok());
         if (!std::isnan(work)) {
           EXPECT_NEAR(memory.StoredEnergy() - stored + memory.dissipated_energy() - dissipated,
@@ -243,16 +299,24 @@ TEST(TorsionTest, RandomHistoriesKeepTheInvariants) {
         ASSERT_GT(piece.end, start);
         for (double t : {0.1, 0.5, 0.9}) {
           const double x = start + t * (piece.end - start);
-          const double bound = UnitHertz()->Bound(x, memory.contact_radius());
-          EXPECT_LE(std::abs(memory.SpringDisplacement(x)), bound * (1 + 1e-12) + 1e-300);
+          const double b = bound->Bound(x, memory.contact_radius());
+          EXPECT_LE(std::abs(memory.SpringDisplacement(x)), b * (1 + 1e-12) + 1e-300);
         }
         start = piece.end;
       }
       EXPECT_EQ(start, memory.contact_radius());
     }
   }
-  EXPECT_GT(refused, 10);  // the histories do reach decreases that would break the mapping
-  EXPECT_EQ(steps, 60 * 25);
+  // The histories do reach decreases that would break the mapping.
+  EXPECT_GT(refused, histories * steps_per_history / 100);
+  EXPECT_EQ(steps, histories * steps_per_history);
+}
+
+TEST(TorsionTest, RandomHistoriesKeepTheInvariants) { RunRandomHistories(UnitHertz(), 60, 25, 20); }
+
+TEST(TorsionTest, RandomHistoriesOfConesAndPowerLawsKeepTheInvariants) {
+  RunRandomHistories(*MakePowerLawTorsionBound(1, 2, 1, 1, 1), 8, 15, 0);
+  RunRandomHistories(*MakePowerLawTorsionBound(1, 2, 1, 1, 4), 8, 15, 0);
 }
 
 TEST(TorsionTest, BadInputsNameTheirFieldAndChangeNothing) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <utility>
 
 #include "mdr/base/validate.h"
@@ -48,6 +49,52 @@ class HertzTorsionBound final : public TorsionBound {
  private:
   static constexpr double kTinyRatio = 1e-150;
   double scale_;
+};
+
+// A power law g = k x^n: B(x; a) = scale a^(n-1) b_n(x/a), scale = mu E* n k / (2 pi G_t),
+// b_n(t) = integral_t^1 u^(n-2) K(1 - t^2/u^2) du. With u = t^(1-s) the integrand is smooth in s
+// on [0, 1] (du = u ln(1/t) ds, and K's logarithm becomes linear in s), so one 64-point
+// Gauss-Legendre rule gives b_n and its slope to round-off.
+class PowerLawTorsionBound final : public TorsionBound {
+ public:
+  PowerLawTorsionBound(double scale, double exponent) : scale_(scale), exponent_(exponent) {
+    internal::ReturnGslErrorCodes();
+  }
+
+  double Bound(double x, double a) const override {
+    if (x >= a) return 0;
+    if (x <= 0) return kInf;
+    return scale_ * std::pow(a, exponent_ - 1) * Scaled(x, a, false);
+  }
+  double Slope(double x, double a) const override {
+    if (x >= a || x <= 0) return x <= 0 ? -kInf : 0;
+    return scale_ * std::pow(a, exponent_ - 2) * Scaled(x, a, true);
+  }
+
+ private:
+  // b_n(t), or its derivative b_n'(t) = -(pi/2) t^(n-2) - (1/t) integral_t^1 u^(n-2)
+  // (R_F - R_D/3)(0, t^2/u^2, 1) du (dK/dt at fixed u, without the cancellation of E - (1-m) K).
+  // t = x/a; ln(1/t) from a - x (exact), not from the rounded t, which near the edge would
+  // lose the digits of 1 - t.
+  double Scaled(double x, double a, bool derivative) const {
+    static const internal::GaussLegendreRule rule(64);
+    const double t = x / a;
+    const double log_inverse = std::log1p((a - x) / x);
+    double sum = 0;
+    for (std::size_t i = 0; i < rule.size; ++i) {
+      const double s = (rule.nodes[i] + 1) / 2;
+      const double ratio_squared = std::exp(-2 * s * log_inverse);  // (t/u)^2 = t^(2s)
+      const double u = t / std::sqrt(ratio_squared);
+      const double kernel = derivative ? CarlsonF(ratio_squared) - CarlsonD(ratio_squared) / 3
+                                       : CarlsonF(ratio_squared);
+      sum += rule.weights[i] * std::pow(u, exponent_ - 1) * kernel;
+    }
+    const double integral = sum * log_inverse / 2;
+    if (!derivative) return integral;
+    return -(kPi / 2) * std::pow(t, exponent_ - 2) - integral / t;
+  }
+
+  double scale_, exponent_;
 };
 
 // integral_lo^hi f over intervals at most a factor 2 apart in x (16-point Gauss-Legendre on each):
@@ -95,6 +142,27 @@ Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double frictio
     return InvalidArgument("friction", "mu E* / (pi R G_t) must be a positive finite number");
   }
   return std::shared_ptr<const TorsionBound>(std::make_shared<HertzTorsionBound>(scale));
+}
+
+Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double friction,
+                                                                     double effective_modulus,
+                                                                     double torsional_modulus,
+                                                                     double coefficient,
+                                                                     double exponent) {
+  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
+  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
+  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  if (Status s = RequirePositive("coefficient", coefficient); !s.ok()) return s;
+  if (!(exponent >= 0.3 && exponent <= 10)) {
+    return InvalidArgument("exponent", "must be in [0.3, 10], got " + std::to_string(exponent));
+  }
+  const double scale =
+      friction * effective_modulus * exponent * coefficient / (2 * kPi * torsional_modulus);
+  if (!std::isfinite(scale) || scale <= 0) {
+    return InvalidArgument("friction", "mu E* n k / (2 pi G_t) must be a positive finite number");
+  }
+  return std::shared_ptr<const TorsionBound>(
+      std::make_shared<PowerLawTorsionBound>(scale, exponent));
 }
 
 TorsionalMemory::TorsionalMemory(std::shared_ptr<const TorsionBound> bound,

@@ -13,8 +13,8 @@
 // there, and the springs would be wrong by up to a few percent of the full-slip moment.
 //
 // This is the core of the torsion channel: the Hertz bound in closed form (Carlson's integrals,
-// no cancellation at either end of the contact); sessions, the proto and the other profiles build
-// on it.
+// no cancellation at either end of the contact) and the power laws by a quadrature to round-off;
+// sessions, the proto and the other profiles build on it.
 #pragma once
 
 #include <cstdint>
@@ -41,6 +41,15 @@ Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double frictio
                                                                   double effective_modulus,
                                                                   double torsional_modulus,
                                                                   double radius);
+
+// A power law g = k x^n (the engine's MakePowerLaw gives k from f = C r^n), 0.3 <= n <= 10; the
+// cone is n = 1 and Hertz n = 2 (MakeHertzTorsionBound's closed form is the faster equal).
+// Fields: friction, effective_modulus, torsional_modulus, coefficient, exponent.
+Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double friction,
+                                                                     double effective_modulus,
+                                                                     double torsional_modulus,
+                                                                     double coefficient,
+                                                                     double exponent);
 
 // One piece of the torsional memory on [start, end): v = sign * B(x; radius) + offset.
 struct TorsionPiece {
