@@ -129,6 +129,38 @@ TEST(TorsionTest, SteelOnSteelGivesTheReferenceStiffnessAndMoments) {
   EXPECT_GT(memory.Moment(), 3.2979458334e-3 * (1 - 1e-5));
 }
 
+TEST(TorsionTest, AMomentTargetFindsItsTwist) {
+  TorsionalMemory memory = UnitMemory();
+  ExpectRelative(memory.FullSlipMoment(), kSlipMoment, 1e-14);
+  // The reference virgin point c = 0.5: M = 0.8973384290 M_slip at phi = 0.6018982880.
+  ASSERT_TRUE(memory.TwistToMoment(0.8973384290 * kSlipMoment).ok());
+  ExpectRelative(memory.twist(), 0.6018982880, 1e-8);
+  ExpectRelative(memory.StickRadius(+1), 0.5, 1e-8);
+  ExpectRelative(memory.Moment(), 0.8973384290 * kSlipMoment, 1e-15);
+  // Back down a reversal, and close to full sliding the other way.
+  for (double target : {0.2, -0.7, -(1 - 1e-9)}) {
+    SCOPED_TRACE(target);
+    ASSERT_TRUE(memory.TwistToMoment(target * kSlipMoment).ok());
+    EXPECT_NEAR(memory.Moment(), target * kSlipMoment, 2e-15 * kSlipMoment);
+  }
+  // The same twist as a twist-controlled step reached, from the same state.
+  TorsionalMemory by_twist = UnitMemory(), by_moment = UnitMemory();
+  ASSERT_TRUE(by_twist.Twist(0.37).ok());
+  ASSERT_TRUE(by_moment.TwistToMoment(by_twist.Moment()).ok());
+  ExpectRelative(by_moment.twist(), 0.37, 1e-13);
+  // Full sliding needs an infinite twist: refused, nothing changed.
+  const std::vector<TorsionPiece> before = memory.pieces();
+  const Status refused = memory.TwistToMoment(-kSlipMoment * (1 + 1e-12));
+  EXPECT_EQ(refused.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(refused.field(), "moment");
+  EXPECT_EQ(memory.TwistToMoment(NAN).field(), "moment");
+  EXPECT_EQ(memory.pieces(), before);
+  // Without contact there is no moment to reach but 0.
+  TorsionalMemory free = UnitMemory(0);
+  EXPECT_EQ(free.TwistToMoment(1e-9).code(), StatusCode::kFailedPrecondition);
+  EXPECT_TRUE(free.TwistToMoment(0).ok());
+}
+
 TEST(TorsionTest, AnyStepSizeGivesTheSameState) {
   TorsionalMemory once = UnitMemory(), many = UnitMemory();
   ASSERT_TRUE(once.Twist(0.9).ok());

@@ -317,6 +317,45 @@ Status TorsionalMemory::Twist(double increment) {
   return OkStatus();
 }
 
+Status TorsionalMemory::TwistToMoment(double target) {
+  if (Status s = RequireFinite("moment", target); !s.ok()) return s;
+  const double start = Moment();
+  if (target == start) return Twist(0);
+  const double limit = FullSlipMoment();
+  if (!(std::abs(target) < limit)) {
+    return FailedPrecondition("moment", "|moment| must be below the full-slip moment " +
+                                            std::to_string(limit) + " N m of the contact, got " +
+                                            std::to_string(target));
+  }
+  // g(s) = direction (M(direction s) - target) is nondecreasing in s >= 0, with slope the
+  // stiffness of the twisted state in that direction.
+  const int direction = target > start ? 1 : -1;
+  auto after = [&](double s) {
+    TorsionalMemory trial = *this;
+    (void)trial.Twist(direction * s);
+    return trial;
+  };
+  auto g = [&](double s) {
+    const TorsionalMemory trial = after(s);
+    return internal::ValueAndSlope{direction * (trial.Moment() - target),
+                                   trial.Stiffness(direction)};
+  };
+  // Bracket: from the elastic estimate, doubled until the moment passes the target (the twist
+  // grows without bound as the target nears the full-slip moment).
+  double hi = std::abs(target - start) / Stiffness(direction);
+  for (int doubling = 0; g(hi).value < 0; ++doubling) {
+    if (doubling == 2000 || !std::isfinite(2 * hi)) {
+      return FailedPrecondition("moment",
+                                "is too close to the full-slip moment to be reached by "
+                                "a finite twist");
+    }
+    hi *= 2;
+  }
+  std::vector<double> no_breakpoints;
+  const double s = internal::SolveNondecreasing(g, no_breakpoints, 0, hi, 0);
+  return Twist(direction * s);
+}
+
 Status TorsionalMemory::SetContactRadius(double contact_radius) {
   if (Status s = RequireFinite("contact_radius", contact_radius); !s.ok()) return s;
   if (Status s = RequireNonNegative("contact_radius", contact_radius); !s.ok()) return s;
@@ -378,6 +417,11 @@ double TorsionalMemory::Moment() const {
     start = piece.end;
   }
   return 16 * modulus_ * sum;
+}
+
+double TorsionalMemory::FullSlipMoment() const {
+  return 16 * modulus_ *
+         Integrate([&](double x) { return x * x * bound_->Bound(x, radius_); }, 0, radius_);
 }
 
 double TorsionalMemory::StoredEnergy() const {

@@ -77,6 +77,11 @@ class TorsionalMemory {
   // Twists by increment (rad, finite) at the current contact radius: v <- clamp(v + increment,
   // -B, B), exact for any size. Field: twist_increment.
   Status Twist(double increment);
+  // Twists at the current contact radius until the moment is target (N m, finite), the increment
+  // found by a bracketed Newton iteration on the exact moment with the exact stiffness as its
+  // slope. |target| must be below the full-slip moment, which only an infinite twist reaches
+  // (FailedPrecondition otherwise, nothing changed). Field: moment.
+  Status TwistToMoment(double target);
   // The normal load changes at fixed twist so that the contact radius becomes contact_radius
   // (finite, >= 0). Growing adds springs at v = 0; shrinking clips to the smaller bound and
   // forgets the springs outside (their energy is dissipated). A decrease whose result would break
@@ -87,6 +92,9 @@ class TorsionalMemory {
   double contact_radius() const { return radius_; }
   // M = 16 G_t integral_0^a x^2 v dx (N m).
   double Moment() const;
+  // The moment of full sliding at the current radius, 16 G_t integral_0^a x^2 B dx: the supremum
+  // of |M| (Hertz: 3 pi mu F_N a / 16).
+  double FullSlipMoment() const;
   // dM/dphi for a further twist of the given direction (+1 or -1): 16 G_t times the integral of
   // x^2 over the springs not on the bound of that sign.
   double Stiffness(int direction) const;
