@@ -161,6 +161,87 @@ TEST(TorsionTest, AMomentTargetFindsItsTwist) {
   EXPECT_TRUE(free.TwistToMoment(0).ok());
 }
 
+// M = 2 pi integral_0^a tau r^2 dr from the tractions, piece by piece in r = end - (end -
+// start)(1 - u)^2: tau meets mu p like a square root at a stick radius and at the edge, which this
+// makes smooth; 16-point Gauss-Legendre on `parts` parts of [0, 1] in u.
+double MomentOfTractions(const TorsionalMemory& memory, int parts = 16) {
+  static const double nodes[] = {0.0950125098376374, 0.2816035507792589, 0.4580167776572274,
+                                 0.6178762444026438, 0.7554044083550030, 0.8656312023878318,
+                                 0.9445750230732326, 0.9894009349916499};
+  static const double weights[] = {0.1894506104550685, 0.1826034150449236, 0.1691565193950025,
+                                   0.1495959888165767, 0.1246289712555339, 0.0951585116824928,
+                                   0.0622535239386479, 0.0271524594117541};
+  double sum = 0, start = 0;
+  for (const TorsionPiece& piece : memory.pieces()) {
+    const double width = piece.end - start;
+    for (int part = 0; part < parts; ++part) {
+      const double lo = double(part) / parts, hi = double(part + 1) / parts;
+      for (int i = 0; i < 8; ++i) {
+        for (double sign : {-1.0, 1.0}) {
+          const double u = (lo + hi) / 2 + sign * (hi - lo) / 2 * nodes[i];
+          const double r = piece.end - width * (1 - u) * (1 - u);
+          sum +=
+              (hi - lo) / 2 * weights[i] * memory.Traction(r).value * r * r * 2 * width * (1 - u);
+        }
+      }
+    }
+    start = piece.end;
+  }
+  return 2 * kPi * sum;
+}
+
+TEST(TorsionTest, TractionsSlideAtMuPAndGiveTheMoment) {
+  const double mu_p0 = 4 / kPi;  // mu p0 = 2 E* a / (pi R) in the reference units
+  auto sliding = [&](double r) { return mu_p0 * std::sqrt(1 - r * r); };
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(UnitHertz()->Bound(0.5, 1)).ok());
+  for (double r : {0.55, 0.7, 0.9, 0.999}) {
+    const TorsionTraction traction = memory.Traction(r);
+    ExpectRelative(traction.value, sliding(r), 1e-12);
+    EXPECT_LE(traction.route_difference, 1e-12 * mu_p0);
+  }
+  for (double r : {0.01, 0.2, 0.45, 0.4999}) {
+    const TorsionTraction traction = memory.Traction(r);
+    EXPECT_GT(traction.value, 0);
+    EXPECT_LT(traction.value, sliding(r));
+    EXPECT_LE(traction.route_difference, 1e-10 * mu_p0);
+  }
+  EXPECT_EQ(memory.Traction(0).value, 0);
+  EXPECT_EQ(memory.Traction(1).value, 0);
+  ExpectRelative(MomentOfTractions(memory), memory.Moment(), 1e-7);
+  // After a reversal and an exact load decrease: within mu p of the new contact, and the moment.
+  ASSERT_TRUE(memory.Twist(-0.5).ok());
+  ASSERT_TRUE(memory.SetContactRadius(0.5).ok());
+  ASSERT_TRUE(memory.Twist(0.05).ok());
+  for (double r : {0.05, 0.2, 0.3, 0.4, 0.45, 0.49}) {
+    const TorsionTraction traction = memory.Traction(r);
+    EXPECT_LE(std::abs(traction.value), mu_p0 * std::sqrt(0.25 - r * r) * (1 + 1e-12)) << r;
+    EXPECT_LE(traction.route_difference, 1e-10 * mu_p0) << r;
+  }
+  ExpectRelative(MomentOfTractions(memory), memory.Moment(), 1e-7);
+}
+
+TEST(TorsionTest, PowerLawTractionsSlideAtMuP) {
+  for (double exponent : {1.0, 4.0}) {
+    SCOPED_TRACE(exponent);
+    auto bound = *MakePowerLawTorsionBound(1, 2, 1, 1, exponent);
+    TorsionalMemory memory = *TorsionalMemory::Create(bound, 1, 1);
+    ASSERT_TRUE(memory.Twist(bound->Bound(0.4, 1)).ok());
+    for (double r : {0.5, 0.8, 0.99}) {
+      const TorsionTraction traction = memory.Traction(r);
+      ExpectRelative(traction.value, bound->SlidingTractionPerModulus(r, 1), 1e-10);
+      EXPECT_LE(traction.route_difference, 1e-10 * bound->SlidingTractionPerModulus(r, 1));
+    }
+    ExpectRelative(MomentOfTractions(memory, 4), memory.Moment(), 1e-6);
+  }
+  // n = 2 is Hertz's p0 sqrt(1 - r^2/a^2).
+  auto power = *MakePowerLawTorsionBound(1, 2, 1, 1, 2);
+  for (double r : {0.0, 0.3, 0.9}) {
+    ExpectRelative(power->SlidingTractionPerModulus(r, 1),
+                   UnitHertz()->SlidingTractionPerModulus(r, 1), 1e-13);
+  }
+}
+
 TEST(TorsionTest, AnyStepSizeGivesTheSameState) {
   TorsionalMemory once = UnitMemory(), many = UnitMemory();
   ASSERT_TRUE(once.Twist(0.9).ok());

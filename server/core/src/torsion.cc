@@ -45,6 +45,11 @@ class HertzTorsionBound final : public TorsionBound {
     const double e = CarlsonF(y) - (m / 3) * CarlsonD(y);
     return -scale_ * a * e / x;
   }
+  // mu p0 / G_t = 2 scale a, p = p0 sqrt(1 - r^2/a^2).
+  double SlidingTractionPerModulus(double r, double a) const override {
+    if (!(r < a)) return 0;
+    return 2 * scale_ * std::sqrt((a - r) * (a + r));
+  }
 
  private:
   static constexpr double kTinyRatio = 1e-150;
@@ -69,6 +74,27 @@ class PowerLawTorsionBound final : public TorsionBound {
   double Slope(double x, double a) const override {
     if (x >= a || x <= 0) return x <= 0 ? -kInf : 0;
     return scale_ * std::pow(a, exponent_ - 2) * Scaled(x, a, true);
+  }
+  // mu p / G_t = 2 scale a^(n-1) integral_rho^1 t^(n-1) / sqrt(t^2 - rho^2) dt, rho = r/a; with
+  // t = rho cosh(w) the integrand (rho cosh w)^(n-1) is smooth on [0, acosh(1/rho)], integrated
+  // in unit steps of w. Infinite at the centre of a profile with n <= 1 (the cone's tip).
+  double SlidingTractionPerModulus(double r, double a) const override {
+    static const internal::GaussLegendreRule rule(16);
+    if (!(r < a)) return 0;
+    if (r <= 0)
+      return exponent_ <= 1 ? kInf : 2 * scale_ * std::pow(a, exponent_ - 1) / (exponent_ - 1);
+    const double rho = r / a;
+    const double top = std::acosh(1 / rho);
+    const int steps = std::max(1, static_cast<int>(std::ceil(top)));
+    double sum = 0;
+    for (int j = 0; j < steps; ++j) {
+      const double lo = top * j / steps, hi = top * (j + 1) / steps;
+      for (std::size_t i = 0; i < rule.size; ++i) {
+        const double w = (lo + hi) / 2 + (hi - lo) / 2 * rule.nodes[i];
+        sum += (hi - lo) / 2 * rule.weights[i] * std::pow(rho * std::cosh(w), exponent_ - 1);
+      }
+    }
+    return 2 * scale_ * std::pow(a, exponent_ - 1) * sum;
   }
 
  private:
@@ -479,6 +505,52 @@ double TorsionalMemory::SpringDisplacement(double x) const {
     if (x < piece.end) return Value(piece, x);
   }
   return 0;
+}
+
+TorsionTraction TorsionalMemory::Traction(double r) const {
+  if (!(r > 0) || r >= radius_) return {};
+  // integral_lo^hi B'(x; radius) / sqrt(x^2 - r^2) dx over lo >= r, in s = sqrt(x^2 - r^2)
+  // (dx / sqrt(x^2 - r^2) = ds / x): smooth in s, on the scale r near s = 0.
+  auto abel = [&](double radius, double lo, double hi) {
+    if (!(hi > lo)) return 0.0;
+    auto integrand = [&](double s) {
+      const double x = std::sqrt(r * r + s * s);
+      return bound_->Slope(x, radius) / x;
+    };
+    // [0, r] in s: two 16-point intervals; beyond r, intervals a factor 2 apart (Integrate).
+    static const internal::GaussLegendreRule rule(16);
+    double sum = 0;
+    auto gauss = [&](double a, double b) {
+      double part = 0;
+      for (std::size_t i = 0; i < rule.size; ++i) {
+        part += rule.weights[i] * integrand((a + b) / 2 + (b - a) / 2 * rule.nodes[i]);
+      }
+      sum += (b - a) / 2 * part;
+    };
+    internal::ForEachAbelInterval(r, std::sqrt((lo - r) * (lo + r)), std::sqrt((hi - r) * (hi + r)),
+                                  [&](double a, double b) {
+                                    if (a >= r) {
+                                      sum += Integrate(integrand, a, b);
+                                    } else {
+                                      gauss(a, (a + b) / 2);
+                                      gauss((a + b) / 2, b);
+                                    }
+                                  });
+    return sum;
+  };
+  double first = 0, second = 0, start = 0;
+  for (const TorsionPiece& piece : pieces_) {
+    const double lo = std::max(start, r), hi = piece.end;
+    start = piece.end;
+    if (piece.sign == 0 || hi <= lo) continue;
+    first += piece.sign * abel(piece.radius, lo, hi);
+    // The whole of [r, a_k) is -(pi / (4 r)) mu p(r; a_k) / G_t; the rest of it is subtracted.
+    const double whole = -(kPi / (4 * r)) * bound_->SlidingTractionPerModulus(r, piece.radius);
+    second +=
+        piece.sign * (whole - abel(piece.radius, hi, piece.radius) - abel(piece.radius, r, lo));
+  }
+  const double factor = -(4 * modulus_ / kPi) * r;
+  return {.value = factor * first, .route_difference = std::abs(factor * (first - second))};
 }
 
 bool TorsionalMemory::IsExact() const {

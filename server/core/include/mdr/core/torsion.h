@@ -33,6 +33,8 @@ class TorsionBound {
   virtual double Bound(double x, double a) const = 0;
   // dB/dx (x; a) < 0 for 0 < x < a.
   virtual double Slope(double x, double a) const = 0;
+  // mu p(r; a) / G_t: the traction of full sliding per torsional modulus; 0 for r >= a.
+  virtual double SlidingTractionPerModulus(double r, double a) const = 0;
 };
 
 // Hertz (g = x^2/R): B = (mu p0 / (2 G_t)) [K(m) - E(m)], m = 1 - x^2/a^2, p0 = 2 E* a / (pi R).
@@ -59,6 +61,15 @@ struct TorsionPiece {
   double offset = 0;
 
   friend bool operator==(const TorsionPiece&, const TorsionPiece&) = default;
+};
+
+// The circumferential traction tau_phi(r) (Pa) by the two routes of docs/physics.md: value is
+// the Abel transform of v' piece by piece; the second route takes each piece's full-sliding
+// traction mu p(r; a_k) (closed form for Hertz) less the integrals over the rest of its contact.
+// route_difference = |first - second|: in a slip annulus the second is the closed form itself.
+struct TorsionTraction {
+  double value = 0;
+  double route_difference = 0;
 };
 
 // A slip interval [start, end) of the springs on the bound of the given sign.
@@ -102,6 +113,8 @@ class TorsionalMemory {
   // the contact radius if no spring is on it.
   double StickRadius(int direction) const;
   std::vector<TorsionSlipInterval> SlipIntervals() const;
+  // tau_phi(r); 0 at r = 0 and outside the contact.
+  TorsionTraction Traction(double r) const;
   // Energy dissipated since creation (J) and in the last successful call.
   double dissipated_energy() const { return dissipated_; }
   double last_step_dissipation() const { return last_dissipation_; }
