@@ -10,6 +10,9 @@
 #include <numbers>
 #include <random>
 
+#include "mdr/core/material.h"
+#include "mdr/core/profile.h"
+
 namespace mdr {
 namespace {
 
@@ -430,6 +433,93 @@ TEST(TorsionTest, RandomHistoriesKeepTheInvariants) { RunRandomHistories(UnitHer
 TEST(TorsionTest, RandomHistoriesOfConesAndPowerLawsKeepTheInvariants) {
   RunRandomHistories(*MakePowerLawTorsionBound(1, 2, 1, 1, 1), 8, 15, 0);
   RunRandomHistories(*MakePowerLawTorsionBound(1, 2, 1, 1, 4), 8, 15, 0);
+}
+
+TorsionStep NormalStep(NormalControl control, double value) {
+  TorsionStep step;
+  step.normal = control;
+  step.normal_value = value;
+  return step;
+}
+TorsionStep TwistStep(TwistControl control, double value) {
+  TorsionStep step;
+  step.twist = control;
+  step.twist_value = value;
+  return step;
+}
+
+// Test vector H1 through the contact: steel on steel, the normal problem of the sphere.
+TorsionalContact SteelSphereOnSteel() {
+  const EffectiveMaterial material = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  const double torsional_modulus = *TorsionalModulusOfPair(210e9, 0.3, 210e9, 0.3);
+  return *TorsionalContact::Create(*MakeSphere(0.01), 0.3, material.e_star, torsional_modulus);
+}
+
+TEST(TorsionalContactTest, TheNormalLoadSetsTheContactOfTheTwist) {
+  ExpectRelative(*TorsionalModulusOfPair(210e9, 0.3, 210e9, 0.3), 4.0384615385e10, 1e-10);
+  TorsionalContact contact = SteelSphereOnSteel();
+  ASSERT_TRUE(contact.Apply(NormalStep(NormalControl::kForce, 100)).ok());
+  ExpectRelative(contact.normal_force(), 100, 1e-13);
+  ExpectRelative(contact.memory().contact_radius(), 1.8662555784e-4, 1e-9);
+  ExpectRelative(contact.memory().Stiffness(+1), 1.4, 1e-9);
+  ExpectRelative(contact.memory().FullSlipMoment(), 3.2979458334e-3, 1e-9);
+  // The moment at stick radius a/2, reached by a moment target and by the angle.
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kMoment, 2.9593735330e-3)).ok());
+  ExpectRelative(contact.memory().twist(), 4.8141258757e-3, 1e-8);
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kAngle, 4.8141258757e-3)).ok());
+  EXPECT_EQ(contact.memory().twist(), 4.8141258757e-3);
+  ExpectRelative(contact.memory().StickRadius(+1), 1.8662555784e-4 / 2, 1e-9);
+  // More load at fixed twist: the contact grows, nothing slips, the new springs carry nothing.
+  const double moment = contact.memory().Moment();
+  ASSERT_TRUE(contact.Apply(NormalStep(NormalControl::kForce, 200)).ok());
+  EXPECT_EQ(contact.memory().last_step_dissipation(), 0);
+  ExpectRelative(contact.memory().Moment(), moment, 1e-14);
+  EXPECT_TRUE(contact.memory().SlipIntervals().empty());
+  // Loss of contact forgets every spring; contact regained carries no moment at the same twist.
+  ASSERT_TRUE(contact.Apply(NormalStep(NormalControl::kDepth, -1e-9)).ok());
+  EXPECT_EQ(contact.memory().contact_radius(), 0);
+  EXPECT_EQ(contact.memory().Moment(), 0);
+  EXPECT_GT(contact.memory().dissipated_energy(), 0);
+  ASSERT_TRUE(contact.Apply(NormalStep(NormalControl::kDepthIncrement, 2e-6)).ok());
+  EXPECT_EQ(contact.memory().Moment(), 0);
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kAngleIncrement, 1e-4)).ok());
+  EXPECT_GT(contact.memory().Moment(), 0);
+}
+
+TEST(TorsionalContactTest, StepsThatCannotBeExactAreRefusedAndChangeNothing) {
+  TorsionalContact contact = SteelSphereOnSteel();
+  ASSERT_TRUE(contact.Apply(NormalStep(NormalControl::kForce, 100)).ok());
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kAngle, 2e-2)).ok());
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kAngleIncrement, -6e-3)).ok());
+  const std::vector<TorsionPiece> before = contact.memory().pieces();
+  const double depth = contact.depth();
+  TorsionStep both_channels = NormalStep(NormalControl::kForce, 50);
+  both_channels.twist = TwistControl::kAngleIncrement;
+  both_channels.twist_value = 1e-3;
+  const Status both = contact.Apply(both_channels);
+  EXPECT_EQ(both.field(), "step");
+  // A decrease after the reversal would break |F| <= 1: refused on the normal channel.
+  const Status decrease = contact.Apply(NormalStep(NormalControl::kForce, 20));
+  EXPECT_EQ(decrease.code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(decrease.field(), "normal_value");
+  EXPECT_EQ(contact.Apply(NormalStep(NormalControl::kForce, -1)).field(), "normal_value");
+  EXPECT_EQ(contact.Apply(TwistStep(TwistControl::kMoment, 1)).field(), "twist_value");
+  EXPECT_EQ(contact.Apply(TwistStep(TwistControl::kAngle, NAN)).field(), "twist_value");
+  EXPECT_EQ(contact.memory().pieces(), before);
+  EXPECT_EQ(contact.depth(), depth);
+  // Profiles without a torsional bound yet are refused by name.
+  const Status punch = TorsionalContact::Create(*MakeFlatPunch(1e-3), 0.3, 1e11, 4e10).status();
+  EXPECT_EQ(punch.field(), "profile");
+  EXPECT_EQ(TorsionalContact::Create(*MakeSphere(0.01), 0, 1e11, 4e10).status().field(),
+            "friction");
+  // A cone and a power law take the quadrature; their moment grows with the twist.
+  for (ProfilePtr profile : {*MakeCone(0.1), *MakePowerLaw(1e3, 3)}) {
+    TorsionalContact other = *TorsionalContact::Create(profile, 0.3, 1e11, 4e10);
+    ASSERT_TRUE(other.Apply(NormalStep(NormalControl::kDepth, 1e-6)).ok());
+    ASSERT_TRUE(other.Apply(TwistStep(TwistControl::kAngle, 1e-4)).ok());
+    EXPECT_GT(other.memory().Moment(), 0);
+    EXPECT_LT(other.memory().Moment(), other.memory().FullSlipMoment());
+  }
 }
 
 TEST(TorsionTest, BadInputsNameTheirFieldAndChangeNothing) {

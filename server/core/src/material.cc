@@ -36,4 +36,14 @@ Result<EffectiveMaterial> ElasticPair(double youngs_modulus_1, double poisson_ra
                                 shear_compliance(youngs_modulus_2, poisson_ratio_2))};
 }
 
+Result<double> TorsionalModulusOfPair(double youngs_modulus_1, double poisson_ratio_1,
+                                      double youngs_modulus_2, double poisson_ratio_2) {
+  Result<EffectiveMaterial> checked =
+      ElasticPair(youngs_modulus_1, poisson_ratio_1, youngs_modulus_2, poisson_ratio_2);
+  if (!checked.ok()) return checked.status();
+  auto compliance = [](double e, double nu) { return 2 * (1 + nu) / e; };
+  return 1 / (compliance(youngs_modulus_1, poisson_ratio_1) +
+              compliance(youngs_modulus_2, poisson_ratio_2));
+}
+
 }  // namespace mdr

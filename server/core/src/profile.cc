@@ -54,6 +54,7 @@ class PowerLawProfile final : public Profile {
     return n_ * k_ * std::pow(x, n_ - 1);
   }
   double RadiusAtDepth(double z) const override { return z > 0 ? std::pow(z / k_, 1 / n_) : 0; }
+  std::optional<PowerLawForm> AsPowerLaw() const override { return PowerLawForm{k_, n_}; }
   double Rise(double x, double x_ref) const override {
     if (!(x_ref > 0)) return G(x);
     return G(x_ref) * std::expm1(n_ * std::log1p((x - x_ref) / x_ref));
@@ -108,6 +109,7 @@ class ParabolicProfile final : public Profile {
   double Slope(double x) const override { return 2 * k_ * x; }
   // z * (1/k): a product instead of a division per vertex and query; x within 1.25 ulp.
   double RadiusAtDepth(double z) const override { return z > 0 ? std::sqrt(z * inverse_k_) : 0; }
+  std::optional<PowerLawForm> AsPowerLaw() const override { return PowerLawForm{k_, 2}; }
   double Rise(double x, double x_ref) const override { return k_ * ((x - x_ref) * (x + x_ref)); }
   double Moment(int j, double x) const override {
     // integral_0^x (k t^2)^j dt = x g(x)^j / (2 j + 1).
@@ -155,6 +157,7 @@ class ConicalProfile final : public Profile {
   double G(double x) const override { return k_ * x; }
   double Slope(double) const override { return k_; }
   double RadiusAtDepth(double z) const override { return z > 0 ? z / k_ : 0; }
+  std::optional<PowerLawForm> AsPowerLaw() const override { return PowerLawForm{k_, 1}; }
   double Rise(double x, double x_ref) const override { return k_ * (x - x_ref); }
   double Moment(int j, double x) const override {
     // integral_0^x (k t)^j dt = x g(x)^j / (j + 1).

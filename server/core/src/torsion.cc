@@ -191,6 +191,23 @@ Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double fric
       std::make_shared<PowerLawTorsionBound>(scale, exponent));
 }
 
+Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const Profile& profile,
+                                                             double friction,
+                                                             double effective_modulus,
+                                                             double torsional_modulus) {
+  const std::optional<PowerLawForm> form = profile.AsPowerLaw();
+  if (!form) {
+    return InvalidArgument("profile", "torsion needs a sphere, a cone or a power law; " +
+                                          profile.Describe() + " is not supported yet");
+  }
+  if (form->exponent == 2) {
+    return MakeHertzTorsionBound(friction, effective_modulus, torsional_modulus,
+                                 1 / form->coefficient);
+  }
+  return MakePowerLawTorsionBound(friction, effective_modulus, torsional_modulus, form->coefficient,
+                                  form->exponent);
+}
+
 TorsionalMemory::TorsionalMemory(std::shared_ptr<const TorsionBound> bound,
                                  double torsional_modulus, double contact_radius)
     : bound_(std::move(bound)), modulus_(torsional_modulus), radius_(contact_radius) {
@@ -333,6 +350,21 @@ Status TorsionalMemory::Twist(double increment) {
   if (!std::isfinite(twist)) {
     return InvalidArgument("twist_increment", "takes the twist beyond the finite doubles");
   }
+  ApplyTwist(increment, twist);
+  return OkStatus();
+}
+
+Status TorsionalMemory::TwistTo(double angle) {
+  if (Status s = RequireFinite("twist", angle); !s.ok()) return s;
+  const double increment = angle - twist_;
+  if (!std::isfinite(increment)) {
+    return InvalidArgument("twist", "is too far from the current twist for a double increment");
+  }
+  ApplyTwist(increment, angle);
+  return OkStatus();
+}
+
+void TorsionalMemory::ApplyTwist(double increment, double twist) {
   double dissipation = 0;
   std::vector<TorsionPiece> next = Clipped(increment, radius_, false, &dissipation);
   Merge(next);
@@ -340,7 +372,6 @@ Status TorsionalMemory::Twist(double increment) {
   twist_ = twist;
   last_dissipation_ = dissipation;
   dissipated_ += dissipation;
-  return OkStatus();
 }
 
 Status TorsionalMemory::TwistToMoment(double target) {
@@ -557,6 +588,71 @@ bool TorsionalMemory::IsExact() const {
   return std::all_of(pieces_.begin(), pieces_.end(), [&](const TorsionPiece& piece) {
     return piece.sign == 0 || piece.radius <= radius_;
   });
+}
+
+Result<TorsionalContact> TorsionalContact::Create(ProfilePtr profile, double friction,
+                                                  double effective_modulus,
+                                                  double torsional_modulus) {
+  if (profile == nullptr) return InvalidArgument("profile", "required");
+  Result<std::shared_ptr<const TorsionBound>> bound =
+      MakeTorsionBound(*profile, friction, effective_modulus, torsional_modulus);
+  if (!bound.ok()) return bound.status();
+  Result<TorsionalMemory> memory = TorsionalMemory::Create(*bound, torsional_modulus, 0);
+  if (!memory.ok()) return memory.status();
+  return TorsionalContact(std::move(profile), effective_modulus, std::move(memory).value());
+}
+
+double TorsionalContact::normal_force() const {
+  return effective_modulus_ * profile_->NormalForcePerModulus(depth_);
+}
+
+Result<double> TorsionalContact::TargetDepth(NormalControl control, double value) const {
+  if (Status s = RequireFinite("normal_value", value); !s.ok()) return s;
+  switch (control) {
+    case NormalControl::kDepth:
+      return value;
+    case NormalControl::kDepthIncrement: {
+      const double depth = depth_ + value;
+      if (!std::isfinite(depth)) {
+        return InvalidArgument("normal_value", "takes the depth beyond the finite doubles");
+      }
+      return depth;
+    }
+    case NormalControl::kForce:
+      if (Status s = RequireNonNegative("normal_value", value); !s.ok()) return s;
+      return profile_->DepthAtNormalForcePerModulus(value / effective_modulus_);
+  }
+  return InvalidArgument("normal_value", "has an unknown control");
+}
+
+Status TorsionalContact::Apply(const TorsionStep& step) {
+  if (step.normal && step.twist) {
+    return InvalidArgument("step",
+                           "moves both the normal load and the twist: a simultaneous ramp has no "
+                           "exact finite memory; apply the normal step and the twist as two steps");
+  }
+  // The memory's errors belong to the step's value of the channel that moved.
+  auto as_field = [](const Status& s, const char* field) {
+    return s.ok() ? s : Status(s.code(), field, s.message());
+  };
+  if (step.normal) {
+    Result<double> depth = TargetDepth(*step.normal, step.normal_value);
+    if (!depth.ok()) return depth.status();
+    const Status s = memory_.SetContactRadius(profile_->RadiusAtDepth(*depth));
+    if (!s.ok()) return as_field(s, "normal_value");
+    depth_ = *depth;
+    return OkStatus();
+  }
+  if (!step.twist) return memory_.Twist(0);
+  switch (*step.twist) {
+    case TwistControl::kAngle:
+      return as_field(memory_.TwistTo(step.twist_value), "twist_value");
+    case TwistControl::kAngleIncrement:
+      return as_field(memory_.Twist(step.twist_value), "twist_value");
+    case TwistControl::kMoment:
+      return as_field(memory_.TwistToMoment(step.twist_value), "twist_value");
+  }
+  return InvalidArgument("twist_value", "has an unknown control");
 }
 
 }  // namespace mdr

@@ -20,4 +20,11 @@ Result<EffectiveMaterial> RigidOnHalfSpace(double shear_modulus, double poisson_
 Result<EffectiveMaterial> ElasticPair(double youngs_modulus_1, double poisson_ratio_1,
                                       double youngs_modulus_2, double poisson_ratio_2);
 
+// The torsional modulus G_t of two bodies, 1/G_t = 1/G_1 + 1/G_2 with G_i = E_i/(2(1+nu_i)):
+// the only modulus of torsion about the contact's axis, which involves no Poisson coupling
+// (docs/physics.md, "Torsion"). A rigid indenter on a half-space of shear modulus G has G_t = G.
+// Fields as ElasticPair.
+Result<double> TorsionalModulusOfPair(double youngs_modulus_1, double poisson_ratio_1,
+                                      double youngs_modulus_2, double poisson_ratio_2);
+
 }  // namespace mdr

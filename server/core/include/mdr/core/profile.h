@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -19,6 +20,13 @@ namespace mdr {
 // polynomials of degree <= 2 in t), and in t they need no division by the piece's width.
 struct PieceIntegrals {
   double j0 = 0, j1 = 0, j2 = 0;
+};
+
+// g = k x^n exactly (spheres: n = 2, cones: n = 1, power laws): the form the closed forms beyond
+// the MDR mapping use (the torsional bound, torsion.h).
+struct PowerLawForm {
+  double coefficient = 0;  // k
+  double exponent = 0;     // n
 };
 
 class Profile {
@@ -53,6 +61,8 @@ class Profile {
   // F_N/E* = 2 (z a - M_1(a)) at depth z, and its inverse (depth for F_N/E* >= 0).
   double NormalForcePerModulus(double depth) const;
   virtual double DepthAtNormalForcePerModulus(double force_per_modulus) const = 0;
+  // k and n when g = k x^n; nullopt for the flat punch and tabulated profiles.
+  virtual std::optional<PowerLawForm> AsPowerLaw() const { return std::nullopt; }
   // Human-readable description, e.g. "power law f = 1e3 r^2".
   virtual std::string Describe() const = 0;
   // Relative tolerance of g against the profile it stands for: 0 for the closed forms, the

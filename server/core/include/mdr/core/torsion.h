@@ -22,6 +22,8 @@
 #include <vector>
 
 #include "mdr/base/status.h"
+#include "mdr/core/contact.h"
+#include "mdr/core/profile.h"
 
 namespace mdr {
 
@@ -52,6 +54,13 @@ Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double fric
                                                                      double torsional_modulus,
                                                                      double coefficient,
                                                                      double exponent);
+
+// The bound of a profile: Hertz's closed form for a sphere, the power-law quadrature for cones and
+// power laws; the flat punch and tabulated profiles are not supported yet (field profile).
+Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const Profile& profile,
+                                                             double friction,
+                                                             double effective_modulus,
+                                                             double torsional_modulus);
 
 // One piece of the torsional memory on [start, end): v = sign * B(x; radius) + offset.
 struct TorsionPiece {
@@ -88,6 +97,9 @@ class TorsionalMemory {
   // Twists by increment (rad, finite) at the current contact radius: v <- clamp(v + increment,
   // -B, B), exact for any size. Field: twist_increment.
   Status Twist(double increment);
+  // Twists to the angle (rad, finite): the increment angle - twist(), and twist() == angle
+  // exactly afterwards. Field: twist.
+  Status TwistTo(double angle);
   // Twists at the current contact radius until the moment is target (N m, finite), the increment
   // found by a bracketed Newton iteration on the exact moment with the exact stiffness as its
   // slope. |target| must be below the full-slip moment, which only an infinite twist reaches
@@ -130,6 +142,8 @@ class TorsionalMemory {
  private:
   TorsionalMemory(std::shared_ptr<const TorsionBound> bound, double torsional_modulus,
                   double contact_radius);
+  // The clip of one twist increment, after which the twist is `twist`.
+  void ApplyTwist(double increment, double twist);
   double Value(const TorsionPiece& piece, double x) const;
   double Slope(const TorsionPiece& piece, double x) const;
   // The pieces v + shift clipped to +-B(x; radius) on [0, radius), and the energy the clipped
@@ -145,6 +159,51 @@ class TorsionalMemory {
   double dissipated_ = 0;
   double last_dissipation_ = 0;
   std::vector<TorsionPiece> pieces_;  // cover [0, radius_), ends increasing, the last = radius_
+};
+
+// How a step drives the twist: to an angle (rad), by an increment (rad), or to a moment (N m).
+enum class TwistControl { kAngle, kAngleIncrement, kMoment };
+
+// One step of a torsional contact: the normal channel (as Contact's NormalControl) or the twist;
+// an unset channel holds.
+struct TorsionStep {
+  std::optional<NormalControl> normal;
+  double normal_value = 0;
+  std::optional<TwistControl> twist;
+  double twist_value = 0;
+};
+
+// A contact twisted about its axis under a normal load: the normal problem of its profile (depth,
+// F_N, contact radius) and the torsional memory at that radius.
+class TorsionalContact {
+ public:
+  // An unloaded contact at twist 0. friction > 0 (a frictionless contact carries no moment).
+  // Fields: profile, friction, effective_modulus, torsional_modulus.
+  static Result<TorsionalContact> Create(ProfilePtr profile, double friction,
+                                         double effective_modulus, double torsional_modulus);
+
+  // Applies the step; on an error nothing changed. A step moves one channel: the normal load at
+  // fixed twist, or the twist at fixed normal load, each exact. One that moves both is refused
+  // (field step): along a simultaneous ramp each spring detaches at its own instant and the
+  // memory is no longer a finite list of pieces (docs/physics.md); two steps do it exactly.
+  // Fields: normal_value, twist_value, step, and those of TorsionalMemory.
+  Status Apply(const TorsionStep& step);
+
+  double depth() const { return depth_; }
+  double normal_force() const;
+  const TorsionalMemory& memory() const { return memory_; }
+
+ private:
+  TorsionalContact(ProfilePtr profile, double effective_modulus, TorsionalMemory memory)
+      : profile_(std::move(profile)),
+        effective_modulus_(effective_modulus),
+        memory_(std::move(memory)) {}
+  Result<double> TargetDepth(NormalControl control, double value) const;
+
+  ProfilePtr profile_;
+  double effective_modulus_ = 0;
+  double depth_ = 0;
+  TorsionalMemory memory_;
 };
 
 }  // namespace mdr
