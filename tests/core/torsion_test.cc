@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <sstream>
 
 #include "mdr/core/material.h"
 #include "mdr/core/profile.h"
@@ -410,6 +411,22 @@ void RunRandomHistories(const std::shared_ptr<const TorsionBound>& bound, int hi
       }
       ASSERT_TRUE(memory.IsExact());
       EXPECT_GE(memory.last_step_dissipation(), 0);
+      // Every state round-trips through its snapshot.
+      Result<TorsionalMemory> restored = TorsionalMemory::Restore(bound, 1, memory.Snapshot());
+      ASSERT_TRUE(restored.ok()) << restored.status().ToString() << [&] {
+        std::ostringstream out;
+        out.precision(17);
+        double start = 0;
+        out << " a=" << memory.contact_radius();
+        for (const TorsionPiece& p : memory.pieces()) {
+          out << "\n [" << start << ", " << p.end << ") s=" << int(p.sign) << " ak=" << p.radius
+              << " C=" << p.offset << " v(start)=" << memory.SpringDisplacement(start)
+              << " B(start)=" << bound->Bound(start, memory.contact_radius());
+          start = p.end;
+        }
+        return out.str();
+      }();
+      EXPECT_EQ(restored->Snapshot(), memory.Snapshot());
       double start = 0;
       for (const TorsionPiece& piece : memory.pieces()) {
         ASSERT_GT(piece.end, start);
@@ -520,6 +537,54 @@ TEST(TorsionalContactTest, StepsThatCannotBeExactAreRefusedAndChangeNothing) {
     EXPECT_GT(other.memory().Moment(), 0);
     EXPECT_LT(other.memory().Moment(), other.memory().FullSlipMoment());
   }
+}
+
+TEST(TorsionTest, ARestoredMemoryContinuesBitForBit) {
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(0.7).ok());
+  ASSERT_TRUE(memory.Twist(-0.9).ok());
+  ASSERT_TRUE(memory.SetContactRadius(1.2).ok());
+  TorsionalMemory twin = *TorsionalMemory::Restore(UnitHertz(), 1, memory.Snapshot());
+  for (TorsionalMemory* m : {&memory, &twin}) {
+    ASSERT_TRUE(m->Twist(0.4).ok());
+    ASSERT_TRUE(m->SetContactRadius(1.3).ok());
+    ASSERT_TRUE(m->TwistToMoment(-0.3).ok());
+  }
+  EXPECT_EQ(twin.Snapshot(), memory.Snapshot());
+  EXPECT_EQ(twin.Moment(), memory.Moment());
+}
+
+TEST(TorsionTest, ADamagedSnapshotIsRefusedByField) {
+  TorsionalMemory memory = UnitMemory();
+  ASSERT_TRUE(memory.Twist(0.7).ok());
+  ASSERT_TRUE(memory.Twist(-0.2).ok());
+  const TorsionSnapshot good = memory.Snapshot();
+  ASSERT_EQ(good.pieces.size(), 3u);
+  auto field_of = [](const TorsionSnapshot& snapshot) {
+    return TorsionalMemory::Restore(UnitHertz(), 1, snapshot).status().field();
+  };
+  TorsionSnapshot bad = good;
+  bad.pieces[1].end = bad.pieces[0].end;
+  EXPECT_EQ(field_of(bad), "pieces[1].end");
+  bad = good, bad.pieces.back().end = 0.9;
+  EXPECT_EQ(field_of(bad), "pieces[2].end");
+  bad = good, bad.pieces[1].sign = 2;
+  EXPECT_EQ(field_of(bad), "pieces[1].sign");
+  bad = good, bad.pieces[1].radius = 1.5;  // a piece of a larger contact: not exact
+  EXPECT_EQ(field_of(bad), "pieces[1].radius");
+  bad = good, bad.pieces[0].offset = 5;  // beyond the bound at the stick radius
+  EXPECT_EQ(field_of(bad), "pieces[0]");
+  bad = good, bad.pieces[0].offset = NAN;
+  EXPECT_EQ(field_of(bad), "pieces[0].offset");
+  bad = good, bad.twist = INFINITY;
+  EXPECT_EQ(field_of(bad), "twist");
+  bad = good, bad.dissipated_energy = -1;
+  EXPECT_EQ(field_of(bad), "dissipated_energy");
+  bad = good, bad.pieces.clear();
+  EXPECT_EQ(field_of(bad), "pieces");
+  bad = good, bad.contact_radius = -1;
+  EXPECT_EQ(field_of(bad), "contact_radius");
+  EXPECT_TRUE(TorsionalMemory::Restore(UnitHertz(), 1, good).ok());
 }
 
 TEST(TorsionTest, BadInputsNameTheirFieldAndChangeNothing) {

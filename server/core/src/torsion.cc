@@ -222,6 +222,78 @@ Result<TorsionalMemory> TorsionalMemory::Create(std::shared_ptr<const TorsionBou
   return TorsionalMemory(std::move(bound), torsional_modulus, contact_radius);
 }
 
+TorsionSnapshot TorsionalMemory::Snapshot() const {
+  return {.contact_radius = radius_,
+          .twist = twist_,
+          .dissipated_energy = dissipated_,
+          .last_step_dissipation = last_dissipation_,
+          .pieces = pieces_};
+}
+
+Result<TorsionalMemory> TorsionalMemory::Restore(std::shared_ptr<const TorsionBound> bound,
+                                                 double torsional_modulus,
+                                                 const TorsionSnapshot& snapshot) {
+  Result<TorsionalMemory> created =
+      Create(std::move(bound), torsional_modulus, snapshot.contact_radius);
+  if (!created.ok()) return created.status();
+  if (Status s = RequireFinite("contact_radius", snapshot.contact_radius); !s.ok()) return s;
+  if (Status s = RequireFinite("twist", snapshot.twist); !s.ok()) return s;
+  if (Status s = RequireNonNegative("dissipated_energy", snapshot.dissipated_energy); !s.ok()) {
+    return s;
+  }
+  if (Status s = RequireNonNegative("last_step_dissipation", snapshot.last_step_dissipation);
+      !s.ok()) {
+    return s;
+  }
+  TorsionalMemory memory = std::move(created).value();
+  const double radius = snapshot.contact_radius;
+  if (snapshot.pieces.empty() != (radius == 0)) {
+    return InvalidArgument("pieces",
+                           "must cover [0, contact_radius): none exactly when the "
+                           "contact radius is 0");
+  }
+  double start = 0;
+  for (std::size_t i = 0; i < snapshot.pieces.size(); ++i) {
+    const TorsionPiece& piece = snapshot.pieces[i];
+    const std::string field = "pieces[" + std::to_string(i) + "]";
+    const bool last = i + 1 == snapshot.pieces.size();
+    if (!(piece.end > start) || !(piece.end <= radius) || (last && piece.end != radius)) {
+      return InvalidArgument(field + ".end",
+                             "must increase from 0 to contact_radius, the last "
+                             "equal to it");
+    }
+    if (piece.sign < -1 || piece.sign > 1) {
+      return InvalidArgument(field + ".sign", "must be -1, 0 or +1");
+    }
+    if (Status s = RequireFinite(field + ".offset", piece.offset); !s.ok()) return s;
+    if (piece.sign != 0 && !(piece.radius > 0 && piece.radius <= radius)) {
+      return InvalidArgument(field + ".radius",
+                             "must be in (0, contact_radius] for a piece on a bound (an exact "
+                             "state)");
+    }
+    if (piece.sign == 0 && piece.radius != 0) {
+      return InvalidArgument(field + ".radius", "must be 0 for a constant piece");
+    }
+    for (double x : {start, piece.end}) {
+      if (x == 0) continue;  // the centre's bound is infinite
+      // To 1e-9 of the terms of v: a clip's root is exact to 1e-15 of the radius, which near the
+      // edge, where B is small and steep, is more than round-off of B itself.
+      const double b = memory.bound_->Bound(x, radius);
+      const double own = piece.sign == 0 ? 0 : memory.bound_->Bound(x, piece.radius);
+      const double scale = std::max({b, own, std::abs(piece.offset)});
+      if (!(std::abs(memory.Value(piece, x)) <= b + 1e-9 * scale)) {
+        return InvalidArgument(field, "exceeds the bound |v| <= B(x; contact_radius)");
+      }
+    }
+    start = piece.end;
+  }
+  memory.pieces_ = snapshot.pieces;
+  memory.twist_ = snapshot.twist;
+  memory.dissipated_ = snapshot.dissipated_energy;
+  memory.last_dissipation_ = snapshot.last_step_dissipation;
+  return memory;
+}
+
 double TorsionalMemory::Value(const TorsionPiece& piece, double x) const {
   return piece.sign == 0 ? piece.offset
                          : piece.sign * bound_->Bound(x, piece.radius) + piece.offset;

@@ -87,12 +87,33 @@ struct TorsionSlipInterval {
   int sign = 0;
 };
 
+// The exact, portable state of a TorsionalMemory.
+struct TorsionSnapshot {
+  double contact_radius = 0;
+  double twist = 0;
+  double dissipated_energy = 0;
+  double last_step_dissipation = 0;
+  std::vector<TorsionPiece> pieces;
+
+  friend bool operator==(const TorsionSnapshot&, const TorsionSnapshot&) = default;
+};
+
 class TorsionalMemory {
  public:
   // An unloaded contact of radius contact_radius >= 0 at twist 0; torsional_modulus G_t > 0
   // (1/G_t = 1/G_1 + 1/G_2). Fields: bound, torsional_modulus, contact_radius.
   static Result<TorsionalMemory> Create(std::shared_ptr<const TorsionBound> bound,
                                         double torsional_modulus, double contact_radius);
+
+  // The memory of a snapshot, checked: pieces in increasing order covering [0, contact_radius),
+  // signs -1, 0, +1, finite values, every bound piece of a radius in (0, contact_radius] (an
+  // exact state), and |v| <= B at both ends of every piece (where |v| - B is largest: it is
+  // monotone on a piece), to 1e-9 of the terms of v (a clip's root is exact to 1e-15 of the
+  // radius). Fields:
+  // contact_radius, twist, dissipated_energy, last_step_dissipation, pieces[i].<member>.
+  static Result<TorsionalMemory> Restore(std::shared_ptr<const TorsionBound> bound,
+                                         double torsional_modulus, const TorsionSnapshot& snapshot);
+  TorsionSnapshot Snapshot() const;
 
   // Twists by increment (rad, finite) at the current contact radius: v <- clamp(v + increment,
   // -B, B), exact for any size. Field: twist_increment.
