@@ -4,6 +4,9 @@
 // Byte 0 with its top bit set drives an Interface instead of one Contact (FuzzInterface: 1-8
 // contacts, shared motion or contact list, force targets), with the same checks plus the
 // totals as in-order sums over the contacts.
+// Byte 0 in [0x70, 0x7f] drives a TorsionalContact (FuzzTorsion): normal and twist steps, a step
+// moving both refused, every refusal changing nothing, and every state exact, within the
+// full-slip moment and restored from its snapshot unchanged.
 // Build and run: tests/fuzz/run.sh (clang-14, ASan + UBSan).
 #include <algorithm>
 #include <cmath>
@@ -18,6 +21,7 @@
 #include "fixtures/slip_state_check.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
+#include "mdr/core/torsion.h"
 
 namespace {
 
@@ -458,10 +462,80 @@ void FuzzInterface(ByteReader& in) {
 
 }  // namespace
 
+void FuzzTorsion(ByteReader& in) {
+  // Spheres mostly (closed form); cones and power laws, whose bound is a quadrature, rarely and
+  // for fewer steps, so that the run stays short under the sanitizers.
+  const std::uint8_t choice = in.Byte();
+  mdr::Result<mdr::ProfilePtr> profile =
+      choice % 8 != 0 ? mdr::MakeSphere(in.Scaled(1e-4, 1)) : FuzzProfile(in);
+  const double shear_modulus = in.Scaled(1e6, 1e12);
+  mdr::Result<mdr::EffectiveMaterial> material =
+      mdr::RigidOnHalfSpace(shear_modulus, in.Scaled(0.01, 1.5) - 1.0);
+  if (!profile.ok() || !material.ok()) return;
+  const double friction = in.Scaled(1e-3, 1e3);
+  mdr::Result<mdr::TorsionalContact> created =
+      mdr::TorsionalContact::Create(*profile, friction, material->e_star, shear_modulus);
+  if (!created.ok()) {
+    Check(!created.status().field().empty(), "a refused torsional contact names its field");
+    return;
+  }
+  mdr::TorsionalContact contact = std::move(created).value();
+  auto bound = *mdr::MakeTorsionBound(**profile, friction, material->e_star, shear_modulus);
+  const double depth_scale = in.InRange(1e-9, 1e-3);
+  const int steps = choice % 8 != 0 ? 32 : 6;
+  for (int i = 0; i < steps && !in.empty(); ++i) {
+    const mdr::TorsionalMemory& memory = contact.memory();
+    const double slip_moment = memory.FullSlipMoment();
+    const double twist_scale = slip_moment / memory.Stiffness(+1) + 1e-300;
+    mdr::TorsionStep step;
+    const std::uint8_t kind = in.Byte() % 8;
+    if (kind < 3 || kind == 7) {
+      step.normal = static_cast<mdr::NormalControl>(kind % 3);
+      step.normal_value = step.normal == mdr::NormalControl::kForce
+                              ? contact.normal_force() * in.Scaled(1e-2, 3) +
+                                    material->e_star *
+                                        (**profile).NormalForcePerModulus(depth_scale) *
+                                        in.Scaled(1e-3, 1)
+                              : in.Signed(depth_scale);
+    }
+    if (kind >= 3) {
+      step.twist = static_cast<mdr::TwistControl>(kind % 3);
+      step.twist_value = step.twist == mdr::TwistControl::kMoment ? in.Signed(slip_moment + 1e-300)
+                                                                  : in.Signed(twist_scale);
+    }
+    const mdr::TorsionSnapshot before = memory.Snapshot();
+    const double depth = contact.depth();
+    const mdr::Status status = contact.Apply(step);
+    if (!status.ok()) {
+      Check(!status.field().empty(), "a refused torsion step names its field");
+      Check(memory.Snapshot() == before && mdr::SameBits(contact.depth(), depth),
+            "a refused torsion step changes nothing");
+      continue;
+    }
+    Check(!(step.normal && step.twist), "a step moving both channels is refused");
+    Check(memory.IsExact(), "an accepted torsional state is exact (|F| <= 1)");
+    const double moment = memory.Moment();
+    Check(std::isfinite(moment) && std::abs(moment) <= memory.FullSlipMoment() * (1 + 1e-12),
+          "the moment is finite and within the full-slip moment");
+    Check(std::isfinite(memory.last_step_dissipation()) && memory.last_step_dissipation() >= 0,
+          "a torsion step's dissipation is finite and >= 0");
+    mdr::Result<mdr::TorsionalMemory> restored =
+        mdr::TorsionalMemory::Restore(bound, shear_modulus, memory.Snapshot());
+    if (!restored.ok()) {
+      std::fprintf(stderr, "restore refused: %s\n", restored.status().ToString().c_str());
+    }
+    Check(restored.ok() && restored->Snapshot() == memory.Snapshot(),
+          "a torsional state restores from its snapshot unchanged");
+  }
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   ByteReader in(data, size);
   if (size > 0 && (data[0] & 0x80) != 0) {
     FuzzInterface(in);
+  } else if (size > 0 && (data[0] & 0xf0) == 0x70) {
+    in.Byte();
+    FuzzTorsion(in);
   } else {
     FuzzContact(in);
   }

@@ -276,12 +276,20 @@ Result<TorsionalMemory> TorsionalMemory::Restore(std::shared_ptr<const TorsionBo
     }
     for (double x : {start, piece.end}) {
       if (x == 0) continue;  // the centre's bound is infinite
-      // To 1e-9 of the terms of v: a clip's root is exact to 1e-15 of the radius, which near the
-      // edge, where B is small and steep, is more than round-off of B itself.
+      // To 1e-9 of the terms of v, plus what a root exact to 1e-15 of the radius moves v - B by
+      // (near the edge B is small and steep: more than its round-off).
       const double b = memory.bound_->Bound(x, radius);
-      const double own = piece.sign == 0 ? 0 : memory.bound_->Bound(x, piece.radius);
-      const double scale = std::max({b, own, std::abs(piece.offset)});
-      if (!(std::abs(memory.Value(piece, x)) <= b + 1e-9 * scale)) {
+      const bool bound_piece = piece.sign != 0;
+      const double own = bound_piece ? memory.bound_->Bound(x, piece.radius) : 0;
+      // The slopes just inside their contacts (at an edge Slope is that of the outside, 0).
+      auto slope_inside = [&](double at) {
+        return std::abs(memory.bound_->Slope(std::min(x, std::nextafter(at, 0.0)), at));
+      };
+      const double steepness =
+          slope_inside(radius) + (bound_piece ? slope_inside(piece.radius) : 0);
+      const double allowed =
+          1e-9 * std::max({b, own, std::abs(piece.offset)}) + 1e-13 * radius * steepness;
+      if (!(std::abs(memory.Value(piece, x)) <= b + allowed)) {
         return InvalidArgument(field, "exceeds the bound |v| <= B(x; contact_radius)");
       }
     }

@@ -108,8 +108,8 @@ class TorsionalMemory {
   // The memory of a snapshot, checked: pieces in increasing order covering [0, contact_radius),
   // signs -1, 0, +1, finite values, every bound piece of a radius in (0, contact_radius] (an
   // exact state), and |v| <= B at both ends of every piece (where |v| - B is largest: it is
-  // monotone on a piece), to 1e-9 of the terms of v (a clip's root is exact to 1e-15 of the
-  // radius). Fields:
+  // monotone on a piece), to 1e-9 of the terms of v plus what a root exact to 1e-15 of the
+  // radius moves v - B by. Fields:
   // contact_radius, twist, dissipated_energy, last_step_dissipation, pieces[i].<member>.
   static Result<TorsionalMemory> Restore(std::shared_ptr<const TorsionBound> bound,
                                          double torsional_modulus, const TorsionSnapshot& snapshot);
