@@ -7,6 +7,7 @@
 
 #include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
+#include "mdr/core/torsion.h"
 
 namespace mdr {
 namespace {
@@ -109,6 +110,49 @@ void BM_ApplyOnFailure(benchmark::State& state) {
                  (state.range(1) != 0 ? ", discarded" : ", unchanged"));
 }
 BENCHMARK(BM_ApplyOnFailure)->ArgsProduct({{0, 1}, {0, 1}});
+
+// Torsional fretting of H1 (steel on steel, F_N = 100 N): a triangle wave in twist to the stick
+// radius a/2, one twist step and the moment per item. Arg 0: the sphere's closed form; arg 1:
+// the power-law quadrature at n = 2, the same physics. Error against run time: after the timed
+// loop both replay one steady cycle, and moment_rel_error is the largest |M - M_closed| / M_slip.
+void BM_TorsionalFretting(benchmark::State& state) {
+  const double young = 210e9, poisson = 0.3, radius = 0.01, friction = 0.3;
+  const double effective_modulus = young / (2 * (1 - poisson * poisson));
+  const double torsional_modulus = young / (2 * (1 + poisson)) / 2;
+  const double contact_radius = 1.8662555784e-4;
+  auto closed = *MakeHertzTorsionBound(friction, effective_modulus, torsional_modulus, radius);
+  auto quadrature =
+      *MakePowerLawTorsionBound(friction, effective_modulus, torsional_modulus, 1 / radius, 2);
+  auto memory_of = [&](const std::shared_ptr<const TorsionBound>& bound) {
+    return *TorsionalMemory::Create(bound, torsional_modulus, contact_radius);
+  };
+  TorsionalMemory memory = memory_of(state.range(0) == 0 ? closed : quadrature);
+  const double amplitude = closed->Bound(contact_radius / 2, contact_radius);
+  const int steps_per_half = 8;
+  int k = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        memory.TwistTo(reference::TriangleWave(amplitude, k++, steps_per_half)));
+    benchmark::DoNotOptimize(memory.Moment());
+  }
+  state.SetItemsProcessed(state.iterations());
+  TorsionalMemory exact = memory_of(closed),
+                  measured = memory_of(state.range(0) == 0 ? closed : quadrature);
+  double error = 0;
+  for (int i = 0; i < 4 * steps_per_half; ++i) {
+    const double twist = reference::TriangleWave(amplitude, i, steps_per_half);
+    (void)exact.TwistTo(twist);
+    (void)measured.TwistTo(twist);
+    if (i >= 2 * steps_per_half) {
+      error =
+          std::max(error, std::abs(measured.Moment() - exact.Moment()) / exact.FullSlipMoment());
+    }
+  }
+  state.counters["moment_rel_error"] = error;
+  state.counters["pieces"] = static_cast<double>(memory.pieces().size());
+  state.SetLabel(state.range(0) == 0 ? "sphere, closed form" : "power law n = 2, quadrature");
+}
+BENCHMARK(BM_TorsionalFretting)->Arg(0)->Arg(1);
 
 }  // namespace
 }  // namespace mdr
