@@ -554,6 +554,20 @@ TEST(TorsionTest, ARestoredMemoryContinuesBitForBit) {
   EXPECT_EQ(twin.Moment(), memory.Moment());
 }
 
+TEST(TorsionTest, StatesAtTheResolutionOfTheRadiusRoundTrip) {
+  // Found by the fuzzer: a reversal of 2e-18 rad leaves +B + C with C = -2e-18, whose clip near
+  // the edge lies below the radius' resolution; and a clip root within 1e-12 of the edge.
+  for (double reversal : {-2e-18, -1e-12 * 0.6, -1e-9}) {
+    SCOPED_TRACE(reversal);
+    TorsionalMemory memory = UnitMemory(1.3921037380226426e-05);
+    ASSERT_TRUE(memory.Twist(0.05).ok());
+    ASSERT_TRUE(memory.Twist(reversal).ok());
+    Result<TorsionalMemory> restored = TorsionalMemory::Restore(UnitHertz(), 1, memory.Snapshot());
+    ASSERT_TRUE(restored.ok()) << restored.status().ToString();
+    EXPECT_EQ(restored->Snapshot(), memory.Snapshot());
+  }
+}
+
 TEST(TorsionTest, ADamagedSnapshotIsRefusedByField) {
   TorsionalMemory memory = UnitMemory();
   ASSERT_TRUE(memory.Twist(0.7).ok());
