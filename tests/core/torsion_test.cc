@@ -60,6 +60,25 @@ TEST(TorsionTest, TheVirginCurveIsTheReferences) {
   }
 }
 
+TEST(TorsionTest, TheHertzBoundIsKMinusEToRoundOff) {
+  // B = (2/pi) (K(m) - E(m)) and B' = -(2/pi) E(m) / x in the reference units, m = 1 - x^2, from
+  // 30-digit arithmetic (mpmath), near the centre, inside and at the edge.
+  struct Value {
+    double x, bound, slope;
+  };
+  const Value values[] = {{1e-8, 11.97289221031386842, -63661977.23675819576},
+                          {0.01, 3.177569665101504734, -63.67945769720861372},
+                          {0.3, 0.9748531929767253211, -2.326797558428034705},
+                          {0.5, 0.6018982880233301465, -1.541964425190040036},
+                          {0.9, 0.1027036775165470703, -1.056286676352500054},
+                          {0.999, 0.001000250187648559674, -1.000500563094360972}};
+  for (const Value& v : values) {
+    SCOPED_TRACE(v.x);
+    ExpectRelative(UnitHertz()->Bound(v.x, 1), v.bound, 2e-15);
+    ExpectRelative(UnitHertz()->Slope(v.x, 1), v.slope, 2e-15);
+  }
+}
+
 TEST(TorsionTest, PowerLawsGiveTheReferences) {
   struct Case {
     double exponent;
