@@ -424,8 +424,10 @@ std::vector<TorsionPiece> TorsionalMemory::Clipped(double shift, double radius, 
       if (shrinking) {
         integral += Integrate(
             [&](double x) {
+              // |v| >= b on a clipped region; the max keeps a root's round-off from making
+              // the loss negative.
               const double v = w(x), b = bound_->Bound(x, radius);
-              return x * x * (v * v - b * b) / 2;
+              return x * x * std::max(0.0, v * v - b * b) / 2;
             },
             lo, hi);
       } else {
