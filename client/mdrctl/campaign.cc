@@ -33,11 +33,14 @@ class YamlDoc {
     try {
       doc.root_ = YAML::LoadFile(path);
     } catch (const YAML::BadFile&) {
-      return mdr::InvalidArgument(path, "cannot open");
+      return mdr::InvalidArgument("", path + ": cannot open the campaign file");
     } catch (const YAML::Exception& e) {
-      return mdr::InvalidArgument(path, mdr::bridge::DescribeYamlError(e));
+      // The document's error, not a field's (as for scene files): the message names the file.
+      return mdr::InvalidArgument("", path + ": " + mdr::bridge::DescribeYamlError(e));
     }
-    if (!doc.root_.IsMap()) return mdr::InvalidArgument(path, "must be a YAML mapping of fields");
+    if (!doc.root_.IsMap()) {
+      return mdr::InvalidArgument("", path + ": must be a YAML mapping of fields");
+    }
     doc.RecordLines(doc.root_, "");
     return doc;
   }

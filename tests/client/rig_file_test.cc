@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "campaign.h"
 #include "rig_csv.h"
 
 namespace mdrctl {
@@ -783,6 +784,31 @@ TEST_F(RigFileTest, MatRunsAreSplitByTheRunVariable) {
             "usually a bad export");
   EXPECT_EQ(refused("missing"), R"(variable "missing", element 3: nan is not a finite number)");
   EXPECT_THAT(refused("short"), HasSubstr(R"(variable "short" has 3 elements, "x" has 6)"));
+}
+
+// A campaign file that is not YAML, or cannot be read, is the document's error: no field is
+// named (a field is a campaign key), the message names the file and, for a syntax error, its line
+// and column.
+TEST(CampaignFileTest, ASyntaxErrorNamesTheFileNotAField) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "campaign_file_test";
+  fs::create_directories(dir);
+  const fs::path broken = dir / "broken.yaml";
+  std::ofstream(broken) << "title: x\nfree: [{parameter: friction\n";
+  const mdr::Result<Campaign> syntax = LoadCampaign(broken.string());
+  ASSERT_FALSE(syntax.ok());
+  EXPECT_EQ(syntax.status().field(), "");
+  EXPECT_THAT(syntax.status().message(), HasSubstr(broken.string() + ": line "));
+  EXPECT_THAT(syntax.status().message(), HasSubstr("column"));
+  const mdr::Result<Campaign> missing = LoadCampaign((dir / "absent.yaml").string());
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().field(), "");
+  EXPECT_THAT(missing.status().message(), HasSubstr("absent.yaml: cannot open"));
+  const fs::path list = dir / "list.yaml";
+  std::ofstream(list) << "- 1\n- 2\n";
+  const mdr::Result<Campaign> not_a_map = LoadCampaign(list.string());
+  ASSERT_FALSE(not_a_map.ok());
+  EXPECT_EQ(not_a_map.status().field(), "");
+  EXPECT_THAT(not_a_map.status().message(), HasSubstr("list.yaml: must be a YAML mapping"));
 }
 
 }  // namespace
