@@ -4,9 +4,11 @@
 
 #include <random>
 #include <string>
+#include <vector>
 
 #include "fixtures/reference_scenes.h"
 #include "mdr/core/contact.h"
+#include "mdr/core/tabulated_profile.h"
 #include "mdr/core/torsion.h"
 
 namespace mdr {
@@ -113,8 +115,10 @@ BENCHMARK(BM_ApplyOnFailure)->ArgsProduct({{0, 1}, {0, 1}});
 
 // Torsional fretting of H1 (steel on steel, F_N = 100 N): a triangle wave in twist to the stick
 // radius a/2, one twist step and the moment per item. Arg 0: the sphere's closed form; arg 1:
-// the power-law quadrature at n = 2, the same physics. Error against run time: after the timed
-// loop both replay one steady cycle, and moment_rel_error is the largest |M - M_closed| / M_slip.
+// the power-law quadrature at n = 2, the same physics; arg 2: the sphere sampled at 200 points
+// to 2.7 a (a tabulated profile, its quadrature). Error against run time: after the timed loop
+// both replay one steady cycle, and moment_rel_error is the largest |M - M_closed| / M_slip (for
+// arg 2 it includes the sampled shape's own error).
 void BM_TorsionalFretting(benchmark::State& state) {
   const double young = 210e9, poisson = 0.3, radius = 0.01, friction = 0.3;
   const double effective_modulus = young / (2 * (1 - poisson * poisson));
@@ -123,10 +127,20 @@ void BM_TorsionalFretting(benchmark::State& state) {
   auto closed = *MakeHertzTorsionBound(friction, effective_modulus, torsional_modulus, radius);
   auto quadrature =
       *MakePowerLawTorsionBound(friction, effective_modulus, torsional_modulus, 1 / radius, 2);
+  std::vector<double> radii, heights;
+  for (int i = 0; i < 200; ++i) {
+    radii.push_back(2.7 * contact_radius * i / 199);
+    heights.push_back(radii.back() * radii.back() / (2 * radius));
+  }
+  auto tabulated = *MakeTorsionBound(*MakeTabulatedProfile(radii, heights), friction,
+                                     effective_modulus, torsional_modulus);
+  const std::shared_ptr<const TorsionBound> measured_bound = state.range(0) == 0   ? closed
+                                                             : state.range(0) == 1 ? quadrature
+                                                                                   : tabulated;
   auto memory_of = [&](const std::shared_ptr<const TorsionBound>& bound) {
     return *TorsionalMemory::Create(bound, torsional_modulus, contact_radius);
   };
-  TorsionalMemory memory = memory_of(state.range(0) == 0 ? closed : quadrature);
+  TorsionalMemory memory = memory_of(measured_bound);
   const double amplitude = closed->Bound(contact_radius / 2, contact_radius);
   const int steps_per_half = 8;
   int k = 0;
@@ -136,8 +150,7 @@ void BM_TorsionalFretting(benchmark::State& state) {
     benchmark::DoNotOptimize(memory.Moment());
   }
   state.SetItemsProcessed(state.iterations());
-  TorsionalMemory exact = memory_of(closed),
-                  measured = memory_of(state.range(0) == 0 ? closed : quadrature);
+  TorsionalMemory exact = memory_of(closed), measured = memory_of(measured_bound);
   double error = 0;
   for (int i = 0; i < 4 * steps_per_half; ++i) {
     const double twist = reference::TriangleWave(amplitude, i, steps_per_half);
@@ -150,9 +163,11 @@ void BM_TorsionalFretting(benchmark::State& state) {
   }
   state.counters["moment_rel_error"] = error;
   state.counters["pieces"] = static_cast<double>(memory.pieces().size());
-  state.SetLabel(state.range(0) == 0 ? "sphere, closed form" : "power law n = 2, quadrature");
+  const char* labels[] = {"sphere, closed form", "power law n = 2, quadrature",
+                          "sphere sampled at 200 points, tabulated quadrature"};
+  state.SetLabel(labels[state.range(0)]);
 }
-BENCHMARK(BM_TorsionalFretting)->Arg(0)->Arg(1);
+BENCHMARK(BM_TorsionalFretting)->Arg(0)->Arg(1)->Arg(2);
 
 }  // namespace
 }  // namespace mdr

@@ -21,6 +21,7 @@
 #include "fixtures/slip_state_check.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
+#include "mdr/core/tabulated_profile.h"
 #include "mdr/core/torsion.h"
 
 namespace {
@@ -462,12 +463,28 @@ void FuzzInterface(ByteReader& in) {
 
 }  // namespace
 
+// A tabulated profile: 4 to 11 samples of C r^n uniform on [0, extent] (its grid, and so the
+// cost of every bound evaluation, grows with the samples).
+mdr::Result<mdr::ProfilePtr> FuzzSampledPowerLaw(ByteReader& in) {
+  const double coefficient = in.Scaled(1e-3, 1e3), exponent = in.Scaled(1, 4);
+  const double extent = in.Scaled(1e-5, 1e-2);
+  const int count = 4 + in.Byte() % 8;
+  std::vector<double> radii, heights;
+  for (int i = 0; i < count; ++i) {
+    radii.push_back(extent * i / (count - 1));
+    heights.push_back(coefficient * std::pow(radii.back(), exponent));
+  }
+  return mdr::MakeTabulatedProfile(radii, heights);
+}
+
 void FuzzTorsion(ByteReader& in) {
-  // Spheres mostly (closed form); cones and power laws, whose bound is a quadrature, rarely and
-  // for fewer steps, so that the run stays short under the sanitizers.
+  // Spheres mostly (closed form); cones, power laws and tabulated profiles (a sampled power law),
+  // whose bound is a quadrature, rarely and for fewer steps, so that the run stays short under
+  // the sanitizers.
   const std::uint8_t choice = in.Byte();
   mdr::Result<mdr::ProfilePtr> profile =
       choice % 8 != 0 ? mdr::MakeSphere(in.Scaled(1e-4, 1)) : FuzzProfile(in);
+  if (choice % 32 == 8) profile = FuzzSampledPowerLaw(in);
   const double shear_modulus = in.Scaled(1e6, 1e12);
   mdr::Result<mdr::EffectiveMaterial> material =
       mdr::RigidOnHalfSpace(shear_modulus, in.Scaled(0.01, 1.5) - 1.0);
@@ -480,9 +497,9 @@ void FuzzTorsion(ByteReader& in) {
     return;
   }
   mdr::TorsionalContact contact = std::move(created).value();
-  auto bound = *mdr::MakeTorsionBound(**profile, friction, material->e_star, shear_modulus);
+  auto bound = *mdr::MakeTorsionBound(*profile, friction, material->e_star, shear_modulus);
   const double depth_scale = in.InRange(1e-9, 1e-3);
-  const int steps = choice % 8 != 0 ? 32 : 6;
+  const int steps = choice % 8 != 0 ? 32 : choice % 32 == 8 ? 3 : 6;
   for (int i = 0; i < steps && !in.empty(); ++i) {
     const mdr::TorsionalMemory& memory = contact.memory();
     const double slip_moment = memory.FullSlipMoment();

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "mdr/base/validate.h"
+#include "mdr/core/tabulated_profile.h"
 #include "monotone_solve.h"
 #include "numerics.h"
 
@@ -62,6 +63,27 @@ double CarlsonRD(double x, double y, double z) {
 double CarlsonF(double y) { return CarlsonRF(0, y, 1); }
 double CarlsonD(double y) { return CarlsonRD(0, y, 1); }
 
+// integral_lo^hi f by 16-point Gauss-Legendre.
+template <typename F>
+double Gauss16(const F& f, double lo, double hi) {
+  static const internal::GaussLegendreRule rule(16);
+  const double half = (hi - lo) / 2, mid = (lo + hi) / 2;
+  double part = 0;
+  for (std::size_t i = 0; i < rule.size; ++i)
+    part += rule.weights[i] * f(mid + half * rule.nodes[i]);
+  return half * part;
+}
+
+// integral_0^top f over ceil(top) equal panels no wider than 1, 16-point Gauss-Legendre on each:
+// for integrands analytic in a strip about [0, top] of half-width of order 1.
+template <typename F>
+double OverUnitPanels(const F& f, double top) {
+  const int panels = std::max(1, static_cast<int>(std::ceil(top)));
+  double sum = 0;
+  for (int j = 0; j < panels; ++j) sum += Gauss16(f, top * j / panels, top * (j + 1) / panels);
+  return sum;
+}
+
 class HertzTorsionBound final : public TorsionBound {
  public:
   // scale = mu E* / (pi R G_t): B = scale * a * (K - E).
@@ -116,21 +138,12 @@ class PowerLawTorsionBound final : public TorsionBound {
   // t = rho cosh(w) the integrand (rho cosh w)^(n-1) is smooth on [0, acosh(1/rho)], integrated
   // in unit steps of w. Infinite at the centre of a profile with n <= 1 (the cone's tip).
   double SlidingTractionPerModulus(double r, double a) const override {
-    static const internal::GaussLegendreRule rule(16);
     if (!(r < a)) return 0;
     if (r <= 0)
       return exponent_ <= 1 ? kInf : 2 * scale_ * std::pow(a, exponent_ - 1) / (exponent_ - 1);
     const double rho = r / a;
-    const double top = std::acosh(1 / rho);
-    const int steps = std::max(1, static_cast<int>(std::ceil(top)));
-    double sum = 0;
-    for (int j = 0; j < steps; ++j) {
-      const double lo = top * j / steps, hi = top * (j + 1) / steps;
-      for (std::size_t i = 0; i < rule.size; ++i) {
-        const double w = (lo + hi) / 2 + (hi - lo) / 2 * rule.nodes[i];
-        sum += (hi - lo) / 2 * rule.weights[i] * std::pow(rho * std::cosh(w), exponent_ - 1);
-      }
-    }
+    const double sum = OverUnitPanels(
+        [&](double w) { return std::pow(rho * std::cosh(w), exponent_ - 1); }, std::acosh(1 / rho));
     return 2 * scale_ * std::pow(a, exponent_ - 1) * sum;
   }
 
@@ -160,29 +173,62 @@ class PowerLawTorsionBound final : public TorsionBound {
   double scale_, exponent_;
 };
 
+// Any profile with a continuous g' (tabulated ones): B(x; a) = scale integral_x^a g'(s)
+// K(1 - x^2/s^2) ds / s, scale = mu E* / (2 pi G_t), the power law's integral with the profile's
+// own slope. With s = x e^y the integrand g'(x e^y) K(1 - e^(-2y)) is smooth in y (K's branch
+// point lies pi/2 off the real axis, its logarithm becomes linear in y), so 16-point
+// Gauss-Legendre on unit panels of [0, ln(a/x)] gives the bound to round-off for a smooth g';
+// a tabulated g' is a C0 piecewise quadratic, and its kinks add what tests/core measure
+// (docs/physics.md). The slope differentiates under the integral:
+// dB/dx = -(scale/x) [(pi/2) g'(x) + integral_0^ln(a/x) g'(x e^y) (R_F - R_D/3)(0, e^(-2y), 1) dy].
+class QuadratureTorsionBound final : public TorsionBound {
+ public:
+  QuadratureTorsionBound(ProfilePtr profile, double scale, double traction_scale)
+      : profile_(std::move(profile)), scale_(scale), traction_scale_(traction_scale) {}
+
+  double Bound(double x, double a) const override {
+    if (x >= a) return 0;
+    if (x <= 0) return kInf;
+    return scale_ * Sum(x, a, false);
+  }
+  double Slope(double x, double a) const override {
+    if (x >= a || x <= 0) return x <= 0 ? -kInf : 0;
+    return -(scale_ / x) * ((kPi / 2) * profile_->Slope(x) + Sum(x, a, true));
+  }
+  double SlidingTractionPerModulus(double r, double a) const override {
+    if (!(r < a)) return 0;
+    return traction_scale_ * profile_->PressurePerModulus(r, profile_->G(a));
+  }
+  double FullSlipMomentPerModulus(double a) const override;
+
+ private:
+  double Sum(double x, double a, bool derivative) const {
+    auto integrand = [&](double y) {
+      const double e2 = std::exp(-2 * y);
+      const double kernel = derivative ? CarlsonF(e2) - CarlsonD(e2) / 3 : CarlsonF(e2);
+      return profile_->Slope(x * std::exp(y)) * kernel;
+    };
+    return OverUnitPanels(integrand, std::log1p((a - x) / x));  // ln(a/x), exact near the edge
+  }
+  ProfilePtr profile_;
+  double scale_, traction_scale_;
+};
+
 // integral_lo^hi f over intervals at most a factor 2 apart in x (16-point Gauss-Legendre on each):
 // the bound varies like log x near the centre, smoothly on each such interval. From lo = 0 the
 // first interval is [0, hi 2^-60], where every integrand here (a factor x^2) is below round-off.
 template <typename F>
 double Integrate(const F& f, double lo, double hi) {
-  static const internal::GaussLegendreRule rule(16);
   if (!(hi > lo)) return 0;
   double sum = 0;
-  auto add = [&](double a, double b) {
-    const double half = (b - a) / 2, mid = (a + b) / 2;
-    double part = 0;
-    for (std::size_t i = 0; i < rule.size; ++i)
-      part += rule.weights[i] * f(mid + half * rule.nodes[i]);
-    sum += half * part;
-  };
   double a = lo;
   if (a == 0) {
     a = std::ldexp(hi, -60);
-    add(0, a);
+    sum += Gauss16(f, 0, a);
   }
   while (a < hi) {
     const double b = std::min(2 * a, hi);
-    add(a, b);
+    sum += Gauss16(f, a, b);
     a = b;
   }
   return sum;
@@ -190,7 +236,16 @@ double Integrate(const F& f, double lo, double hi) {
 
 double CubeDifference(double lo, double hi) { return (hi * hi * hi - lo * lo * lo) / 3; }
 
+// pi^2 scale = pi mu E* / (2 G_t).
+double QuadratureTorsionBound::FullSlipMomentPerModulus(double a) const {
+  return kPi * kPi * scale_ * Integrate([&](double x) { return x * x * profile_->Slope(x); }, 0, a);
+}
+
 }  // namespace
+
+double TorsionBound::FullSlipMomentPerModulus(double a) const {
+  return 16 * Integrate([&](double x) { return x * x * Bound(x, a); }, 0, a);
+}
 
 Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double friction,
                                                                   double effective_modulus,
@@ -228,21 +283,38 @@ Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double fric
       std::make_shared<PowerLawTorsionBound>(scale, exponent));
 }
 
-Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const Profile& profile,
+Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const ProfilePtr& profile,
                                                              double friction,
                                                              double effective_modulus,
                                                              double torsional_modulus) {
-  const std::optional<PowerLawForm> form = profile.AsPowerLaw();
-  if (!form) {
-    return InvalidArgument("profile", "torsion needs a sphere, a cone or a power law; " +
-                                          profile.Describe() + " is not supported yet");
-  }
-  if (form->exponent == 2) {
+  if (profile == nullptr) return InvalidArgument("profile", "required");
+  const std::optional<PowerLawForm> form = profile->AsPowerLaw();
+  if (form && form->exponent == 2) {
     return MakeHertzTorsionBound(friction, effective_modulus, torsional_modulus,
                                  1 / form->coefficient);
   }
-  return MakePowerLawTorsionBound(friction, effective_modulus, torsional_modulus, form->coefficient,
-                                  form->exponent);
+  if (form) {
+    return MakePowerLawTorsionBound(friction, effective_modulus, torsional_modulus,
+                                    form->coefficient, form->exponent);
+  }
+  if (dynamic_cast<const TabulatedProfile*>(profile.get()) == nullptr) {
+    // The flat punch: its bound scales with the depth at a fixed radius, which a memory keyed by
+    // the contact radius cannot follow.
+    return InvalidArgument("profile",
+                           "torsion needs a sphere, a cone, a power law or a "
+                           "tabulated profile; " +
+                               profile->Describe() + " is not supported yet");
+  }
+  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
+  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
+  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  const double traction_scale = friction * effective_modulus / torsional_modulus;
+  const double scale = traction_scale / (2 * kPi);
+  if (!std::isfinite(traction_scale) || scale <= 0) {
+    return InvalidArgument("friction", "mu E* / G_t must be a positive finite number");
+  }
+  return std::shared_ptr<const TorsionBound>(
+      std::make_shared<QuadratureTorsionBound>(profile, scale, traction_scale));
 }
 
 TorsionalMemory::TorsionalMemory(std::shared_ptr<const TorsionBound> bound,
@@ -596,8 +668,7 @@ double TorsionalMemory::Moment() const {
 }
 
 double TorsionalMemory::FullSlipMoment() const {
-  return 16 * modulus_ *
-         Integrate([&](double x) { return x * x * bound_->Bound(x, radius_); }, 0, radius_);
+  return modulus_ * bound_->FullSlipMomentPerModulus(radius_);
 }
 
 double TorsionalMemory::StoredEnergy() const {
@@ -668,24 +739,12 @@ TorsionTraction TorsionalMemory::Traction(double r) const {
       return bound_->Slope(x, radius) / x;
     };
     // [0, r] in s: two 16-point intervals; beyond r, intervals a factor 2 apart (Integrate).
-    static const internal::GaussLegendreRule rule(16);
     double sum = 0;
-    auto gauss = [&](double a, double b) {
-      double part = 0;
-      for (std::size_t i = 0; i < rule.size; ++i) {
-        part += rule.weights[i] * integrand((a + b) / 2 + (b - a) / 2 * rule.nodes[i]);
-      }
-      sum += (b - a) / 2 * part;
-    };
-    internal::ForEachAbelInterval(r, std::sqrt((lo - r) * (lo + r)), std::sqrt((hi - r) * (hi + r)),
-                                  [&](double a, double b) {
-                                    if (a >= r) {
-                                      sum += Integrate(integrand, a, b);
-                                    } else {
-                                      gauss(a, (a + b) / 2);
-                                      gauss((a + b) / 2, b);
-                                    }
-                                  });
+    internal::ForEachAbelInterval(
+        r, std::sqrt((lo - r) * (lo + r)), std::sqrt((hi - r) * (hi + r)), [&](double a, double b) {
+          sum += a >= r ? Integrate(integrand, a, b)
+                        : Gauss16(integrand, a, (a + b) / 2) + Gauss16(integrand, (a + b) / 2, b);
+        });
     return sum;
   };
   double first = 0, second = 0, start = 0;
@@ -714,7 +773,7 @@ Result<TorsionalContact> TorsionalContact::Create(ProfilePtr profile, double fri
                                                   double torsional_modulus) {
   if (profile == nullptr) return InvalidArgument("profile", "required");
   Result<std::shared_ptr<const TorsionBound>> bound =
-      MakeTorsionBound(*profile, friction, effective_modulus, torsional_modulus);
+      MakeTorsionBound(profile, friction, effective_modulus, torsional_modulus);
   if (!bound.ok()) return bound.status();
   Result<TorsionalMemory> memory = TorsionalMemory::Create(*bound, torsional_modulus, 0);
   if (!memory.ok()) return memory.status();

@@ -13,8 +13,8 @@
 // there, and the springs would be wrong by up to a few percent of the full-slip moment.
 //
 // This is the core of the torsion channel: the Hertz bound in closed form (Carlson's integrals,
-// no cancellation at either end of the contact) and the power laws by a quadrature to round-off;
-// sessions, the proto and the other profiles build on it.
+// no cancellation at either end of the contact), the power laws by a quadrature to round-off and
+// tabulated profiles by the same quadrature over their own g'; sessions and the proto build on it.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +37,10 @@ class TorsionBound {
   virtual double Slope(double x, double a) const = 0;
   // mu p(r; a) / G_t: the traction of full sliding per torsional modulus; 0 for r >= a.
   virtual double SlidingTractionPerModulus(double r, double a) const = 0;
+  // The full-slip moment per torsional modulus, 16 integral_0^a x^2 B(x; a) dx. The default
+  // integrates the bound; a bound that is itself a quadrature overrides it with the equal
+  // single integral (pi mu E* / (2 G_t)) integral_0^a x^2 g'(x) dx.
+  virtual double FullSlipMomentPerModulus(double a) const;
 };
 
 // Hertz (g = x^2/R): B = (mu p0 / (2 G_t)) [K(m) - E(m)], m = 1 - x^2/a^2, p0 = 2 E* a / (pi R).
@@ -56,8 +60,10 @@ Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double fric
                                                                      double exponent);
 
 // The bound of a profile: Hertz's closed form for a sphere, the power-law quadrature for cones and
-// power laws; the flat punch and tabulated profiles are not supported yet (field profile).
-Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const Profile& profile,
+// power laws, and for a tabulated profile the same quadrature over the profile's own g' (it keeps
+// the profile). The flat punch is not supported yet (field profile): its bound scales with the
+// depth at a fixed radius. Fields: profile, friction, effective_modulus, torsional_modulus.
+Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const ProfilePtr& profile,
                                                              double friction,
                                                              double effective_modulus,
                                                              double torsional_modulus);
