@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mdr/core/interface.h"
+#include "mdr/core/packed_contacts.h"
 #include "process_memory.h"
 
 namespace mdr {
@@ -41,12 +42,27 @@ Interface UnpressedRoughSteel(std::size_t count, bool track_energy) {
       .value();
 }
 
-// kAsperities of them pressed to 3 sigma above the summits' mean plane: nearly all asperities
-// in contact, the lowest barely.
+// `count` of them pressed to 3 sigma above the summits' mean plane (nearly all asperities in
+// contact, the lowest barely): the shared motion, or a contact list of the same contacts at the
+// same depths.
+Interface PressedRoughSteel(std::size_t count, bool track_energy, bool contact_list) {
+  Interface shared = UnpressedRoughSteel(count, track_energy);
+  (void)shared.Apply({NormalControl::kDepth, 3 * kHeightSigma});
+  if (!contact_list) return shared;
+  InterfaceConfig config;
+  config.kind = InterfaceKind::kContactList;
+  for (std::size_t i = 0; i < shared.size(); ++i) {
+    config.contacts.push_back(shared.contact_config(i));
+  }
+  Interface list = std::move(Interface::Create(config)).value();
+  std::vector<double> depth(list.size()), ux(list.size(), 0.0);
+  for (std::size_t i = 0; i < list.size(); ++i) depth[i] = shared.contact_depth(i);
+  (void)list.ApplyEach({NormalControl::kDepth, depth, TangentialControl::kDisplacement, ux});
+  return list;
+}
+
 Interface RoughSteelInterface(bool track_energy) {
-  Interface interface = UnpressedRoughSteel(kAsperities, track_energy);
-  (void)interface.Apply({NormalControl::kDepth, 3 * kHeightSigma});
-  return interface;
+  return PressedRoughSteel(kAsperities, track_energy, false);
 }
 
 // The tangential displacement of step k of a cycle of amplitude `amplitude`.
@@ -318,18 +334,10 @@ BENCHMARK(BM_MillionAsperities)
 // discrete-element use): depth held, tangential displacement of the same cycle. Args: energy,
 // workers.
 void BM_ContactListCycling(benchmark::State& state) {
-  Interface shared = RoughSteelInterface(state.range(0) != 0);
-  InterfaceConfig config;
-  config.kind = InterfaceKind::kContactList;
-  for (std::size_t i = 0; i < shared.size(); ++i) {
-    config.contacts.push_back(shared.contact_config(i));
-  }
-  Interface list = std::move(Interface::Create(config)).value();
+  Interface list = PressedRoughSteel(kAsperities, state.range(0) != 0, true);
   const int workers = static_cast<int>(state.range(1));
   if (workers > 1) list.set_parallel(*MakeThreadParallelFor(workers));
-  std::vector<double> depth(list.size()), ux(list.size());
-  for (std::size_t i = 0; i < list.size(); ++i) depth[i] = shared.contact_depth(i);
-  (void)list.ApplyEach({NormalControl::kDepth, depth, TangentialControl::kDisplacement, ux});
+  std::vector<double> ux(list.size());
   const std::vector<double> hold(list.size(), 0.0);
   const double amplitude = Amplitude(list.contact(0));
   int k = 0;
@@ -349,6 +357,164 @@ BENCHMARK(BM_ContactListCycling)
     ->Args({0, 2})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
+
+// The memory bound of an interface step (issue #54): a pass that reads and writes in place every
+// 8-byte word of one PackedContacts record per contact -- the least memory traffic a step of
+// that layout can have -- over as many records as the interface has contacts, split among the
+// same workers by the same kind of ParallelFor. ClobberMemory after each pass keeps the compiler
+// from eliding it; it may vectorise it, so the bound is the memory system's, not arithmetic's.
+class MemoryBoundKernel {
+ public:
+  static constexpr std::size_t kWordsPerRecord = PackedContacts::kRecordBytes / 8;
+  explicit MemoryBoundKernel(std::size_t records) : words_(records * kWordsPerRecord, 1) {}
+  void Pass(ParallelFor* parallel) {
+    const ParallelFor::Body body = [this](std::size_t begin, std::size_t end) {
+      std::uint64_t* words = words_.data();
+      for (std::size_t i = begin * kWordsPerRecord; i < end * kWordsPerRecord; ++i) words[i] += i;
+    };
+    const std::size_t records = words_.size() / kWordsPerRecord;
+    parallel != nullptr ? parallel->Run(records, body) : body(0, records);
+    benchmark::ClobberMemory();
+  }
+  const std::uint64_t* data() const { return words_.data(); }
+
+ private:
+  std::vector<std::uint64_t> words_;
+};
+
+// Steps against their memory bound, in one run, alternated (issue #54). Each round times one
+// Mindlin-Deresiewicz cycle (2 kStepsPerHalfCycle steps, energy on) of the interface on `workers`
+// workers and as many bound passes on the same workers; with 2 workers, both again on 1 worker.
+// Counters, medians of the rounds: ns per asperity-step and per bound record, their ratio
+// (over_bound: the figure issue #54 sets targets for), and with 2 workers the step's speedup
+// beside the bound's own (the memory system's two-thread ratio, measured in the same rounds).
+// The bound moves bound_bytes_read and bound_bytes_written per record; a step reads its record
+// and writes a new one, plus what its memory blocks and the workers' scratch add.
+// Args: contacts, workers, kind (0: shared motion, 1: contact list).
+void BM_StepOverMemoryBound(benchmark::State& state) {
+  const std::size_t count = static_cast<std::size_t>(state.range(0));
+  const int workers = static_cast<int>(state.range(1));
+  const bool contact_list = state.range(2) != 0;
+  const int rounds = count > 100000 ? 3 : 15;
+  const Interface pressed = PressedRoughSteel(count, /*track_energy=*/true, contact_list);
+  std::shared_ptr<ParallelFor> parallel =
+      workers > 1 ? *MakeThreadParallelFor(workers) : std::shared_ptr<ParallelFor>();
+  const double amplitude = Amplitude(pressed.contact(0));
+  const std::vector<double> hold(contact_list ? count : 0, 0.0);
+  std::vector<double> ux(contact_list ? count : 0);
+  auto cycle = [&](Interface& interface, int& k) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int step = 0; step < 2 * kStepsPerHalfCycle; ++step) {
+      const double displacement = CycleDisplacement(k++, amplitude);
+      Status s;
+      if (contact_list) {
+        std::fill(ux.begin(), ux.end(), displacement);
+        s = interface.ApplyEach(
+            {NormalControl::kDepthIncrement, hold, TangentialControl::kDisplacement, ux});
+      } else {
+        s = interface.Apply(
+            {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement, displacement});
+      }
+      if (!s.ok()) state.SkipWithError(s.ToString().c_str());
+    }
+    return Seconds(start);
+  };
+  MemoryBoundKernel bound(count);
+  auto bound_cycle = [&](ParallelFor* on) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int step = 0; step < 2 * kStepsPerHalfCycle; ++step) bound.Pass(on);
+    return Seconds(start);
+  };
+  for (auto _ : state) {
+    Interface stepped = pressed, alone = pressed;
+    if (parallel) stepped.set_parallel(parallel);
+    int k = 0, k_alone = 0;
+    (void)cycle(stepped, k);  // warm: the memories of one cycle, the pages of the bound
+    (void)bound_cycle(parallel.get());
+    if (parallel) (void)cycle(alone, k_alone);
+    std::vector<double> step_seconds, bound_seconds, over_bound, speedup, bound_speedup;
+    for (int round = 0; round < rounds; ++round) {
+      step_seconds.push_back(cycle(stepped, k));
+      bound_seconds.push_back(bound_cycle(parallel.get()));
+      over_bound.push_back(step_seconds.back() / bound_seconds.back());
+      if (parallel) {
+        speedup.push_back(cycle(alone, k_alone) / step_seconds.back());
+        bound_speedup.push_back(bound_cycle(nullptr) / bound_seconds.back());
+      }
+    }
+    benchmark::DoNotOptimize(bound.data());
+    const double items = 2.0 * kStepsPerHalfCycle * static_cast<double>(count);
+    state.counters["step_ns_per_asperity"] = Median(step_seconds) / items * 1e9;
+    state.counters["bound_ns_per_record"] = Median(bound_seconds) / items * 1e9;
+    state.counters["over_bound"] = Median(over_bound);
+    if (parallel) {
+      state.counters["speedup"] = Median(speedup);
+      state.counters["bound_speedup"] = Median(bound_speedup);
+    }
+  }
+  state.counters["bound_bytes_read"] = static_cast<double>(PackedContacts::kRecordBytes);
+  state.counters["bound_bytes_written"] = static_cast<double>(PackedContacts::kRecordBytes);
+  state.counters["contacts"] = static_cast<double>(count);
+  state.counters["workers"] = workers;
+  state.SetLabel(contact_list ? "contact list" : "shared motion");
+}
+BENCHMARK(BM_StepOverMemoryBound)
+    ->Args({10000, 1, 0})
+    ->Args({10000, 2, 0})
+    ->Args({10000, 1, 1})
+    ->Args({10000, 2, 1})
+    ->Args({1000000, 1, 0})
+    ->Args({1000000, 2, 0})
+    ->Iterations(1)
+    ->UseRealTime()
+    ->Unit(benchmark::kSecond);
+
+// Instructions per asperity-step (issue #54), for tests/bench/instructions.sh: one run of
+// kCycles Mindlin-Deresiewicz cycles (energy on, 1 worker) of 10^4 asperities inside
+// MeasuredCycles, which that script has callgrind count alone (--toggle-collect); the counter
+// asperity_steps is its divisor. Run without valgrind it gives the time of those cycles.
+// Arg: kind (0: shared motion, 1: contact list).
+Status StepCycles(Interface& interface, bool contact_list, int cycles) {
+  const double amplitude = Amplitude(interface.contact(0));
+  const std::vector<double> hold(contact_list ? interface.size() : 0, 0.0);
+  std::vector<double> ux(contact_list ? interface.size() : 0);
+  for (int k = 0; k < 2 * kStepsPerHalfCycle * cycles; ++k) {
+    const double displacement = CycleDisplacement(k, amplitude);
+    std::fill(ux.begin(), ux.end(), displacement);
+    const Status s = contact_list
+                         ? interface.ApplyEach({NormalControl::kDepthIncrement, hold,
+                                                TangentialControl::kDisplacement, ux})
+                         : interface.Apply({NormalControl::kDepthIncrement, 0,
+                                            TangentialControl::kDisplacement, displacement});
+    if (!s.ok()) return s;
+  }
+  return OkStatus();
+}
+
+// What callgrind counts: StepCycles called from here only (the warm cycle calls it directly).
+[[gnu::noinline]] Status MeasuredCycles(Interface& interface, bool contact_list, int cycles) {
+  return StepCycles(interface, contact_list, cycles);
+}
+
+void BM_StepInstructions(benchmark::State& state) {
+  constexpr int kCycles = 2;
+  const bool contact_list = state.range(0) != 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    Interface interface = PressedRoughSteel(kAsperities, /*track_energy=*/true, contact_list);
+    // Warm: one cycle makes the memories the measured cycles then repeat.
+    if (Status s = StepCycles(interface, contact_list, 1); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+    }
+    state.ResumeTiming();
+    if (Status s = MeasuredCycles(interface, contact_list, kCycles); !s.ok()) {
+      state.SkipWithError(s.ToString().c_str());
+    }
+  }
+  state.counters["asperity_steps"] = 2.0 * kStepsPerHalfCycle * kCycles * kAsperities;
+  state.SetLabel(contact_list ? "contact list" : "shared motion");
+}
+BENCHMARK(BM_StepInstructions)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // A total force target, alternating between two values. Arg: 0 normal, 1 tangential; workers.
 void BM_InterfaceForceTarget(benchmark::State& state) {
