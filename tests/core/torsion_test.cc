@@ -598,21 +598,6 @@ TEST(TorsionTest, TabulatedProfilesTakeTheirOwnSlope) {
   RunRandomHistories(*MakeTorsionBound(Sampled(UnitSphere, 2, 200), 1, 2, 1), 4, 15, 0, 1e-10);
 }
 
-TEST(TorsionalContactTest, ATabulatedProfileCarriesItsNormalProblem) {
-  const ProfilePtr profile = Sampled(UnitSphere, 2, 2000);
-  TorsionalContact sampled = *TorsionalContact::Create(profile, 0.5, 2, 1);
-  TorsionalContact exact = *TorsionalContact::Create(*MakeSphere(1), 0.5, 2, 1);
-  for (TorsionalContact* contact : {&sampled, &exact}) {
-    ASSERT_TRUE(contact->Apply({.normal = NormalControl::kDepth, .normal_value = 0.36}).ok());
-    ASSERT_TRUE(contact->Apply({.twist = TwistControl::kAngle, .twist_value = 0.05}).ok());
-    ASSERT_TRUE(contact->Apply({.normal = NormalControl::kDepth, .normal_value = 0.64}).ok());
-    ASSERT_TRUE(contact->Apply({.twist = TwistControl::kAngleIncrement, .twist_value = -0.2}).ok());
-  }
-  ExpectRelative(sampled.memory().contact_radius(), exact.memory().contact_radius(), 1e-9);
-  ExpectRelative(sampled.memory().Moment(), exact.memory().Moment(), 1e-7);
-  ExpectRelative(sampled.memory().StickRadius(-1), exact.memory().StickRadius(-1), 1e-7);
-}
-
 // An independent reference for the piece bookkeeping: n play springs at the midpoints of
 // [0, extent), each clamped to its own bound after every twist and every load change, the moment
 // by the midpoint rule. It shares only the bound B(x; a) with the memory (tested above against
@@ -736,6 +721,21 @@ TorsionStep TwistStep(TwistControl control, double value) {
   step.twist = control;
   step.twist_value = value;
   return step;
+}
+
+TEST(TorsionalContactTest, ATabulatedProfileCarriesItsNormalProblem) {
+  const ProfilePtr profile = Sampled(UnitSphere, 2, 2000);
+  TorsionalContact sampled = *TorsionalContact::Create(profile, 0.5, 2, 1);
+  TorsionalContact exact = *TorsionalContact::Create(*MakeSphere(1), 0.5, 2, 1);
+  for (TorsionalContact* contact : {&sampled, &exact}) {
+    ASSERT_TRUE(contact->Apply(NormalStep(NormalControl::kDepth, 0.36)).ok());
+    ASSERT_TRUE(contact->Apply(TwistStep(TwistControl::kAngle, 0.05)).ok());
+    ASSERT_TRUE(contact->Apply(NormalStep(NormalControl::kDepth, 0.64)).ok());
+    ASSERT_TRUE(contact->Apply(TwistStep(TwistControl::kAngleIncrement, -0.2)).ok());
+  }
+  ExpectRelative(sampled.memory().contact_radius(), exact.memory().contact_radius(), 1e-9);
+  ExpectRelative(sampled.memory().Moment(), exact.memory().Moment(), 1e-7);
+  ExpectRelative(sampled.memory().StickRadius(-1), exact.memory().StickRadius(-1), 1e-7);
 }
 
 // Test vector H1 through the contact: steel on steel, the normal problem of the sphere.

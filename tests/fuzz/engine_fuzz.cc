@@ -482,9 +482,9 @@ void FuzzTorsion(ByteReader& in) {
   // whose bound is a quadrature, rarely and for fewer steps, so that the run stays short under
   // the sanitizers.
   const std::uint8_t choice = in.Byte();
-  mdr::Result<mdr::ProfilePtr> profile =
-      choice % 8 != 0 ? mdr::MakeSphere(in.Scaled(1e-4, 1)) : FuzzProfile(in);
-  if (choice % 32 == 8) profile = FuzzSampledPowerLaw(in);
+  mdr::Result<mdr::ProfilePtr> profile = choice % 8 != 0    ? mdr::MakeSphere(in.Scaled(1e-4, 1))
+                                         : choice % 32 == 8 ? FuzzSampledPowerLaw(in)
+                                                            : FuzzProfile(in);
   const double shear_modulus = in.Scaled(1e6, 1e12);
   mdr::Result<mdr::EffectiveMaterial> material =
       mdr::RigidOnHalfSpace(shear_modulus, in.Scaled(0.01, 1.5) - 1.0);

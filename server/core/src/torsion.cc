@@ -236,6 +236,13 @@ double Integrate(const F& f, double lo, double hi) {
 
 double CubeDifference(double lo, double hi) { return (hi * hi * hi - lo * lo * lo) / 3; }
 
+// Every bound's inputs: mu, E* and G_t positive.
+Status CheckBoundInputs(double friction, double effective_modulus, double torsional_modulus) {
+  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
+  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
+  return RequirePositive("torsional_modulus", torsional_modulus);
+}
+
 // pi^2 scale = pi mu E* / (2 G_t).
 double QuadratureTorsionBound::FullSlipMomentPerModulus(double a) const {
   return kPi * kPi * scale_ * Integrate([&](double x) { return x * x * profile_->Slope(x); }, 0, a);
@@ -251,9 +258,9 @@ Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double frictio
                                                                   double effective_modulus,
                                                                   double torsional_modulus,
                                                                   double radius) {
-  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
-  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
-  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  if (Status s = CheckBoundInputs(friction, effective_modulus, torsional_modulus); !s.ok()) {
+    return s;
+  }
   if (Status s = RequirePositive("radius", radius); !s.ok()) return s;
   const double scale = friction * effective_modulus / (kPi * radius * torsional_modulus);
   if (!std::isfinite(scale) || scale <= 0) {
@@ -267,9 +274,9 @@ Result<std::shared_ptr<const TorsionBound>> MakePowerLawTorsionBound(double fric
                                                                      double torsional_modulus,
                                                                      double coefficient,
                                                                      double exponent) {
-  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
-  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
-  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  if (Status s = CheckBoundInputs(friction, effective_modulus, torsional_modulus); !s.ok()) {
+    return s;
+  }
   if (Status s = RequirePositive("coefficient", coefficient); !s.ok()) return s;
   if (!(exponent >= 0.3 && exponent <= 10)) {
     return InvalidArgument("exponent", "must be in [0.3, 10], got " + std::to_string(exponent));
@@ -305,9 +312,9 @@ Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const ProfilePtr& p
                            "tabulated profile; " +
                                profile->Describe() + " is not supported yet");
   }
-  if (Status s = RequirePositive("friction", friction); !s.ok()) return s;
-  if (Status s = RequirePositive("effective_modulus", effective_modulus); !s.ok()) return s;
-  if (Status s = RequirePositive("torsional_modulus", torsional_modulus); !s.ok()) return s;
+  if (Status s = CheckBoundInputs(friction, effective_modulus, torsional_modulus); !s.ok()) {
+    return s;
+  }
   const double traction_scale = friction * effective_modulus / torsional_modulus;
   const double scale = traction_scale / (2 * kPi);
   if (!std::isfinite(traction_scale) || scale <= 0) {
