@@ -358,6 +358,36 @@ BENCHMARK(BM_ContactListCycling)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
+// Drives an interface -- the shared motion or a contact list -- along the Mindlin-Deresiewicz
+// cycle of the benchmarks here, step after step (depth held).
+class CycleDriver {
+ public:
+  CycleDriver(const Interface& interface, bool contact_list)
+      : contact_list_(contact_list),
+        amplitude_(Amplitude(interface.contact(0))),
+        hold_(contact_list ? interface.size() : 0, 0.0),
+        ux_(hold_.size()) {}
+  Status Steps(Interface& interface, int steps) {
+    for (int i = 0; i < steps; ++i) {
+      const double displacement = CycleDisplacement(k_++, amplitude_);
+      std::fill(ux_.begin(), ux_.end(), displacement);
+      const Status s = contact_list_
+                           ? interface.ApplyEach({NormalControl::kDepthIncrement, hold_,
+                                                  TangentialControl::kDisplacement, ux_})
+                           : interface.Apply({NormalControl::kDepthIncrement, 0,
+                                              TangentialControl::kDisplacement, displacement});
+      if (!s.ok()) return s;
+    }
+    return OkStatus();
+  }
+
+ private:
+  bool contact_list_;
+  double amplitude_;
+  std::vector<double> hold_, ux_;
+  int k_ = 0;
+};
+
 // The memory bound of an interface step (issue #54): a pass that reads and writes in place every
 // 8-byte word of one PackedContacts record per contact -- the least memory traffic a step of
 // that layout can have -- over as many records as the interface has contacts, split among the
@@ -399,24 +429,10 @@ void BM_StepOverMemoryBound(benchmark::State& state) {
   const Interface pressed = PressedRoughSteel(count, /*track_energy=*/true, contact_list);
   std::shared_ptr<ParallelFor> parallel =
       workers > 1 ? *MakeThreadParallelFor(workers) : std::shared_ptr<ParallelFor>();
-  const double amplitude = Amplitude(pressed.contact(0));
-  const std::vector<double> hold(contact_list ? count : 0, 0.0);
-  std::vector<double> ux(contact_list ? count : 0);
-  auto cycle = [&](Interface& interface, int& k) {
+  auto cycle = [&](Interface& interface, CycleDriver& driver) {
     const auto start = std::chrono::steady_clock::now();
-    for (int step = 0; step < 2 * kStepsPerHalfCycle; ++step) {
-      const double displacement = CycleDisplacement(k++, amplitude);
-      Status s;
-      if (contact_list) {
-        std::fill(ux.begin(), ux.end(), displacement);
-        s = interface.ApplyEach(
-            {NormalControl::kDepthIncrement, hold, TangentialControl::kDisplacement, ux});
-      } else {
-        s = interface.Apply(
-            {NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacement, displacement});
-      }
-      if (!s.ok()) state.SkipWithError(s.ToString().c_str());
-    }
+    const Status s = driver.Steps(interface, 2 * kStepsPerHalfCycle);
+    if (!s.ok()) state.SkipWithError(s.ToString().c_str());
     return Seconds(start);
   };
   MemoryBoundKernel bound(count);
@@ -428,17 +444,17 @@ void BM_StepOverMemoryBound(benchmark::State& state) {
   for (auto _ : state) {
     Interface stepped = pressed, alone = pressed;
     if (parallel) stepped.set_parallel(parallel);
-    int k = 0, k_alone = 0;
-    (void)cycle(stepped, k);  // warm: the memories of one cycle, the pages of the bound
+    CycleDriver driver(pressed, contact_list), driver_alone(pressed, contact_list);
+    (void)cycle(stepped, driver);  // warm: the memories of one cycle, the pages of the bound
     (void)bound_cycle(parallel.get());
-    if (parallel) (void)cycle(alone, k_alone);
+    if (parallel) (void)cycle(alone, driver_alone);
     std::vector<double> step_seconds, bound_seconds, over_bound, speedup, bound_speedup;
     for (int round = 0; round < rounds; ++round) {
-      step_seconds.push_back(cycle(stepped, k));
+      step_seconds.push_back(cycle(stepped, driver));
       bound_seconds.push_back(bound_cycle(parallel.get()));
       over_bound.push_back(step_seconds.back() / bound_seconds.back());
       if (parallel) {
-        speedup.push_back(cycle(alone, k_alone) / step_seconds.back());
+        speedup.push_back(cycle(alone, driver_alone) / step_seconds.back());
         bound_speedup.push_back(bound_cycle(nullptr) / bound_seconds.back());
       }
     }
@@ -474,26 +490,10 @@ BENCHMARK(BM_StepOverMemoryBound)
 // MeasuredCycles, which that script has callgrind count alone (--toggle-collect); the counter
 // asperity_steps is its divisor. Run without valgrind it gives the time of those cycles.
 // Arg: kind (0: shared motion, 1: contact list).
-Status StepCycles(Interface& interface, bool contact_list, int cycles) {
-  const double amplitude = Amplitude(interface.contact(0));
-  const std::vector<double> hold(contact_list ? interface.size() : 0, 0.0);
-  std::vector<double> ux(contact_list ? interface.size() : 0);
-  for (int k = 0; k < 2 * kStepsPerHalfCycle * cycles; ++k) {
-    const double displacement = CycleDisplacement(k, amplitude);
-    std::fill(ux.begin(), ux.end(), displacement);
-    const Status s = contact_list
-                         ? interface.ApplyEach({NormalControl::kDepthIncrement, hold,
-                                                TangentialControl::kDisplacement, ux})
-                         : interface.Apply({NormalControl::kDepthIncrement, 0,
-                                            TangentialControl::kDisplacement, displacement});
-    if (!s.ok()) return s;
-  }
-  return OkStatus();
-}
-
-// What callgrind counts: StepCycles called from here only (the warm cycle calls it directly).
-[[gnu::noinline]] Status MeasuredCycles(Interface& interface, bool contact_list, int cycles) {
-  return StepCycles(interface, contact_list, cycles);
+// What callgrind counts: the driver's steps called from here only (the warm cycle calls them
+// directly).
+[[gnu::noinline]] Status MeasuredCycles(Interface& interface, CycleDriver& driver, int cycles) {
+  return driver.Steps(interface, 2 * kStepsPerHalfCycle * cycles);
 }
 
 void BM_StepInstructions(benchmark::State& state) {
@@ -502,12 +502,13 @@ void BM_StepInstructions(benchmark::State& state) {
   for (auto _ : state) {
     state.PauseTiming();
     Interface interface = PressedRoughSteel(kAsperities, /*track_energy=*/true, contact_list);
+    CycleDriver driver(interface, contact_list);
     // Warm: one cycle makes the memories the measured cycles then repeat.
-    if (Status s = StepCycles(interface, contact_list, 1); !s.ok()) {
+    if (Status s = driver.Steps(interface, 2 * kStepsPerHalfCycle); !s.ok()) {
       state.SkipWithError(s.ToString().c_str());
     }
     state.ResumeTiming();
-    if (Status s = MeasuredCycles(interface, contact_list, kCycles); !s.ok()) {
+    if (Status s = MeasuredCycles(interface, driver, kCycles); !s.ok()) {
       state.SkipWithError(s.ToString().c_str());
     }
   }
