@@ -35,9 +35,19 @@ Status RefuseInterface(const v1::Scene& scene, const char* field) {
                          "mdr_interface_restore");
 }
 
+// Torsional sessions are mdrd's so far: a mdr_contact steps the tangential channel only, and must
+// not take a torsional scene for a tangential one.
+Status RefuseTorsion(const v1::Scene& scene, const char* field) {
+  if (!scene.has_torsion()) return OkStatus();
+  return InvalidArgument(field,
+                         "must be unset: the C library steps tangential contacts; torsional "
+                         "sessions (scene.torsion) are served by mdrd through the proto API");
+}
+
 // A new contact of a validated scene, as CreateSession builds it.
 CallStatus CreateContact(const v1::Scene& scene, mdr_contact** out) {
   if (Status s = RefuseInterface(scene, "scene.interface"); !s.ok()) return s;
+  if (Status s = RefuseTorsion(scene, "scene.torsion"); !s.ok()) return s;
   Result<ContactConfig> config = bridge::ToContactConfig(scene, MaxMemoryVertices());
   if (!config.ok()) return config.status();
   Result<Contact> contact = Contact::Create(std::move(config).value());
@@ -201,6 +211,7 @@ CallStatus Restore(const void* bytes, std::size_t size, mdr_contact** out) {
   if (Status s = RefuseInterface(snapshot->scene(), "snapshot.scene.interface"); !s.ok()) {
     return s;
   }
+  if (Status s = RefuseTorsion(snapshot->scene(), "snapshot.scene.torsion"); !s.ok()) return s;
   Result<Contact> contact = bridge::ToCoreContact(*snapshot, MaxMemoryVertices());
   if (!contact.ok()) return contact.status();
   *out = new mdr_contact{snapshot->scene(), std::move(contact).value(), snapshot->applied_steps()};

@@ -12,6 +12,7 @@
 #include "mdr/bridge/conversion.h"
 #include "mdr/bridge/interface_session.h"
 #include "mdr/bridge/outputs.h"
+#include "mdr/bridge/torsion_session.h"
 #include "mdr/mdr.h"
 
 // The handle: the scene as given, its contact config (what the scene resolves), the interface and
@@ -42,6 +43,7 @@ Status CheckSize(const v1::Scene& scene, const ContactConfig& base) {
 // A new interface of a scene, as CreateSession builds it.
 CallStatus CreateInterface(const v1::Scene& scene, mdr_interface** out) {
   if (Status s = RequireInterface(scene, "scene.interface"); !s.ok()) return s;
+  if (Status s = bridge::CheckTorsionScene(scene); !s.ok()) return s;
   Result<ContactConfig> config = bridge::ToContactConfig(scene, MaxMemoryVertices());
   if (!config.ok()) return config.status();
   if (Status s = CheckSize(scene, *config); !s.ok()) return s;
@@ -59,6 +61,9 @@ CallStatus Restore(const void* bytes, std::size_t size, mdr_interface** out) {
   if (!snapshot.ok()) return snapshot.status();
   if (Status s = RequireInterface(snapshot->scene(), "snapshot.scene.interface"); !s.ok()) {
     return s;
+  }
+  if (Status s = bridge::CheckTorsionScene(snapshot->scene()); !s.ok()) {
+    return s.WithFieldPrefix("snapshot");
   }
   Result<Contact> contact = bridge::ToCoreContact(*snapshot, MaxMemoryVertices());
   if (!contact.ok()) return contact.status();

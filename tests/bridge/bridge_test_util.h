@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,55 @@ inline v1::Step NormalForceStep(double force) {
   v1::Step step;
   step.set_normal_force(force);
   return step;
+}
+
+// Torsion about the contact's axis (docs/physics.md, "Torsion"): H1 twisted, G_t = G/2 for the
+// two equal steels, the Hertz contact radius and the closed forms of the twist.
+inline v1::Scene TwistedSteelSphere() {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_torsion();
+  return scene;
+}
+inline double TorsionalModulus() { return kYoungsModulus / (2 * (1 + kPoissonRatio)) / 2; }
+inline double HertzContactRadius(double normal_force) {
+  return std::cbrt(3 * normal_force * kRadius / (4 * EffectiveYoungsModulus()));
+}
+// 3 pi mu F_N a / 16 and 16 G_t a^3 / 3.
+inline double HertzFullSlipMoment(double normal_force) {
+  return 3 * M_PI * kFriction * normal_force * HertzContactRadius(normal_force) / 16;
+}
+inline double HertzTorsionalStiffness(double normal_force) {
+  return 16 * TorsionalModulus() * std::pow(HertzContactRadius(normal_force), 3) / 3;
+}
+inline v1::Step TwistStep(double angle) {
+  v1::Step step;
+  step.set_twist(angle);
+  return step;
+}
+inline v1::Step TwistIncrementStep(double increment) {
+  v1::Step step;
+  step.set_twist_increment(increment);
+  return step;
+}
+inline v1::Step TwistingMomentStep(double moment) {
+  v1::Step step;
+  step.set_twisting_moment(moment);
+  return step;
+}
+// A reproducible torsional step of the H1 contact between 40 and 160 N: a normal force, a twist
+// increment (up to a few stick-slip widths) or a moment target below the smallest full-slip
+// moment. A decrease of the load may be refused (FAILED_PRECONDITION: it would break |F| <= 1).
+template <typename Random>
+v1::Step RandomTorsionStep(Random& random) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  switch (random() % 3) {
+    case 0:
+      return NormalForceStep(40 + 120 * unit(random));
+    case 1:
+      return TwistIncrementStep((2 * unit(random) - 1) * 4e-3);
+    default:
+      return TwistingMomentStep((2 * unit(random) - 1) * 0.8 * HertzFullSlipMoment(40));
+  }
 }
 
 inline google::protobuf::FieldMask Mask(const std::vector<std::string>& paths) {

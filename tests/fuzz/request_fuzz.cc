@@ -1,7 +1,7 @@
 // libFuzzer target for the service's request validation: bytes -> a CreateSessionRequest,
 // ApplyRequest, QueryRequest or ImportSessionRequest (ParseFromArray), run by ContactOperations
-// (no network, a journal in a temporary directory) on fresh copies of four sessions: an exact and
-// a grid contact, a shared-motion interface and a contact list. Checks: nothing crashes (ASan +
+// (no network, a journal in a temporary directory) on fresh copies of five sessions: an exact and
+// a grid contact, a shared-motion interface, a contact list and a torsional contact. Checks: nothing crashes (ASan +
 // UBSan); every error has a message, and INVALID_ARGUMENT names its field in the message and in a
 // BadRequest detail; a failed request changes no session and creates none; a successful Apply
 // leaves finite forces; and every state a request creates (Create, Import, Apply) round-trips:
@@ -12,8 +12,8 @@
 // its precision.) Build and run: tests/fuzz/run.sh.
 //
 // Input: byte 0 chooses the request (mod 4: create, apply, query, import), byte 1 the session an
-// Apply or Query goes to (mod 4: exact, grid, shared motion, contact list; its `session` field
-// is replaced), the rest is the serialized message.
+// Apply or Query goes to (mod 5: exact, grid, shared motion, contact list, torsion; its `session`
+// field is replaced), the rest is the serialized message.
 #include <google/protobuf/stubs/logging.h>
 #include <grpcpp/support/error_details.h>
 #include <spdlog/spdlog.h>
@@ -41,7 +41,7 @@ using mdr::service::ContactOperations;
 using mdr::service::ToGrpcStatus;
 
 // The sessions every input starts from, in the order byte 1 picks them.
-const std::vector<std::string> kSessionIds = {"exact", "grid", "shared", "list"};
+const std::vector<std::string> kSessionIds = {"exact", "grid", "shared", "list", "torsion"};
 // Where a new session's round trip imports its copy.
 constexpr char kCopyId[] = "round-trip";
 
@@ -140,10 +140,18 @@ std::vector<mdr::v1::SessionSnapshot> MakeBaselines(ContactOperations& operation
   shift->set_displacement_increment(0);
   for (double increment : {1e-7, -1e-7, 0.0}) shift->add_contact_tangential_values(increment);
 
+  mdr::v1::Scene twisted = SteelSphere();
+  twisted.mutable_torsion();
+  mdr::v1::ApplyRequest twist;
+  twist.add_steps()->set_normal_force(100);
+  twist.add_steps()->set_twist(3e-3);
+  twist.add_steps()->set_twist_increment(-1e-3);
+
   return {Loaded(operations, SteelSphere(), kSessionIds[0], single),
           Loaded(operations, grid, kSessionIds[1], single),
           Loaded(operations, shared, kSessionIds[2], single),
-          Loaded(operations, list, kSessionIds[3], each)};
+          Loaded(operations, list, kSessionIds[3], each),
+          Loaded(operations, twisted, kSessionIds[4], twist)};
 }
 
 // Replaces the session `id` by a fresh copy of `snapshot`.
@@ -304,7 +312,7 @@ void CheckError(const grpc::Status& status) {
 
 // The contact of a single-contact session as the core holds it, rebuilt from its export.
 std::optional<mdr::Contact> CoreContact(const mdr::v1::SessionSnapshot& snapshot) {
-  if (snapshot.scene().has_interface()) return std::nullopt;
+  if (snapshot.scene().has_interface() || snapshot.scene().has_torsion()) return std::nullopt;
   mdr::Result<mdr::ContactConfig> config = mdr::bridge::ToContactConfig(
       snapshot.scene(), snapshot.scene().options().max_memory_vertices(), {});
   Check(config.ok(), "an exported scene converts");
@@ -338,6 +346,12 @@ void CheckState(const mdr::v1::ContactState& state) {
   Check(std::isfinite(state.normal_force()) && std::isfinite(state.tangential_force()) &&
             std::isfinite(state.friction_limit()),
         "forces are finite");
+  // A torsional state (0 for the others): the moment is finite and within its full-slip moment
+  // (to the round-off of the two sums: fully slipping, M is the full-slip moment's integral
+  // taken piece by piece).
+  Check(std::isfinite(state.twist()) && std::isfinite(state.full_slip_moment()) &&
+            std::abs(state.twisting_moment()) <= state.full_slip_moment() * (1 + 1e-12),
+        "the twisting moment is finite and at most the full-slip moment");
 }
 
 }  // namespace

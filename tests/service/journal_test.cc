@@ -343,6 +343,52 @@ TEST_F(JournalTest, RestartReplaysEveryBatchBitIdentically) {
   ExpectSameSnapshot(Export(*restored, "sessions/a"), Export(reference, "sessions/a"));
 }
 
+// A torsional session is journaled like any other: a restart replays its batches (refused steps
+// included, which change nothing) to the state it acknowledged, bit for bit, and it continues
+// like an import of that state.
+TEST_F(JournalTest, ATorsionalSessionRestartsBitForBit) {
+  const JournalOptions options = Options(7);  // a snapshot every 7 batches, and batches after it
+  v1::SessionSnapshot before;
+  std::mt19937_64 random(5);
+  {
+    auto operations = Open(options);
+    v1::CreateSessionRequest request;
+    *request.mutable_session()->mutable_scene() = bridge_testing::TwistedSteelSphere();
+    request.set_session_id("twisted");
+    v1::Session session;
+    ASSERT_TRUE(operations->CreateSession(std::nullopt, request, &session).ok());
+    for (int i = 0; i < 40; ++i) {
+      v1::ApplyResponse response;
+      (void)Apply(*operations,
+                  ApplyRequestFor(session.name(), {bridge_testing::RandomTorsionStep(random)}),
+                  &response);
+    }
+    before = Export(*operations, "sessions/twisted");
+  }  // a crash as far as the journal can tell
+  ASSERT_GT(before.torsion().pieces_size(), 2);
+  auto restored = Open(options);
+  ExpectSameSnapshot(Export(*restored, "sessions/twisted"), before);
+  EXPECT_EQ(Export(*restored, "sessions/twisted").torsion().SerializeAsString(),
+            before.torsion().SerializeAsString());
+  ContactOperations reference{service::ServiceLimits(), service::TestHooks()};
+  v1::ImportSessionRequest import_request;
+  *import_request.mutable_snapshot() = before;
+  import_request.set_session_id("twisted");
+  v1::Session imported;
+  ASSERT_TRUE(reference.ImportSession(std::nullopt, import_request, &imported).ok());
+  std::mt19937_64 same(6), again(6);
+  for (int i = 0; i < 10; ++i) {
+    v1::ApplyResponse first, second;
+    (void)Apply(*restored,
+                ApplyRequestFor("sessions/twisted", {bridge_testing::RandomTorsionStep(same)}),
+                &first);
+    (void)Apply(reference,
+                ApplyRequestFor("sessions/twisted", {bridge_testing::RandomTorsionStep(again)}),
+                &second);
+  }
+  ExpectSameSnapshot(Export(*restored, "sessions/twisted"), Export(reference, "sessions/twisted"));
+}
+
 // Below the room kept for deletions (--journal-min-free-bytes) new work is refused UNAVAILABLE
 // naming the journal's room, while Export and Delete go on; nothing acknowledged is lost, and the
 // deletion is journaled (issue #27: a full volume made every DeleteSession fail). The floor above

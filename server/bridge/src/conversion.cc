@@ -281,6 +281,15 @@ Status CheckSnapshotKind(const v1::SessionSnapshot& snapshot) {
                            "must be unset: the scene has no interface (the state is in "
                            "snapshot.contact)");
   }
+  if (snapshot.scene().has_torsion() && snapshot.has_contact()) {
+    return InvalidArgument("snapshot.contact",
+                           "must be unset for a torsional session (its state is in "
+                           "snapshot.torsion)");
+  }
+  if (!snapshot.scene().has_torsion() && snapshot.has_torsion()) {
+    return InvalidArgument("snapshot.torsion",
+                           "must be unset: the scene has no torsion (scene.torsion)");
+  }
   return OkStatus();
 }
 

@@ -8,6 +8,7 @@
 #include "mdr/base/validate.h"
 #include "mdr/bridge/conversion.h"
 #include "mdr/bridge/state_budget.h"
+#include "mdr/bridge/torsion_session.h"
 #include "mdr/core/population.h"
 
 namespace mdr::bridge {
@@ -362,6 +363,7 @@ void ToProtoInterfaceSnapshot(const Interface& interface, v1::InterfaceSnapshot*
 
 Status ApplyInterfaceStep(Interface& interface, const v1::Step& step, const Interrupt& interrupt,
                           const Interface::CommitGate& gate) {
+  if (Status s = RefuseTwist(step); !s.ok()) return s;
   if (interface.kind() == InterfaceKind::kContactList) {
     return ApplyListStep(interface, step, interrupt, gate);
   }

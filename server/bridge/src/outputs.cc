@@ -71,6 +71,12 @@ const StateField kStateFields[] = {
      [](const Contact& c, std::uint64_t, v1::ContactState* s) {
        s->set_actuator_depth(c.actuator_depth());
      }},
+    // A tangential contact has no twist (WriteTorsionState writes these).
+    {"twist", Output::kTwist, [](const Contact&, std::uint64_t, v1::ContactState*) {}},
+    {"twisting_moment", Output::kTwistingMoment,
+     [](const Contact&, std::uint64_t, v1::ContactState*) {}},
+    {"full_slip_moment", Output::kFullSlipMoment,
+     [](const Contact&, std::uint64_t, v1::ContactState*) {}},
 };
 
 std::vector<Leaf> StateLeaves() {
@@ -111,6 +117,11 @@ const std::vector<Leaf>& QueryResponseLeaves() {
     all.push_back({"interface.totals", Output::kInterfaceTotals});
     all.push_back({"interface.slip_histogram", Output::kInterfaceSlipHistogram});
     all.push_back({"interface.memory_bytes", Output::kInterfaceMemoryBytes});
+    all.push_back({"torsion.stiffness", Output::kTorsionStiffness});
+    all.push_back({"torsion.slip_intervals", Output::kTorsionSlipIntervals});
+    all.push_back({"torsion.tractions", Output::kTorsionTractions});
+    all.push_back({"torsion.memory_pieces", Output::kTorsionMemoryPieces});
+    all.push_back({"torsion.stored_energy", Output::kTorsionStoredEnergy});
     return all;
   }();
   return leaves;
@@ -151,12 +162,6 @@ Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
     }
   }
   return selection;
-}
-
-void Count(OutputCounters* counters, Output output) {
-  if (counters != nullptr) {
-    counters->computed[static_cast<std::size_t>(output)].fetch_add(1, std::memory_order_relaxed);
-  }
 }
 
 void WriteTangentialStiffness(const Contact& contact, const OutputSelection& selection,
@@ -258,6 +263,15 @@ std::size_t MaxRadialValueBytes() {
   return widest.ByteSizeLong() + kTagAndLengthBytes;
 }
 
+std::size_t MaxTorsionTractionBytes() {
+  constexpr std::size_t kTagAndLengthBytes = 3;
+  v1::TorsionTraction widest;
+  widest.set_radius(1);
+  widest.set_value(1);
+  widest.set_route_difference(1);
+  return widest.ByteSizeLong() + kTagAndLengthBytes;
+}
+
 // The bytes one radius adds to a response with these radial outputs (packed doubles for the
 // springs, a RadialValue for tractions and pressure).
 std::size_t BytesPerRadius(const OutputSelection& selection) {
@@ -267,10 +281,17 @@ std::size_t BytesPerRadius(const OutputSelection& selection) {
   if (selection.has(Output::kSpringNormalDisplacement)) bytes += sizeof(double);
   if (selection.has(Output::kTractions)) bytes += radial_value_bytes;
   if (selection.has(Output::kPressure)) bytes += radial_value_bytes;
+  if (selection.has(Output::kTorsionTractions)) bytes += MaxTorsionTractionBytes();
   return bytes;
 }
 
 }  // namespace
+
+void Count(OutputCounters* counters, Output output) {
+  if (counters != nullptr) {
+    counters->computed[static_cast<std::size_t>(output)].fetch_add(1, std::memory_order_relaxed);
+  }
+}
 
 std::size_t MaxRadii(const OutputSelection& selection, int max_message_bytes) {
   // Room for the state, the error estimate and the other small fields of the response.
@@ -345,6 +366,10 @@ Status WriteQueryOutputs(const Contact& contact, std::uint64_t applied_steps,
                          const OutputSelection& selection, const RadialSampling& sampling,
                          v1::QueryResponse* response, OutputCounters* counters) {
   const std::vector<double>& radii = sampling.radii;
+  if (selection.any_torsion()) {
+    return FailedPrecondition("read_mask",
+                              "\"torsion.*\" outputs need a torsional session (scene.torsion)");
+  }
   if (selection.any_state()) {
     WriteState(contact, applied_steps, selection, response->mutable_state(), counters);
   }

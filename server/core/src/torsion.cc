@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -785,6 +786,31 @@ Result<TorsionalContact> TorsionalContact::Create(ProfilePtr profile, double fri
   Result<TorsionalMemory> memory = TorsionalMemory::Create(*bound, torsional_modulus, 0);
   if (!memory.ok()) return memory.status();
   return TorsionalContact(std::move(profile), effective_modulus, std::move(memory).value());
+}
+
+Result<TorsionalContact> TorsionalContact::Restore(ProfilePtr profile, double friction,
+                                                   double effective_modulus,
+                                                   double torsional_modulus, double depth,
+                                                   const TorsionSnapshot& memory) {
+  if (profile == nullptr) return InvalidArgument("profile", "required");
+  if (Status s = RequireFinite("depth", depth); !s.ok()) return s;
+  const double radius = profile->RadiusAtDepth(depth);
+  if (!SameBits(memory.contact_radius, radius)) {
+    // Every digit: the two may differ in the last bit only.
+    std::ostringstream message;
+    message.precision(17);
+    message << "must be exactly the profile's contact radius at the depth, " << radius << " m, got "
+            << memory.contact_radius;
+    return InvalidArgument("contact_radius", message.str());
+  }
+  Result<std::shared_ptr<const TorsionBound>> bound =
+      MakeTorsionBound(profile, friction, effective_modulus, torsional_modulus);
+  if (!bound.ok()) return bound.status();
+  Result<TorsionalMemory> restored = TorsionalMemory::Restore(*bound, torsional_modulus, memory);
+  if (!restored.ok()) return restored.status();
+  TorsionalContact contact(std::move(profile), effective_modulus, std::move(restored).value());
+  contact.depth_ = depth;
+  return contact;
 }
 
 double TorsionalContact::normal_force() const {

@@ -12,6 +12,7 @@
 #include "mdr/base/log_value.h"
 #include "mdr/base/validate.h"
 #include "mdr/bridge/conversion.h"
+#include "mdr/bridge/torsion_session.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/metrics.h"
 #include "mdr/service/transform.h"
@@ -22,12 +23,15 @@ using bridge::CheckExportable;
 using bridge::CheckInterfaceSize;
 using bridge::CheckRadiiCount;
 using bridge::CheckSnapshotHeader;
+using bridge::CheckTorsionScene;
 using bridge::CreateInterface;
+using bridge::CreateTorsionalContact;
 using bridge::ExportBytesBound;
 using bridge::InterfaceQuery;
 using bridge::OutputSelection;
 using bridge::RadialSampling;
 using bridge::RestoreInterface;
+using bridge::RestoreTorsionalContact;
 using bridge::SelectQueryOutputs;
 using bridge::SelectStepOutputs;
 using bridge::StateBudget;
@@ -224,6 +228,15 @@ Status ContactOperations::CreateSession(const Principal& caller,
   if (!contact.ok()) return contact.status().WithFieldPrefix("session.scene");
   SessionOrigin state{
       .scene = resource.scene(), .limits = *limits, .contact = std::move(contact).value()};
+  if (Status s = CheckTorsionScene(resource.scene()); !s.ok()) {
+    return s.WithFieldPrefix("session");
+  }
+  if (resource.scene().has_torsion()) {
+    Result<TorsionalContact> torsion =
+        CreateTorsionalContact(resource.scene(), state.contact.config());
+    if (!torsion.ok()) return torsion.status().WithFieldPrefix("session");
+    state.torsion.emplace(std::move(torsion).value());
+  }
   if (resource.scene().has_interface()) {
     if (Status s = CheckInterfaceSize(resource.scene(), state.contact.config(), StateRoomOf(caller),
                                       limits_.max_message_bytes);
@@ -322,6 +335,19 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot, const Pri
   if (!limits.ok()) return limits.status().WithFieldPrefix("snapshot.limits");
   Result<Contact> contact = ToCoreContact(snapshot, limits_.max_memory_vertices, interrupt);
   if (!contact.ok()) return contact.status();
+  if (Status s = CheckTorsionScene(snapshot.scene()); !s.ok()) {
+    return s.WithFieldPrefix("snapshot");
+  }
+  std::optional<TorsionalContact> torsion;
+  if (snapshot.scene().has_torsion()) {
+    Result<TorsionalContact> restored =
+        RestoreTorsionalContact(snapshot.scene(), contact->config(), snapshot.torsion());
+    if (!restored.ok()) {
+      // The scene's errors are named from the scene, the state's from the snapshot.
+      return restored.status().WithFieldPrefix("snapshot");
+    }
+    torsion.emplace(std::move(restored).value());
+  }
   std::optional<Interface> interface;
   if (snapshot.scene().has_interface()) {
     if (Status s = CheckInterfaceSize(snapshot.scene(), contact->config(), StateRoomOf(caller),
@@ -339,7 +365,8 @@ Status ContactOperations::StateOf(const v1::SessionSnapshot& snapshot, const Pri
                                .limits = *limits,
                                .contact = std::move(contact).value(),
                                .applied_steps = snapshot.applied_steps(),
-                               .interface = std::move(interface)});
+                               .interface = std::move(interface),
+                               .torsion = std::move(torsion)});
   return OkStatus();
 }
 
@@ -354,8 +381,10 @@ Status ContactOperations::ImportSession(const Principal& caller,
   if (Status status = StateOf(request.snapshot(), caller, &state, interrupt); !status.ok()) {
     return status;
   }
-  const char* state_field =
-      request.snapshot().scene().has_interface() ? "snapshot.interface" : "snapshot.contact";
+  const v1::Scene& scene = request.snapshot().scene();
+  const char* state_field = scene.has_interface() ? "snapshot.interface"
+                            : scene.has_torsion() ? "snapshot.torsion"
+                                                  : "snapshot.contact";
   return AddSession(caller, "session_id", request.session_id(), std::move(*state), response,
                     "imported", state_field, interrupt);
 }

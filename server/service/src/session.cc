@@ -9,6 +9,7 @@
 
 #include "mdr/base/log_value.h"
 #include "mdr/bridge/conversion.h"
+#include "mdr/bridge/torsion_session.h"
 #include "mdr/service/journal.h"
 #include "mdr/service/limits.h"
 #include "mdr/service/metrics.h"
@@ -16,6 +17,7 @@
 namespace mdr::service {
 
 using bridge::ApplyInterfaceStep;
+using bridge::ApplyTorsionStep;
 using bridge::BoundsAfterOneStraightStep;
 using bridge::BoundsAtCommit;
 using bridge::CheckExportable;
@@ -30,11 +32,13 @@ using bridge::MovesEveryContactOnce;
 using bridge::OutputCounters;
 using bridge::OutputSelection;
 using bridge::RadialSampling;
+using bridge::RefuseTwist;
 using bridge::StateBytes;
 using bridge::StepBounds;
 using bridge::ToCoreStep;
 using bridge::ToProtoInterfaceSnapshot;
 using bridge::ToProtoSnapshot;
+using bridge::ToProtoTorsionSnapshot;
 using bridge::WithEffectiveOptions;
 using bridge::WriteApproximationErrors;
 using bridge::WriteInterfaceQueryOutputs;
@@ -43,6 +47,9 @@ using bridge::WriteInterfaceStepResult;
 using bridge::WriteQueryOutputs;
 using bridge::WriteState;
 using bridge::WriteStepResult;
+using bridge::WriteTorsionQueryOutputs;
+using bridge::WriteTorsionState;
+using bridge::WriteTorsionStepResult;
 namespace {
 
 using google::protobuf::util::TimeUtil;
@@ -71,13 +78,17 @@ std::uint64_t Fingerprint(const v1::ApplyRequest& request) {
 }  // namespace
 
 std::size_t StateBytes(const SessionOrigin& state) {
-  return state.interface ? StateBytes(*state.interface) : StateBytes(state.contact);
+  if (state.interface) return StateBytes(*state.interface);
+  // A torsional session holds its scene's contact too (its profile: a tabulated one's tables).
+  if (state.torsion) return StateBytes(state.contact) + StateBytes(*state.torsion);
+  return StateBytes(state.contact);
 }
 
 std::size_t ExportBytesBound(const SessionOrigin& state) {
   const std::size_t scene_bytes = ExportedSceneBytes(state.scene, state.contact);
-  return state.interface ? ExportBytesBound(*state.interface, scene_bytes)
-                         : ExportBytesBound(state.contact, scene_bytes);
+  if (state.interface) return ExportBytesBound(*state.interface, scene_bytes);
+  if (state.torsion) return ExportBytesBound(*state.torsion, scene_bytes);
+  return ExportBytesBound(state.contact, scene_bytes);
 }
 
 Session::Session(std::string name, SessionOrigin state)
@@ -92,6 +103,7 @@ Session::Session(std::string name, SessionOrigin state)
       last_used_(Clock::now().time_since_epoch().count()),
       contact_(std::move(state.contact)),
       interface_(std::move(state.interface)),
+      torsion_(std::move(state.torsion)),
       applied_steps_(state.applied_steps),
       journal_sequence_(state.journal_sequence),
       journal_snapshot_sequence_(state.journal_snapshot_sequence),
@@ -191,7 +203,7 @@ std::optional<Status> Session::ApplyIfBounded(const v1::ApplyRequest& request,
                                               std::size_t max_vertices,
                                               std::size_t max_response_bytes,
                                               v1::ApplyResponse* response) {
-  if (!available() || interface_ || request.steps_size() != 1) return std::nullopt;
+  if (!available() || interface_ || torsion_ || request.steps_size() != 1) return std::nullopt;
   // Never waits: the session may be held by a batch of another caller's strand (the executor
   // orders a caller's calls; two callers may share a session without authentication).
   std::unique_lock lock(mutex_, std::try_to_lock);
@@ -205,8 +217,9 @@ std::optional<Status> Session::ApplyIfBounded(const v1::ApplyRequest& request,
 }
 
 bool Session::StraightStepLocked(const v1::Step& step) const {
-  if (!step.contact_normal_values().empty() || !step.contact_tangential_values().empty()) {
-    return false;
+  if (!step.contact_normal_values().empty() || !step.contact_tangential_values().empty() ||
+      step.torsional_case() != v1::Step::TORSIONAL_NOT_SET) {
+    return false;  // refused by the batch's checks
   }
   const bool holds_depth =
       step.normal_case() == v1::Step::NORMAL_NOT_SET ||
@@ -265,6 +278,7 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
   if (interface_) {
     return RunInterfaceBatch(request, step_outputs, guard, max_response_bytes, response, interrupt);
   }
+  if (torsion_) return RunTorsionBatch(request, step_outputs, guard, max_response_bytes, response);
   // A single step is atomic in the core; a longer batch (or any batch that the journal must
   // accept before it counts, or that may grow the state past its budget: an exact memory) runs
   // on a copy that is committed at the end, so a failing step, an expired deadline, an exceeded
@@ -290,9 +304,9 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
   double path_error = 0;
   for (int i = 0; i < request.steps_size(); ++i) {
     if (Status status = CheckNextStep(guard, i, applied); !status.ok()) return status;
-    if (Status status = CheckSingleContactStep(request.steps(i)); !status.ok()) {
-      return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
-    }
+    Status checked = CheckSingleContactStep(request.steps(i));
+    if (checked.ok()) checked = RefuseTwist(request.steps(i));
+    if (!checked.ok()) return checked.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     StepReport report;
     // A failed batch drops its copy (the next one overwrites it).
     if (Status status =
@@ -348,6 +362,29 @@ Status Session::RunStepInPlace(const v1::ApplyRequest& request, const OutputSele
   }
   FinishBatchLocked(applied, report.path_error, response);
   return OkStatus();
+}
+
+Status Session::RunTorsionBatch(const v1::ApplyRequest& request,
+                                const OutputSelection& step_outputs, const StepGuard& guard,
+                                std::size_t max_response_bytes, v1::ApplyResponse* response) {
+  TorsionalContact copy = *torsion_;
+  const ContactConfig& config = contact_->config();
+  std::uint64_t applied = applied_steps_;
+  for (int i = 0; i < request.steps_size(); ++i) {
+    if (Status status = CheckNextStep(guard, i, applied); !status.ok()) return status;
+    if (Status status = ApplyTorsionStep(copy, request.steps(i), config.max_memory_vertices);
+        !status.ok()) {
+      return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
+    }
+    ++applied;
+    if (!step_outputs.empty()) {
+      WriteTorsionStepResult(copy, config.friction, applied, step_outputs,
+                             response->add_step_results());
+    }
+  }
+  return CommitBatchLocked(
+      request, applied, 0.0, max_response_bytes, StateBytes(*contact_) + StateBytes(copy),
+      ExportBytesBound(copy, scene_bytes_), [&] { *torsion_ = std::move(copy); }, response);
 }
 
 Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
@@ -489,6 +526,8 @@ Status Session::ChargeStateLocked(std::size_t state_bytes, std::size_t export_by
 void Session::WriteStateLocked(const OutputSelection& selection, v1::ContactState* state) const {
   if (interface_) {
     WriteInterfaceState(*interface_, applied_steps_, selection, state);
+  } else if (torsion_) {
+    WriteTorsionState(*torsion_, contact_->config().friction, applied_steps_, selection, state);
   } else {
     WriteState(*contact_, applied_steps_, selection, state);
   }
@@ -504,7 +543,10 @@ Status Session::Query(const OutputSelection& selection, const RadialSampling& sa
                       ? WriteInterfaceQueryOutputs(*interface_, applied_steps_, selection, sampling,
                                                    interface_query, response, counters)
                       : CheckSingleContactQuery(selection, interface_query);
-  if (status.ok() && !interface_) {
+  if (status.ok() && torsion_) {
+    status = WriteTorsionQueryOutputs(*torsion_, contact_->config(), applied_steps_, selection,
+                                      sampling, response, counters);
+  } else if (status.ok() && !interface_) {
     status = WriteQueryOutputs(*contact_, applied_steps_, selection, sampling, response, counters);
   }
   if (!status.ok()) {
@@ -550,6 +592,8 @@ void Session::ExportLocked(v1::SessionSnapshot* snapshot) const {
   *snapshot->mutable_scene() = WithEffectiveOptions(scene_, contact_->config());
   if (interface_) {
     ToProtoInterfaceSnapshot(*interface_, snapshot->mutable_interface());
+  } else if (torsion_) {
+    ToProtoTorsionSnapshot(*torsion_, snapshot->mutable_torsion());
   } else {
     ToProtoSnapshot(contact_->Snapshot(), snapshot->mutable_contact());
   }

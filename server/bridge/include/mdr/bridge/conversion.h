@@ -69,8 +69,8 @@ Status CheckSnapshotHeader(const v1::SessionSnapshot& snapshot);
 // The contact of a SessionSnapshot (ImportSession, the journal and the C library restore with it):
 // the scene's config (max_memory_vertices as for ToContactConfig), the state in the member of the
 // scene's kind and method, at most the config's vertices, then Contact::Restore. The counters and
-// the version are the caller's to check (CheckSnapshotHeader). For an interface scene the contact
-// is the unloaded one of its scene. Errors name "snapshot.<field>".
+// the version are the caller's to check (CheckSnapshotHeader). For an interface or torsional scene
+// the contact is the unloaded one of its scene. Errors name "snapshot.<field>".
 Result<Contact> ToCoreContact(const v1::SessionSnapshot& snapshot, std::size_t max_memory_vertices,
                               const Interrupt& interrupt = {});
 void ToProtoSnapshot(const ContactSnapshot& snapshot, v1::ContactSnapshot* proto);

@@ -35,6 +35,9 @@ enum class Output : std::uint8_t {
   kMemoryVertices,
   kActuatorDisplacement,
   kActuatorDepth,
+  kTwist,
+  kTwistingMoment,
+  kFullSlipMoment,
   // StepResult.
   kSubsteps,
   kPathError,
@@ -57,6 +60,12 @@ enum class Output : std::uint8_t {
   kInterfaceTotals,
   kInterfaceSlipHistogram,
   kInterfaceMemoryBytes,
+  // QueryResponse.torsion (torsional sessions).
+  kTorsionStiffness,
+  kTorsionSlipIntervals,
+  kTorsionTractions,
+  kTorsionMemoryPieces,
+  kTorsionStoredEnergy,
   kCount,
 };
 constexpr std::size_t kOutputCount = static_cast<std::size_t>(Output::kCount);
@@ -75,7 +84,22 @@ class OutputSelection {
   }
   // Springs, tractions or pressure: outputs sampled at QueryRequest.radii.
   bool any_radial() const {
-    return any_springs() || has(Output::kTractions) || has(Output::kPressure);
+    return any_springs() || has(Output::kTractions) || has(Output::kPressure) ||
+           has(Output::kTorsionTractions);
+  }
+  // The QueryResponse.torsion outputs.
+  bool any_torsion() const {
+    return has(Output::kTorsionStiffness) || has(Output::kTorsionSlipIntervals) ||
+           has(Output::kTorsionTractions) || has(Output::kTorsionMemoryPieces) ||
+           has(Output::kTorsionStoredEnergy);
+  }
+  // The outputs of a tangential contact beyond its state and energy (what a torsional session
+  // does not have).
+  bool any_tangential() const {
+    return has(Output::kStiffnessPositive) || has(Output::kStiffnessNegative) ||
+           has(Output::kSlipIntervals) || any_springs() || has(Output::kMemoryPieces) ||
+           has(Output::kJagerWeights) || has(Output::kJagerDecomposition) ||
+           has(Output::kTractions) || has(Output::kPressure);
   }
   bool any_interface() const {
     return has(Output::kInterfaceTotals) || has(Output::kInterfaceSlipHistogram) ||
@@ -100,6 +124,9 @@ struct OutputCounters {
     return computed[static_cast<std::size_t>(output)].load();
   }
 };
+
+// Counts one computation of output (no-op without counters).
+void Count(OutputCounters* counters, Output output);
 
 // The most radii whose selected radial outputs (springs, tractions, pressure) fit in a response
 // of max_message_bytes; no limit (SIZE_MAX) when none is selected. Derived from the encoded size

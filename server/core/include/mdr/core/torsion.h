@@ -208,6 +208,12 @@ class TorsionalContact {
   // Fields: profile, friction, effective_modulus, torsional_modulus.
   static Result<TorsionalContact> Create(ProfilePtr profile, double friction,
                                          double effective_modulus, double torsional_modulus);
+  // The contact of a snapshot: depth finite, the memory's contact radius exactly the profile's
+  // at that depth (what every step leaves), the memory checked by TorsionalMemory::Restore.
+  // Fields: depth, contact_radius and those of TorsionalMemory::Restore.
+  static Result<TorsionalContact> Restore(ProfilePtr profile, double friction,
+                                          double effective_modulus, double torsional_modulus,
+                                          double depth, const TorsionSnapshot& memory);
 
   // Applies the step; on an error nothing changed. A step moves one channel: the normal load at
   // fixed twist, or the twist at fixed normal load, each exact. One that moves both is refused

@@ -24,6 +24,7 @@
 #include "mdr/bridge/state_budget.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interface.h"
+#include "mdr/core/torsion.h"
 #include "mdr/service/completed_requests.h"
 #include "mdr/service/principal.h"
 #include "mdr/v1/contact_service.pb.h"
@@ -55,6 +56,9 @@ struct SessionOrigin {
   int max_message_bytes = 0;
   // Set for an interface session (scene.interface).
   std::optional<Interface> interface {};
+  // Set for a torsional session (scene.torsion); `contact` is then the unloaded contact of its
+  // scene, as for an interface.
+  std::optional<TorsionalContact> torsion{};
 };
 
 // The bytes a session's state holds and an upper bound of its export message.
@@ -173,6 +177,10 @@ class Session {
                                  const bridge::OutputSelection& step_outputs,
                                  const StepGuard& guard, v1::ApplyResponse* response,
                                  const Interrupt& interrupt, bool* fall_back);
+  // Every step of a torsional session on a copy (a few pieces), moved in at the commit.
+  Status RunTorsionBatch(const v1::ApplyRequest& request,
+                         const bridge::OutputSelection& step_outputs, const StepGuard& guard,
+                         std::size_t max_response_bytes, v1::ApplyResponse* response);
   // Every step on a copy of the interface, swapped in at the commit.
   Status RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
                                  const bridge::OutputSelection& step_outputs,
@@ -236,6 +244,7 @@ class Session {
   // committed batch (bounded like the state; not charged: a few vertices of a rig's contact).
   std::optional<Contact> batch_copy_;        // guarded by mutex_
   std::optional<Interface> interface_;       // guarded by mutex_; set: an interface session
+  std::optional<TorsionalContact> torsion_;  // guarded by mutex_; set: a torsional session
   std::uint64_t applied_steps_;              // guarded by mutex_
   CompletedRequests completed_;              // guarded by mutex_
   Journal* journal_ = nullptr;               // guarded by mutex_
