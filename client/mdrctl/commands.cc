@@ -135,10 +135,17 @@ int ApplyCommand(const Common& common, const ApplyArgs& args) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status().ToString());
   ContactClient& client = (*connection)->client();
+  // The table's columns are the scene's (a torsional session prints its twist and moment).
+  mdr::v1::Scene scene;
+  if (common.format != Format::kJson) {
+    auto session = client.GetSession(request.session());
+    if (!session.ok()) return Fail(session.status());
+    scene = session->scene();
+  }
   if (!args.stream) {
     auto applied = client.Apply(request);
     if (!applied.ok()) return Fail(applied.status());
-    PrintApplyResponse(*applied, common.format, stdout);
+    PrintApplyResponse(*applied, scene, common.format, stdout);
     return EXIT_SUCCESS;
   }
   // One message per step; the results are joined as if they were one batch.
@@ -161,7 +168,7 @@ int ApplyCommand(const Common& common, const ApplyArgs& args) {
     *joined.mutable_state() = response.result().state();
     for (const auto& result : response.result().step_results()) *joined.add_step_results() = result;
   }
-  PrintApplyResponse(joined, common.format, stdout);
+  PrintApplyResponse(joined, scene, common.format, stdout);
   return EXIT_SUCCESS;
 }
 

@@ -35,14 +35,15 @@ std::string Title(const RunReport& report, const std::string& what) {
 void WriteSteps(const RunReport& report, const fs::path& file) {
   std::ofstream out(file);
   out.precision(12);
-  out << "# step ux[m] F_x[N] F_N[N] delta[m] a[m] W[J] in_contact partial_slip gross_slip\n";
+  out << "# step ux[m] F_x[N] F_N[N] delta[m] a[m] W[J] in_contact partial_slip gross_slip "
+         "phi[rad] M[N_m]\n";
   for (const auto& row : report.rows()) {
     const auto& s = row.state();
     const auto& totals = row.interface_totals();
     out << row.step() << ' ' << s.tangential_displacement() << ' ' << s.tangential_force() << ' '
         << s.normal_force() << ' ' << s.depth() << ' ' << s.contact_radius() << ' '
         << s.dissipated_energy() << ' ' << totals.in_contact() << ' ' << totals.partial_slip()
-        << ' ' << totals.gross_slip() << '\n';
+        << ' ' << totals.gross_slip() << ' ' << s.twist() << ' ' << s.twisting_moment() << '\n';
   }
 }
 
@@ -50,10 +51,12 @@ void WriteSteps(const RunReport& report, const fs::path& file) {
 void WriteCycles(const RunReport& report, const fs::path& file) {
   std::ofstream out(file);
   out.precision(12);
-  out << "# cycle W[J] work_of_F_x[J] segment\n";
+  out << (report.torsion() ? "# cycle W[J] work_of_M[J] segment\n"
+                           : "# cycle W[J] work_of_F_x[J] segment\n");
   for (int i = 0; i < report.cycle_energies_size(); ++i) {
     const auto& cycle = report.cycle_energies(i);
-    out << i + 1 << ' ' << cycle.dissipated_energy() << ' ' << cycle.tangential_work() << ' '
+    out << i + 1 << ' ' << cycle.dissipated_energy() << ' '
+        << (report.torsion() ? cycle.twisting_work() : cycle.tangential_work()) << ' '
         << cycle.origin() << '\n';
   }
 }
@@ -63,6 +66,15 @@ void WriteRecords(const RunReport& report, const fs::path& file) {
   std::ofstream out(file);
   out.precision(12);
   for (const auto& record : report.records()) {
+    if (report.torsion()) {
+      out << "# " << record.name() << ": r[m] tau_phi[Pa] route_difference[Pa]\n";
+      for (const auto& traction : record.torsion_tractions()) {
+        out << traction.radius() << ' ' << traction.value() << ' ' << traction.route_difference()
+            << '\n';
+      }
+      out << "\n\n";
+      continue;
+    }
     out << "# " << record.name() << ": x[m] u[m] w[m] tau[Pa]\n";
     for (int i = 0; i < record.radii_size(); ++i) {
       out << record.radii(i) << ' ' << record.springs().tangential_displacement(i) << ' '
@@ -115,6 +127,17 @@ struct Script {
 
 void AddStepPlots(const RunReport& report, const fs::path& dir, Script* script) {
   const std::string steps = Quoted((dir / "steps.dat").string());
+  if (report.torsion()) {  // the loop is M over phi; F_N and M over the path
+    script->Begin(dir / "hysteresis.png", Title(report, "M over phi"), "phi [mrad]", "M [N mm]");
+    script->text << "plot " << steps << " using ($11*1e3):($12*1e3) with lines lw 2 title 'M'\n";
+    script->Begin(dir / "forces.png", Title(report, "normal force over the loading path"), "step",
+                  "F_N [N]");
+    script->text << "plot " << steps << " using 1:4 with lines lw 2 title 'F_N'\n";
+    script->Begin(dir / "moment.png", Title(report, "twisting moment over the loading path"),
+                  "step", "M [N mm]");
+    script->text << "plot " << steps << " using 1:($12*1e3) with lines lw 2 title 'M'\n";
+    return;
+  }
   script->Begin(dir / "hysteresis.png", Title(report, "F_x over u_x"), "u_x [µm]", "F_x [N]");
   script->text << "plot " << steps << " using ($2*1e6):3 with lines lw 2 title 'F_x'\n";
   script->Begin(dir / "forces.png", Title(report, "forces over the loading path"), "step",
@@ -139,13 +162,20 @@ void AddCyclePlot(const RunReport& report, const fs::path& dir, Script* script) 
                 "energy [µJ]");
   script->text << "set yrange [0:*]\nset xtics 1\nset style fill solid 0.5\nset boxwidth 0.6\n"
                << "plot " << cycles << " using 1:($2*1e6) with boxes title 'dissipated', " << cycles
-               << " using 1:($3*1e6) with points pt 7 ps 1.5 title 'work of F_x'\n"
+               << " using 1:($3*1e6) with points pt 7 ps 1.5 title "
+               << (report.torsion() ? "'work of M'" : "'work of F_x'") << "\n"
                << "set autoscale y\nset xtics autofreq\n";
 }
 
 void AddRecordPlots(const RunReport& report, const fs::path& dir, Script* script) {
   if (report.records().empty()) return;
   const fs::path records = dir / "records.dat";
+  if (report.torsion()) {
+    script->Begin(dir / "tractions.png", Title(report, "circumferential traction"), "r [mm]",
+                  "tau_{phi} [MPa]");
+    script->text << PlotRecords(report, records, "($1*1e3):($2*1e-6)", [](auto&) { return true; });
+    return;
+  }
   script->Begin(dir / "profiles.png", Title(report, "spring displacements u(x)"), "x [mm]",
                 "u [µm]");
   script->text << PlotRecords(report, records, "($1*1e3):($2*1e6)", [](auto&) { return true; });

@@ -113,6 +113,14 @@ Column ColumnFor(SceneFile::Output output) {
     case SceneFile::ACTUATOR_DEPTH:
       return {"delta_act [m]", "actuator_depth",
               [](const Row& r) { return r.state().actuator_depth(); }};
+    case SceneFile::TWIST:
+      return {"phi [rad]", "twist", [](const Row& r) { return r.state().twist(); }};
+    case SceneFile::TWISTING_MOMENT:
+      return {"M [N m]", "twisting_moment",
+              [](const Row& r) { return r.state().twisting_moment(); }};
+    case SceneFile::FULL_SLIP_MOMENT:
+      return {"M_slip [N m]", "full_slip_moment",
+              [](const Row& r) { return r.state().full_slip_moment(); }};
     default:  // FRICTION_LIMIT; ValidateSceneFile rejects OUTPUT_UNSPECIFIED
       return {"mu*F_N [N]", "friction_limit",
               [](const Row& r) { return r.state().friction_limit(); }};
@@ -145,17 +153,20 @@ void PrintSectionTitle(const std::string& title, Format format, std::FILE* out) 
   std::fprintf(out, format == Format::kCsv ? "\n# %s\n" : "\n%s\n", title.c_str());
 }
 
-void PrintCycleEnergies(const RunReport& report, Format format, std::FILE* out) {
+// torsion: the work of the twisting moment in place of that of F_x.
+void PrintCycleEnergies(const RunReport& report, bool torsion, Format format, std::FILE* out) {
   if (report.cycle_energies().empty()) return;
   PrintSectionTitle("Energy dissipated per cycle", format, out);
   Table table;
-  table.header =
-      format == Format::kCsv
-          ? std::vector<std::string>{"cycle", "segment", "dissipated_energy", "tangential_work"}
-          : std::vector<std::string>{"cycle", "segment", "W [J]", "work of F_x [J]"};
+  const char* work_csv = torsion ? "twisting_work" : "tangential_work";
+  const char* work = torsion ? "work of M [J]" : "work of F_x [J]";
+  table.header = format == Format::kCsv
+                     ? std::vector<std::string>{"cycle", "segment", "dissipated_energy", work_csv}
+                     : std::vector<std::string>{"cycle", "segment", "W [J]", work};
   for (const auto& energy : report.cycle_energies()) {
     table.rows.push_back({std::to_string(energy.cycle()), energy.origin(),
-                          Number(energy.dissipated_energy()), Number(energy.tangential_work())});
+                          Number(energy.dissipated_energy()),
+                          Number(torsion ? energy.twisting_work() : energy.tangential_work())});
   }
   table.Print(format, out);
 }
@@ -205,8 +216,19 @@ void PrintRecord(const RunReport::Record& record, Format format, std::FILE* out)
     std::fprintf(out, format == Format::kCsv ? "# not available: %s\n" : "not available: %s\n",
                  note.c_str());
   }
-  const bool tractions = record.tractions_size() == record.radii_size();
   Table table;
+  if (record.torsion_tractions_size() > 0) {  // a torsional scene's: tau_phi by both routes
+    table.header = format == Format::kCsv
+                       ? std::vector<std::string>{"r", "tau_phi", "route_difference"}
+                       : std::vector<std::string>{"r [m]", "tau_phi [Pa]", "route difference [Pa]"};
+    for (const auto& traction : record.torsion_tractions()) {
+      table.rows.push_back({Number(traction.radius()), Number(traction.value()),
+                            Number(traction.route_difference())});
+    }
+    table.Print(format, out);
+    return;
+  }
+  const bool tractions = record.tractions_size() == record.radii_size();
   table.header = format == Format::kCsv ? std::vector<std::string>{"i", "x", "u", "w"}
                                         : std::vector<std::string>{"i", "x [m]", "u [m]", "w [m]"};
   if (tractions) table.header.push_back(format == Format::kCsv ? "tau" : "tau [Pa]");
@@ -304,18 +326,23 @@ void PrintReport(const RunReport& report, const SceneFile& file, Format format, 
   Table table = StateTable(columns, format);
   for (const auto& row : report.rows()) table.rows.push_back(StateRow(row, columns));
   table.Print(format, out);
-  PrintCycleEnergies(report, format, out);
+  PrintCycleEnergies(report, file.scene().has_torsion(), format, out);
   PrintSlipHistograms(report, format, out);
   PrintContactRows(report, format, out);
   for (const auto& record : report.records()) PrintRecord(record, format, out);
 }
 
-void PrintApplyResponse(const mdr::v1::ApplyResponse& response, Format format, std::FILE* out) {
+void PrintApplyResponse(const mdr::v1::ApplyResponse& response, const mdr::v1::Scene& scene,
+                        Format format, std::FILE* out) {
   if (format == Format::kJson) {
     std::fputs(ToJson(response).c_str(), out);
     return;
   }
-  const std::vector<Column> columns = ColumnsFor(mdr::client::TableOutputs(SceneFile()));
+  // The state's own columns: a single contact's, or a torsional one's (an interface's counts
+  // would need a query of its totals).
+  SceneFile file;
+  if (scene.has_torsion()) file.mutable_scene()->mutable_torsion();
+  const std::vector<Column> columns = ColumnsFor(mdr::client::TableOutputs(file));
   Table table = StateTable(columns, format);
   for (int i = 0; i < response.step_results_size(); ++i) {
     RunReport::Row row;

@@ -23,8 +23,10 @@ std::string ToJson(const google::protobuf::Message& message);
 // Steps (the file's outputs as columns), energy per cycle and recorded profiles.
 void PrintReport(const mdr::v1::RunReport& report, const mdr::v1::SceneFile& file, Format format,
                  std::FILE* out);
-// The per-step states of an Apply (table and CSV: one row per step), or the JSON.
-void PrintApplyResponse(const mdr::v1::ApplyResponse& response, Format format, std::FILE* out);
+// The per-step states of an Apply (table and CSV: one row per step, a single contact's default
+// columns, a torsional one's for a scene with torsion), or the JSON.
+void PrintApplyResponse(const mdr::v1::ApplyResponse& response, const mdr::v1::Scene& scene,
+                        Format format, std::FILE* out);
 // Sessions one per row (table, CSV) or as a JSON list.
 void PrintSessions(const std::vector<mdr::v1::Session>& sessions, Format format, std::FILE* out);
 // Any message: table and CSV list every set field as "path value"; JSON as ToJson.

@@ -16,17 +16,34 @@ std::uint32_t AtLeastOne(std::uint32_t n) { return n == 0 ? 1 : n; }
 
 Status ValidateRamp(const v1::Ramp& ramp) {
   if (ramp.target().normal_case() == Step::NORMAL_NOT_SET &&
-      ramp.target().tangential_case() == Step::TANGENTIAL_NOT_SET) {
-    return InvalidArgument("ramp.target", "must set a normal or a tangential channel");
+      ramp.target().tangential_case() == Step::TANGENTIAL_NOT_SET &&
+      ramp.target().torsional_case() == Step::TORSIONAL_NOT_SET) {
+    return InvalidArgument("ramp.target", "must set a normal, a tangential or a twist channel");
   }
   return OkStatus();
 }
 
-Status ValidateCycles(const Cycles& cycles) {
+bool IsTwistQuantity(Cycles::Quantity quantity) {
+  return quantity == Cycles::TWIST || quantity == Cycles::TWISTING_MOMENT;
+}
+
+Status ValidateCycles(const Cycles& cycles, SceneKind kind) {
   if (cycles.quantity() == Cycles::QUANTITY_UNSPECIFIED) {
     return InvalidArgument("cycles.quantity",
-                           "must be DEPTH, NORMAL_FORCE, TANGENTIAL_DISPLACEMENT or "
-                           "TANGENTIAL_FORCE");
+                           "must be DEPTH, NORMAL_FORCE, TANGENTIAL_DISPLACEMENT, "
+                           "TANGENTIAL_FORCE, TWIST or TWISTING_MOMENT");
+  }
+  const bool torsion = kind == SceneKind::kTorsion;
+  if (IsTwistQuantity(cycles.quantity()) && !torsion) {
+    return InvalidArgument("cycles.quantity", Cycles::Quantity_Name(cycles.quantity()) +
+                                                  " needs a torsional scene (scene.torsion)");
+  }
+  if (torsion && (cycles.quantity() == Cycles::TANGENTIAL_DISPLACEMENT ||
+                  cycles.quantity() == Cycles::TANGENTIAL_FORCE)) {
+    return InvalidArgument("cycles.quantity",
+                           Cycles::Quantity_Name(cycles.quantity()) +
+                               " is not for a torsional scene (scene.torsion), which is twisted: "
+                               "use TWIST or TWISTING_MOMENT");
   }
   if (Status s = RequirePositive("cycles.amplitude", cycles.amplitude()); !s.ok()) return s;
   if (cycles.count() == 0) return InvalidArgument("cycles.count", "must be >= 1");
@@ -123,9 +140,16 @@ Status ValidateOutputs(const v1::SceneFile& file, SceneKind kind) {
     if (output == v1::SceneFile::OUTPUT_UNSPECIFIED) {
       return InvalidArgument(field, "must be a quantity such as NORMAL_FORCE");
     }
-    if (IsInterfaceCount(output) && kind == SceneKind::kSingleContact) {
+    if (IsInterfaceCount(output) && !IsInterface(kind)) {
       return InvalidArgument(
           field, v1::SceneFile::Output_Name(output) + " needs an interface (scene.interface)");
+    }
+    const bool twist_output = output == v1::SceneFile::TWIST ||
+                              output == v1::SceneFile::TWISTING_MOMENT ||
+                              output == v1::SceneFile::FULL_SLIP_MOMENT;
+    if (twist_output && kind != SceneKind::kTorsion) {
+      return InvalidArgument(
+          field, v1::SceneFile::Output_Name(output) + " needs a torsional scene (scene.torsion)");
     }
   }
   return OkStatus();
@@ -174,6 +198,19 @@ void SetRampChannel(const Step& target, const v1::ContactState& start, std::uint
     case Step::TANGENTIAL_NOT_SET:
       break;
   }
+  switch (target.torsional_case()) {
+    case Step::kTwist:
+      step->set_twist(lerp(start.twist(), target.twist()));
+      break;
+    case Step::kTwistIncrement:
+      step->set_twist_increment(target.twist_increment() / n);
+      break;
+    case Step::kTwistingMoment:
+      step->set_twisting_moment(lerp(start.twisting_moment(), target.twisting_moment()));
+      break;
+    case Step::TORSIONAL_NOT_SET:
+      break;
+  }
 }
 
 std::vector<Step> ExpandRamp(const v1::Ramp& ramp, const v1::ContactState& start) {
@@ -201,6 +238,12 @@ void SetCycled(Cycles::Quantity quantity, double value, Step* step) {
     case Cycles::TANGENTIAL_DISPLACEMENT:
       step->set_displacement(value);
       break;
+    case Cycles::TWIST:
+      step->set_twist(value);
+      break;
+    case Cycles::TWISTING_MOMENT:
+      step->set_twisting_moment(value);
+      break;
     default:
       step->set_tangential_force(value);
   }
@@ -214,6 +257,10 @@ double CycledValue(Cycles::Quantity quantity, const v1::ContactState& state) {
       return state.normal_force();
     case Cycles::TANGENTIAL_DISPLACEMENT:
       return state.actuator_displacement();
+    case Cycles::TWIST:
+      return state.twist();
+    case Cycles::TWISTING_MOMENT:
+      return state.twisting_moment();
     default:
       return state.tangential_force();
   }
@@ -297,7 +344,9 @@ std::vector<Step> ExpandContactCycles(const v1::ContactCycles& cycles, std::uint
 }  // namespace
 
 SceneKind KindOf(const v1::Scene& scene) {
-  if (!scene.has_interface()) return SceneKind::kSingleContact;
+  if (!scene.has_interface()) {
+    return scene.has_torsion() ? SceneKind::kTorsion : SceneKind::kSingleContact;
+  }
   return scene.interface().kind() == v1::Interface::KIND_CONTACT_LIST ? SceneKind::kContactList
                                                                       : SceneKind::kSharedMotion;
 }
@@ -321,7 +370,7 @@ Status ValidateSegment(const v1::Segment& segment, SceneKind kind, std::uint64_t
     case v1::Segment::kRamp:
       return ValidateRamp(segment.ramp());
     case v1::Segment::kCycles:
-      return ValidateCycles(segment.cycles());
+      return ValidateCycles(segment.cycles(), kind);
     case v1::Segment::kHold:
       return ValidateHold(segment.hold());
     case v1::Segment::kStep:
@@ -370,6 +419,9 @@ std::vector<v1::SceneFile::Output> TableOutputs(const v1::SceneFile& file) {
       }
       return {Output::DEPTH, Output::TANGENTIAL_DISPLACEMENT, Output::NORMAL_FORCE,
               Output::TANGENTIAL_FORCE, Output::CONTACT_RADIUS};
+    case SceneKind::kTorsion:
+      return {Output::DEPTH, Output::NORMAL_FORCE,    Output::CONTACT_RADIUS,
+              Output::TWIST, Output::TWISTING_MOMENT, Output::DISSIPATED_ENERGY};
     case SceneKind::kSharedMotion:
       return {Output::DEPTH,
               Output::TANGENTIAL_DISPLACEMENT,

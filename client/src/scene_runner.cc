@@ -47,6 +47,7 @@ class Runner {
     report_.set_session(session->name());
     if (options_.contact_index) report_.set_contact_index(*options_.contact_index);
     report_.set_slip_histogram_bins(options_.slip_histogram_bins);
+    report_.set_torsion(KindOf(document_.file().scene()) == SceneKind::kTorsion);
     state_ = session->state();
     const std::uint32_t limit = session->limits().max_steps_per_batch();
     batch_ = limit == 0 ? kMaxBatch : std::min<std::uint64_t>(limit, kMaxBatch);
@@ -64,7 +65,7 @@ class Runner {
  private:
   // The options against the scene's kind; their ranges are checked by the service.
   grpc::Status CheckOptions() const {
-    if (KindOf(document_.file().scene()) != SceneKind::kSingleContact) {
+    if (IsInterface(KindOf(document_.file().scene()))) {
       if (options_.contact_index) return grpc::Status::OK;
       for (int k = 0; k < document_.file().path_size(); ++k) {
         if (!document_.file().path(k).has_hold()) continue;
@@ -188,7 +189,7 @@ class Runner {
     return grpc::Status::OK;
   }
 
-  // The dissipated energy and the work of F_x (trapezoidal rule) of every cycle.
+  // The dissipated energy and the work of F_x and of M_z (trapezoidal rule) of every cycle.
   void AddCycleEnergies(int k, const v1::Segment& segment, std::size_t first_row,
                         const v1::ContactState& start) {
     const std::uint32_t quarter = segment.has_cycles()
@@ -199,10 +200,13 @@ class Runner {
     for (std::uint32_t c = 0; c < CycleCount(segment); ++c) {
       const double energy_before = previous->dissipated_energy();
       double work = 0;
+      double twisting_work = 0;
       for (std::uint64_t j = 0; j < per_cycle; ++j) {
         const v1::ContactState& state = report_.rows(first_row + c * per_cycle + j).state();
         work += 0.5 * (previous->tangential_force() + state.tangential_force()) *
                 (state.tangential_displacement() - previous->tangential_displacement());
+        twisting_work += 0.5 * (previous->twisting_moment() + state.twisting_moment()) *
+                         (state.twist() - previous->twist());
         previous = &state;
       }
       v1::RunReport::CycleEnergy* energy = report_.add_cycle_energies();
@@ -210,6 +214,7 @@ class Runner {
       energy->set_cycle(c + 1);
       energy->set_dissipated_energy(previous->dissipated_energy() - energy_before);
       energy->set_tangential_work(work);
+      energy->set_twisting_work(twisting_work);
     }
   }
 
@@ -229,6 +234,13 @@ class Runner {
       record->add_radii(recorded->contact_radius() * i / (n - 1));
     }
     *query.mutable_radii() = record->radii();
+    if (KindOf(document_.file().scene()) == SceneKind::kTorsion) {
+      query.mutable_read_mask()->add_paths("torsion.tractions");
+      auto tractions = client_.Query(query);
+      if (!tractions.ok()) return tractions.status();
+      *record->mutable_torsion_tractions() = tractions->torsion().tractions();
+      return grpc::Status::OK;
+    }
     query.mutable_read_mask()->add_paths("springs");
     auto springs = client_.Query(query);
     if (!springs.ok()) return springs.status();

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # mdrctl against a real mdrd started here on a free port: run (a single contact and a contact
 # list), every session subcommand, apply as a batch and as a stream, query, export and import (the
-# imported session continues identically).
+# imported session continues identically), a torsional session.
 set -euo pipefail
 mdrd=$1
 mdrctl=$2
@@ -65,6 +65,19 @@ b=$(ctl apply h1-copy '{tangential_force: -15}' --format json)
 [[ "$(grep -v compute_seconds <<<"$a")" == "$(grep -v compute_seconds <<<"$b")" ]] ||
   { echo "imported session differs:"; diff <(echo "$a") <(echo "$b"); exit 1; }
 echo "ok: imported session continues identically"
+
+# A torsional session: the run's loop energy, apply's twist and moment columns, the torsion
+# outputs, and a tangential step refused naming its field.
+out=$(ctl run "$examples/torsional_fretting.yaml")
+expect '^ +2 +path\[1\] +1\.81731961[0-9]e-05 +1\.81[67][0-9]*e-05$' "$out"
+out=$(ctl session create "$examples/torsional_fretting.yaml" --id twisted)
+out=$(ctl apply twisted '{normal_force: 100}' '{twisting_moment: 0.0029593735330}')
+expect '^ +2 +3\.482909884e-06 +100 +0\.0001866255578 +0\.004814125[0-9]* +0\.002959373533 ' "$out"
+out=$(ctl query twisted --mask torsion.stiffness,torsion.slip_intervals)
+expect '^torsion\.stiffness_negative +1\.4(0000000[0-9]*|e\+00)?$' "$out"  # 16 G_t a^3 / 3
+expect '^torsion\.slip_intervals\[0\]\.r_begin +9\.33127[0-9]*e-05$' "$out"  # a / 2
+if err=$(ctl apply twisted '{displacement: 1e-7}' 2>&1); then echo "a tangential step succeeded"; exit 1; fi
+expect 'steps\[0\]\.displacement: must be unset in a torsional session' "$err"
 
 out=$(ctl session delete h1)
 expect '^deleted sessions/h1$' "$out"

@@ -6,6 +6,7 @@
 #include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -142,7 +143,7 @@ TEST(LoadingPathTest, RulesNameTheField) {
   EXPECT_EQ(mdr::client::ValidateSceneFile(file).field(), "path");
   file.add_path()->mutable_ramp();
   EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
-            "path[0].ramp.target: must set a normal or a tangential channel");
+            "path[0].ramp.target: must set a normal, a tangential or a twist channel");
   file.mutable_path(0)->mutable_ramp()->mutable_target()->set_depth(1e-6);
   file.add_path()->mutable_cycles()->set_amplitude(1);
   EXPECT_EQ(mdr::client::ValidateSceneFile(file).field(), "path[1].cycles.quantity");
@@ -296,6 +297,59 @@ TEST(LoadingPathTest, DefaultColumnsFollowTheSceneKind) {
   EXPECT_EQ(mdr::client::TableOutputs(file).front(), SceneFile::NORMAL_FORCE);
   file.add_outputs(SceneFile::NORMAL_FORCE);  // the file's own columns need no query
   EXPECT_FALSE(mdr::client::NeedsInterfaceTotals(mdr::client::TableOutputs(file)));
+}
+
+// A torsional scene (scene.torsion): ramps and cycles of the twist from the start's twist and
+// moment, its own default columns, and the rules that keep the channels apart.
+TEST(LoadingPathTest, TorsionalScenesRampAndCycleTheTwist) {
+  mdr::v1::ContactState start = State(2e-6, 50, 0, 0);
+  start.set_twist(1e-3);
+  start.set_twisting_moment(2e-4);
+  mdr::v1::Segment ramp;
+  ramp.mutable_ramp()->mutable_target()->set_twisting_moment(5e-4);
+  ramp.mutable_ramp()->set_steps(3);
+  auto steps = mdr::client::ExpandSegment(ramp, start);
+  ASSERT_EQ(steps.size(), 3u);
+  EXPECT_NEAR(steps[0].twisting_moment(), 3e-4, 1e-18);
+  EXPECT_EQ(steps[2].twisting_moment(), 5e-4);
+  ramp.mutable_ramp()->mutable_target()->set_twist_increment(3e-3);
+  for (const Step& step : mdr::client::ExpandSegment(ramp, start)) {
+    EXPECT_EQ(step.twist_increment(), 1e-3);
+    EXPECT_EQ(step.normal_case(), Step::NORMAL_NOT_SET);
+  }
+  mdr::v1::Segment cycles;
+  cycles.mutable_cycles()->set_quantity(mdr::v1::Cycles::TWIST);
+  cycles.mutable_cycles()->set_amplitude(2e-3);
+  cycles.mutable_cycles()->set_count(1);
+  cycles.mutable_cycles()->set_steps_per_quarter(2);
+  steps = mdr::client::ExpandSegment(cycles, start);
+  ASSERT_EQ(steps.size(), 8u);
+  EXPECT_EQ(steps[1].twist(), 1e-3 + 2e-3);
+  EXPECT_EQ(steps[5].twist(), 1e-3 - 2e-3);
+  EXPECT_EQ(steps[7].twist(), 1e-3);
+  cycles.mutable_cycles()->set_quantity(mdr::v1::Cycles::TWISTING_MOMENT);
+  EXPECT_EQ(mdr::client::ExpandSegment(cycles, start)[7].twisting_moment(), 2e-4);
+
+  using mdr::v1::SceneFile;
+  SceneFile file;
+  file.mutable_scene()->mutable_torsion();
+  *file.add_path() = cycles;
+  EXPECT_TRUE(mdr::client::ValidateSceneFile(file).ok());
+  EXPECT_EQ(mdr::client::KindOf(file.scene()), mdr::client::SceneKind::kTorsion);
+  const auto columns = mdr::client::TableOutputs(file);
+  EXPECT_NE(std::find(columns.begin(), columns.end(), SceneFile::TWISTING_MOMENT), columns.end());
+  EXPECT_EQ(std::find(columns.begin(), columns.end(), SceneFile::TANGENTIAL_FORCE), columns.end());
+  file.mutable_path(0)->mutable_cycles()->set_quantity(mdr::v1::Cycles::TANGENTIAL_FORCE);
+  EXPECT_THAT(mdr::client::ValidateSceneFile(file).ToString(),
+              HasSubstr("path[0].cycles.quantity: TANGENTIAL_FORCE is not for a torsional scene"));
+  file.mutable_scene()->clear_torsion();
+  file.mutable_path(0)->mutable_cycles()->set_quantity(mdr::v1::Cycles::TWIST);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "path[0].cycles.quantity: TWIST needs a torsional scene (scene.torsion)");
+  file.mutable_path(0)->mutable_cycles()->set_quantity(mdr::v1::Cycles::TANGENTIAL_FORCE);
+  file.add_outputs(SceneFile::TWIST);
+  EXPECT_EQ(mdr::client::ValidateSceneFile(file).ToString(),
+            "outputs[0]: TWIST needs a torsional scene (scene.torsion)");
 }
 
 }  // namespace

@@ -12,7 +12,11 @@
 namespace mdr::client {
 
 // What a scene is, as far as the path's rules are concerned.
-enum class SceneKind { kSingleContact, kSharedMotion, kContactList };
+// kTorsion: a single contact driven about its axis (scene.torsion).
+enum class SceneKind { kSingleContact, kSharedMotion, kContactList, kTorsion };
+inline bool IsInterface(SceneKind kind) {
+  return kind == SceneKind::kSharedMotion || kind == SceneKind::kContactList;
+}
 SceneKind KindOf(const v1::Scene& scene);
 // The number of contacts N: 1 for a single contact, the population's count for an interface
 // (0 when the population is unset, which the service refuses).
