@@ -573,6 +573,39 @@ TEST(InterfaceTest, ACancelledStepChangesNothing) {
   EXPECT_EQ(interface.Totals(interrupt).status().code(), StatusCode::kCancelled);
 }
 
+// An interface too large to step in place writes each step into the array the step before
+// replaced (its spare): a step that was cancelled or refused half-way through it leaves the
+// state as it was, and the next steps give the bits of a copy that never had a spare.
+TEST(InterfaceTest, ALargeInterfaceReusesItsRecordsAndStaysExact) {
+  const std::size_t n = Interface::kMaxInPlaceContacts + 300;
+  Interface interface = *Interface::Create(RoughInterface(n, 15));
+  interface.set_parallel(*MakeThreadParallelFor(2));
+  ASSERT_TRUE(interface.Apply({NormalControl::kForce, 50.0}).ok());
+  const std::size_t state_bytes = Interface(interface).MemoryBytes();  // a copy has no spare
+  EXPECT_EQ(interface.MemoryBytes(), state_bytes + n * PackedContacts::kRecordBytes);
+  Interface twin = interface;
+  std::atomic<bool> cancelled{true};
+  const Interrupt interrupt(Interrupt::Clock::time_point::max(), &cancelled);
+  const double slip = interface.contact(0).mu_kappa() * 1e-6;
+  const Step shear{NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement,
+                   0.4 * slip};
+  EXPECT_EQ(interface.Apply(shear, nullptr, interrupt).code(), StatusCode::kCancelled);
+  const auto refuse = [](const Interface::StepCommit&) {
+    return ResourceExhausted("budget", "refused by the test");
+  };
+  EXPECT_EQ(interface.Apply(shear, nullptr, {}, refuse).code(), StatusCode::kResourceExhausted);
+  EXPECT_TRUE(SameInterfaceState(interface.Snapshot(), twin.Snapshot()));
+  for (const double dux : {0.4, -0.7, 0.5, -0.3}) {
+    const Step step{NormalControl::kDepthIncrement, 0, TangentialControl::kDisplacementIncrement,
+                    dux * slip};
+    ASSERT_TRUE(interface.Apply(step).ok());
+    Interface fresh = twin;  // a copy: its step writes a new array
+    ASSERT_TRUE(fresh.Apply(step).ok());
+    ASSERT_TRUE(SameInterfaceState(interface.Snapshot(), fresh.Snapshot())) << dux;
+    twin = std::move(fresh);
+  }
+}
+
 // Each contact is one record (PackedContacts) beside its height; the configs are shared. A
 // memory longer than a record holds takes a heap block, which MemoryBytes counts; a copy holds
 // the same state and bytes.
@@ -718,8 +751,10 @@ TEST(InterfaceTest, TheCommitGateSeesWhatTheStepHolds) {
         EXPECT_EQ(seen.extra_bytes, bound) << dux;
         EXPECT_EQ(seen.vertices, after_one_move) << dux;
       } else {
+        // The array the step replaced is kept for the next one (its records only).
+        const std::size_t spare = n * PackedContacts::kRecordBytes;
         EXPECT_TRUE(seen.exact);
-        EXPECT_EQ(seen.extra_bytes, interface.MemoryBytes() - fixed) << dux;
+        EXPECT_EQ(seen.extra_bytes, interface.MemoryBytes() - fixed - spare) << dux;
         EXPECT_EQ(seen.vertices, interface.CountVertices().now) << dux;
         EXPECT_LT(seen.extra_bytes, bound) << dux;
       }

@@ -847,6 +847,41 @@ TEST(TorsionalContactTest, StepsThatCannotBeExactAreRefusedAndChangeNothing) {
   }
 }
 
+// A contact restores from its depth and memory, the memory's contact radius exactly the
+// profile's at the depth, and continues bit for bit.
+TEST(TorsionalContactTest, ARestoredContactContinuesBitForBit) {
+  TorsionalContact contact = SteelSphereOnSteel();
+  ASSERT_TRUE(contact.Apply(NormalStep(NormalControl::kForce, 100)).ok());
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kAngle, 3e-3)).ok());
+  ASSERT_TRUE(contact.Apply(TwistStep(TwistControl::kAngleIncrement, -4e-3)).ok());
+  const EffectiveMaterial material = *ElasticPair(210e9, 0.3, 210e9, 0.3);
+  const double modulus = *TorsionalModulusOfPair(210e9, 0.3, 210e9, 0.3);
+  auto restore = [&](double depth, const TorsionSnapshot& memory) {
+    return TorsionalContact::Restore(*MakeSphere(0.01), 0.3, material.e_star, modulus, depth,
+                                     memory);
+  };
+  Result<TorsionalContact> twin = restore(contact.depth(), contact.memory().Snapshot());
+  ASSERT_TRUE(twin.ok()) << twin.status().ToString();
+  for (const TorsionStep& step :
+       {NormalStep(NormalControl::kForce, 140), TwistStep(TwistControl::kMoment, 1e-3),
+        TwistStep(TwistControl::kAngle, -2e-3)}) {
+    ASSERT_TRUE(contact.Apply(step).ok());
+    ASSERT_TRUE(twin->Apply(step).ok());
+    EXPECT_EQ(twin->memory().Snapshot(), contact.memory().Snapshot());
+    EXPECT_TRUE(SameBits(twin->depth(), contact.depth()));
+    EXPECT_TRUE(SameBits(twin->normal_force(), contact.normal_force()));
+  }
+  // The radius must be the depth's to the bit; the depth finite.
+  TorsionSnapshot moved = contact.memory().Snapshot();
+  moved.contact_radius = std::nextafter(moved.contact_radius, 1.0);
+  EXPECT_EQ(restore(contact.depth(), moved).status().field(), "contact_radius");
+  EXPECT_EQ(restore(NAN, contact.memory().Snapshot()).status().field(), "depth");
+  EXPECT_EQ(restore(contact.depth() * 1.001, contact.memory().Snapshot()).status().field(),
+            "contact_radius");
+  // Out of contact: an empty memory at depth <= 0.
+  EXPECT_TRUE(restore(-1e-6, TorsionSnapshot{}).ok());
+}
+
 TEST(TorsionTest, ARestoredMemoryContinuesBitForBit) {
   TorsionalMemory memory = UnitMemory();
   ASSERT_TRUE(memory.Twist(0.7).ok());

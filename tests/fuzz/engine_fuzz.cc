@@ -497,7 +497,6 @@ void FuzzTorsion(ByteReader& in) {
     return;
   }
   mdr::TorsionalContact contact = std::move(created).value();
-  auto bound = *mdr::MakeTorsionBound(*profile, friction, material->e_star, shear_modulus);
   const double depth_scale = in.InRange(1e-9, 1e-3);
   const int steps = choice % 8 != 0 ? 32 : choice % 32 == 8 ? 3 : 6;
   for (int i = 0; i < steps && !in.empty(); ++i) {
@@ -536,12 +535,14 @@ void FuzzTorsion(ByteReader& in) {
           "the moment is finite and within the full-slip moment");
     Check(std::isfinite(memory.last_step_dissipation()) && memory.last_step_dissipation() >= 0,
           "a torsion step's dissipation is finite and >= 0");
-    mdr::Result<mdr::TorsionalMemory> restored =
-        mdr::TorsionalMemory::Restore(bound, shear_modulus, memory.Snapshot());
+    // The contact restores as a session's snapshot carries it: its depth and its memory.
+    mdr::Result<mdr::TorsionalContact> restored = mdr::TorsionalContact::Restore(
+        *profile, friction, material->e_star, shear_modulus, contact.depth(), memory.Snapshot());
     if (!restored.ok()) {
       std::fprintf(stderr, "restore refused: %s\n", restored.status().ToString().c_str());
     }
-    Check(restored.ok() && restored->Snapshot() == memory.Snapshot(),
+    Check(restored.ok() && restored->memory().Snapshot() == memory.Snapshot() &&
+              mdr::SameBits(restored->depth(), contact.depth()),
           "a torsional state restores from its snapshot unchanged");
   }
 }

@@ -515,7 +515,12 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
   }
   kept_forces_valid_ = false;
   const std::size_t n = contacts_.size();
-  PackedContacts next = in_place ? PackedContacts() : PackedContacts::Unwritten(n);
+  // A large interface writes into the array its last step replaced: its records are valid and
+  // hold no block (Put overwrites them), so they need no clearing either.
+  const bool recycled = !in_place && n > kMaxInPlaceContacts && spare_.records.size() == n;
+  PackedContacts next = in_place   ? PackedContacts()
+                        : recycled ? std::move(spare_.records)
+                                   : PackedContacts::Unwritten(n);
   PackedContacts& into = in_place ? contacts_ : next;
   const Interrupt& checked = in_place ? Interrupt{} : interrupt;
   FirstFailure failure(n);
@@ -528,7 +533,7 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
     bool lost = false;
     double energy = 0;
     std::size_t vertices = 0;
-    if (!in_place) {  // valid before anything can stop the range (the failure path frees them)
+    if (!in_place && !recycled) {  // valid before anything can stop the range (freed on failure)
       for (std::size_t i = begin; i < end; ++i) next.Clear(i);
     }
     for (std::size_t i = begin; i < end; ++i) {
@@ -555,16 +560,30 @@ Status Interface::StepContacts(const ContactStep& step, bool in_place, const Int
     max_energy = std::max(max_energy, energy);
     vertices_after += vertices;  // an integer sum: the split does not matter
   });
+  // A large step keeps the array it did not commit (every record valid) as the spare, without
+  // its heap blocks: the spare holds exactly n records whatever the step wrote.
+  const auto keep_spare = [&] {
+    if (n <= kMaxInPlaceContacts || !reuse_records_) return;
+    next.ReleaseBlocks();
+    spare_.records = std::move(next);
+  };
   if (Status s = failure.Take(); !s.ok()) {
-    if (!in_place) return s;
+    if (!in_place) {
+      keep_spare();
+      return s;
+    }
     return Internal(s.field(), "an in-place step failed although its limits were checked (" +
                                    s.message() + "); the interface is inconsistent");
   }
   if (!in_place) {
     if (gate) {
-      if (Status s = gate({next.MemoryBytes(), vertices_after, true}); !s.ok()) return s;
+      if (Status s = gate({next.MemoryBytes(), vertices_after, true}); !s.ok()) {
+        keep_spare();
+        return s;
+      }
     }
-    contacts_ = std::move(next);
+    std::swap(contacts_, next);
+    keep_spare();  // the replaced array
   }
   vertex_headroom_ = !headroom_lost;
   energy_bound_ = max_energy;  // every contact was stepped: the exact largest energy
@@ -1053,7 +1072,7 @@ Result<std::vector<std::size_t>> Interface::SlipHistogram(int bins,
 }
 
 std::size_t Interface::MemoryBytes() const {
-  return sizeof(Interface) + contacts_.MemoryBytes() +
+  return sizeof(Interface) + contacts_.MemoryBytes() + spare_.records.MemoryBytes() +
          (heights_.capacity() + max_depth_.capacity() + kept_normal_forces_.capacity() +
           kept_tangential_forces_.capacity()) *
              sizeof(double) +

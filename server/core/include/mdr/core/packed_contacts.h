@@ -37,6 +37,9 @@ class PackedContacts {
   // the memory is first touched). Each must be Clear()ed or Put before anything else reads or
   // destroys it.
   static PackedContacts Unwritten(std::size_t n);
+  // Frees every heap block: each record keeps its scalars and holds no memory encoding (a
+  // valid record to Put over, not a state to read).
+  void ReleaseBlocks() { FreeBlocks(); }
   // Makes record i a valid empty one (no heap block), without looking at what it held.
   void Clear(std::size_t i) {
     records_[i].bytes = 0;
