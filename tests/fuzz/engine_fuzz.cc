@@ -531,7 +531,11 @@ void FuzzTorsion(ByteReader& in) {
     Check(!(step.normal && step.twist), "a step moving both channels is refused");
     Check(memory.IsExact(), "an accepted torsional state is exact (|F| <= 1)");
     const double moment = memory.Moment();
-    Check(std::isfinite(moment) && std::abs(moment) <= memory.FullSlipMoment() * (1 + 1e-12),
+    // Within round-off for the sphere's closed form; a quadrature bound's moment and full-slip
+    // moment are two quadratures of one integral (piece by piece, and single), which agree to
+    // 1e-8 (tests/core/torsion_test.cc: a coarse tabulated profile, 6e-9).
+    const double agreement = choice % 8 != 0 ? 1e-12 : 1e-7;
+    Check(std::isfinite(moment) && std::abs(moment) <= memory.FullSlipMoment() * (1 + agreement),
           "the moment is finite and within the full-slip moment");
     Check(std::isfinite(memory.last_step_dissipation()) && memory.last_step_dissipation() >= 0,
           "a torsion step's dissipation is finite and >= 0");

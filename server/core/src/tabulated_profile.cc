@@ -449,7 +449,8 @@ std::string Description(const std::vector<double>& radii, TabulatedOptions optio
 }  // namespace
 
 std::size_t TabulatedProfile::MemoryBytes() const {
-  std::size_t bytes = sizeof(*this) + description_.capacity() + 1;
+  std::size_t bytes =
+      sizeof(*this) + description_.capacity() + 1 + sample_radii_.capacity() * sizeof(double);
   for (const auto* table :
        {&grid_.x, &grid_.g, &grid_.slope, &grid_.moment1, &grid_.moment2, &grid_.force}) {
     bytes += table->capacity() * sizeof(double);
@@ -457,11 +458,13 @@ std::size_t TabulatedProfile::MemoryBytes() const {
   return bytes;
 }
 
-TabulatedProfile::TabulatedProfile(Grid grid, double tolerance_estimate, std::string description)
+TabulatedProfile::TabulatedProfile(Grid grid, double tolerance_estimate, std::string description,
+                                   std::vector<double> sample_radii)
     : grid_(std::move(grid)),
       flat_radius_(0),
       tolerance_estimate_(tolerance_estimate),
-      description_(std::move(description)) {
+      description_(std::move(description)),
+      sample_radii_(std::move(sample_radii)) {
   for (std::size_t i = 1; i < grid_.x.size() && grid_.g[i] == 0; ++i) flat_radius_ = grid_.x[i];
   const std::size_t n = grid_.x.size();
   grid_.moment1.assign(n, 0.0);
@@ -606,8 +609,9 @@ Result<ProfilePtr> MakeTabulatedProfile(std::vector<double> radii, std::vector<d
   TabulatedProfile::Grid& grid = builder.grid();
   if (Status s = RequireIncreasing(grid); !s.ok()) return s;
   const std::size_t nodes = grid.x.size();
+  std::string description = Description(radii, options, nodes);
   return ProfilePtr(std::make_shared<TabulatedProfile>(std::move(grid), builder.worst_error(),
-                                                       Description(radii, options, nodes)));
+                                                       std::move(description), std::move(radii)));
 }
 
 }  // namespace mdr

@@ -85,6 +85,47 @@ double OverUnitPanels(const F& f, double top) {
   return sum;
 }
 
+// integral_lo^hi f in x = lo + (hi - lo) (1 - cos t) / 2, t in [0, pi], 16-point Gauss-Legendre
+// on each half: a term like sqrt(x - lo) or sqrt(hi - x) at an end (a sample radius of a
+// tabulated profile, where g' has one) is smooth in t, so the rule keeps its order.
+template <typename F>
+double GaussCos(const F& f, double lo, double hi) {
+  const double half = (hi - lo) / 2, mid = (lo + hi) / 2;
+  auto in_t = [&](double t) { return f(mid - half * std::cos(t)) * half * std::sin(t); };
+  return Gauss16(in_t, 0, kPi / 2) + Gauss16(in_t, kPi / 2, kPi);
+}
+
+// A contact that holds at most this many sample radii of a tabulated profile (a coarse one) has
+// its integrals split at them. With more, the samples are dense: the square-root terms of g' at
+// them are small (the jumps of f'' between neighbouring pieces are), the plain rules keep their
+// measured accuracy (docs/physics.md, "Torsion") and splitting would cost an order of magnitude.
+constexpr std::ptrdiff_t kMaxSplits = 16;
+
+// integral_lo^hi f split at the points inside (lo, hi) (increasing), each part in equal panels no
+// wider than `panel`, each panel by GaussCos: for f smooth but for square-root terms at the
+// points.
+template <typename F, typename Points>
+double PanelsAcross(const F& f, double lo, double hi, double panel, const Points& points) {
+  const auto first = std::upper_bound(points.begin(), points.end(), lo);
+  const auto last = std::lower_bound(first, points.end(), hi);
+  auto part = [&](double a, double b, bool cos_rule) {
+    const int panels = std::max(1, static_cast<int>(std::ceil((b - a) / panel)));
+    double sum = 0;
+    for (int j = 0; j < panels; ++j) {
+      const double pa = a + (b - a) * j / panels, pb = a + (b - a) * (j + 1) / panels;
+      sum += cos_rule ? GaussCos(f, pa, pb) : Gauss16(f, pa, pb);
+    }
+    return sum;
+  };
+  if (first == last) return part(lo, hi, false);
+  double sum = 0, a = lo;
+  for (auto it = first; it != last; ++it) {
+    sum += part(a, *it, true);
+    a = *it;
+  }
+  return sum + part(a, hi, true);
+}
+
 class HertzTorsionBound final : public TorsionBound {
  public:
   // scale = mu E* / (pi R G_t): B = scale * a * (K - E).
@@ -182,6 +223,13 @@ class PowerLawTorsionBound final : public TorsionBound {
 // a tabulated g' is a C0 piecewise quadratic, and its kinks add what tests/core measure
 // (docs/physics.md). The slope differentiates under the integral:
 // dB/dx = -(scale/x) [(pi/2) g'(x) + integral_0^ln(a/x) g'(x e^y) (R_F - R_D/3)(0, e^(-2y), 1) dy].
+// A tabulated profile's sample radii beyond the axis, where its g' is not smooth.
+std::vector<double> SampleRadii(const Profile& profile) {
+  const auto* tabulated = dynamic_cast<const TabulatedProfile*>(&profile);
+  if (tabulated == nullptr || tabulated->sample_radii().empty()) return {};
+  return {tabulated->sample_radii().begin() + 1, tabulated->sample_radii().end()};
+}
+
 class QuadratureTorsionBound final : public TorsionBound {
  public:
   QuadratureTorsionBound(ProfilePtr profile, double scale, double traction_scale)
@@ -201,6 +249,7 @@ class QuadratureTorsionBound final : public TorsionBound {
     return traction_scale_ * profile_->PressurePerModulus(r, profile_->G(a));
   }
   double FullSlipMomentPerModulus(double a) const override;
+  const std::vector<double>& Breakpoints() const override { return breakpoints_; }
 
  private:
   double Sum(double x, double a, bool derivative) const {
@@ -209,17 +258,30 @@ class QuadratureTorsionBound final : public TorsionBound {
       const double kernel = derivative ? CarlsonF(e2) - CarlsonD(e2) / 3 : CarlsonF(e2);
       return profile_->Slope(x * std::exp(y)) * kernel;
     };
-    return OverUnitPanels(integrand, std::log1p((a - x) / x));  // ln(a/x), exact near the edge
+    const double top = std::log1p((a - x) / x);  // ln(a/x), exact near the edge
+    if (breakpoints_.empty()) return OverUnitPanels(integrand, top);
+    // The sample radii inside (x, a), at y = ln(r_k / x): g' has a square-root term there.
+    const auto first = std::upper_bound(breakpoints_.begin(), breakpoints_.end(), x);
+    const auto last = std::lower_bound(first, breakpoints_.end(), a);
+    if (first == last || last - breakpoints_.begin() > kMaxSplits) {
+      return OverUnitPanels(integrand, top);
+    }
+    std::vector<double> at;  // small: at most kMaxSplits
+    at.reserve(static_cast<std::size_t>(last - first));
+    for (auto it = first; it != last; ++it) at.push_back(std::log1p((*it - x) / x));
+    return PanelsAcross(integrand, 0, top, 1.0, at);
   }
   ProfilePtr profile_;
   double scale_, traction_scale_;
+  std::vector<double> breakpoints_ = SampleRadii(*profile_);
 };
 
 // integral_lo^hi f over intervals at most a factor 2 apart in x (16-point Gauss-Legendre on each):
 // the bound varies like log x near the centre, smoothly on each such interval. From lo = 0 the
 // first interval is [0, hi 2^-60], where every integrand here (a factor x^2) is below round-off.
-template <typename F>
-double Integrate(const F& f, double lo, double hi) {
+// The same with `rule` (rule(f, a, b)) on each panel but the one at 0.
+template <typename F, typename Rule>
+double Integrate(const F& f, double lo, double hi, const Rule& rule) {
   if (!(hi > lo)) return 0;
   double sum = 0;
   double a = lo;
@@ -229,10 +291,35 @@ double Integrate(const F& f, double lo, double hi) {
   }
   while (a < hi) {
     const double b = std::min(2 * a, hi);
-    sum += Gauss16(f, a, b);
+    sum += rule(f, a, b);
     a = b;
   }
   return sum;
+}
+
+template <typename F>
+double Integrate(const F& f, double lo, double hi) {
+  return Integrate(f, lo, hi, [](const F& g, double a, double b) { return Gauss16(g, a, b); });
+}
+
+// Integrate, split at the breakpoints inside (lo, hi) (TorsionBound::Breakpoints, increasing),
+// where the integrand's slope is not smooth: each part is then smooth for the Gauss rule.
+template <typename F>
+double IntegrateAcross(const F& f, double lo, double hi, const std::vector<double>& breakpoints) {
+  const auto first = std::upper_bound(breakpoints.begin(), breakpoints.end(), lo);
+  const auto last = std::lower_bound(first, breakpoints.end(), hi);
+  if (!(hi > lo) || first == last || last - breakpoints.begin() > kMaxSplits) {
+    return Integrate(f, lo, hi);
+  }
+  // Part by part between the points, each in Integrate's panels but by GaussCos.
+  auto cos_rule = [](const F& g, double a, double b) { return GaussCos(g, a, b); };
+  double sum = 0;
+  double a = lo;
+  for (auto it = first; it != last; ++it) {
+    sum += Integrate(f, a, *it, cos_rule);
+    a = *it;
+  }
+  return sum + Integrate(f, a, hi, cos_rule);
 }
 
 double CubeDifference(double lo, double hi) { return (hi * hi * hi - lo * lo * lo) / 3; }
@@ -246,13 +333,14 @@ Status CheckBoundInputs(double friction, double effective_modulus, double torsio
 
 // pi^2 scale = pi mu E* / (2 G_t).
 double QuadratureTorsionBound::FullSlipMomentPerModulus(double a) const {
-  return kPi * kPi * scale_ * Integrate([&](double x) { return x * x * profile_->Slope(x); }, 0, a);
+  return kPi * kPi * scale_ *
+         IntegrateAcross([&](double x) { return x * x * profile_->Slope(x); }, 0, a, breakpoints_);
 }
 
 }  // namespace
 
 double TorsionBound::FullSlipMomentPerModulus(double a) const {
-  return 16 * Integrate([&](double x) { return x * x * Bound(x, a); }, 0, a);
+  return 16 * IntegrateAcross([&](double x) { return x * x * Bound(x, a); }, 0, a, Breakpoints());
 }
 
 Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double friction,
@@ -502,21 +590,21 @@ std::vector<TorsionPiece> TorsionalMemory::Clipped(double shift, double radius, 
       const int sign = is_up ? 1 : -1;
       out.push_back({.end = hi, .sign = static_cast<std::int8_t>(sign), .radius = radius});
       if (shrinking) {
-        integral += Integrate(
+        integral += IntegrateAcross(
             [&](double x) {
               // |v| >= b on a clipped region; the max keeps a root's round-off from making
               // the loss negative.
               const double v = w(x), b = bound_->Bound(x, radius);
               return x * x * std::max(0.0, v * v - b * b) / 2;
             },
-            lo, hi);
+            lo, hi, bound_->Breakpoints());
       } else {
-        integral += Integrate(
+        integral += IntegrateAcross(
             [&](double x) {
               const double b = bound_->Bound(x, radius);
               return x * x * b * std::abs(w(x) - sign * b);
             },
-            lo, hi);
+            lo, hi, bound_->Breakpoints());
       }
     }
     start = piece.end;
@@ -632,12 +720,12 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     for (const TorsionPiece& piece : pieces_) {
       const double lo = std::max(start, contact_radius);
       if (piece.end > lo) {
-        forgotten += Integrate(
+        forgotten += IntegrateAcross(
             [&](double x) {
               const double v = Value(piece, x);
               return x * x * v * v / 2;
             },
-            lo, piece.end);
+            lo, piece.end, bound_->Breakpoints());
       }
       start = piece.end;
     }
@@ -666,9 +754,9 @@ double TorsionalMemory::Moment() const {
   for (const TorsionPiece& piece : pieces_) {
     sum += piece.offset * CubeDifference(start, piece.end);
     if (piece.sign != 0) {
-      sum +=
-          piece.sign * Integrate([&](double x) { return x * x * bound_->Bound(x, piece.radius); },
-                                 start, piece.end);
+      sum += piece.sign *
+             IntegrateAcross([&](double x) { return x * x * bound_->Bound(x, piece.radius); },
+                             start, piece.end, bound_->Breakpoints());
     }
     start = piece.end;
   }
@@ -685,12 +773,12 @@ double TorsionalMemory::StoredEnergy() const {
     if (piece.sign == 0) {
       sum += piece.offset * piece.offset * CubeDifference(start, piece.end);
     } else {
-      sum += Integrate(
+      sum += IntegrateAcross(
           [&](double x) {
             const double v = Value(piece, x);
             return x * x * v * v;
           },
-          start, piece.end);
+          start, piece.end, bound_->Breakpoints());
     }
     start = piece.end;
   }

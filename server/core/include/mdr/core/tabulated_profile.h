@@ -53,7 +53,8 @@ class TabulatedProfile final : public Profile {
   struct Grid {
     std::vector<double> x, g, slope, moment1, moment2, force;  // force: F_N/E* at depth g(x_i)
   };
-  TabulatedProfile(Grid grid, double tolerance_estimate, std::string description);
+  TabulatedProfile(Grid grid, double tolerance_estimate, std::string description,
+                   std::vector<double> sample_radii = {});
 
   double G(double x) const override;
   double Slope(double x) const override;
@@ -73,6 +74,9 @@ class TabulatedProfile final : public Profile {
   double max_depth() const { return grid_.g.back(); }
   double max_radius() const { return grid_.x.back(); }
   std::size_t grid_nodes() const { return grid_.x.size(); }
+  // The radii of the samples: where the interpolant's pieces meet, g' is continuous but not
+  // smooth (its slope jumps like a square root there), so quadratures over g' split there.
+  const std::vector<double>& sample_radii() const { return sample_radii_; }
 
  private:
   // Index i of the grid interval [x_i, x_{i+1}] that holds x (x inside the grid).
@@ -84,6 +88,7 @@ class TabulatedProfile final : public Profile {
   double flat_radius_;  // radius of the centre where g = 0 (a flat-ended indenter), else 0
   double tolerance_estimate_;
   std::string description_;
+  std::vector<double> sample_radii_;
 };
 
 // Most samples a profile may have. The construction costs O(N log N) for samples whose spacing

@@ -41,6 +41,13 @@ class TorsionBound {
   // integrates the bound; a bound that is itself a quadrature overrides it with the equal
   // single integral (pi mu E* / (2 G_t)) integral_0^a x^2 g'(x) dx.
   virtual double FullSlipMomentPerModulus(double a) const;
+  // Radii (increasing) where B is not smooth in x: a tabulated profile's sample radii, where its
+  // g' is continuous but its slope jumps like a square root. Every integral over x of the memory
+  // (moment, energies, the full-slip moment) is split there. None for the closed forms.
+  virtual const std::vector<double>& Breakpoints() const {
+    static const std::vector<double> kNone;
+    return kNone;
+  }
 };
 
 // Hertz (g = x^2/R): B = (mu p0 / (2 G_t)) [K(m) - E(m)], m = 1 - x^2/a^2, p0 = 2 E* a / (pi R).
