@@ -4,6 +4,7 @@
 #include <utility>
 #include <vector>
 
+#include "mdr/bridge/conversion.h"
 #include "mdr/bridge/interface_session.h"
 #include "mdr/core/material.h"
 
@@ -93,21 +94,10 @@ void ToProtoPieces(const std::vector<TorsionPiece>& pieces,
 
 TorsionStep ToCoreTorsionStep(const v1::Step& step) {
   TorsionStep core;
-  switch (step.normal_case()) {
-    case v1::Step::kDepth:
-      core.normal = NormalControl::kDepth;
-      core.normal_value = step.depth();
-      break;
-    case v1::Step::kDepthIncrement:
-      core.normal = NormalControl::kDepthIncrement;
-      core.normal_value = step.depth_increment();
-      break;
-    case v1::Step::kNormalForce:
-      core.normal = NormalControl::kForce;
-      core.normal_value = step.normal_force();
-      break;
-    case v1::Step::NORMAL_NOT_SET:
-      break;
+  if (step.normal_case() != v1::Step::NORMAL_NOT_SET) {  // the normal channel as ToCoreStep's
+    const Step normal = ToCoreStep(step);
+    core.normal = normal.normal;
+    core.normal_value = normal.normal_value;
   }
   switch (step.torsional_case()) {
     case v1::Step::kTwist:
