@@ -855,6 +855,12 @@ TEST(TorsionalContactTest, StepsThatCannotBeExactAreRefusedAndChangeNothing) {
   EXPECT_EQ(contact.Apply(TwistStep(TwistControl::kAngle, NAN)).field(), "twist_value");
   EXPECT_EQ(contact.memory().pieces(), before);
   EXPECT_EQ(contact.depth(), depth);
+  // A load so large that the full-slip moment overflows (the request fuzzer's 2.7e277 N).
+  const Status huge = contact.Apply(NormalStep(NormalControl::kForce, 2.658993438149576e277));
+  EXPECT_EQ(huge.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(huge.field(), "normal_value");
+  EXPECT_EQ(contact.memory().pieces(), before);
+  EXPECT_EQ(contact.depth(), depth);
   // Profiles without a torsional bound yet are refused by name.
   const Status punch = TorsionalContact::Create(*MakeFlatPunch(1e-3), 0.3, 1e11, 4e10).status();
   EXPECT_EQ(punch.field(), "profile");

@@ -710,6 +710,17 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
   std::vector<TorsionPiece> next;
   double dissipation = 0;
   if (contact_radius > radius_) {
+    // A contact so large that its full-stick stiffness 16 G_t a^3 / 3 or its full-slip moment
+    // overflows the doubles would answer infinite moments: refused (the request fuzzer's find,
+    // a normal force of 2.7e277 N on a steel sphere).
+    const double stick = 16 * modulus_ * (contact_radius * contact_radius * contact_radius) / 3;
+    if (!std::isfinite(stick) ||
+        !std::isfinite(modulus_ * bound_->FullSlipMomentPerModulus(contact_radius))) {
+      return InvalidArgument("contact_radius",
+                             "the stiffness or the full-slip moment of a contact of radius " +
+                                 FormatNumber(contact_radius) +
+                                 " m exceeds the finite doubles; take a smaller normal load");
+    }
     next = pieces_;
     next.push_back({.end = contact_radius});
   } else {

@@ -142,7 +142,9 @@ class TorsionalMemory {
   // The normal load changes at fixed twist so that the contact radius becomes contact_radius
   // (finite, >= 0). Growing adds springs at v = 0; shrinking clips to the smaller bound and
   // forgets the springs outside (their energy is dissipated). A decrease whose result would break
-  // |F| <= 1 fails with FailedPrecondition and changes nothing. Field: contact_radius.
+  // |F| <= 1 fails with FailedPrecondition, and a growth to a contact whose stiffness or
+  // full-slip moment overflows the doubles with InvalidArgument; neither changes anything.
+  // Field: contact_radius.
   Status SetContactRadius(double contact_radius);
 
   double twist() const { return twist_; }
