@@ -2,6 +2,8 @@
 //   build/release/tests/bench/mdr_core_bench
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <random>
 #include <string>
 #include <vector>
@@ -168,6 +170,63 @@ void BM_TorsionalFretting(benchmark::State& state) {
   state.SetLabel(labels[state.range(0)]);
 }
 BENCHMARK(BM_TorsionalFretting)->Arg(0)->Arg(1)->Arg(2);
+
+// A twist step against a tangential step of the same sphere (issue #49: at most 2x), in one run,
+// alternated: each round times kSteps steps of H1's Mindlin-Deresiewicz cycle at constant load
+// (MoveTo, energy on, then the tangential force) and kSteps of its torsional fretting cycle
+// (TwistTo, whose loss is always kept, then the moment), both triangle waves of 8 steps per half
+// to half the slip limit. Counters: the medians of the rounds, ns per step, and their ratio.
+void BM_TwistStepOverTangentialStep(benchmark::State& state) {
+  constexpr int kSteps = 4096, kRounds = 31;
+  const double young = 210e9, poisson = 0.3, radius = 0.01, friction = 0.3;
+  const double effective_modulus = young / (2 * (1 - poisson * poisson));
+  const double torsional_modulus = young / (2 * (1 + poisson)) / 2;
+  Contact contact = HertzContact(/*track_energy=*/true);
+  const double contact_radius = contact.contact_radius();
+  auto bound = *MakeHertzTorsionBound(friction, effective_modulus, torsional_modulus, radius);
+  TorsionalMemory memory = *TorsionalMemory::Create(bound, torsional_modulus, contact_radius);
+  const double slide = 0.4 * contact.mu_kappa() * contact.depth();
+  const double twist = bound->Bound(contact_radius / 2, contact_radius);
+  int k = 0, j = 0;
+  double sink = 0;
+  auto tangential = [&] {
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < kSteps; ++i) {
+      (void)contact.MoveTo(contact.depth(), reference::TriangleWave(slide, k++, 8));
+      sink += contact.tangential_force();
+    }
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  auto torsional = [&] {
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < kSteps; ++i) {
+      (void)memory.TwistTo(reference::TriangleWave(twist, j++, 8));
+      sink += memory.Moment();
+    }
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  for (auto _ : state) {
+    (void)tangential(), (void)torsional();  // warm
+    std::vector<double> tangential_s, torsional_s, ratio;
+    for (int round = 0; round < kRounds; ++round) {
+      const bool twist_first = round % 2 == 1;  // alternate who goes first
+      const double a = twist_first ? torsional() : tangential();
+      const double b = twist_first ? tangential() : torsional();
+      tangential_s.push_back(twist_first ? b : a);
+      torsional_s.push_back(twist_first ? a : b);
+      ratio.push_back(torsional_s.back() / tangential_s.back());
+    }
+    auto median = [](std::vector<double> v) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    state.counters["tangential_ns"] = median(tangential_s) / kSteps * 1e9;
+    state.counters["twist_ns"] = median(torsional_s) / kSteps * 1e9;
+    state.counters["twist_over_tangential"] = median(ratio);
+  }
+  benchmark::DoNotOptimize(sink);
+}
+BENCHMARK(BM_TwistStepOverTangentialStep)->Iterations(1)->UseRealTime();
 
 }  // namespace
 }  // namespace mdr

@@ -4,6 +4,7 @@
 // that stay exact, the decrease that would not (refused, nothing changed), and random histories.
 #include "mdr/core/torsion.h"
 
+#include <gsl/gsl_errno.h>
 #include <gsl/gsl_integration.h>
 #include <gsl/gsl_sf_ellint.h>
 #include <gtest/gtest.h>
@@ -80,6 +81,92 @@ TEST(TorsionTest, TheHertzBoundIsKMinusEToRoundOff) {
     ExpectRelative(UnitHertz()->Bound(v.x, 1), v.bound, 2e-15);
     ExpectRelative(UnitHertz()->Slope(v.x, 1), v.slope, 2e-15);
   }
+}
+
+// The Hertz bound reads h = K - E, its slope, its inverse and the tails of x^2 B and x^2 B^2 off
+// the universal function's Chebyshev tables; GSL's Carlson integrals and adaptive quadrature are
+// the independent reference, over the centre (down to 1e-300 of the radius), the middle and the
+// edge (down to 1e-15 of the radius from it). In the reference units B = (2/pi) h(x).
+TEST(TorsionTest, TheHertzTablesAreTheEllipticIntegralsToRoundOff) {
+  const auto bound = UnitHertz();
+  auto gsl_h = [](double x) {  // (m / 3) R_D(0, 1 - m, 1), m = 1 - x^2, exact at both ends
+    const double m = (1 - x) * (1 + x);
+    return m / 3 * gsl_sf_ellint_RD(0, x * x, 1, GSL_PREC_DOUBLE);
+  };
+  auto gsl_e = [](double x) {
+    const double m = (1 - x) * (1 + x);
+    return gsl_sf_ellint_RF(0, x * x, 1, GSL_PREC_DOUBLE) -
+           m / 3 * gsl_sf_ellint_RD(0, x * x, 1, GSL_PREC_DOUBLE);
+  };
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(0, 1);
+  double worst_bound = 0, worst_slope = 0, worst_inverse = 0;
+  for (int i = 0; i < 30000; ++i) {
+    // A third each: uniform, log-uniform towards the centre, log-uniform towards the edge.
+    const double u = unit(rng);
+    const double x = i % 3 == 0   ? u
+                     : i % 3 == 1 ? std::pow(10.0, -300 * u)
+                                  : 1 - std::pow(10.0, -15 * u);
+    if (!(x > 0 && x < 1)) continue;
+    // Below 1e-100 GSL's R_D refuses x^2: h = ln(4 / x) - 1 there to far below round-off (the
+    // next term is of order x^2 ln x). GSL's E = R_F - (m/3) R_D cancels ln(4 / x) near the
+    // centre, so below 1e-3 E is its expansion 1 + (x^2/2)(L - 1/2) + (3 x^4/16)(L - 13/12),
+    // L = ln(4 / x), whose next term is below 1e-17.
+    const double h = x < 1e-100 ? std::log(4 / x) - 1 : gsl_h(x);
+    const double l = std::log(4 / x);
+    const double e =
+        x < 1e-3 ? 1 + x * x / 2 * (l - 0.5) + 3 * std::pow(x, 4) / 16 * (l - 13.0 / 12) : gsl_e(x);
+    worst_bound = std::max(worst_bound, std::abs(bound->Bound(x, 1) / (2 / kPi * h) - 1));
+    // GSL's E from 1e-3 on still cancels a term of the size of L: allowed for.
+    worst_slope = std::max(
+        worst_slope, std::abs(bound->Slope(x, 1) / (-2 / kPi * e / x) - 1) / std::max(1.0, l));
+    // The inverse, relative in x towards the centre and in 1 - x towards the edge; h's own
+    // round-off moves the root by (dh / h) h / E relative in x, which the tolerance allows.
+    const double back = bound->RadiusAtBound(bound->Bound(x, 1), 1);
+    const double error = x > 0.5 ? std::abs((1 - back) / (1 - x) - 1) : std::abs(back / x - 1);
+    worst_inverse = std::max(worst_inverse, error / std::max(1.0, h));
+  }
+  EXPECT_LT(worst_bound, 2e-15);
+  EXPECT_LT(worst_slope, 2e-15);
+  EXPECT_LT(worst_inverse, 1e-14);
+  // The tails against GSL's QAGS of the same integrands (GSL's own Carlson integrals inside).
+  gsl_set_error_handler_off();
+  gsl_integration_workspace* workspace = gsl_integration_workspace_alloc(200);
+  for (double x : {0.0, 1e-12, 1e-6, 0.003, 0.2, 0.5, 0.77, 0.95, 0.999, 1 - 1e-9}) {
+    SCOPED_TRACE(x);
+    double expected[2] = {0, 0};
+    for (int power : {1, 2}) {
+      // In w = 1 - v, from the edge: v near 1 would resolve m = 1 - v^2 to eps / m only.
+      auto integrand = [](double w, void* data) {
+        const int k = *static_cast<int*>(data);
+        const double v = 1 - w;
+        if (v <= 1e-100) return 0.0;  // v^2 B below 1e-197, and v^2 would underflow in R_D
+        const double m = w * (2 - w);
+        const double b = 2 / kPi * m / 3 * gsl_sf_ellint_RD(0, v * v, 1, GSL_PREC_DOUBLE);
+        return v * v * (k == 1 ? b : b * b);
+      };
+      gsl_function f{integrand, &power};
+      double error = 0;
+      // 2e-14 relative (QAGS takes no less than 50 eps) may be more than round-off lets GSL
+      // prove (GSL_EROUND); its estimate must then still be below the comparison's tolerance.
+      const int status = gsl_integration_qags(&f, 0, 1 - x, 0, 2e-14, 200, workspace,
+                                              &expected[power - 1], &error);
+      EXPECT_TRUE(status == GSL_SUCCESS || status == GSL_EROUND) << status;
+      EXPECT_LE(error, 1e-13 * expected[power - 1] + 1e-300);
+    }
+    const TorsionBound::Integrals tails = bound->TailIntegrals(x, 1);
+    ExpectRelative(tails.first, expected[0], 1e-13);
+    ExpectRelative(tails.second, expected[1], 1e-13);
+  }
+  gsl_integration_workspace_free(workspace);
+  // The whole: integral_0^1 x^2 B dx = (2/pi) pi^2 / 64, so 16 G_t of it is M_slip = pi / 2.
+  ExpectRelative(bound->TailIntegrals(0, 1).first, kPi / 32, 2e-16);
+  EXPECT_EQ(bound->TailIntegrals(1, 1).first, 0);
+  EXPECT_EQ(bound->TailIntegrals(2, 1).second, 0);
+  // A scale: every radius maps to the same function.
+  ExpectRelative(bound->TailIntegrals(3e-5, 1e-4).first,
+                 std::pow(1e-4, 4) * bound->TailIntegrals(0.3, 1).first, 1e-15);
+  EXPECT_TRUE(std::isnan(MakePowerLawTorsionBound(1, 2, 1, 1, 1).value()->RadiusAtBound(1, 1)));
 }
 
 TEST(TorsionTest, PowerLawsGiveTheReferences) {

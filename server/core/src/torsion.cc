@@ -1,11 +1,16 @@
 #include "mdr/core/torsion.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <utility>
 
+#include "carlson.h"
+#include "hertz_torsion_table.h"
 #include "mdr/base/validate.h"
 #include "mdr/core/tabulated_profile.h"
 #include "monotone_solve.h"
@@ -17,59 +22,32 @@ namespace {
 using internal::kInf;
 using internal::kPi;
 
-// Carlson's R_F(x, y, z) and R_D(x, y, z) by the duplication theorem and the closing series of
-// Carlson (1995, Numer. Algorithms 10, 13-26), with the tolerances for double precision of
-// Numerical Recipes (3rd ed., 6.12): truncation below 1e-16 relative. Iterating without pow
-// makes them several times cheaper than GSL's, and they are what every torsional step calls.
-double CarlsonRF(double x, double y, double z) {
-  constexpr double kTolerance = 0.0025;
-  constexpr double c1 = 1.0 / 24, c2 = 0.1, c3 = 3.0 / 44, c4 = 1.0 / 14;
-  double ave = 0, dx = 0, dy = 0, dz = 0;
-  for (int i = 0; i < 200; ++i) {
-    const double sx = std::sqrt(x), sy = std::sqrt(y), sz = std::sqrt(z);
-    const double lambda = sx * (sy + sz) + sy * sz;
-    x = 0.25 * (x + lambda), y = 0.25 * (y + lambda), z = 0.25 * (z + lambda);
-    ave = (x + y + z) / 3;
-    dx = (ave - x) / ave, dy = (ave - y) / ave, dz = (ave - z) / ave;
-    if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) <= kTolerance) break;
-  }
-  const double e2 = dx * dy - dz * dz, e3 = dx * dy * dz;
-  return (1 + (c1 * e2 - c2 - c3 * e3) * e2 + c4 * e3) / std::sqrt(ave);
-}
-
-double CarlsonRD(double x, double y, double z) {
-  constexpr double kTolerance = 0.0015;
-  constexpr double c1 = 3.0 / 14, c2 = 1.0 / 6, c3 = 9.0 / 22, c4 = 3.0 / 26;
-  constexpr double c5 = 0.25 * c3, c6 = 1.5 * c4;
-  double sum = 0, factor = 1, ave = 0, dx = 0, dy = 0, dz = 0;
-  for (int i = 0; i < 200; ++i) {
-    const double sx = std::sqrt(x), sy = std::sqrt(y), sz = std::sqrt(z);
-    const double lambda = sx * (sy + sz) + sy * sz;
-    sum += factor / (sz * (z + lambda));
-    factor *= 0.25;
-    x = 0.25 * (x + lambda), y = 0.25 * (y + lambda), z = 0.25 * (z + lambda);
-    ave = 0.2 * (x + y + 3 * z);
-    dx = (ave - x) / ave, dy = (ave - y) / ave, dz = (ave - z) / ave;
-    if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) <= kTolerance) break;
-  }
-  const double ea = dx * dy, eb = dz * dz, ec = ea - eb, ed = ea - 6 * eb, ee = ed + 2 * ec;
-  return 3 * sum + factor *
-                       (1 + ed * (-c1 + c5 * ed - c6 * dz * ee) +
-                        dz * (c2 * ee + dz * (-c3 * ec + dz * c4 * ea))) /
-                       (ave * std::sqrt(ave));
-}
-
 // R_F(0, y, 1) and R_D(0, y, 1): K(m) = R_F and K(m) - E(m) = (m/3) R_D with y = 1 - m, which
 // keeps K - E exact near the edge (m -> 0) and K exact near the centre (y -> 0).
-double CarlsonF(double y) { return CarlsonRF(0, y, 1); }
-double CarlsonD(double y) { return CarlsonRD(0, y, 1); }
+double CarlsonF(double y) { return internal::CarlsonRF<double>(0, y, 1); }
+double CarlsonD(double y) { return internal::CarlsonRD<double>(0, y, 1); }
+
+// Two integrals taken together (the tails of x^2 B and x^2 B^2 share their bound's values); the
+// quadratures below integrate a double or a Pair.
+struct Pair {
+  double first = 0, second = 0;
+  Pair& operator+=(const Pair& other) {
+    first += other.first, second += other.second;
+    return *this;
+  }
+  friend Pair operator+(Pair a, const Pair& b) { return a += b; }
+  friend Pair operator*(double s, const Pair& a) { return {s * a.first, s * a.second}; }
+  friend Pair operator*(const Pair& a, double s) { return s * a; }
+};
+template <typename F>
+using ValueOf = std::invoke_result_t<const F&, double>;
 
 // integral_lo^hi f by 16-point Gauss-Legendre.
 template <typename F>
-double Gauss16(const F& f, double lo, double hi) {
+ValueOf<F> Gauss16(const F& f, double lo, double hi) {
   static const internal::GaussLegendreRule rule(16);
   const double half = (hi - lo) / 2, mid = (lo + hi) / 2;
-  double part = 0;
+  ValueOf<F> part{};
   for (std::size_t i = 0; i < rule.size; ++i)
     part += rule.weights[i] * f(mid + half * rule.nodes[i]);
   return half * part;
@@ -89,7 +67,7 @@ double OverUnitPanels(const F& f, double top) {
 // on each half: a term like sqrt(x - lo) or sqrt(hi - x) at an end (a sample radius of a
 // tabulated profile, where g' has one) is smooth in t, so the rule keeps its order.
 template <typename F>
-double GaussCos(const F& f, double lo, double hi) {
+ValueOf<F> GaussCos(const F& f, double lo, double hi) {
   const double half = (hi - lo) / 2, mid = (lo + hi) / 2;
   auto in_t = [&](double t) { return f(mid - half * std::cos(t)) * half * std::sin(t); };
   return Gauss16(in_t, 0, kPi / 2) + Gauss16(in_t, kPi / 2, kPi);
@@ -126,37 +104,55 @@ double PanelsAcross(const F& f, double lo, double hi, double panel, const Points
   return sum + part(a, hi, true);
 }
 
+// B = scale a h(x / a), h(t) = K(1 - t^2) - E(1 - t^2) read off the universal function's tables
+// (hertz_torsion_table.h: Chebyshev series on dyadic panels, built from Carlson's integrals, to a
+// few ulps), with its inverse and the integrals of x^2 B and x^2 B^2 in closed form per piece.
 class HertzTorsionBound final : public TorsionBound {
  public:
-  // scale = mu E* / (pi R G_t): B = scale * a * (K - E).
-  explicit HertzTorsionBound(double scale) : scale_(scale) {}
+  // scale = mu E* / (pi R G_t): B = scale * a * h.
+  explicit HertzTorsionBound(double scale)
+      : scale_(scale), table_(internal::HertzTorsionTable::Get()) {}
 
   double Bound(double x, double a) const override {
     if (x >= a) return 0;
     if (x <= 0) return kInf;
-    // Where (x/a)^2 would underflow: K - E = ln(4 a / x) - 1 to far below round-off.
+    // Where x / a would underflow: h = ln(4 a / x) - 1 to far below round-off.
     if (x < kTinyRatio * a) return scale_ * a * (std::log(4 * (a / x)) - 1);
-    const double y = (x / a) * (x / a);
-    const double m = ((a - x) / a) * ((a + x) / a);
-    return scale_ * a * (m / 3) * CarlsonD(y);
+    return scale_ * a * table_.H(x / a, (a - x) / a);
   }
   double Slope(double x, double a) const override {
     if (x >= a || x <= 0) return x <= 0 ? -kInf : 0;
     if (x < kTinyRatio * a) return -scale_ * a / x;  // E = 1 there
-    const double y = (x / a) * (x / a);
-    const double m = ((a - x) / a) * ((a + x) / a);
-    const double e = CarlsonF(y) - (m / 3) * CarlsonD(y);
-    return -scale_ * a * e / x;
+    return -scale_ * a * table_.E(x / a, (a - x) / a) / x;
   }
   // mu p0 / G_t = 2 scale a, p = p0 sqrt(1 - r^2/a^2).
   double SlidingTractionPerModulus(double r, double a) const override {
     if (!(r < a)) return 0;
     return 2 * scale_ * std::sqrt((a - r) * (a + r));
   }
+  // 16 scale a^4 integral_0^1 u^2 h du = 16 scale a^4 pi^2 / 64.
+  double FullSlipMomentPerModulus(double a) const override {
+    return 16 * scale_ * a * (a * a * a) * table_.WholeIntegrals().first;
+  }
+  // scale a^4 I1(x / a) and (scale a)^2 a^3 I2(x / a), I_k(t) = integral_t^1 u^2 h^k du.
+  Integrals TailIntegrals(double x, double a) const override {
+    if (x >= a) return {};
+    const internal::HertzTorsionTable::Tails tails =
+        // Below x = 1e-150 a what is left out is below x^3.
+        x <= kTinyRatio * a ? table_.WholeIntegrals() : table_.Integrals(x / a, (a - x) / a);
+    const double scaled = scale_ * a, cube = a * a * a;
+    return {.first = scaled * cube * tails.first, .second = scaled * scaled * cube * tails.second};
+  }
+  double RadiusAtBound(double value, double a) const override {
+    const internal::HertzTorsionTable::Point p = table_.Inverse(value / (scale_ * a));
+    // Near the edge from w = 1 - t, which carries the digits there.
+    return p.t > 0.5 ? a - a * p.w : a * p.t;
+  }
 
  private:
   static constexpr double kTinyRatio = 1e-150;
   double scale_;
+  const internal::HertzTorsionTable& table_;
 };
 
 // A power law g = k x^n: B(x; a) = scale a^(n-1) b_n(x/a), scale = mu E* n k / (2 pi G_t),
@@ -281,9 +277,9 @@ class QuadratureTorsionBound final : public TorsionBound {
 // first interval is [0, hi 2^-60], where every integrand here (a factor x^2) is below round-off.
 // The same with `rule` (rule(f, a, b)) on each panel but the one at 0.
 template <typename F, typename Rule>
-double Integrate(const F& f, double lo, double hi, const Rule& rule) {
-  if (!(hi > lo)) return 0;
-  double sum = 0;
+ValueOf<F> Integrate(const F& f, double lo, double hi, const Rule& rule) {
+  ValueOf<F> sum{};
+  if (!(hi > lo)) return sum;
   double a = lo;
   if (a == 0) {
     a = std::ldexp(hi, -60);
@@ -298,14 +294,15 @@ double Integrate(const F& f, double lo, double hi, const Rule& rule) {
 }
 
 template <typename F>
-double Integrate(const F& f, double lo, double hi) {
+ValueOf<F> Integrate(const F& f, double lo, double hi) {
   return Integrate(f, lo, hi, [](const F& g, double a, double b) { return Gauss16(g, a, b); });
 }
 
 // Integrate, split at the breakpoints inside (lo, hi) (TorsionBound::Breakpoints, increasing),
 // where the integrand's slope is not smooth: each part is then smooth for the Gauss rule.
 template <typename F>
-double IntegrateAcross(const F& f, double lo, double hi, const std::vector<double>& breakpoints) {
+ValueOf<F> IntegrateAcross(const F& f, double lo, double hi,
+                           const std::vector<double>& breakpoints) {
   const auto first = std::upper_bound(breakpoints.begin(), breakpoints.end(), lo);
   const auto last = std::lower_bound(first, breakpoints.end(), hi);
   if (!(hi > lo) || first == last || last - breakpoints.begin() > kMaxSplits) {
@@ -313,13 +310,27 @@ double IntegrateAcross(const F& f, double lo, double hi, const std::vector<doubl
   }
   // Part by part between the points, each in Integrate's panels but by GaussCos.
   auto cos_rule = [](const F& g, double a, double b) { return GaussCos(g, a, b); };
-  double sum = 0;
+  ValueOf<F> sum{};
   double a = lo;
   for (auto it = first; it != last; ++it) {
     sum += Integrate(f, a, *it, cos_rule);
     a = *it;
   }
   return sum + Integrate(f, a, hi, cos_rule);
+}
+
+// The first `count` values sorted, repeats removed; their new count. Insertion: at most six.
+std::size_t SortedUnique(std::array<double, 6>& values, std::size_t count) {
+  for (std::size_t i = 1; i < count; ++i) {
+    for (std::size_t j = i; j > 0 && values[j] < values[j - 1]; --j) {
+      std::swap(values[j], values[j - 1]);
+    }
+  }
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (kept == 0 || values[i] != values[kept - 1]) values[kept++] = values[i];
+  }
+  return kept;
 }
 
 double CubeDifference(double lo, double hi) { return (hi * hi * hi - lo * lo * lo) / 3; }
@@ -341,6 +352,21 @@ double QuadratureTorsionBound::FullSlipMomentPerModulus(double a) const {
 
 double TorsionBound::FullSlipMomentPerModulus(double a) const {
   return 16 * IntegrateAcross([&](double x) { return x * x * Bound(x, a); }, 0, a, Breakpoints());
+}
+
+TorsionBound::Integrals TorsionBound::TailIntegrals(double x, double a) const {
+  if (!(a > x)) return {};
+  const Pair tails = IntegrateAcross(
+      [&](double u) {
+        const double b = Bound(u, a);
+        return Pair{u * u * b, u * u * b * b};
+      },
+      x, a, Breakpoints());
+  return {.first = tails.first, .second = tails.second};
+}
+
+double TorsionBound::RadiusAtBound(double, double) const {
+  return std::numeric_limits<double>::quiet_NaN();
 }
 
 Result<std::shared_ptr<const TorsionBound>> MakeHertzTorsionBound(double friction,
@@ -416,7 +442,7 @@ Result<std::shared_ptr<const TorsionBound>> MakeTorsionBound(const ProfilePtr& p
 TorsionalMemory::TorsionalMemory(std::shared_ptr<const TorsionBound> bound,
                                  double torsional_modulus, double contact_radius)
     : bound_(std::move(bound)), modulus_(torsional_modulus), radius_(contact_radius) {
-  if (radius_ > 0) pieces_.push_back({.end = radius_});
+  if (radius_ > 0) pieces_.push_back({.end = radius_}), tails_.push_back({});
 }
 
 Result<TorsionalMemory> TorsionalMemory::Create(std::shared_ptr<const TorsionBound> bound,
@@ -501,6 +527,7 @@ Result<TorsionalMemory> TorsionalMemory::Restore(std::shared_ptr<const TorsionBo
     start = piece.end;
   }
   memory.pieces_ = snapshot.pieces;
+  memory.ComputeTails();
   memory.twist_ = snapshot.twist;
   memory.dissipated_ = snapshot.dissipated_energy;
   memory.last_dissipation_ = snapshot.last_step_dissipation;
@@ -516,79 +543,144 @@ double TorsionalMemory::Slope(const TorsionPiece& piece, double x) const {
   return piece.sign == 0 ? 0 : piece.sign * bound_->Slope(x, piece.radius);
 }
 
-std::vector<TorsionPiece> TorsionalMemory::Clipped(double shift, double radius, bool shrinking,
-                                                   double* dissipation) const {
-  std::vector<TorsionPiece> out;
+double TorsionalMemory::RadiusAtBound(double value, double radius, double lo, double hi) const {
+  const double known = bound_->RadiusAtBound(value, radius);
+  if (!std::isnan(known)) return std::clamp(known, lo, hi);
+  // value - B(x) is nondecreasing in x with slope -B'(x); the centre never slips (B = +inf), so
+  // the search starts just above it.
+  const double from = lo > 0 ? lo : std::ldexp(hi, -200);
+  auto g = [&](double x) {
+    return internal::ValueAndSlope{value - bound_->Bound(x, radius), -bound_->Slope(x, radius)};
+  };
+  std::vector<double> no_breakpoints;
+  const double root = internal::SolveNondecreasing(g, no_breakpoints, from, hi, 0);
+  return root == from ? lo : root;
+}
+
+// The tails of a step's new points, each computed once: where a clip ends one piece and starts
+// the next, both need them. Pure values of (x, a), so a cache changes no bit.
+class TailMemo {
+ public:
+  explicit TailMemo(const TorsionBound& bound) : bound_(bound) {}
+  void Add(double x, double a, const TorsionBound::Integrals& tails) {
+    entries_[next_] = {x, a, tails};
+    next_ = (next_ + 1) % entries_.size();
+  }
+  TorsionBound::Integrals At(double x, double a) {
+    if (x >= a) return {};
+    for (const Entry& entry : entries_) {
+      if (entry.x == x && entry.a == a) return entry.tails;
+    }
+    const TorsionBound::Integrals tails = bound_.TailIntegrals(x, a);
+    Add(x, a, tails);
+    return tails;
+  }
+
+ private:
+  struct Entry {
+    double x = -1, a = -1;
+    TorsionBound::Integrals tails;
+  };
+  const TorsionBound& bound_;
+  std::array<Entry, 6> entries_{};
+  std::size_t next_ = 0;
+};
+
+void TorsionalMemory::Clip(double shift, double radius, bool shrinking,
+                           std::vector<TorsionPiece>* out,
+                           std::vector<TorsionBound::Integrals>* out_tails,
+                           double* dissipation) const {
+  out->clear();
+  out_tails->clear();
+  TailMemo memo(*bound_);
   double integral = 0;  // of x^2 B |slide| (twist) or x^2 (v^2 - B^2) / 2 (shrink)
   double start = 0;
-  for (const TorsionPiece& piece : pieces_) {
+  for (std::size_t index = 0; index < pieces_.size(); ++index) {
+    const TorsionPiece& piece = pieces_[index];
     const double end = std::min(piece.end, radius);
     if (end <= start) break;
+    if (piece.sign != 0) memo.Add(start, piece.radius, tails_[index]);
+    if (index + 1 < pieces_.size() && pieces_[index + 1].sign != 0) {
+      memo.Add(piece.end, pieces_[index + 1].radius, tails_[index + 1]);
+    }
     TorsionPiece shifted = piece;
     shifted.offset += shift;
+    const double c = shifted.offset;
     auto w = [&](double x) { return Value(shifted, x); };
     // Clipped to +B where up(x) = w - B > 0, to -B where down(x) = w + B < 0. Each is monotone
     // on a piece (physics.md), so each region is an end of [start, end).
-    auto up = [&](double x) { return w(x) - bound_->Bound(x, radius); };
-    auto down = [&](double x) { return w(x) + bound_->Bound(x, radius); };
-    auto up_slope = [&](double x) { return Slope(shifted, x) - bound_->Slope(x, radius); };
-    auto down_slope = [&](double x) { return Slope(shifted, x) + bound_->Slope(x, radius); };
-    // The region [lo, hi) of [start, end) where sign * f > 0, as a root of the monotone f.
-    auto region = [&](const auto& f, const auto& slope, int sign, double* lo, double* hi) {
-      // The centre never slips (B = +inf there): search from just above it.
-      const double from = start > 0 ? start : std::ldexp(end, -200);
-      const double f_start = sign * f(from), f_end = sign * f(end);
-      if (!(f_start > 0) && !(f_end > 0)) return false;
-      if (f_start > 0 && f_end > 0) {
-        *lo = start, *hi = end;
-        return true;
-      }
-      const bool rising = f_end > f_start;
-      auto g = [&](double x) {
-        const double s = rising ? sign : -sign;
-        return internal::ValueAndSlope{s * f(x), s * slope(x)};
-      };
-      std::vector<double> no_breakpoints;
-      const double root = internal::SolveNondecreasing(g, no_breakpoints, from, end, 0);
-      if (rising) {
-        *lo = root, *hi = end;
-      } else {
-        *lo = start, *hi = root;
-      }
-      return *hi > *lo;
-    };
     double up_lo = 0, up_hi = 0, down_lo = 0, down_hi = 0;
     bool clipped_up = false, clipped_down = false;
-    // A piece on the current bound is its own clip: decided structurally, not by root finding.
-    if (piece.sign != 0 && piece.radius == radius) {
-      if (shifted.offset >= 0 && piece.sign > 0) clipped_up = true, up_lo = start, up_hi = end;
-      if (shifted.offset <= 0 && piece.sign < 0) {
-        clipped_down = true, down_lo = start, down_hi = end;
-      }
-      if (!clipped_up && !clipped_down) {
-        // A piece on the other bound moved back towards this one: only its far side can cross.
-        if (piece.sign > 0) clipped_down = region(down, down_slope, -1, &down_lo, &down_hi);
-        if (piece.sign < 0) clipped_up = region(up, up_slope, +1, &up_lo, &up_hi);
-      }
+    // The outer part of [start, end) where B(x; radius) < value: where a spring at w = value
+    // (or -value) is beyond the bound.
+    auto outer = [&](double value, double* lo, double* hi) {
+      *lo = RadiusAtBound(value, radius, start, end), *hi = end;
+      return *hi > *lo;
+    };
+    // A constant, or a piece on the current bound (w = sign B + c), meets the bound where B is
+    // c, c / 2, -c or -c / 2: decided structurally, the radius from the bound's inverse.
+    const bool own_bound = piece.sign != 0 && piece.radius == radius;
+    if (piece.sign == 0) {
+      if (c > 0) clipped_up = outer(c, &up_lo, &up_hi);
+      if (c < 0) clipped_down = outer(-c, &down_lo, &down_hi);
+    } else if (own_bound) {
+      if (piece.sign > 0 && c >= 0) clipped_up = true, up_lo = start, up_hi = end;
+      if (piece.sign < 0 && c <= 0) clipped_down = true, down_lo = start, down_hi = end;
+      // A piece on the other bound moved back towards this one: only its far side can cross.
+      if (piece.sign > 0 && c < 0) clipped_down = outer(-c / 2, &down_lo, &down_hi);
+      if (piece.sign < 0 && c > 0) clipped_up = outer(c / 2, &up_lo, &up_hi);
     } else {
+      // A piece of an older radius: its difference to the bound is monotone, its root found by
+      // a bracketed Newton iteration with the exact slopes.
+      auto up = [&](double x) { return w(x) - bound_->Bound(x, radius); };
+      auto down = [&](double x) { return w(x) + bound_->Bound(x, radius); };
+      auto up_slope = [&](double x) { return Slope(shifted, x) - bound_->Slope(x, radius); };
+      auto down_slope = [&](double x) { return Slope(shifted, x) + bound_->Slope(x, radius); };
+      // The region [lo, hi) of [start, end) where sign * f > 0, as a root of the monotone f.
+      auto region = [&](const auto& f, const auto& slope, int sign, double* lo, double* hi) {
+        const double from = start > 0 ? start : std::ldexp(end, -200);
+        const double f_start = sign * f(from), f_end = sign * f(end);
+        if (!(f_start > 0) && !(f_end > 0)) return false;
+        if (f_start > 0 && f_end > 0) {
+          *lo = start, *hi = end;
+          return true;
+        }
+        const bool rising = f_end > f_start;
+        auto g = [&](double x) {
+          const double s = rising ? sign : -sign;
+          return internal::ValueAndSlope{s * f(x), s * slope(x)};
+        };
+        std::vector<double> no_breakpoints;
+        const double root = internal::SolveNondecreasing(g, no_breakpoints, from, end, 0);
+        if (rising) {
+          *lo = root, *hi = end;
+        } else {
+          *lo = start, *hi = root;
+        }
+        return *hi > *lo;
+      };
       clipped_up = region(up, up_slope, +1, &up_lo, &up_hi);
       clipped_down = region(down, down_slope, -1, &down_lo, &down_hi);
     }
-    std::vector<double> cuts = {start, end};
-    if (clipped_up) cuts.insert(cuts.end(), {up_lo, up_hi});
-    if (clipped_down) cuts.insert(cuts.end(), {down_lo, down_hi});
-    std::sort(cuts.begin(), cuts.end());
-    cuts.erase(std::unique(cuts.begin(), cuts.end()), cuts.end());
-    for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+    std::array<double, 6> cuts{start, end};
+    std::size_t count = 2;
+    if (clipped_up) cuts[count++] = up_lo, cuts[count++] = up_hi;
+    if (clipped_down) cuts[count++] = down_lo, cuts[count++] = down_hi;
+    count = SortedUnique(cuts, count);
+    for (std::size_t i = 0; i + 1 < count; ++i) {
       const double lo = cuts[i], hi = cuts[i + 1];
       const bool is_up = clipped_up && lo >= up_lo && hi <= up_hi;
       const bool is_down = clipped_down && lo >= down_lo && hi <= down_hi;
       if (!is_up && !is_down) {
-        out.push_back(shifted), out.back().end = hi;
+        out->push_back(shifted), out->back().end = hi;
+        out_tails->push_back(piece.sign == 0 ? TorsionBound::Integrals{}
+                                             : memo.At(lo, piece.radius));
         continue;
       }
       const int sign = is_up ? 1 : -1;
-      out.push_back({.end = hi, .sign = static_cast<std::int8_t>(sign), .radius = radius});
+      out->push_back({.end = hi, .sign = static_cast<std::int8_t>(sign), .radius = radius});
+      const TorsionBound::Integrals tails = memo.At(lo, radius);
+      out_tails->push_back(tails);
       if (shrinking) {
         integral += IntegrateAcross(
             [&](double x) {
@@ -598,6 +690,12 @@ std::vector<TorsionPiece> TorsionalMemory::Clipped(double shift, double radius, 
               return x * x * std::max(0.0, v * v - b * b) / 2;
             },
             lo, hi, bound_->Breakpoints());
+      } else if (piece.sign == 0 || own_bound) {
+        // The slide w - sign B = (piece.sign - sign) B + c keeps its sign on the region:
+        // integral x^2 B |slide| from the bound's integrals of x^2 B and x^2 B^2.
+        const TorsionBound::Integrals beyond = memo.At(hi, radius);
+        const double first = tails.first - beyond.first, second = tails.second - beyond.second;
+        integral += std::max(0.0, sign * ((piece.sign - sign) * second + c * first));
       } else {
         integral += IntegrateAcross(
             [&](double x) {
@@ -610,25 +708,46 @@ std::vector<TorsionPiece> TorsionalMemory::Clipped(double shift, double radius, 
     start = piece.end;
   }
   *dissipation = 16 * modulus_ * integral;
-  return out;
 }
 
-void TorsionalMemory::Merge(std::vector<TorsionPiece>& pieces) const {
-  std::vector<TorsionPiece> merged;
-  for (const TorsionPiece& piece : pieces) {
-    const bool same = !merged.empty() && merged.back().sign == piece.sign &&
-                      merged.back().offset == piece.offset &&
-                      (piece.sign == 0 || merged.back().radius == piece.radius);
-    if (same) {
-      merged.back().end = piece.end;
-    } else {
-      merged.push_back(piece);
-    }
-  }
-  for (TorsionPiece& piece : merged) {
+void TorsionalMemory::Merge(std::vector<TorsionPiece>& pieces,
+                            std::vector<TorsionBound::Integrals>& tails) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    TorsionPiece piece = pieces[i];
     if (piece.sign == 0) piece.radius = 0;  // a constant has no radius: one spelling per state
+    if (kept > 0) {
+      TorsionPiece& last = pieces[kept - 1];
+      if (last.sign == piece.sign && last.offset == piece.offset && last.radius == piece.radius) {
+        last.end = piece.end;
+        continue;
+      }
+    }
+    tails[kept] = tails[i];
+    pieces[kept++] = piece;
   }
-  pieces = std::move(merged);
+  pieces.resize(kept);
+  tails.resize(kept);
+}
+
+void TorsionalMemory::ComputeTails() {
+  tails_.assign(pieces_.size(), {});
+  double start = 0;
+  for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    if (pieces_[i].sign != 0) tails_[i] = bound_->TailIntegrals(start, pieces_[i].radius);
+    start = pieces_[i].end;
+  }
+}
+
+TorsionBound::Integrals TorsionalMemory::PieceIntegrals(std::size_t i) const {
+  const TorsionPiece& piece = pieces_[i];
+  if (piece.sign == 0) return {};
+  // The tails at the end: the next piece's own where it is of the same bound.
+  const bool shared =
+      i + 1 < pieces_.size() && pieces_[i + 1].sign != 0 && pieces_[i + 1].radius == piece.radius;
+  const TorsionBound::Integrals end =
+      shared ? tails_[i + 1] : bound_->TailIntegrals(piece.end, piece.radius);
+  return {.first = tails_[i].first - end.first, .second = tails_[i].second - end.second};
 }
 
 Status TorsionalMemory::Twist(double increment) {
@@ -653,9 +772,10 @@ Status TorsionalMemory::TwistTo(double angle) {
 
 void TorsionalMemory::ApplyTwist(double increment, double twist) {
   double dissipation = 0;
-  std::vector<TorsionPiece> next = Clipped(increment, radius_, false, &dissipation);
-  Merge(next);
-  pieces_ = std::move(next);
+  Clip(increment, radius_, false, &scratch_, &scratch_tails_, &dissipation);
+  Merge(scratch_, scratch_tails_);
+  pieces_.swap(scratch_);
+  tails_.swap(scratch_tails_);
   twist_ = twist;
   last_dissipation_ = dissipation;
   dissipated_ += dissipation;
@@ -708,6 +828,7 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     return OkStatus();
   }
   std::vector<TorsionPiece> next;
+  std::vector<TorsionBound::Integrals> next_tails;
   double dissipation = 0;
   if (contact_radius > radius_) {
     // A contact so large that its full-stick stiffness 16 G_t a^3 / 3 or its full-slip moment
@@ -723,8 +844,10 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     }
     next = pieces_;
     next.push_back({.end = contact_radius});
+    next_tails = tails_;
+    next_tails.push_back({});
   } else {
-    next = Clipped(0, contact_radius, true, &dissipation);
+    Clip(0, contact_radius, true, &next, &next_tails, &dissipation);
     // The springs outside the new radius slide to 0 as their bound vanishes.
     double start = 0;
     double forgotten = 0;
@@ -742,7 +865,7 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     }
     dissipation += 16 * modulus_ * forgotten;
   }
-  Merge(next);
+  Merge(next, next_tails);
   for (const TorsionPiece& piece : next) {
     if (piece.sign != 0 && piece.radius > contact_radius) {
       return FailedPrecondition(
@@ -754,6 +877,7 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     }
   }
   pieces_ = std::move(next);
+  tails_ = std::move(next_tails);
   radius_ = contact_radius;
   last_dissipation_ = dissipation;
   dissipated_ += dissipation;
@@ -762,13 +886,10 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
 
 double TorsionalMemory::Moment() const {
   double sum = 0, start = 0;
-  for (const TorsionPiece& piece : pieces_) {
+  for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    const TorsionPiece& piece = pieces_[i];
     sum += piece.offset * CubeDifference(start, piece.end);
-    if (piece.sign != 0) {
-      sum += piece.sign *
-             IntegrateAcross([&](double x) { return x * x * bound_->Bound(x, piece.radius); },
-                             start, piece.end, bound_->Breakpoints());
-    }
+    if (piece.sign != 0) sum += piece.sign * PieceIntegrals(i).first;
     start = piece.end;
   }
   return 16 * modulus_ * sum;
@@ -780,20 +901,18 @@ double TorsionalMemory::FullSlipMoment() const {
 
 double TorsionalMemory::StoredEnergy() const {
   double sum = 0, start = 0;
-  for (const TorsionPiece& piece : pieces_) {
-    if (piece.sign == 0) {
-      sum += piece.offset * piece.offset * CubeDifference(start, piece.end);
-    } else {
-      sum += IntegrateAcross(
-          [&](double x) {
-            const double v = Value(piece, x);
-            return x * x * v * v;
-          },
-          start, piece.end, bound_->Breakpoints());
+  for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    const TorsionPiece& piece = pieces_[i];
+    // integral x^2 (sign B + c)^2 = integral x^2 B^2 + 2 sign c integral x^2 B + c^2 integral x^2
+    const double c = piece.offset;
+    sum += c * c * CubeDifference(start, piece.end);
+    if (piece.sign != 0) {
+      const TorsionBound::Integrals parts = PieceIntegrals(i);
+      sum += parts.second + 2 * piece.sign * c * parts.first;
     }
     start = piece.end;
   }
-  return 8 * modulus_ * sum;
+  return 8 * modulus_ * std::max(0.0, sum);  // each part exact; a sum below 0 is round-off
 }
 
 double TorsionalMemory::Stiffness(int direction) const {

@@ -41,6 +41,17 @@ class TorsionBound {
   // integrates the bound; a bound that is itself a quadrature overrides it with the equal
   // single integral (pi mu E* / (2 G_t)) integral_0^a x^2 g'(x) dx.
   virtual double FullSlipMomentPerModulus(double a) const;
+  // The tails integral_x^a u^2 B(u; a) du and integral_x^a u^2 B(u; a)^2 du, 0 <= x (both 0
+  // for x >= a): a piece [lo, hi) of the memory has the moment and energies of the tails at lo
+  // less those at hi. The default integrates the bound (split at the breakpoints); the Hertz
+  // bound reads them off its universal function.
+  struct Integrals {
+    double first = 0, second = 0;
+  };
+  virtual Integrals TailIntegrals(double x, double a) const;
+  // The x in (0, a) where B(x; a) = value > 0, when the bound knows its inverse (Hertz: to a few
+  // ulps); NaN when it does not, and the memory then finds it by a bracketed Newton iteration.
+  virtual double RadiusAtBound(double value, double a) const;
   // Radii (increasing) where B is not smooth in x: a tabulated profile's sample radii, where its
   // g' is continuous but its slope jumps like a square root. Every integral over x of the memory
   // (moment, energies, the full-slip moment) is split there. None for the closed forms.
@@ -182,11 +193,19 @@ class TorsionalMemory {
   void ApplyTwist(double increment, double twist);
   double Value(const TorsionPiece& piece, double x) const;
   double Slope(const TorsionPiece& piece, double x) const;
-  // The pieces v + shift clipped to +-B(x; radius) on [0, radius), and the energy the clipped
-  // springs dissipate: sliding at the bound (twist) or while the bound shrinks (load decrease).
-  std::vector<TorsionPiece> Clipped(double shift, double radius, bool shrinking,
-                                    double* dissipation) const;
-  void Merge(std::vector<TorsionPiece>& pieces) const;
+  // The pieces v + shift clipped to +-B(x; radius) on [0, radius) into *out, and the energy the
+  // clipped springs dissipate: sliding at the bound (twist) or while the bound shrinks (load
+  // decrease).
+  void Clip(double shift, double radius, bool shrinking, std::vector<TorsionPiece>* out,
+            std::vector<TorsionBound::Integrals>* out_tails, double* dissipation) const;
+  // Where B(x; radius) = value in [lo, hi]: lo if B(lo) <= value, hi if B(hi) >= value.
+  double RadiusAtBound(double value, double radius, double lo, double hi) const;
+  // Merges neighbours that are one piece (their tails go with them).
+  static void Merge(std::vector<TorsionPiece>& pieces, std::vector<TorsionBound::Integrals>& tails);
+  // The tails of every piece at its start (TorsionBound::TailIntegrals for its radius; 0 for a
+  // constant), computed afresh, and the moment's or energy's integral of piece i from them.
+  void ComputeTails();
+  TorsionBound::Integrals PieceIntegrals(std::size_t i) const;
 
   std::shared_ptr<const TorsionBound> bound_;
   double modulus_ = 0;
@@ -195,6 +214,13 @@ class TorsionalMemory {
   double dissipated_ = 0;
   double last_dissipation_ = 0;
   std::vector<TorsionPiece> pieces_;  // cover [0, radius_), ends increasing, the last = radius_
+  // The tails of each piece at its start: derived from the pieces alone (a restored memory
+  // computes the same bits), kept so that a step computes those of the points it moved only.
+  std::vector<TorsionBound::Integrals> tails_;
+  // Where a step builds the next pieces and tails, kept so that a warm memory steps without
+  // allocating; not part of the state.
+  std::vector<TorsionPiece> scratch_;
+  std::vector<TorsionBound::Integrals> scratch_tails_;
 };
 
 // How a step drives the twist: to an angle (rad), by an increment (rad), or to a moment (N m).
