@@ -242,6 +242,33 @@ TEST(TorsionTest, SteelOnSteelGivesTheReferenceStiffnessAndMoments) {
   EXPECT_GT(memory.Moment(), 3.2979458334e-3 * (1 - 1e-5));
 }
 
+// Behind a rig's torsional compliance C the actuator's angle is the contact's twist plus C M; the
+// contact follows its own Masing loop whatever C is.
+TEST(TorsionTest, ATwistThroughACompliancePutsTheRigInSeries) {
+  const double compliance = 0.4;  // rad / (N m): the rig's twist at the moment 1 N m
+  TorsionalMemory through = UnitMemory(), direct = UnitMemory();
+  for (double actuator : {0.9, 1.3, -0.2, -1.1, 0.4, 0.4, 2.5, -3.0}) {
+    SCOPED_TRACE(actuator);
+    ASSERT_TRUE(through.TwistThroughCompliance(actuator, compliance).ok());
+    EXPECT_NEAR(through.twist() + compliance * through.Moment(), actuator, 1e-14 * 3);
+    // The same contact twisted directly to the twist the rig left it at.
+    ASSERT_TRUE(direct.TwistTo(through.twist()).ok());
+    EXPECT_NEAR(through.Moment(), direct.Moment(), 1e-14 * kSlipMoment);
+    EXPECT_EQ(through.StickRadius(+1), direct.StickRadius(+1));
+  }
+  // Without a compliance it is TwistTo, bit for bit.
+  TorsionalMemory a = UnitMemory(), b = UnitMemory();
+  ASSERT_TRUE(a.TwistThroughCompliance(0.7, 0).ok());
+  ASSERT_TRUE(b.TwistTo(0.7).ok());
+  EXPECT_EQ(a.Snapshot(), b.Snapshot());
+  // Refusals name their field and change nothing.
+  const TorsionSnapshot before = a.Snapshot();
+  EXPECT_EQ(a.TwistThroughCompliance(NAN, 1).field(), "actuator");
+  EXPECT_EQ(a.TwistThroughCompliance(1, -1).field(), "compliance");
+  EXPECT_EQ(a.TwistThroughCompliance(1, INFINITY).field(), "compliance");
+  EXPECT_EQ(a.Snapshot(), before);
+}
+
 TEST(TorsionTest, AMomentTargetFindsItsTwist) {
   TorsionalMemory memory = UnitMemory();
   ExpectRelative(memory.FullSlipMoment(), kSlipMoment, 1e-14);

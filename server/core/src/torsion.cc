@@ -820,6 +820,31 @@ Status TorsionalMemory::TwistToMoment(double target) {
   return Twist(direction * s);
 }
 
+Status TorsionalMemory::TwistThroughCompliance(double actuator, double compliance) {
+  if (Status s = RequireFinite("actuator", actuator); !s.ok()) return s;
+  if (Status s = RequireFinite("compliance", compliance); !s.ok()) return s;
+  if (Status s = RequireNonNegative("compliance", compliance); !s.ok()) return s;
+  if (compliance == 0) return TwistTo(actuator);
+  const double gap = actuator - (twist_ + compliance * Moment());
+  if (!std::isfinite(gap)) {
+    return InvalidArgument("actuator", "is too far from the current twist for a double increment");
+  }
+  if (gap == 0) return Twist(0);
+  // g(s) = direction (twist + C M - actuator) after a twist of direction s: nondecreasing, with
+  // slope 1 + C k >= 1, so the root lies in [0, |gap|].
+  const int direction = gap > 0 ? 1 : -1;
+  auto g = [&](double s) {
+    TorsionalMemory trial = *this;
+    (void)trial.Twist(direction * s);
+    return internal::ValueAndSlope{
+        direction * (trial.twist() + compliance * trial.Moment() - actuator),
+        1 + compliance * trial.Stiffness(direction)};
+  };
+  std::vector<double> no_breakpoints;
+  const double s = internal::SolveNondecreasing(g, no_breakpoints, 0, std::abs(gap), 0);
+  return Twist(direction * s);
+}
+
 Status TorsionalMemory::SetContactRadius(double contact_radius) {
   if (Status s = RequireFinite("contact_radius", contact_radius); !s.ok()) return s;
   if (Status s = RequireNonNegative("contact_radius", contact_radius); !s.ok()) return s;

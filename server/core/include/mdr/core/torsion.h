@@ -150,6 +150,11 @@ class TorsionalMemory {
   // slope. |target| must be below the full-slip moment, which only an infinite twist reaches
   // (FailedPrecondition otherwise, nothing changed). Field: moment.
   Status TwistToMoment(double target);
+  // Twists the contact behind a torsional spring of compliance C (rad/(N m), finite, >= 0; a
+  // rig's shaft and fixtures) whose far end is turned to `actuator` (rad, finite): afterwards
+  // twist() + C Moment() = actuator, to the round-off of a bracketed Newton iteration on that
+  // (monotone, slope 1 + C stiffness) relation. C = 0 is TwistTo. Fields: actuator, compliance.
+  Status TwistThroughCompliance(double actuator, double compliance);
   // The normal load changes at fixed twist so that the contact radius becomes contact_radius
   // (finite, >= 0). Growing adds springs at v = 0; shrinking clips to the smaller bound and
   // forgets the springs outside (their energy is dissipated). A decrease whose result would break
@@ -256,6 +261,12 @@ class TorsionalContact {
   // memory is no longer a finite list of pieces (docs/physics.md); two steps do it exactly.
   // Fields: normal_value, twist_value, step, and those of TorsionalMemory.
   Status Apply(const TorsionStep& step);
+
+  // The twist behind a rig's torsional compliance (TorsionalMemory::TwistThroughCompliance) at
+  // fixed normal load; on an error nothing changed. Fields: actuator, compliance.
+  Status TwistThroughCompliance(double actuator, double compliance) {
+    return memory_.TwistThroughCompliance(actuator, compliance);
+  }
 
   double depth() const { return depth_; }
   double normal_force() const;
