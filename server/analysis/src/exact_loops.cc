@@ -199,4 +199,122 @@ Result<std::vector<LoopFigures>> Backbone(const ContactConfig& scene, double nor
   return backbone;
 }
 
+// ---- Torsional loops ---------------------------------------------------------------------------
+
+Result<TorsionalContact> PressTorsionalContact(const TorsionalScene& scene, double normal_force) {
+  if (Status s = RequireNonNegative("rig_compliance", scene.rig_compliance); !s.ok()) return s;
+  if (Status s = RequireFinite("rig_compliance", scene.rig_compliance); !s.ok()) return s;
+  if (Status s = RequirePositive("normal_force", normal_force); !s.ok()) return s;
+  Result<TorsionalContact> created = TorsionalContact::Create(
+      scene.profile, scene.friction, scene.effective_modulus, scene.torsional_modulus);
+  if (!created.ok()) return created.status();
+  TorsionalContact contact = std::move(created).value();
+  TorsionStep press;
+  press.normal = NormalControl::kForce;
+  press.normal_value = normal_force;
+  if (Status s = contact.Apply(press); !s.ok()) {
+    return Status(s.code(), "normal_force", s.message());
+  }
+  return contact;
+}
+
+Result<double> FullSlipMoment(const TorsionalScene& scene, double normal_force) {
+  Result<TorsionalContact> contact = PressTorsionalContact(scene, normal_force);
+  if (!contact.ok()) return contact.status();
+  return contact->memory().FullSlipMoment();
+}
+
+namespace {
+
+// The actuator's twist of a torsional state: the contact's and the rig's.
+double ActuatorTwist(const TorsionalContact& c, double compliance) {
+  return c.memory().twist() + compliance * c.memory().Moment();
+}
+
+// The twist where the branch from this state reaches M = 0 (the rig unloaded there).
+Result<double> ZeroMomentTwist(TorsionalContact contact) {
+  TorsionStep step;
+  step.twist = TwistControl::kMoment;
+  step.twist_value = 0;
+  if (Status s = contact.Apply(step); !s.ok()) return s;
+  return contact.memory().twist();
+}
+
+}  // namespace
+
+Result<LoopFigures> ExactTorsionalLoop(const TorsionalScene& scene, double normal_force,
+                                       AmplitudeKind kind, double amplitude,
+                                       const Interrupt& interrupt) {
+  if (Status s = RequirePositive("amplitude", amplitude); !s.ok()) return s;
+  Result<TorsionalContact> pressed = PressTorsionalContact(scene, normal_force);
+  if (!pressed.ok()) return pressed.status();
+  TorsionalContact c = std::move(pressed).value();
+  const double limit = c.memory().FullSlipMoment();
+  if (kind == AmplitudeKind::kForce && !(amplitude < limit)) {
+    return InvalidArgument("amplitude",
+                           "a moment amplitude must be in (0, M_slip = " + FormatNumber(limit) +
+                               " N m), the full-slip moment that only an infinite twist reaches; "
+                               "got " + FormatNumber(amplitude) + " N m");
+  }
+  auto step = [&](double target) {
+    Status s;
+    if (kind == AmplitudeKind::kForce) {
+      TorsionStep twist;
+      twist.twist = TwistControl::kMoment;
+      twist.twist_value = target;
+      s = c.Apply(twist);
+    } else {
+      s = c.TwistThroughCompliance(target, scene.rig_compliance);
+    }
+    if (s.ok() || s.code() != StatusCode::kInvalidArgument) return s;
+    return InvalidArgument("amplitude", "the torsional loop of amplitude " +
+                                            FormatNumber(amplitude) + " at F_N = " +
+                                            FormatNumber(normal_force) +
+                                            " N cannot be followed (" + s.field() + ": " +
+                                            s.message() + ")");
+  };
+  // The virgin twist and one reversal make the loop steady (Masing at constant load).
+  for (double target : {amplitude, -amplitude}) {
+    if (Status s = step(target); !s.ok()) return s;
+  }
+  if (Status s = interrupt.Check(); !s.ok()) return s;
+  const double energy_at_start = c.memory().dissipated_energy();
+  const TorsionalContact lower = c;
+  if (Status s = step(amplitude); !s.ok()) return s;
+  const TorsionalContact upper = c;
+  if (Status s = step(-amplitude); !s.ok()) return s;
+  const double energy = c.memory().dissipated_energy() - energy_at_start;
+  Result<double> down = ZeroMomentTwist(upper), up = ZeroMomentTwist(lower);
+  if (!down.ok()) return down.status();
+  if (!up.ok()) return up.status();
+  const double moment_amplitude = 0.5 * (upper.memory().Moment() - lower.memory().Moment());
+  return Figures(normal_force, moment_amplitude, energy, 0.5 * (*down - *up),
+                 0.5 * (upper.memory().twist() - lower.memory().twist()),
+                 0.5 * (ActuatorTwist(upper, scene.rig_compliance) -
+                        ActuatorTwist(lower, scene.rig_compliance)));
+}
+
+Regime ClassifyTorsionalCycle(const CycleMetrics& cycle, double full_slip_moment) {
+  if (!cycle.opening_resolved || !(cycle.dissipated_energy > 0)) return Regime::kSticking;
+  return cycle.force_amplitude >= full_slip_moment ? Regime::kGrossSlip : Regime::kPartialSlip;
+}
+
+Result<std::vector<LoopFigures>> TorsionalBackbone(const TorsionalScene& scene,
+                                                   double normal_force, AmplitudeKind kind,
+                                                   const std::vector<double>& amplitudes,
+                                                   const Interrupt& interrupt) {
+  std::vector<LoopFigures> backbone;
+  for (std::size_t k = 0; k < amplitudes.size(); ++k) {
+    Result<LoopFigures> loop =
+        ExactTorsionalLoop(scene, normal_force, kind, amplitudes[k], interrupt);
+    if (!loop.ok()) {
+      return loop.status().field() == "amplitude"
+                 ? Status(loop.status().code(), Indexed("amplitudes", k), loop.status().message())
+                 : loop.status();
+    }
+    backbone.push_back(*loop);
+  }
+  return backbone;
+}
+
 }  // namespace mdr::analysis

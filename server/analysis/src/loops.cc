@@ -62,9 +62,10 @@ Status ValidateLoopOptions(const LoopOptions& o) {
 
 namespace {
 
-Status RequireLength(const char* name, std::size_t size, std::size_t n, bool optional) {
+Status RequireLength(const char* name, std::size_t size, std::size_t n, bool optional,
+                     const char* position) {
   if (size == n || (optional && size == 0)) return OkStatus();
-  return InvalidArgument(name, std::string("needs one value per displacement sample") +
+  return InvalidArgument(name, std::string("needs one value per ") + position + " sample" +
                                    (optional ? " (or none)" : "") + ", got " +
                                    std::to_string(size) + " for " + std::to_string(n));
 }
@@ -98,30 +99,37 @@ Status SpanAtLeast(const char* name, const std::vector<double>& v, const char* u
 }
 
 Status ValidateSamples(const LoopSamples& s, const Interrupt& interrupt) {
+  const ChannelNames names = NamesOf(s.channel);
   const std::size_t n = s.displacement.size();
-  if (Status st = RequireLength("tangential_force", s.tangential_force.size(), n, false); !st.ok())
+  if (Status st = RequireLength(names.force, s.tangential_force.size(), n, false, names.position);
+      !st.ok())
     return st;
-  if (Status st = RequireLength("normal_force", s.normal_force.size(), n, true); !st.ok())
+  if (Status st = RequireLength("normal_force", s.normal_force.size(), n, true, names.position);
+      !st.ok())
     return st;
-  if (Status st = RequireLength("time", s.time.size(), n, true); !st.ok()) return st;
+  if (Status st = RequireLength("time", s.time.size(), n, true, names.position); !st.ok())
+    return st;
 
   auto within = [&](const char* name, const std::vector<double>& v, double lo, double hi) {
     return CheckColumn(
         v, interrupt, [&](std::size_t i) { return v[i] >= lo && v[i] <= hi; },
         [&](std::size_t i) { return RequireInRange(Indexed(name, i), v[i], lo, hi); });
   };
-  if (Status st =
-          within("displacement", s.displacement, -kMaxSampleDisplacement, kMaxSampleDisplacement);
+  if (Status st = within(names.position, s.displacement, -names.max_position, names.max_position);
       !st.ok()) {
     return st;
   }
-  if (Status st = within("tangential_force", s.tangential_force, -kMaxSampleForce, kMaxSampleForce);
+  if (Status st = within(names.force, s.tangential_force, -kMaxSampleForce, kMaxSampleForce);
       !st.ok()) {
     return st;
   }
   if (Status st = within("normal_force", s.normal_force, 0, kMaxSampleForce); !st.ok()) return st;
-  if (Status st = SpanAtLeast("displacement", s.displacement, "m"); !st.ok()) return st;
-  if (Status st = SpanAtLeast("tangential_force", s.tangential_force, "N"); !st.ok()) return st;
+  if (Status st = SpanAtLeast(names.position, s.displacement, names.position_unit); !st.ok()) {
+    return st;
+  }
+  if (Status st = SpanAtLeast(names.force, s.tangential_force, names.force_unit); !st.ok()) {
+    return st;
+  }
   auto finite = [&](const char* name, const std::vector<double>& v) {
     return CheckColumn(
         v, interrupt, [&](std::size_t i) { return std::isfinite(v[i]); },
@@ -360,8 +368,11 @@ CycleMetrics MeasureCycle(const LoopSamples& samples, std::size_t a, std::size_t
   } else {
     m.normal_force = o.normal_force.value_or(kNaN);
   }
-  m.friction_coefficient = m.force_amplitude / m.normal_force;
-  m.energy_friction_coefficient = m.dissipated_energy / (4 * m.normal_force * resolved_opening);
+  // A torsional M* / P is a length (mu times a fraction of the contact radius): no coefficient.
+  const bool torsional = samples.channel == LoopChannel::kTorsional;
+  m.friction_coefficient = torsional ? kNaN : m.force_amplitude / m.normal_force;
+  m.energy_friction_coefficient =
+      torsional ? kNaN : m.dissipated_energy / (4 * m.normal_force * resolved_opening);
 
   m.displacement_amplitude = 0.5 * (u.max - u.min);
   m.energy_ratio = m.dissipated_energy / (4 * m.displacement_amplitude * m.force_amplitude);
@@ -392,6 +403,13 @@ double FrictionDrift(const std::vector<CycleMetrics>& cycles, bool normal_force_
 }
 
 }  // namespace
+
+ChannelNames NamesOf(LoopChannel channel) {
+  if (channel == LoopChannel::kTorsional) {
+    return {"twist", "twisting_moment", "rad", "N m", kMaxSampleTwist};
+  }
+  return {"displacement", "tangential_force", "m", "N", kMaxSampleDisplacement};
+}
 
 Measures MeasuresOf(const char* figure) {
   if (figure == nullptr) return Measures::kContactAndRig;
@@ -438,14 +456,19 @@ Result<LoopAnalysis> AnalyzeLoops(const LoopSamples& samples, const LoopOptions&
     out.cycles.push_back(MeasureCycle(samples, at[k], at[k + 1], at[k + 2], options));
   }
   if (out.cycles.empty()) {
+    const ChannelNames names = NamesOf(samples.channel);
     return FailedPrecondition(
-        "displacement",
-        "holds no complete cycle (two upper reversals with a lower one between them, u moving "
-        "back from each by more than the reversal threshold " +
-            FormatNumber(out.reversal_threshold) + " m); found " + std::to_string(at.size()) +
-            " reversals in " + std::to_string(samples.displacement.size()) + " samples");
+        names.position,
+        std::string("holds no complete cycle (two upper reversals with a lower one between them, "
+                    "the ") +
+            names.position + " moving back from each by more than the reversal threshold " +
+            FormatNumber(out.reversal_threshold) + " " + names.position_unit + "); found " +
+            std::to_string(at.size()) + " reversals in " +
+            std::to_string(samples.displacement.size()) + " samples");
   }
-  const bool normal_force_known = !samples.normal_force.empty() || options.normal_force;
+  // A torsional record drifts in M* (it has no friction coefficient).
+  const bool normal_force_known = samples.channel == LoopChannel::kTangential &&
+                                  (!samples.normal_force.empty() || options.normal_force);
   out.friction_drift = FrictionDrift(out.cycles, normal_force_known);
   out.friction_drifts = std::abs(out.friction_drift) > options.drift_tolerance;
   return out;

@@ -15,6 +15,7 @@
 #include "mdr/base/status.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/interrupt.h"
+#include "mdr/core/torsion.h"
 
 namespace mdr::analysis {
 
@@ -87,5 +88,50 @@ Result<std::vector<FrettingMapLoad>> FrettingMap(const ContactConfig& scene,
 Result<std::vector<LoopFigures>> Backbone(const ContactConfig& scene, double normal_force,
                                           AmplitudeKind kind, const std::vector<double>& amplitudes,
                                           const Interrupt& interrupt = {});
+
+// ---- Torsional loops (docs/analysis.md, "Torsional records") ----------------------------------
+//
+// The same figures for a contact twisted about its axis (LoopChannel::kTorsional: the twist for
+// the displacement, the twisting moment for the force), from exact steps of the torsional memory
+// (mdr/core/torsion.h) at constant normal force, through a rig's torsional compliance.
+
+// A torsional scene: the profile with its normal problem (E*), friction, the torsional modulus
+// G_t (1/G_t = 1/G_1 + 1/G_2) and the rig's torsional compliance C in rad/(N m) (0: none).
+struct TorsionalScene {
+  ProfilePtr profile;
+  double friction = 0;
+  double effective_modulus = 0;  // E*, Pa
+  double torsional_modulus = 0;  // G_t, Pa
+  double rig_compliance = 0;     // rad / (N m), finite, >= 0
+};
+
+// The contact of the scene pressed to P > 0 at twist 0. Errors name "profile", "friction",
+// "effective_modulus", "torsional_modulus", "rig_compliance" or "normal_force".
+Result<TorsionalContact> PressTorsionalContact(const TorsionalScene& scene, double normal_force);
+
+// The steady torsional loop of amplitude `amplitude` at normal force P > 0: AmplitudeKind::kForce
+// is the moment amplitude M* (N m, in (0, M_slip): the full-slip moment is reached only by an
+// infinite twist), kActuatorDisplacement the actuator's twist amplitude (rad). The figures of
+// LoopFigures in rad and N m (force_amplitude is M*, half_opening the twist's at M = 0, ...).
+Result<LoopFigures> ExactTorsionalLoop(const TorsionalScene& scene, double normal_force,
+                                       AmplitudeKind kind, double amplitude,
+                                       const Interrupt& interrupt = {});
+
+// The full-slip moment of the scene at P (N m): the supremum of every torsional loop's M*
+// (Hertz: 3 pi mu P a / 16).
+Result<double> FullSlipMoment(const TorsionalScene& scene, double normal_force);
+
+// A measured torsional cycle's regime: sticking as ClassifyCycle (no resolved opening, or no
+// loss); gross slip if its moment amplitude reaches the full-slip moment, which no partial-slip
+// state of the model carries (a smooth profile's centre never slips at a finite twist, so there
+// is no onset at a finite amplitude as in the tangential case); partial slip otherwise.
+Regime ClassifyTorsionalCycle(const CycleMetrics& cycle, double full_slip_moment);
+
+// The torsional backbone at P: the exact loops at the given amplitudes (AmplitudeKind), each with
+// its secant torsional stiffness (N m/rad) and damping ratio.
+Result<std::vector<LoopFigures>> TorsionalBackbone(const TorsionalScene& scene,
+                                                   double normal_force, AmplitudeKind kind,
+                                                   const std::vector<double>& amplitudes,
+                                                   const Interrupt& interrupt = {});
 
 }  // namespace mdr::analysis

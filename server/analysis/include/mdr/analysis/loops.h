@@ -28,19 +28,43 @@ enum class Measures {
 
 // The ranges of the samples: beyond them the figures' products overflow or underflow (a
 // rig's stroke is millimetres, its forces kilonewtons, its sensors resolve nanometres and
-// millinewtons).
+// millinewtons; a torsional rig turns by degrees).
 inline constexpr double kMaxSampleDisplacement = 1;  // m, |u|
-inline constexpr double kMaxSampleForce = 1e9;       // N, |F_x| and F_N
-// m for u, N for F_x: the least span (max - min) of a column that is not constant.
+inline constexpr double kMaxSampleTwist = 100;       // rad, |phi|: sixteen turns
+inline constexpr double kMaxSampleForce = 1e9;       // N, |F_x| and F_N; N m, |M|
+// m for u, N for F_x (rad and N m for a torsional record): the least span (max - min) of a
+// column that is not constant.
 inline constexpr double kMinSampleSpan = 1e-15;
+
+// What a record's two loop columns hold. A torsional fretting loop (a ball twisted on a flat) is
+// analysed exactly as a tangential one, with the twist for the displacement and the twisting
+// moment for the force: every figure keeps its definition, in rad and N m.
+enum class LoopChannel {
+  kTangential,  // displacement u (m) and tangential force F_x (N)
+  kTorsional,   // twist phi (rad) and twisting moment M (N m) about the contact's axis
+};
+
+// The names and units of a channel's loop columns, for messages and reports: "displacement",
+// "tangential_force", "m", "N"; "twist", "twisting_moment", "rad", "N m".
+struct ChannelNames {
+  const char* position;
+  const char* force;
+  const char* position_unit;
+  const char* force_unit;
+  double max_position;  // kMaxSampleDisplacement or kMaxSampleTwist
+};
+ChannelNames NamesOf(LoopChannel channel);
 
 // The samples of one run, in SI units, one value per sample in each non-empty column.
 struct LoopSamples {
-  // u, m: the actuator's (or sensor's) tangential position; |u| <= kMaxSampleDisplacement.
+  // u, m: the actuator's (or sensor's) tangential position; |u| <= kMaxSampleDisplacement. A
+  // torsional record: the actuator's twist phi in rad, |phi| <= kMaxSampleTwist.
   std::vector<double> displacement;
-  std::vector<double> tangential_force;  // F_x, N; |F_x| <= kMaxSampleForce
-  std::vector<double> normal_force;      // F_N, N, in [0, kMaxSampleForce]; empty: not measured
-  std::vector<double> time;              // t, s, strictly increasing; empty: not recorded
+  // F_x, N; |F_x| <= kMaxSampleForce. A torsional record: the twisting moment M in N m.
+  std::vector<double> tangential_force;
+  std::vector<double> normal_force;  // F_N, N, in [0, kMaxSampleForce]; empty: not measured
+  std::vector<double> time;          // t, s, strictly increasing; empty: not recorded
+  LoopChannel channel = LoopChannel::kTangential;
 };
 
 struct LoopOptions {
@@ -48,8 +72,9 @@ struct LoopOptions {
   // back from it by more than this (noise smaller than it makes no reversal). 0: automatic, 5 % of
   // the median peak-to-peak displacement of the run. Finite, >= 0.
   double reversal_threshold = 0;
-  // The rig's tangential compliance C_t in m/N, if known (measured, or identified by fitting):
-  // the contact-level figures (CycleMetrics::contact) are then reported too. Finite, >= 0.
+  // The rig's tangential compliance C_t in m/N (a torsional record: its torsional compliance in
+  // rad/(N m)), if known (measured, or identified by fitting): the contact-level figures
+  // (CycleMetrics::contact) are then reported too. Finite, >= 0.
   std::optional<double> rig_compliance;
   // The normal force in N when the samples carry none (for the friction coefficients); finite,
   // > 0. Ignored when normal_force samples are given.
@@ -113,8 +138,11 @@ struct CycleMetrics {
   bool opening_resolved = false;
   double system_free_ratio = 0;  // C = Ed / (4 delta_0 Q*) (NaN without a resolved opening)
   double normal_force = 0;       // P, N: the cycle's mean F_N (or LoopOptions::normal_force; NaN)
-  double friction_coefficient = 0;  // Q* / P (NaN without P)
-  // mu_e = Ed / (4 P delta_0) (NaN without P or without a resolved opening)
+  // Q* / P (NaN without P, and for a torsional record: its M* / P is a length, mu times a
+  // fraction of the contact radius that the profile sets).
+  double friction_coefficient = 0;
+  // mu_e = Ed / (4 P delta_0) (NaN without P or without a resolved opening; NaN for a torsional
+  // record, as above)
   double energy_friction_coefficient = 0;
 
   // Measures::kContactAndRig (the measured displacement):
