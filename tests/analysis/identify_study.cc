@@ -72,19 +72,27 @@ int Main(int argc, char** argv) {
   app.add_flag("--fit-mass", fit_mass);
   app.add_flag("--normal-column", column);
   app.add_flag("--given-noise", given, "weigh with the generator's noise instead of estimating it");
+  bool torsion = false;
+  app.add_flag("--torsion", torsion,
+               "the torsional campaign (identify_campaigns.h): mu, G_t and the shaft's compliance "
+               "from (twist, moment) loops; the noises in rad and N m, amplitudes in rad");
   CLI11_PARSE(app, argc, argv);
 
   const ContactConfig truth =
       campaigns::SteelOnTitanium(truth_profile == "cone" ? *MakeCone(0.02) : ProfilePtr{});
-  const ContactConfig start = campaigns::SteelOnTitanium();
-  campaigns::Spec spec;
-  spec.cycles = cycles;
+  const rig_simulator::TorsionalRig torsional_truth =
+      campaigns::TorsionalSteel(truth_profile == "cone" ? *MakeCone(0.2) : ProfilePtr{});
+  const ContactConfig start = torsion ? campaigns::TorsionalStart() : campaigns::SteelOnTitanium();
+  campaigns::Spec spec = torsion ? campaigns::TorsionalSpec() : campaigns::Spec{};
+  if (!torsion) {  // the torsional spec keeps its own cycles, samples and waveform
+    spec.cycles = cycles;
+    spec.samples_per_cycle = per_cycle;
+    spec.waveform = waveform == "triangle" ? rig_simulator::Waveform::kTriangle
+                                           : rig_simulator::Waveform::kSine;
+  }
   if (!loads.empty()) spec.loads = loads;
   if (!amplitudes.empty()) spec.amplitudes = amplitudes;
-  spec.samples_per_cycle = per_cycle;
   spec.frequency = frequency;
-  spec.waveform =
-      waveform == "triangle" ? rig_simulator::Waveform::kTriangle : rig_simulator::Waveform::kSine;
   spec.displacement_noise = u_noise;
   spec.force_noise = f_noise;
   spec.normal_noise = n_noise;
@@ -95,7 +103,7 @@ int Main(int argc, char** argv) {
   spec.displacement_drift = drift;
   spec.mass = mass;
   spec.declared_normal_force = declared;
-  FitOptions options = campaigns::ThreeFree();
+  FitOptions options = torsion ? campaigns::TorsionalThreeFree() : campaigns::ThreeFree();
   options.threads = threads;
   options.burn_in_reversals = burn_in;
   if (given) {
@@ -105,7 +113,10 @@ int Main(int argc, char** argv) {
   options.nuisances.force_offset = fit_offsets;
   options.nuisances.displacement_drift = fit_drift;
   options.nuisances.moving_mass = fit_mass;
-  const double values[] = {truth.friction, truth.material.e_star, truth.rig.tangential};
+  const double values[] = {
+      torsion ? torsional_truth.friction : truth.friction,
+      torsion ? torsional_truth.torsional_modulus : truth.material.e_star,
+      torsion ? torsional_truth.compliance : truth.rig.tangential};
   Tally tally[3];
   std::map<std::string, Tally> nuisance_tally;
   int misfits = 0, identified = 0, failed = 0, mismatches = 0;
@@ -113,7 +124,9 @@ int Main(int argc, char** argv) {
   for (int replicate = 0; replicate < replicates; ++replicate) {
     spec.seed = seed + static_cast<std::uint64_t>(replicate);
     std::vector<rig_simulator::Record> records;
-    const std::vector<analysis::LoopSet> sets = campaigns::Make(truth, spec, &records);
+    const std::vector<analysis::LoopSet> sets =
+        torsion ? campaigns::MakeTorsional(torsional_truth, spec, &records)
+                : campaigns::Make(truth, spec, &records);
     const auto began = std::chrono::steady_clock::now();
     options.keep_models = replicate == 0 && !dump.empty();
     Result<FitResult> fit = analysis::FitLoops(start, sets, options);
@@ -208,11 +221,10 @@ int Main(int argc, char** argv) {
       }
     }
   }
-  std::printf("u noise %.3g m, F noise %.3g N, %d replicates (%d failed): %.3f s per fit\n",
-              u_noise, f_noise, replicates, failed, seconds / replicates);
-  tally[0].Print("friction");
-  tally[1].Print("effective_modulus");
-  tally[2].Print("rig_compliance");
+  std::printf("u noise %.3g %s, F noise %.3g %s, %d replicates (%d failed): %.3f s per fit\n",
+              u_noise, torsion ? "rad" : "m", f_noise, torsion ? "N m" : "N", replicates, failed,
+              seconds / replicates);
+  for (int k = 0; k < 3; ++k) tally[k].Print(analysis::ParameterName(options.free[k].parameter));
   for (const auto& [name, t] : nuisance_tally) t.Print(name.c_str());
   std::printf("  misfit %d, load mismatch %d, identified %d, mean reduced chi-square %.3f\n",
               misfits, mismatches, identified, chi2 / replicates);

@@ -7,6 +7,7 @@
 
 #include "mdr/analysis/signal.h"
 #include "mdr/base/validate.h"
+#include "mdr/core/torsion.h"
 
 namespace mdr::analysis::internal {
 namespace {
@@ -190,6 +191,11 @@ Result<PreparedSet> PrepareSet(const LoopSet& set, std::size_t index, const FitO
     p.normal = LocalPolynomial(sample_index, samples.normal_force, 0, n,
                                noisy ? std::max<std::size_t>(2, half_cycle / 4) : 0, 4);
     for (double& v : p.normal) v = std::max(v, 0.0);
+    // A torsional set is replayed at its column's mean (FitOptions::torsion).
+    p.replay_normal = !options.torsion;
+    double sum = 0;
+    for (double v : p.normal) sum += v;
+    p.constant_normal = sum / static_cast<double>(n);
   } else {
     p.constant_normal = *set.normal_force;
   }
@@ -225,7 +231,7 @@ Layout MakeLayout(const std::vector<PreparedSet>& sets, const FitOptions& option
 // ---- The model ---------------------------------------------------------------------------------
 
 struct FitModel::Inputs {
-  const ContactConfig* scene = nullptr;
+  const FitScene* scene = nullptr;
   double offset = 0, drift = 0, force_offset = 0, mass = 0;
   std::vector<double> turning;  // A_k, in actuator coordinates
 };
@@ -283,8 +289,9 @@ double FitModel::Scale(std::size_t coordinate) const {
   return 1;
 }
 
-Result<ContactConfig> FitModel::SceneAt(const std::vector<double>& values) const {
-  ContactConfig scene = scene_;
+Result<FitScene> FitModel::SceneAt(const std::vector<double>& values) const {
+  FitScene fit{scene_, options_.torsion};
+  ContactConfig& scene = fit.contact;
   scene.track_energy = false;  // the fit compares forces only
   const double kappa = scene.material.kappa();
   for (std::size_t k = 0; k < values.size(); ++k) {
@@ -303,16 +310,19 @@ Result<ContactConfig> FitModel::SceneAt(const std::vector<double>& values) const
         break;
       }
       case Parameter::kRigCompliance:
-        scene.rig.tangential = values[k];
+        (fit.torsion ? fit.torsion->rig_compliance : scene.rig.tangential) = values[k];
+        break;
+      case Parameter::kTorsionalModulus:
+        if (fit.torsion) fit.torsion->torsional_modulus = values[k];
         break;
       case Parameter::kDisplacementOffset:
         break;  // where each set is pressed (InputsFor)
     }
   }
-  return scene;
+  return fit;
 }
 
-FitModel::Inputs FitModel::InputsFor(const std::vector<double>& x, const ContactConfig& scene,
+FitModel::Inputs FitModel::InputsFor(const std::vector<double>& x, const FitScene& scene,
                                      std::size_t r) const {
   const PreparedSet& set = sets_[r];
   const Layout::Block& block = layout_.blocks[r];
@@ -341,7 +351,7 @@ FitModel::Inputs FitModel::InputsFor(const std::vector<double>& x, const Contact
 }
 
 std::vector<double> FitModel::TurningPoints(const std::vector<double>& x, std::size_t r) const {
-  const ContactConfig& scene = scene_;
+  const FitScene scene{scene_, options_.torsion};  // the turning points need no parameter
   const Inputs in = InputsFor(x, scene, r);
   const PreparedSet& set = sets_[r];
   std::vector<double> sensor;
@@ -350,6 +360,110 @@ std::vector<double> FitModel::TurningPoints(const std::vector<double>& x, std::s
   }
   return sensor;
 }
+
+// The contact a set is replayed through: the tangential engine (its rig in series inside it), or
+// the torsional memory behind the fit's torsional compliance. Copyable: the Jacobian keeps one
+// per reversal.
+class FitModel::ReplayContact {
+ public:
+  // The virgin contact pressed to `normal_force` with the actuator at the press point (0).
+  static Result<ReplayContact> Press(const FitScene& scene, double normal_force) {
+    if (scene.torsion) {
+      Result<TorsionalContact> created =
+          TorsionalContact::Create(scene.contact.profile, scene.contact.friction,
+                                   scene.contact.material.e_star, scene.torsion->torsional_modulus);
+      if (!created.ok()) return created.status();
+      TorsionalContact c = std::move(created).value();
+      TorsionStep press;
+      press.normal = NormalControl::kForce;
+      press.normal_value = normal_force;
+      if (Status s = c.Apply(press); !s.ok()) return s;
+      return ReplayContact(std::nullopt, std::move(c), scene.torsion->rig_compliance);
+    }
+    Result<Contact> created = Contact::Create(scene.contact);
+    if (!created.ok()) return created.status();
+    Contact c = std::move(created).value();
+    Step press;
+    press.normal = NormalControl::kForce;
+    press.normal_value = normal_force;
+    press.tangential = TangentialControl::kDisplacement;
+    press.tangential_value = 0;
+    if (Status s = c.Apply(press); !s.ok()) return s;
+    return ReplayContact(std::move(c), std::nullopt, scene.contact.rig.tangential);
+  }
+
+  // The actuator to `actuator` (m or rad) and, where a tangential set replays its column, the
+  // normal force to *normal (a curved path of the engine's sub-steps).
+  Status Move(double actuator, const double* normal) {
+    if (torsional_) return torsional_->TwistThroughCompliance(actuator, compliance_);
+    return tangential_->Apply(MoveStep(actuator, normal), nullptr, {},
+                              Contact::OnFailure::kDiscarded);
+  }
+  // F_x (N) or M (N m).
+  double Force() const {
+    return torsional_ ? torsional_->memory().Moment() : tangential_->tangential_force();
+  }
+  // The force's slope against the actuator along a branch of that direction, through the rig.
+  double Stiffness(bool rising) const {
+    double k = 0;
+    if (torsional_) {
+      k = torsional_->memory().Stiffness(rising ? 1 : -1);
+    } else {
+      const TangentialStiffness ts = tangential_->tangential_stiffness();
+      k = rising ? ts.positive : ts.negative;
+    }
+    return k / (1 + compliance_ * k);
+  }
+  // How F_x after a move from this state changes with the move's normal force: a central
+  // difference over 1e-4 of it (a sliding contact's F_x follows mu F_N either way; a sticking
+  // one's hardly moves). Tangential sets only.
+  Result<double> NormalSlope(double actuator, double normal) const {
+    const double delta = 1e-4 * std::max(normal, 1e-300);
+    double force[2];
+    for (int side = 0; side < 2; ++side) {
+      Contact trial = *tangential_;
+      const double shifted = normal + (side == 0 ? delta : -delta);
+      if (Status s = trial.Apply(MoveStep(actuator, &shifted), nullptr, {},
+                                 Contact::OnFailure::kDiscarded);
+          !s.ok()) {
+        return s;
+      }
+      force[side] = trial.tangential_force();
+    }
+    return (force[0] - force[1]) / (2 * delta);
+  }
+  // Nothing after this state can differ from the other's.
+  bool SameState(const ReplayContact& other) const {
+    if (torsional_) {
+      return other.torsional_ && torsional_->memory().Snapshot() == other.torsional_->memory().Snapshot();
+    }
+    return other.tangential_ && tangential_->config().method == Method::kExact &&
+           tangential_->memory() == other.tangential_->memory() &&
+           SameBits(tangential_->tangential_displacement(),
+                    other.tangential_->tangential_displacement());
+  }
+
+ private:
+  ReplayContact(std::optional<Contact> tangential, std::optional<TorsionalContact> torsional,
+                double compliance)
+      : tangential_(std::move(tangential)),
+        torsional_(std::move(torsional)),
+        compliance_(compliance) {}
+  static Step MoveStep(double actuator, const double* normal) {
+    Step step;
+    step.tangential = TangentialControl::kDisplacement;
+    step.tangential_value = actuator;
+    if (normal) {
+      step.normal = NormalControl::kForce;
+      step.normal_value = *normal;
+    }
+    return step;
+  }
+
+  std::optional<Contact> tangential_;
+  std::optional<TorsionalContact> torsional_;
+  double compliance_ = 0;  // m/N or rad/(N m)
+};
 
 // Replays one set: the path stretch by stretch, the engine along it, the model's force and its
 // slope along the branch at every sample.
@@ -360,7 +474,7 @@ class FitModel::Replayer {
     path.resize(set_.samples);
     force.resize(set_.samples);
     stiffness.resize(set_.samples);
-    if (!set_.normal.empty()) normal_slope.assign(set_.samples, 0);
+    if (set_.replay_normal) normal_slope.assign(set_.samples, 0);
   }
 
   // Replays from stretch `from` on: from the pressed virgin contact when from == 0, else from
@@ -368,43 +482,37 @@ class FitModel::Replayer {
   // reversal; with `baseline` (another replay's checkpoints), stops after the first reversal at
   // or beyond `merge_after` where the state equals the baseline's (nothing after it can differ).
   // Returns the end of what was replayed (one past its last sample).
-  Result<std::size_t> Run(std::size_t from, const Contact* start, std::vector<Contact>* checkpoints,
-                          const std::vector<Contact>* baseline, std::size_t merge_after,
+  Result<std::size_t> Run(std::size_t from, const ReplayContact* start,
+                          std::vector<ReplayContact>* checkpoints,
+                          const std::vector<ReplayContact>* baseline, std::size_t merge_after,
                           bool normal_slopes = false) {
-    Result<Contact> begun = start ? Result<Contact>(*start) : Press();
+    Result<ReplayContact> begun =
+        start ? Result<ReplayContact>(*start)
+              : ReplayContact::Press(*in_.scene, set_.replay_normal ? set_.normal.front()
+                                                                    : set_.constant_normal);
     if (!begun.ok()) return begun.status();
-    Contact contact = std::move(begun).value();
+    ReplayContact contact = std::move(begun).value();
     const std::size_t count = set_.reversals.size();
     if (checkpoints) checkpoints->resize(count, contact);
-    Step step;
-    step.tangential = TangentialControl::kDisplacement;
-    if (!set_.normal.empty()) step.normal = NormalControl::kForce;
-    const double compliance = in_.scene->rig.tangential;
     for (std::size_t k = from; k <= count; ++k) {
       const Stretch s = StretchOf(set_.reversals, set_.samples, k);
       const bool rising = k < count ? set_.upper[k] : !set_.upper[count - 1];
       FillPath(k, s, rising);
       for (std::size_t i = s.begin; i <= s.end; ++i) {
         if (Status st = model_.interrupt_.CheckEvery(kInterruptPeriod, i); !st.ok()) return st;
-        step.tangential_value = path[i];
-        if (!set_.normal.empty()) step.normal_value = set_.normal[i];
-        if (normal_slopes) {
-          Result<double> slope = NormalSlope(contact, step);
+        const double* normal = set_.replay_normal ? &set_.normal[i] : nullptr;
+        if (normal_slopes && normal) {
+          Result<double> slope = contact.NormalSlope(path[i], *normal);
           if (!slope.ok()) return slope.status();
           normal_slope[i] = *slope;
         }
-        if (Status st = contact.Apply(step, nullptr, {}, Contact::OnFailure::kDiscarded);
-            !st.ok()) {
-          return st;
-        }
-        force[i] = contact.tangential_force();
-        const TangentialStiffness ts = contact.tangential_stiffness();
-        const double k_contact = rising ? ts.positive : ts.negative;
-        stiffness[i] = k_contact / (1 + compliance * k_contact);
+        if (Status st = contact.Move(path[i], normal); !st.ok()) return st;
+        force[i] = contact.Force();
+        stiffness[i] = contact.Stiffness(rising);
       }
       if (k == count) break;
       if (checkpoints) (*checkpoints)[k] = contact;
-      if (baseline && k >= merge_after && SameState(contact, (*baseline)[k])) return s.end + 1;
+      if (baseline && k >= merge_after && contact.SameState((*baseline)[k])) return s.end + 1;
     }
     return set_.samples;
   }
@@ -421,7 +529,7 @@ class FitModel::Replayer {
     const std::size_t row = counted ? set_.row_offset + i - set_.first_residual : 0;
     const double slope = counted ? model_.slopes_[row] : stiffness[i];
     double value = force[i] + slope * (measured_actuator - path[i]) + in_.force_offset;
-    if (!set_.normal.empty()) {
+    if (set_.replay_normal) {
       // The same for the normal force: the replayed one is the column smoothed, the sensor's
       // reading differs from it by its noise.
       const double normal_slope_i = counted ? model_.normal_slopes_[row] : 0;
@@ -445,43 +553,6 @@ class FitModel::Replayer {
   std::vector<double> normal_slope;  // dF_x/dF_N of each step (with normal_slopes)
 
  private:
-  // How F_x after `step` from `before` changes with the step's normal force: a central
-  // difference over 1e-4 of it (a sliding contact's F_x follows mu F_N either way; a sticking
-  // one's hardly moves).
-  Result<double> NormalSlope(const Contact& before, const Step& step) const {
-    const double delta = 1e-4 * std::max(step.normal_value, 1e-300);
-    double force[2];
-    for (int side = 0; side < 2; ++side) {
-      Contact trial = before;
-      Step shifted = step;
-      shifted.normal_value += side == 0 ? delta : -delta;
-      if (Status s = trial.Apply(shifted, nullptr, {}, Contact::OnFailure::kDiscarded); !s.ok()) {
-        return s;
-      }
-      force[side] = trial.tangential_force();
-    }
-    return (force[0] - force[1]) / (2 * delta);
-  }
-
-  static bool SameState(const Contact& a, const Contact& b) {
-    return a.config().method == Method::kExact && a.memory() == b.memory() &&
-           SameBits(a.tangential_displacement(), b.tangential_displacement());
-  }
-
-  // The virgin contact pressed with the actuator at the press point (0).
-  Result<Contact> Press() const {
-    Result<Contact> created = Contact::Create(*in_.scene);
-    if (!created.ok()) return created.status();
-    Contact c = std::move(created).value();
-    Step press;
-    press.normal = NormalControl::kForce;
-    press.normal_value = set_.normal.empty() ? set_.constant_normal : set_.normal.front();
-    press.tangential = TangentialControl::kDisplacement;
-    press.tangential_value = 0;
-    if (Status s = c.Apply(press); !s.ok()) return s;
-    return c;
-  }
-
   // Stretch k's path in actuator coordinates: the smoothed displacement less the offset and
   // drift, made monotone in the stretch's direction, held between its turning points, and ending
   // on its own.
@@ -506,7 +577,7 @@ class FitModel::Replayer {
 };
 
 Status FitModel::Residuals(const std::vector<double>& x, std::vector<double>* r) const {
-  Result<ContactConfig> scene = SceneAt(Values(x));
+  Result<FitScene> scene = SceneAt(Values(x));
   if (!scene.ok()) return scene.status();
   r->assign(residuals_, 0);
   return ForEach(sets_.size(), threads_, [&](std::size_t s) {
@@ -520,13 +591,13 @@ Status FitModel::Residuals(const std::vector<double>& x, std::vector<double>* r)
 }
 
 Status FitModel::Reweigh(const std::vector<double>& x, bool uniform) {
-  Result<ContactConfig> scene = SceneAt(Values(x));
+  Result<FitScene> scene = SceneAt(Values(x));
   if (!scene.ok()) return scene.status();
   return ForEach(sets_.size(), threads_, [&](std::size_t s) {
     const PreparedSet& set = sets_[s];
     const Inputs in = InputsFor(x, *scene, s);
     Replayer replay(*this, s, in);
-    const bool normal = !set.normal.empty();
+    const bool normal = set.replay_normal;
     Result<std::size_t> end = replay.Run(0, nullptr, nullptr, nullptr, 0, normal);
     if (!end.ok()) return end.status();
     for (std::size_t i = set.first_residual; i < set.samples; ++i) {
@@ -544,7 +615,7 @@ Status FitModel::Reweigh(const std::vector<double>& x, bool uniform) {
 }
 
 Result<SetEvaluation> FitModel::Evaluate(const std::vector<double>& x, std::size_t r) const {
-  Result<ContactConfig> scene = SceneAt(Values(x));
+  Result<FitScene> scene = SceneAt(Values(x));
   if (!scene.ok()) return scene.status();
   const Inputs in = InputsFor(x, *scene, r);
   Replayer replay(*this, r, in);
@@ -555,8 +626,7 @@ Result<SetEvaluation> FitModel::Evaluate(const std::vector<double>& x, std::size
   e.path = replay.path;
   e.contact_force = replay.force;
   e.stiffness = replay.stiffness;
-  e.normal =
-      set.normal.empty() ? std::vector<double>(set.samples, set.constant_normal) : set.normal;
+  e.normal = set.replay_normal ? set.normal : std::vector<double>(set.samples, set.constant_normal);
   for (std::size_t i = 0; i < set.samples; ++i) e.predicted.push_back(replay.Predicted(i));
   return e;
 }
@@ -564,19 +634,19 @@ Result<SetEvaluation> FitModel::Evaluate(const std::vector<double>& x, std::size
 Status FitModel::Jacobian(const std::vector<double>& x, const std::vector<double>& r,
                           std::vector<SparseColumn>* columns) const {
   const std::size_t p = layout_.size;
-  Result<ContactConfig> scene = SceneAt(Values(x));
+  Result<FitScene> scene = SceneAt(Values(x));
   if (!scene.ok()) return scene.status();
   // The scenes with each free parameter stepped.
   std::vector<std::vector<double>> stepped_x(layout_.free, x);
-  std::vector<ContactConfig> stepped_scene;
+  std::vector<FitScene> stepped_scene;
   std::vector<double> steps(p);
   const bool curved = std::any_of(sets_.begin(), sets_.end(),
-                                  [](const PreparedSet& s) { return !s.normal.empty(); });
+                                  [](const PreparedSet& s) { return s.replay_normal; });
   const double step = curved ? kCurvedPathDifferenceStep : kDifferenceStep;
   for (std::size_t j = 0; j < p; ++j) steps[j] = step * std::max(1.0, std::abs(x[j]));
   for (std::size_t c = 0; c < layout_.free; ++c) {
     stepped_x[c][c] += steps[c];
-    Result<ContactConfig> s = SceneAt(Values(stepped_x[c]));
+    Result<FitScene> s = SceneAt(Values(stepped_x[c]));
     if (!s.ok()) return s.status();
     stepped_scene.push_back(std::move(s).value());
   }
@@ -594,7 +664,7 @@ Status FitModel::Jacobian(const std::vector<double>& x, const std::vector<double
     }
   }
   // Each set's replay at x, keeping its state at every reversal.
-  std::vector<std::vector<Contact>> checkpoints(sets_.size());
+  std::vector<std::vector<ReplayContact>> checkpoints(sets_.size());
   if (Status s = ForEach(sets_.size(), threads_,
                          [&](std::size_t set) {
                            const Inputs in = InputsFor(x, *scene, set);
@@ -637,8 +707,8 @@ Status FitModel::Jacobian(const std::vector<double>& x, const std::vector<double
     // A turning point k moves the stretches ending and starting at it: replay from the reversal
     // before it, until the state rejoins the unshifted replay's.
     std::size_t from = 0;
-    const Contact* start = nullptr;
-    const std::vector<Contact>* baseline = nullptr;
+    const ReplayContact* start = nullptr;
+    const std::vector<ReplayContact>* baseline = nullptr;
     const bool turning = task.coordinate >= block.turning_begin &&
                          task.coordinate < block.turning_begin + block.turning_count;
     std::size_t k = 0;

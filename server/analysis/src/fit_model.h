@@ -23,6 +23,13 @@ struct Bounded {
   double Derivative(double phi) const;  // d theta / d phi
 };
 
+// The contact a fit replays at one point of its parameters: the tangential contact's config,
+// and for a torsional fit the torsional modulus and compliance beside it.
+struct FitScene {
+  ContactConfig contact;
+  std::optional<TorsionalFitScene> torsion;
+};
+
 // A set with everything the fit needs that does not depend on the parameters.
 struct PreparedSet {
   const LoopSet* set = nullptr;
@@ -37,8 +44,11 @@ struct PreparedSet {
   std::size_t first_free_turning = 0;  // the turning points from this one on are fitted
   std::vector<double> smoothed;        // the displacement smoothed within each half-cycle
   std::vector<double> drift_abscissa;  // 0 at the first sample, 1 at the last
-  std::vector<double> normal;          // the replayed normal force per sample; empty: constant
-  double constant_normal = 0;          // N, without a column
+  std::vector<double> normal;  // the column's normal force smoothed per sample; empty: none
+  // Whether `normal` is replayed (a tangential set's column); else every sample is replayed at
+  // constant_normal (the declared load, or a torsional set's column mean).
+  bool replay_normal = false;
+  double constant_normal = 0;  // N
   std::vector<double> acceleration;    // d^2u/dt^2 per sample (moving mass); else empty
   double displacement_noise = 0, force_noise = 0;  // the weights' standard deviations
   double normal_noise = 0;                         // of the normal-force column (estimated)
@@ -76,6 +86,8 @@ class FitModel final : public LeastSquaresProblem {
  public:
   FitModel(const ContactConfig& scene, std::vector<PreparedSet> sets, const FitOptions& options,
            std::vector<Bounded> bounds, const Interrupt& interrupt, int threads);
+  // The replayed contact, tangential or torsional (fit_model.cc).
+  class ReplayContact;
 
   std::size_t residuals() const override { return residuals_; }
   std::size_t parameters() const override { return layout_.size; }
@@ -100,7 +112,7 @@ class FitModel final : public LeastSquaresProblem {
   std::vector<double> Start(const std::vector<double>& initial) const;
   // The free parameters' values at x.
   std::vector<double> Values(const std::vector<double>& x) const;
-  Result<ContactConfig> SceneAt(const std::vector<double>& values) const;
+  Result<FitScene> SceneAt(const std::vector<double>& values) const;
   // A nuisance's value in its own unit from its coordinate, and the scale between them.
   double Scale(std::size_t coordinate) const;
   // Set r's model at x.
@@ -110,7 +122,7 @@ class FitModel final : public LeastSquaresProblem {
 
  private:
   struct Inputs;  // the parameters as one set sees them
-  Inputs InputsFor(const std::vector<double>& x, const ContactConfig& scene, std::size_t r) const;
+  Inputs InputsFor(const std::vector<double>& x, const FitScene& scene, std::size_t r) const;
   class Replayer;
 
   const ContactConfig& scene_;

@@ -35,9 +35,9 @@ constexpr int kStructureBinsPerDirection = 8;
 constexpr std::size_t kMinBinCount = 5;
 
 Status CheckFreeParameters(const FitOptions& options) {
-  if (options.free.empty() || options.free.size() > 5) {
+  if (options.free.empty() || options.free.size() > 6) {
     return InvalidArgument("free",
-                           "needs 1 to 5 parameters, got " + std::to_string(options.free.size()));
+                           "needs 1 to 6 parameters, got " + std::to_string(options.free.size()));
   }
   std::set<Parameter> seen;
   for (std::size_t k = 0; k < options.free.size(); ++k) {
@@ -46,6 +46,10 @@ Status CheckFreeParameters(const FitOptions& options) {
     if (!seen.insert(free.parameter).second) {
       return InvalidArgument(field + ".parameter",
                              std::string(ParameterName(free.parameter)) + " is free twice");
+    }
+    if (free.parameter == Parameter::kTorsionalModulus && !options.torsion) {
+      return InvalidArgument(field + ".parameter",
+                             "torsional_modulus is a torsional fit's (torsional records)");
     }
     if (free.parameter == Parameter::kProfileScale && (!options.profile_family || !free.initial)) {
       return InvalidArgument(field + ".parameter",
@@ -81,6 +85,20 @@ Status CheckFreeParameters(const FitOptions& options) {
   if (options.force_noise) {
     if (Status s = RequirePositive("force_noise", *options.force_noise); !s.ok()) return s;
   }
+  if (options.torsion) {
+    if (Status s = RequirePositive("torsion.torsional_modulus", options.torsion->torsional_modulus);
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = RequireNonNegative("torsion.rig_compliance", options.torsion->rig_compliance);
+        !s.ok()) {
+      return s;
+    }
+    if (Status s = RequireFinite("torsion.rig_compliance", options.torsion->rig_compliance);
+        !s.ok()) {
+      return s;
+    }
+  }
   if (options.burn_in_reversals < 0) {
     return InvalidArgument("burn_in_reversals",
                            "must be >= 0, got " + std::to_string(options.burn_in_reversals));
@@ -90,7 +108,7 @@ Status CheckFreeParameters(const FitOptions& options) {
 
 // The initial value of a free parameter: given, or the scene's.
 double InitialValue(const FreeParameter& free, const ContactConfig& scene,
-                    const std::vector<LoopSet>& sets) {
+                    const FitOptions& options, const std::vector<LoopSet>& sets) {
   if (free.initial) return *free.initial;
   switch (free.parameter) {
     case Parameter::kFriction:
@@ -98,7 +116,9 @@ double InitialValue(const FreeParameter& free, const ContactConfig& scene,
     case Parameter::kEffectiveModulus:
       return scene.material.e_star;
     case Parameter::kRigCompliance:
-      return scene.rig.tangential;
+      return options.torsion ? options.torsion->rig_compliance : scene.rig.tangential;
+    case Parameter::kTorsionalModulus:
+      return options.torsion ? options.torsion->torsional_modulus : 0;
     case Parameter::kDisplacementOffset:
       return sets.front().samples.displacement.front();
     case Parameter::kProfileScale:
@@ -564,6 +584,8 @@ const char* ParameterName(Parameter parameter) {
       return "rig_compliance";
     case Parameter::kDisplacementOffset:
       return "displacement_offset";
+    case Parameter::kTorsionalModulus:
+      return "torsional_modulus";
   }
   return "unknown";
 }
@@ -592,6 +614,18 @@ Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet
   if (Status s = ValidateContactConfig(scene); !s.ok()) return s.WithFieldPrefix("scene");
   if (Status s = CheckFreeParameters(options); !s.ok()) return s;
   if (sets.empty()) return InvalidArgument("sets", "needs at least one loop set");
+  // A torsional fit takes torsional records only, a tangential one tangential records.
+  const LoopChannel channel = options.torsion ? LoopChannel::kTorsional : LoopChannel::kTangential;
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    if (sets[i].samples.channel != channel) {
+      return InvalidArgument(Indexed("sets", i) + ".samples",
+                             options.torsion ? "must be a torsional record (twist, twisting moment) "
+                                               "for a torsional fit"
+                                             : "must be a tangential record (displacement, "
+                                               "tangential force) for a tangential fit: a "
+                                               "torsional one needs the scene's torsion");
+    }
+  }
   LoopOptions loop_options;
   loop_options.reversal_threshold = options.reversal_threshold;
   if (Status s = ValidateLoopOptions(loop_options); !s.ok()) return s;  // the fit's own field
@@ -605,7 +639,7 @@ Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet
   std::vector<double> initial;
   for (std::size_t k = 0; k < options.free.size(); ++k) {
     const FreeParameter& free = options.free[k];
-    const double value = InitialValue(free, scene, sets);
+    const double value = InitialValue(free, scene, options, sets);
     if (!(value > free.lower && value < free.upper)) {
       return InvalidArgument(Indexed("free", k) + ".initial",
                              "the initial value " + FormatNumber(value) + " of " +
@@ -666,10 +700,11 @@ Result<FitResult> FitLoops(const ContactConfig& scene, const std::vector<LoopSet
   if (Status s = model.Jacobian(x, r, &jacobian); !s.ok()) return s;
   Assessment assessment(model, sets, options, x, r, jacobian, &result);
   if (Status s = assessment.Run(); !s.ok()) return s;
-  Result<ContactConfig> fitted = model.SceneAt(model.Values(x));
+  Result<internal::FitScene> fitted = model.SceneAt(model.Values(x));
   if (!fitted.ok()) return fitted.status();
-  result.fitted = std::move(fitted).value();
+  result.fitted = std::move(fitted->contact);
   result.fitted.track_energy = scene.track_energy;
+  result.fitted_torsion = fitted->torsion;
   return result;
 }
 

@@ -37,9 +37,20 @@ enum class Parameter {
   // every set. Not free, each set's press point is fitted on its own (a nuisance,
   // Nuisance::kDisplacementOffset).
   kDisplacementOffset,
+  // G_t in Pa: the torsional modulus of a torsional fit (FitOptions::torsion), which scales the
+  // springs' stiffness and, over mu E*, the twist at which they slide.
+  kTorsionalModulus,
 };
-// "friction", "effective_modulus", "profile_scale", "rig_compliance", "displacement_offset".
+// "friction", "effective_modulus", "profile_scale", "rig_compliance", "displacement_offset",
+// "torsional_modulus".
 const char* ParameterName(Parameter parameter);
+
+// A torsional fit's contact besides the scene's profile, E* and friction: the torsional modulus
+// G_t (Pa, > 0) and the rig's torsional compliance (rad/(N m), finite, >= 0).
+struct TorsionalFitScene {
+  double torsional_modulus = 0;
+  double rig_compliance = 0;
+};
 
 // One set of loops: the samples (displacement and tangential force; normal force and time
 // optional) and the normal force it was recorded at.
@@ -71,7 +82,16 @@ struct FreeParameter {
 };
 
 struct FitOptions {
-  std::vector<FreeParameter> free;  // 1 to 5 distinct parameters
+  std::vector<FreeParameter> free;  // 1 to 6 distinct parameters
+  // A torsional fit (docs/analysis.md, "Torsional records"): every set's samples are torsional
+  // (LoopChannel::kTorsional: the twist for the displacement, the twisting moment for the force)
+  // and each is replayed through the exact torsional memory of the scene's profile, E* and
+  // friction with this G_t, behind this torsional compliance. kRigCompliance is then that
+  // compliance (rad/(N m)), kDisplacementOffset the twist's (rad), the force offset the moment's
+  // (N m) and the moving mass a moment of inertia (kg m^2). A set is replayed at a constant normal
+  // force, the declared one or its column's mean: a load that falls after a twist reversal can
+  // leave the memory's exact regime (mdr/core/torsion.h). Unset: a tangential fit.
+  std::optional<TorsionalFitScene> torsion;
   // The profile at a value of its parameter (e.g. the sphere of radius R: MakeSphere), needed when
   // kProfileScale is free (its initial value must then be given).
   std::function<Result<ProfilePtr>(double)> profile_family;
@@ -221,6 +241,8 @@ struct FitResult {
   std::vector<std::string> notes;  // why not, in words ("friction and rig_compliance are
                                    // correlated at -0.998: the loops fix their combination")
   ContactConfig fitted;            // the scene with the estimates
+  // A torsional fit's G_t and compliance at the estimates.
+  std::optional<TorsionalFitScene> fitted_torsion;
   std::vector<SetModel> models;    // with FitOptions::keep_models
 };
 
