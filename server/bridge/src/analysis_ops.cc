@@ -12,6 +12,7 @@
 #include "mdr/analysis/loops.h"
 #include "mdr/base/validate.h"
 #include "mdr/bridge/conversion.h"
+#include "mdr/bridge/torsion_session.h"
 
 namespace mdr::bridge {
 namespace {
@@ -28,13 +29,46 @@ Result<ContactConfig> AnalysisScene(const v1::Scene& scene, std::size_t max_memo
   return ToContactConfig(scene, max_memory_vertices, interrupt);
 }
 
+bool IsTorsional(const v1::LoopSamples& s) {
+  return s.twist_size() > 0 || s.twisting_moment_size() > 0;
+}
+
+// A record is tangential or torsional, not both (errors name the first column of the other pair).
+Status CheckChannel(const v1::LoopSamples& s) {
+  if (IsTorsional(s) && (s.displacement_size() > 0 || s.tangential_force_size() > 0)) {
+    return InvalidArgument("twist",
+                           "a record is tangential (displacement, tangential_force) or torsional "
+                           "(twist, twisting_moment), not both");
+  }
+  return OkStatus();
+}
+
+std::size_t SampleCount(const v1::LoopSamples& s) {
+  return static_cast<std::size_t>(IsTorsional(s) ? s.twist_size() : s.displacement_size());
+}
+
 analysis::LoopSamples ToCore(const v1::LoopSamples& s) {
   analysis::LoopSamples core;
-  core.displacement.assign(s.displacement().begin(), s.displacement().end());
-  core.tangential_force.assign(s.tangential_force().begin(), s.tangential_force().end());
+  if (IsTorsional(s)) {
+    core.channel = analysis::LoopChannel::kTorsional;
+    core.displacement.assign(s.twist().begin(), s.twist().end());
+    core.tangential_force.assign(s.twisting_moment().begin(), s.twisting_moment().end());
+  } else {
+    core.displacement.assign(s.displacement().begin(), s.displacement().end());
+    core.tangential_force.assign(s.tangential_force().begin(), s.tangential_force().end());
+  }
   core.normal_force.assign(s.normal_force().begin(), s.normal_force().end());
   core.time.assign(s.time().begin(), s.time().end());
   return core;
+}
+
+// The torsional scene of a request (errors name "scene...").
+Result<analysis::TorsionalScene> AnalysisTorsionalScene(const v1::Scene& scene,
+                                                        std::size_t max_memory_vertices,
+                                                        const Interrupt& interrupt) {
+  Result<ContactConfig> config = AnalysisScene(scene, max_memory_vertices, interrupt);
+  if (!config.ok()) return config.status();
+  return ToTorsionalScene(scene, *config);
 }
 
 analysis::LoopOptions ToCore(const v1::LoopAnalysisOptions& o) {
@@ -286,17 +320,37 @@ void ToProto(const analysis::SetFit& s, v1::SetFit* out) {
 
 Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, std::size_t max_memory_vertices,
                        const Interrupt& interrupt, v1::AnalyzeLoopsResponse* response) {
-  const std::size_t samples = static_cast<std::size_t>(request.samples().displacement_size());
+  if (Status s = CheckChannel(request.samples()); !s.ok()) return s.WithFieldPrefix("samples");
+  const bool torsional = IsTorsional(request.samples());
+  const std::size_t samples = SampleCount(request.samples());
   if (samples > kMaxAnalyzedSamples) {
-    return ResourceExhausted("samples.displacement", std::to_string(samples) +
-                                                         " samples exceed the limit of " +
-                                                         std::to_string(kMaxAnalyzedSamples));
+    return ResourceExhausted(torsional ? "samples.twist" : "samples.displacement",
+                             std::to_string(samples) + " samples exceed the limit of " +
+                                 std::to_string(kMaxAnalyzedSamples));
   }
+  // A torsional record is classified against a torsional scene, a tangential one against the
+  // tangential contact.
   std::optional<ContactConfig> scene;
+  std::optional<analysis::TorsionalScene> torsion;
   if (request.has_scene()) {
-    Result<ContactConfig> config = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
-    if (!config.ok()) return config.status();
-    scene = std::move(config).value();
+    if (request.scene().has_torsion() != torsional) {
+      return InvalidArgument("scene.torsion",
+                             torsional ? "is required to classify a torsional record (twist, "
+                                         "twisting_moment): the scene's torsional contact"
+                                       : "must be unset to classify a tangential record "
+                                         "(displacement, tangential_force)");
+    }
+    if (torsional) {
+      Result<analysis::TorsionalScene> config =
+          AnalysisTorsionalScene(request.scene(), max_memory_vertices, interrupt);
+      if (!config.ok()) return config.status();
+      torsion = std::move(config).value();
+    } else {
+      Result<ContactConfig> config =
+          AnalysisScene(request.scene(), max_memory_vertices, interrupt);
+      if (!config.ok()) return config.status();
+      scene = std::move(config).value();
+    }
   }
   const analysis::LoopOptions options = ToCore(request.options());
   if (Status s = analysis::ValidateLoopOptions(options); !s.ok()) {
@@ -316,11 +370,18 @@ Status RunAnalyzeLoops(const v1::AnalyzeLoopsRequest& request, std::size_t max_m
   for (const CycleMetrics& cycle : loops->cycles) {
     v1::CycleFigures* figures = response->add_cycles();
     ToProto(cycle, figures);
-    if (!scene) continue;
+    if (!scene && !torsion) continue;
     if (!(cycle.normal_force > 0)) {
       return FailedPrecondition("options.normal_force",
                                 "the scene classifies each cycle at its normal force: give "
                                 "normal_force samples or options.normal_force");
+    }
+    if (torsion) {
+      Result<double> slip = analysis::FullSlipMoment(*torsion, cycle.normal_force);
+      if (!slip.ok()) return ToSceneStatus(slip.status());
+      figures->set_regime(ToProto(analysis::ClassifyTorsionalCycle(cycle, *slip)));
+      figures->set_full_slip_moment(*slip);
+      continue;
     }
     Result<LoopFigures> onset = analysis::GrossSlipOnset(*scene, cycle.normal_force, interrupt);
     if (!onset.ok()) return ToSceneStatus(onset.status());
@@ -468,6 +529,12 @@ Status RunFrettingMap(const v1::FrettingMapRequest& request, std::size_t max_mem
       !s.ok()) {
     return s;
   }
+  if (request.scene().has_torsion()) {
+    return InvalidArgument("scene.torsion",
+                           "must be unset: a twisted contact of a smooth profile never slides as a "
+                           "whole at a finite twist, so it has no onset of gross slip to map (its "
+                           "loops: Backbone with scene.torsion)");
+  }
   Result<ContactConfig> scene = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
   if (!scene.ok()) return scene.status();
   Result<std::vector<analysis::FrettingMapLoad>> map = analysis::FrettingMap(
@@ -497,14 +564,22 @@ Status RunBackbone(const v1::BackboneRequest& request, std::size_t max_memory_ve
                            "must be AMPLITUDE_KIND_FORCE or "
                            "AMPLITUDE_KIND_ACTUATOR_DISPLACEMENT");
   }
-  Result<ContactConfig> scene = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
-  if (!scene.ok()) return scene.status();
-  Result<std::vector<LoopFigures>> backbone =
-      analysis::Backbone(*scene, request.normal_force(),
-                         request.kind() == v1::BackboneRequest::AMPLITUDE_KIND_FORCE
-                             ? analysis::AmplitudeKind::kForce
-                             : analysis::AmplitudeKind::kActuatorDisplacement,
-                         {request.amplitudes().begin(), request.amplitudes().end()}, interrupt);
+  const analysis::AmplitudeKind kind = request.kind() == v1::BackboneRequest::AMPLITUDE_KIND_FORCE
+                                           ? analysis::AmplitudeKind::kForce
+                                           : analysis::AmplitudeKind::kActuatorDisplacement;
+  const std::vector<double> amplitudes(request.amplitudes().begin(), request.amplitudes().end());
+  Result<std::vector<LoopFigures>> backbone = std::vector<LoopFigures>{};
+  if (request.scene().has_torsion()) {
+    Result<analysis::TorsionalScene> scene =
+        AnalysisTorsionalScene(request.scene(), max_memory_vertices, interrupt);
+    if (!scene.ok()) return scene.status();
+    backbone = analysis::TorsionalBackbone(*scene, request.normal_force(), kind, amplitudes,
+                                           interrupt);
+  } else {
+    Result<ContactConfig> scene = AnalysisScene(request.scene(), max_memory_vertices, interrupt);
+    if (!scene.ok()) return scene.status();
+    backbone = analysis::Backbone(*scene, request.normal_force(), kind, amplitudes, interrupt);
+  }
   if (!backbone.ok()) return backbone.status();
   for (const LoopFigures& loop : *backbone) ToProto(loop, response->add_loops());
   return OkStatus();

@@ -1,9 +1,11 @@
 #include "mdr/bridge/torsion_session.h"
 
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "mdr/base/validate.h"
 #include "mdr/bridge/conversion.h"
 #include "mdr/bridge/interface_session.h"
 #include "mdr/core/material.h"
@@ -138,10 +140,40 @@ Status CheckTorsionScene(const v1::Scene& scene) {
   }
   if (scene.has_rig()) {
     return InvalidArgument("scene.rig",
-                           "must be unset with scene.torsion: a rig's torsional compliance is not "
-                           "modelled yet");
+                           "must be unset with scene.torsion: a torsional rig is "
+                           "scene.torsion.rig_compliance");
+  }
+  if (scene.torsion().rig_compliance() != 0) {
+    return InvalidArgument("scene.torsion.rig_compliance",
+                           "must be 0 in a session: sessions do not model a torsional rig yet (the "
+                           "loop analysis does: Backbone, FitLoops)");
   }
   return OkStatus();
+}
+
+Result<analysis::TorsionalScene> ToTorsionalScene(const v1::Scene& scene,
+                                                  const ContactConfig& config) {
+  const double compliance = scene.torsion().rig_compliance();
+  if (!std::isfinite(compliance) || compliance < 0) {
+    return InvalidArgument("scene.torsion.rig_compliance",
+                           "must be finite and >= 0 (rad/(N m)), got " + FormatNumber(compliance));
+  }
+  if (scene.has_rig()) {
+    return InvalidArgument("scene.rig",
+                           "must be unset with scene.torsion: a torsional rig is "
+                           "scene.torsion.rig_compliance");
+  }
+  // The torsional contact's own checks (a flat punch, friction 0), named as for sessions.
+  if (Result<TorsionalContact> contact = CreateTorsionalContact(scene, config); !contact.ok()) {
+    return contact.status();
+  }
+  Result<double> modulus = TorsionalModulus(scene);
+  if (!modulus.ok()) return modulus.status();
+  return analysis::TorsionalScene{.profile = config.profile,
+                                  .friction = config.friction,
+                                  .effective_modulus = config.material.e_star,
+                                  .torsional_modulus = *modulus,
+                                  .rig_compliance = compliance};
 }
 
 Result<TorsionalContact> CreateTorsionalContact(const v1::Scene& scene,

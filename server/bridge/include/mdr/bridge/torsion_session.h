@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "mdr/analysis/exact_loops.h"
 #include "mdr/base/status.h"
 #include "mdr/bridge/outputs.h"
 #include "mdr/core/contact.h"
@@ -19,6 +20,13 @@ namespace mdr::bridge {
 // METHOD_EXACT, no rig. Errors name the Scene field ("scene.interface", "scene.method",
 // "scene.rig"); OK for a scene without torsion.
 Status CheckTorsionScene(const v1::Scene& scene);
+
+// The torsional scene of the loop analysis (exact torsional loops, backbones, fits) from a scene
+// with scene.torsion and its contact config (ToContactConfig passed): the profile, friction, E*,
+// G_t of the material and scene.torsion.rig_compliance (finite, >= 0). A flat punch is refused as
+// for sessions. Errors name the Scene's fields.
+Result<analysis::TorsionalScene> ToTorsionalScene(const v1::Scene& scene,
+                                                  const ContactConfig& config);
 
 // The torsional contact of a scene with scene.torsion (CheckTorsionScene passed), unloaded at
 // twist 0. Errors name the Scene field (a flat punch: "scene.flat_punch", friction 0:
