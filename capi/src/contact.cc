@@ -35,13 +35,14 @@ Status RefuseInterface(const v1::Scene& scene, const char* field) {
                          "mdr_interface_restore");
 }
 
-// Torsional sessions are mdrd's so far: a mdr_contact steps the tangential channel only, and must
-// not take a torsional scene for a tangential one.
+// A torsional scene has its own handle (mdr_torsion): an mdr_contact steps the tangential
+// channel, and must not take a torsional scene for a tangential one.
 Status RefuseTorsion(const v1::Scene& scene, const char* field) {
   if (!scene.has_torsion()) return OkStatus();
   return InvalidArgument(field,
-                         "must be unset: the C library steps tangential contacts; torsional "
-                         "sessions (scene.torsion) are served by mdrd through the proto API");
+                         "must be unset for an mdr_contact, which is driven tangentially: this "
+                         "scene is torsional; create it with mdr_torsion_create, "
+                         "mdr_torsion_create_from_text or mdr_torsion_restore");
 }
 
 // A new contact of a validated scene, as CreateSession builds it.
@@ -236,6 +237,8 @@ size_t mdr_struct_size(int id) {
       return sizeof(mdr_state);
     case MDR_STRUCT_STEP_REPORT:
       return sizeof(mdr_step_report);
+    case MDR_STRUCT_TORSIONAL_STATE:
+      return sizeof(mdr_torsional_state);
     default:
       return 0;
   }

@@ -111,26 +111,45 @@ Status StepControlsError(int normal_control, double normal_value, int tangential
                          double tangential_value) {
   std::optional<NormalControl> normal;
   std::optional<TangentialControl> tangential;
-  if (!DecodeNormalControl(normal_control, &normal)) {
-    return InvalidArgument("normal_control",
-                           "must be MDR_NORMAL_HOLD (0), _DEPTH (1), _DEPTH_INCREMENT (2) or "
-                           "_FORCE (3), got " +
-                               std::to_string(normal_control));
-  }
+  if (!DecodeNormalControl(normal_control, &normal)) return NormalControlError(normal_control);
   if (!DecodeTangentialControl(tangential_control, &tangential)) {
     return InvalidArgument("tangential_control",
                            "must be MDR_TANGENTIAL_HOLD (0), _DISPLACEMENT (1), "
                            "_DISPLACEMENT_INCREMENT (2) or _FORCE (3), got " +
                                std::to_string(tangential_control));
   }
-  // A held channel has no value: a non-zero one is a caller's mistake, not something to ignore.
-  if (!normal && normal_value != 0) {
-    return InvalidArgument("normal_value", "must be 0 with MDR_NORMAL_HOLD");
-  }
+  if (!normal && normal_value != 0) return HeldValueError("normal_value", "MDR_NORMAL_HOLD");
   if (!tangential && tangential_value != 0) {
-    return InvalidArgument("tangential_value", "must be 0 with MDR_TANGENTIAL_HOLD");
+    return HeldValueError("tangential_value", "MDR_TANGENTIAL_HOLD");
   }
   return Internal("", "StepControlsError called for valid controls");
+}
+
+Status NormalControlError(int normal_control) {
+  return InvalidArgument("normal_control",
+                         "must be MDR_NORMAL_HOLD (0), _DEPTH (1), _DEPTH_INCREMENT (2) or "
+                         "_FORCE (3), got " +
+                             std::to_string(normal_control));
+}
+
+// A held channel has no value: a non-zero one is a caller's mistake, not something to ignore.
+Status HeldValueError(const char* argument, const char* hold) {
+  return InvalidArgument(argument, std::string("must be 0 with ") + hold);
+}
+
+void SetNormalChannel(std::optional<NormalControl> control, double value, v1::Step* step) {
+  if (!control) return;
+  switch (*control) {
+    case NormalControl::kDepth:
+      step->set_depth(value);
+      break;
+    case NormalControl::kDepthIncrement:
+      step->set_depth_increment(value);
+      break;
+    case NormalControl::kForce:
+      step->set_normal_force(value);
+      break;
+  }
 }
 
 Status CheckStepCount(std::uint64_t applied_steps, const char* argument) {

@@ -142,6 +142,14 @@ inline bool DecodeStepControls(int normal_control, double normal_value, int tang
 // normal_value or tangential_value.
 Status StepControlsError(int normal_control, double normal_value, int tangential_control,
                          double tangential_value);
+// INVALID_ARGUMENT naming normal_control: not an mdr_normal_control (DecodeNormalControl refused).
+Status NormalControlError(int normal_control);
+// INVALID_ARGUMENT naming `argument` (normal_value, ...): a held channel's value is not 0.
+Status HeldValueError(const char* argument, const char* hold);
+
+// The proto Step's normal channel for the control (unset for a held channel).
+void SetNormalChannel(std::optional<NormalControl> control, double value, v1::Step* step);
+
 inline Result<StepControls> ReadStepControls(int normal_control, double normal_value,
                                              int tangential_control, double tangential_value) {
   StepControls controls;

@@ -87,19 +87,7 @@ Result<v1::Step> ToProtoStep(int normal_control, double normal_value, int tangen
       ReadStepControls(normal_control, normal_value, tangential_control, tangential_value);
   if (!controls.ok()) return controls.status();
   v1::Step step;  // a held channel stays unset
-  if (controls->normal) {
-    switch (*controls->normal) {
-      case NormalControl::kDepth:
-        step.set_depth(normal_value);
-        break;
-      case NormalControl::kDepthIncrement:
-        step.set_depth_increment(normal_value);
-        break;
-      case NormalControl::kForce:
-        step.set_normal_force(normal_value);
-        break;
-    }
-  }
+  SetNormalChannel(controls->normal, normal_value, &step);
   if (controls->tangential) {
     switch (*controls->tangential) {
       case TangentialControl::kDisplacement:

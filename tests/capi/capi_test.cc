@@ -135,6 +135,9 @@ TEST(CapiVersion, MatchesTheHeader) {
   EXPECT_STRNE(mdr_version_string(), "");
   static_assert(sizeof(mdr_state) == 96 && offsetof(mdr_state, applied_steps) == 80);
   static_assert(sizeof(mdr_step_report) == 24 && offsetof(mdr_step_report, path_error) == 8);
+  static_assert(sizeof(mdr_torsional_state) == 88 &&
+                offsetof(mdr_torsional_state, friction_limit) == 64 &&
+                offsetof(mdr_torsional_state, applied_steps) == 72);
 }
 
 TEST_F(CapiTest, LoadsToTheHertzForce) {
@@ -515,6 +518,394 @@ TEST_F(CapiTest, RevisionOneControlValuesStillMeanTheSame) {
   ExpectError(Step(MDR_NORMAL_HOLD, 0, 7, 0), MDR_INVALID_ARGUMENT, "tangential_control");
 }
 
+// ---- Torsional contacts (mdr_torsion): H1 twisted about its axis ----
+
+const std::string kTorsionScene = std::string(kScene) + "  torsion: {}\n";
+// H1's moduli: E* = E / (2 (1 - nu^2)), 1/G_t = 2 * 2 (1 + nu) / E.
+constexpr double kEffectiveModulus = 210e9 / (2 * (1 - 0.3 * 0.3));
+constexpr double kTorsionalModulus = 210e9 / (4 * 1.3);
+
+double HertzRadius(double normal_force) {
+  return std::cbrt(3 * normal_force * 0.01 / (4 * kEffectiveModulus));
+}
+
+std::vector<unsigned char> TorsionSnapshot(const mdr_torsion* torsion) {
+  std::size_t size = 0;
+  EXPECT_EQ(mdr_torsion_snapshot(torsion, nullptr, 0, &size), MDR_OUT_OF_RANGE);
+  std::vector<unsigned char> bytes(size);
+  EXPECT_EQ(mdr_torsion_snapshot(torsion, bytes.data(), bytes.size(), &size), MDR_OK);
+  return bytes;
+}
+
+class CapiTorsionTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_EQ(mdr_torsion_create_from_text(kTorsionScene.c_str(), "h1_torsion.yaml", &torsion_),
+              MDR_OK)
+        << mdr_last_error_message();
+    ASSERT_EQ(Step(MDR_NORMAL_FORCE, 100, MDR_TWIST_HOLD, 0), MDR_OK) << mdr_last_error_message();
+  }
+  void TearDown() override { mdr_torsion_destroy(torsion_); }
+
+  int Step(int normal_control, double normal_value, int twist_control, double twist_value,
+           mdr_step_report* report = nullptr) {
+    return mdr_torsion_step(torsion_, normal_control, normal_value, twist_control, twist_value,
+                            report);
+  }
+  mdr_torsional_state State() const {
+    mdr_torsional_state state{};
+    EXPECT_EQ(mdr_torsion_state(torsion_, &state), MDR_OK);
+    return state;
+  }
+  std::vector<unsigned char> Snapshot() const { return TorsionSnapshot(torsion_); }
+
+  mdr_torsion* torsion_ = nullptr;
+};
+
+// A twist to half the full-slip moment of H1 at 100 N: the closed forms of Hertz in torsion.
+TEST_F(CapiTorsionTest, TwistsToTheHertzClosedForms) {
+  const double a = HertzRadius(100);
+  const double full_slip = 3 * std::numbers::pi * 0.3 * 100 * a / 16;
+  mdr_torsional_state state = State();
+  EXPECT_NEAR(state.contact_radius / a, 1, 1e-12);
+  EXPECT_NEAR(state.full_slip_moment / full_slip, 1, 1e-12);
+  EXPECT_EQ(state.friction_limit, 0.3 * state.normal_force);
+  EXPECT_EQ(state.memory_pieces, 1u);  // the unloaded springs: one constant piece
+  double positive = 0, negative = 0;
+  ASSERT_EQ(mdr_torsion_stiffness(torsion_, &positive, &negative), MDR_OK);
+  EXPECT_NEAR(positive / (16 * kTorsionalModulus * a * a * a / 3), 1, 1e-12);
+  EXPECT_EQ(negative, positive);
+
+  mdr_step_report report{.substeps = -1, .reserved = -1, .path_error = -1, .dissipated = -1};
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_MOMENT, 0.5 * full_slip, &report), MDR_OK)
+      << mdr_last_error_message();
+  state = State();
+  EXPECT_NEAR(state.twisting_moment / (0.5 * full_slip), 1, 1e-12);
+  EXPECT_GT(state.twist, 0);
+  EXPECT_EQ(state.applied_steps, 2u);
+  EXPECT_EQ(report.substeps, 1);
+  EXPECT_EQ(report.reserved, 0);
+  EXPECT_EQ(report.path_error, 0);
+  EXPECT_EQ(report.dissipated, state.last_step_dissipation);
+  EXPECT_GT(report.dissipated, 0);  // the slip annulus dissipates
+  EXPECT_EQ(state.dissipated_energy, report.dissipated);
+
+  // One slip annulus at the edge, slipping in +phi; there tau_phi = mu p(r).
+  double r_begin[2], r_end[2];
+  std::int32_t direction[2];
+  std::size_t count = 0;
+  ASSERT_EQ(mdr_torsion_slip_intervals(torsion_, r_begin, r_end, direction, 2, &count), MDR_OK);
+  ASSERT_EQ(count, 1u);
+  EXPECT_EQ(direction[0], 1);
+  EXPECT_EQ(r_end[0], state.contact_radius);
+  EXPECT_GT(r_begin[0], 0);
+  const double radii[3] = {0, 0.5 * a, 0.99 * a};
+  double tau[3], difference[3];
+  ASSERT_EQ(mdr_torsion_tractions(torsion_, radii, 3, tau, difference, 3), MDR_OK);
+  const double p0 = 3 * 100 / (2 * std::numbers::pi * a * a);
+  EXPECT_EQ(tau[0], 0);
+  EXPECT_NEAR(tau[2] / (0.3 * p0 * std::sqrt(1 - 0.99 * 0.99)), 1, 1e-9);
+  for (double d : difference) EXPECT_LT(d, 1e-6 * p0);
+  double stored = 0;
+  ASSERT_EQ(mdr_torsion_stored_energy(torsion_, &stored), MDR_OK);
+  EXPECT_GT(stored, 0);
+  EXPECT_LT(stored, 0.5 * full_slip * state.twist);  // below the work of M, some of it dissipated
+}
+
+TEST_F(CapiTorsionTest, BadStepsNameTheArgumentAndChangeNothing) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 3e-3), MDR_OK);
+  const std::vector<unsigned char> before = Snapshot();
+  const mdr_torsional_state state = State();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ExpectError(Step(MDR_NORMAL_DEPTH, nan, MDR_TWIST_HOLD, 0), MDR_INVALID_ARGUMENT, "normal_value");
+  ExpectError(Step(MDR_NORMAL_FORCE, -1, MDR_TWIST_HOLD, 0), MDR_INVALID_ARGUMENT, "normal_value");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, nan), MDR_INVALID_ARGUMENT, "twist_value");
+  ExpectError(
+      Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE_INCREMENT, std::numeric_limits<double>::infinity()),
+      MDR_INVALID_ARGUMENT, "twist_value");
+  // A moment at or beyond the full-slip moment is reached by no finite twist.
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_MOMENT, 1.01 * state.full_slip_moment),
+              MDR_FAILED_PRECONDITION, "twist_value");
+  // Both channels in one step: refused for the choice of controls, with the core's reason.
+  ExpectError(Step(MDR_NORMAL_FORCE, 120, MDR_TWIST_ANGLE_INCREMENT, 1e-3), MDR_INVALID_ARGUMENT,
+              "twist_control");
+  EXPECT_NE(std::string(mdr_last_error_message()).find("moves both"), std::string::npos)
+      << mdr_last_error_message();
+  ExpectError(Step(7, 0, MDR_TWIST_HOLD, 0), MDR_INVALID_ARGUMENT, "normal_control");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, 4, 0), MDR_INVALID_ARGUMENT, "twist_control");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, -1, 0), MDR_INVALID_ARGUMENT, "twist_control");
+  ExpectError(Step(MDR_NORMAL_HOLD, 1e-6, MDR_TWIST_HOLD, 0), MDR_INVALID_ARGUMENT, "normal_value");
+  ExpectError(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_HOLD, 1e-3), MDR_INVALID_ARGUMENT, "twist_value");
+  ExpectError(mdr_torsion_step(nullptr, MDR_NORMAL_HOLD, 0, MDR_TWIST_HOLD, 0, nullptr),
+              MDR_INVALID_ARGUMENT, "torsion");
+  EXPECT_EQ(Snapshot(), before);
+  EXPECT_EQ(State().applied_steps, 2u);
+  // Both held is an empty step, counted as the service counts it.
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_HOLD, 0), MDR_OK);
+  EXPECT_EQ(State().applied_steps, 3u);
+  EXPECT_EQ(State().twist, state.twist);
+}
+
+// Twist to c = 0.1 a, reverse by 30 %, drop the load to a fifth: the springs would leave the
+// exact state (Jager's |F| > 1), so the decrease is refused on the normal channel.
+TEST_F(CapiTorsionTest, ALoadDecreaseBeyondTheExactStateChangesNothing) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_MOMENT, 0.999 * State().full_slip_moment), MDR_OK);
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 0.7 * State().twist), MDR_OK);
+  const std::vector<unsigned char> before = Snapshot();
+  ExpectError(Step(MDR_NORMAL_FORCE, 20, MDR_TWIST_HOLD, 0), MDR_FAILED_PRECONDITION,
+              "normal_value");
+  EXPECT_EQ(Snapshot(), before);
+}
+
+// A memory beyond scene.options.max_memory_vertices pieces is refused, and nothing changes: the
+// step runs on a copy (the core's step succeeded; the piece limit is checked after it).
+TEST(CapiTorsion, TheMemoryLimitRefusesAndChangesNothing) {
+  const std::string scene = kTorsionScene + "  options: {max_memory_vertices: 8}\n";
+  mdr_torsion* torsion = nullptr;
+  ASSERT_EQ(mdr_torsion_create_from_text(scene.c_str(), "limited.yaml", &torsion), MDR_OK)
+      << mdr_last_error_message();
+  ASSERT_EQ(mdr_torsion_step(torsion, MDR_NORMAL_FORCE, 100, MDR_TWIST_HOLD, 0, nullptr), MDR_OK);
+  // Reversals of shrinking amplitude nest: each keeps the older ones and adds a piece.
+  int status = MDR_OK;
+  double twist = 4e-3;
+  for (int reversal = 0; reversal < 20 && status == MDR_OK; ++reversal, twist *= -0.5) {
+    const std::vector<unsigned char> before = TorsionSnapshot(torsion);
+    status =
+        mdr_torsion_step(torsion, MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE_INCREMENT, twist, nullptr);
+    if (status != MDR_OK) {
+      ExpectError(status, MDR_RESOURCE_EXHAUSTED, "twist_value");
+      EXPECT_EQ(TorsionSnapshot(torsion), before);
+      mdr_torsional_state state;
+      ASSERT_EQ(mdr_torsion_state(torsion, &state), MDR_OK);
+      EXPECT_LE(state.memory_pieces, 8u);
+      EXPECT_GE(reversal, 3);
+    }
+  }
+  EXPECT_EQ(status, MDR_RESOURCE_EXHAUSTED);
+  mdr_torsion_destroy(torsion);
+}
+
+TEST_F(CapiTorsionTest, SmallArraysAndNullArgumentsNameTheArgument) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 3e-3), MDR_OK);
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 1e-3), MDR_OK);  // a reversal
+  std::size_t count = 0;
+  ExpectError(mdr_torsion_slip_intervals(torsion_, nullptr, nullptr, nullptr, 0, &count),
+              MDR_OUT_OF_RANGE, "capacity");
+  ASSERT_EQ(count, 1u);
+  double r_begin[1] = {-1}, r_end[1];
+  std::int32_t direction[1];
+  ExpectError(mdr_torsion_slip_intervals(torsion_, r_begin, r_end, direction, 0, &count),
+              MDR_OUT_OF_RANGE, "capacity");
+  EXPECT_EQ(r_begin[0], -1);  // untouched on error
+  ExpectError(mdr_torsion_slip_intervals(torsion_, r_begin, nullptr, direction, 1, &count),
+              MDR_INVALID_ARGUMENT, "r_end");
+  ExpectError(mdr_torsion_slip_intervals(torsion_, r_begin, r_end, direction, 1, nullptr),
+              MDR_INVALID_ARGUMENT, "count");
+  ASSERT_EQ(mdr_torsion_slip_intervals(torsion_, r_begin, r_end, direction, 1, &count), MDR_OK);
+  // The reversal slips at the edge; the older annulus inside sticks again.
+  EXPECT_EQ(direction[0], -1);
+  EXPECT_EQ(r_end[0], State().contact_radius);
+
+  const double radii[3] = {0, 1e-5, -1};
+  double tau[3] = {-1, -1, -1}, difference[3];
+  ExpectError(mdr_torsion_tractions(torsion_, radii, 2, tau, difference, 1), MDR_OUT_OF_RANGE,
+              "capacity");
+  ExpectError(mdr_torsion_tractions(torsion_, radii, 3, tau, difference, 3), MDR_INVALID_ARGUMENT,
+              "radii[2]");
+  ExpectError(mdr_torsion_tractions(torsion_, nullptr, 2, tau, nullptr, 2), MDR_INVALID_ARGUMENT,
+              "radii");
+  EXPECT_EQ(tau[0], -1);
+  ASSERT_EQ(mdr_torsion_tractions(torsion_, radii, 2, nullptr, difference, 2), MDR_OK);
+  ASSERT_EQ(mdr_torsion_tractions(torsion_, radii, 2, tau, nullptr, 2), MDR_OK);
+  EXPECT_GT(tau[1], 0);
+  ASSERT_EQ(mdr_torsion_tractions(torsion_, nullptr, 0, nullptr, nullptr, 0), MDR_OK);
+
+  double a = 0, b = 0;
+  mdr_torsional_state state;
+  std::size_t size = 0;
+  ExpectError(mdr_torsion_state(nullptr, &state), MDR_INVALID_ARGUMENT, "torsion");
+  ExpectError(mdr_torsion_state(torsion_, nullptr), MDR_INVALID_ARGUMENT, "out");
+  ExpectError(mdr_torsion_stiffness(nullptr, &a, &b), MDR_INVALID_ARGUMENT, "torsion");
+  ExpectError(mdr_torsion_stiffness(torsion_, nullptr, &b), MDR_INVALID_ARGUMENT, "positive");
+  ExpectError(mdr_torsion_stiffness(torsion_, &a, nullptr), MDR_INVALID_ARGUMENT, "negative");
+  ExpectError(mdr_torsion_stored_energy(nullptr, &a), MDR_INVALID_ARGUMENT, "torsion");
+  ExpectError(mdr_torsion_stored_energy(torsion_, nullptr), MDR_INVALID_ARGUMENT, "energy");
+  ExpectError(mdr_torsion_slip_intervals(nullptr, nullptr, nullptr, nullptr, 0, &count),
+              MDR_INVALID_ARGUMENT, "torsion");
+  ExpectError(mdr_torsion_tractions(nullptr, radii, 1, tau, nullptr, 1), MDR_INVALID_ARGUMENT,
+              "torsion");
+  ExpectError(mdr_torsion_snapshot(nullptr, nullptr, 0, &size), MDR_INVALID_ARGUMENT, "torsion");
+  ExpectError(mdr_torsion_snapshot(torsion_, nullptr, 0, nullptr), MDR_INVALID_ARGUMENT, "size");
+  std::vector<unsigned char> small(8);
+  ExpectError(mdr_torsion_snapshot(torsion_, small.data(), small.size(), &size), MDR_OUT_OF_RANGE,
+              "capacity");
+  EXPECT_GT(size, small.size());
+  mdr_torsion_destroy(nullptr);  // allowed, like free(NULL)
+}
+
+// The snapshot restores a contact that goes on bit for bit like the original, through every
+// control; the restored contact's snapshot is the same bytes.
+TEST_F(CapiTorsionTest, SnapshotsContinueBitForBit) {
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 3e-3), MDR_OK);
+  ASSERT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE_INCREMENT, -4e-3), MDR_OK);
+  const std::vector<unsigned char> bytes = Snapshot();
+  mdr_torsion* copy = nullptr;
+  ASSERT_EQ(mdr_torsion_restore(bytes.data(), bytes.size(), &copy), MDR_OK)
+      << mdr_last_error_message();
+  EXPECT_EQ(TorsionSnapshot(copy), bytes);
+  const struct {
+    int normal_control;
+    double normal_value;
+    int twist_control;
+    double twist_value;
+  } steps[] = {{MDR_NORMAL_FORCE, 130, MDR_TWIST_HOLD, 0},
+               {MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 1e-3},
+               {MDR_NORMAL_HOLD, 0, MDR_TWIST_MOMENT, -1e-3},
+               {MDR_NORMAL_DEPTH_INCREMENT, 1e-8, MDR_TWIST_HOLD, 0},
+               {MDR_NORMAL_DEPTH, 4.5e-6, MDR_TWIST_HOLD, 0},
+               {MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE_INCREMENT, 2e-4}};
+  for (const auto& s : steps) {
+    mdr_step_report original{}, restored{};
+    ASSERT_EQ(Step(s.normal_control, s.normal_value, s.twist_control, s.twist_value, &original),
+              MDR_OK)
+        << mdr_last_error_message();
+    ASSERT_EQ(mdr_torsion_step(copy, s.normal_control, s.normal_value, s.twist_control,
+                               s.twist_value, &restored),
+              MDR_OK);
+    EXPECT_EQ(std::memcmp(&original, &restored, sizeof original), 0);
+    mdr_torsional_state a = State(), b{};
+    ASSERT_EQ(mdr_torsion_state(copy, &b), MDR_OK);
+    EXPECT_EQ(std::memcmp(&a, &b, sizeof a), 0);
+  }
+  EXPECT_EQ(TorsionSnapshot(copy), Snapshot());
+  EXPECT_EQ(State().applied_steps, 9u);
+  mdr_torsion_destroy(copy);
+}
+
+// Each kind of scene has its handle: the contact and torsion functions refuse each other's
+// scenes and snapshots naming scene.torsion, and point to the right functions.
+TEST(CapiTorsion, EachKindOfSceneHasItsHandle) {
+  mdr_contact* contact = nullptr;
+  ExpectError(mdr_contact_create_from_text(kTorsionScene.c_str(), "t.yaml", &contact),
+              MDR_INVALID_ARGUMENT, "scene.torsion");
+  EXPECT_NE(std::string(mdr_last_error_message()).find("mdr_torsion_create"), std::string::npos)
+      << mdr_last_error_message();
+  EXPECT_EQ(contact, nullptr);
+  mdr_torsion* torsion = reinterpret_cast<mdr_torsion*>(1);
+  ExpectError(mdr_torsion_create_from_text(kScene, "c.yaml", &torsion), MDR_INVALID_ARGUMENT,
+              "scene.torsion");
+  EXPECT_NE(std::string(mdr_last_error_message()).find("mdr_contact_create"), std::string::npos)
+      << mdr_last_error_message();
+  EXPECT_EQ(torsion, nullptr);
+  ExpectError(mdr_torsion_create_from_text(kContactList, "i.yaml", &torsion), MDR_INVALID_ARGUMENT,
+              "scene.torsion");
+
+  // Snapshots: each restore function refuses the other kind's.
+  ASSERT_EQ(mdr_contact_create_from_text(kScene, nullptr, &contact), MDR_OK);
+  std::size_t size = 0;
+  mdr_contact_snapshot(contact, nullptr, 0, &size);
+  std::vector<unsigned char> tangential(size);
+  ASSERT_EQ(mdr_contact_snapshot(contact, tangential.data(), size, &size), MDR_OK);
+  mdr_contact_destroy(contact);
+  ExpectError(mdr_torsion_restore(tangential.data(), tangential.size(), &torsion),
+              MDR_INVALID_ARGUMENT, "snapshot.scene.torsion");
+  EXPECT_EQ(torsion, nullptr);
+  ASSERT_EQ(mdr_torsion_create_from_text(kTorsionScene.c_str(), nullptr, &torsion), MDR_OK);
+  const std::vector<unsigned char> twisted = TorsionSnapshot(torsion);
+  mdr_torsion_destroy(torsion);
+  contact = reinterpret_cast<mdr_contact*>(1);
+  ExpectError(mdr_contact_restore(twisted.data(), twisted.size(), &contact), MDR_INVALID_ARGUMENT,
+              "snapshot.scene.torsion");
+  EXPECT_EQ(contact, nullptr);
+  // A serialized Scene is read like the text.
+  ExpectError(mdr_torsion_create("\xff\xff\xff", 3, &torsion), MDR_INVALID_ARGUMENT, "scene");
+  ExpectError(mdr_torsion_create(nullptr, 0, &torsion), MDR_INVALID_ARGUMENT, "scene.torsion");
+  ExpectError(mdr_torsion_create_from_text(kTorsionScene.c_str(), nullptr, nullptr),
+              MDR_INVALID_ARGUMENT, "out");
+  ExpectError(mdr_torsion_restore(twisted.data(), twisted.size(), nullptr), MDR_INVALID_ARGUMENT,
+              "out");
+}
+
+// What torsion does not cover is refused naming the scene's field, as the service refuses it;
+// errors of the text name their line.
+TEST(CapiTorsion, ScenesTorsionDoesNotCoverNameTheField) {
+  const struct {
+    std::string text;
+    const char* field;
+  } scenes[] = {
+      {std::string(kContactList) + "  torsion: {}\n", "scene.interface"},
+      {kTorsionScene + "  method: METHOD_GRID\n  grid: {max_radius: 1e-3}\n", "scene.method"},
+      {kTorsionScene + "  rig: {tangential_compliance: 1e-9}\n", "scene.rig"},
+      {"scene:\n  flat_punch: {radius: 1e-3}\n  elastic_pair: {youngs_modulus_1: 210e9, "
+       "poisson_ratio_1: 0.3, youngs_modulus_2: 210e9, poisson_ratio_2: 0.3}\n  friction: 0.3\n"
+       "  torsion: {}\n",
+       "scene.flat_punch"},
+      {"scene:\n  sphere: {radius: 0.01}\n  elastic_pair: {youngs_modulus_1: 210e9, "
+       "poisson_ratio_1: 0.3, youngs_modulus_2: 210e9, poisson_ratio_2: 0.3}\n  friction: 0\n"
+       "  torsion: {}\n",
+       "scene.friction"},
+      {"scene:\n  sphere: {radius: -1}\n  torsion: {}\n", "scene.sphere.radius"},
+  };
+  for (const auto& scene : scenes) {
+    mdr_torsion* torsion = reinterpret_cast<mdr_torsion*>(1);
+    ExpectError(mdr_torsion_create_from_text(scene.text.c_str(), "bad.yaml", &torsion),
+                MDR_INVALID_ARGUMENT, scene.field);
+    EXPECT_EQ(torsion, nullptr);
+    EXPECT_NE(std::string(mdr_last_error_message()).find("bad.yaml:"), std::string::npos)
+        << mdr_last_error_message();
+  }
+}
+
+// A damaged torsion state is ImportSession's to refuse: its field named from the snapshot.
+TEST_F(CapiTorsionTest, DamagedSnapshotsNameTheField) {
+  std::vector<unsigned char> bytes = Snapshot();
+  ASSERT_EQ(bytes[0], 0x08);  // version, field 1
+  bytes[1] = 0x02;
+  mdr_torsion* restored = reinterpret_cast<mdr_torsion*>(1);
+  ExpectError(mdr_torsion_restore(bytes.data(), bytes.size(), &restored), MDR_INVALID_ARGUMENT,
+              "snapshot.version");
+  EXPECT_EQ(restored, nullptr);
+  ExpectError(mdr_torsion_restore("\x0a\xff", 2, &restored), MDR_INVALID_ARGUMENT, "snapshot");
+}
+
+// Reading a torsional contact allocates nothing once the process has read one of each kind (each
+// integral of the core builds its Gauss-Legendre rule, a static, on first use); its steps allocate.
+// The core builds each step's memory as new vectors (the clipped pieces, their cuts, the merge; a
+// moment target does so once per Newton iteration), so a step's allocations grow with the memory's
+// pieces, and the memory of a periodic cycle does not grow: after the first cycle every cycle
+// allocates the same.
+TEST_F(CapiTorsionTest, ReadsAllocateNothingAndACycleAllocatesAsTheOneBefore) {
+  constexpr int kPerCycle = 100;
+  auto cycle = [&] {
+    for (int i = 0; i < kPerCycle; ++i) {
+      const double twist = 3e-3 * std::sin(2 * std::numbers::pi * (i + 1) / kPerCycle);
+      if (Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, twist) != MDR_OK) {
+        ADD_FAILURE() << mdr_last_error_message();
+        return;
+      }
+    }
+  };
+  cycle();
+  cycle();
+  const long second = CountAllocations(cycle);
+  const long third = CountAllocations(cycle);
+  EXPECT_GT(second, 0);  // docs/capi.md promises no allocation-free torsional step
+  EXPECT_EQ(third, second);
+  EXPECT_LE(State().memory_pieces, 8u);
+  mdr_torsional_state state;
+  double positive, negative, stored;
+  auto read = [&](int times) {
+    for (int i = 0; i < times; ++i) {
+      mdr_torsion_state(torsion_, &state);
+      mdr_torsion_stiffness(torsion_, &positive, &negative);
+      mdr_torsion_stored_energy(torsion_, &stored);
+    }
+  };
+  read(1);  // the process's first reads, if they are
+  EXPECT_EQ(CountAllocations([&] { read(1000); }), 0);
+  EXPECT_GT(state.twisting_moment, -state.full_slip_moment);
+}
+
 // ---- The analysis (mdr_analysis_run) on loops the library's own contact recorded ----
 
 // Three fretting cycles of H1 at F_N = 100 N by displacement targets, as JSON arrays of the
@@ -678,8 +1069,10 @@ TEST(CapiAnalysis, FitReportsProgressAndStopsWhenAsked) {
 TEST(CapiVersion, StructSizesAndRevisionAreReported) {
   EXPECT_EQ(mdr_version(), MDR_C_API_VERSION);
   EXPECT_EQ(mdr_api_revision(), MDR_C_API_REVISION);
+  EXPECT_EQ(MDR_C_API_REVISION, 3);
   EXPECT_EQ(mdr_struct_size(MDR_STRUCT_STATE), 96u);
   EXPECT_EQ(mdr_struct_size(MDR_STRUCT_STEP_REPORT), 24u);
+  EXPECT_EQ(mdr_struct_size(MDR_STRUCT_TORSIONAL_STATE), 88u);
   EXPECT_EQ(mdr_struct_size(0), 0u);
   EXPECT_EQ(mdr_struct_size(99), 0u);
   EXPECT_TRUE(MDR_LAYOUT_MATCHES());

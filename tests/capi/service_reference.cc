@@ -17,9 +17,14 @@
 //   capi_service_reference compare_analysis OUT_DIR
 //     parses the library's answers analysis_K.library.pb (written by c_analysis.c) and checks
 //     that each, compute_seconds cleared, is the service's answer byte for byte.
-//   capi_service_reference import OUT_DIR SNAPSHOT
+//   capi_service_reference torsion SCENE_FILE OUT_DIR
+//     the same for a torsional scene (scene.torsion): torsion_scene.pb, torsion_history.txt,
+//     torsion_reference.txt, torsion_snapshot.pb (after kTorsionRestoreAt steps) and
+//     torsion_final.pb.
+//   capi_service_reference import OUT_DIR SNAPSHOT [EXPECTED]
 //     imports a snapshot written by the library and checks that the service's export of it has
-//     the contact, scene and step count of final.pb: a state moves from the library to the service.
+//     the state (contact or torsion), scene and step count of EXPECTED (default final.pb): a state
+//     moves from the library to the service.
 //
 // Formats (one line each, values as the 16 upper-case hex digits of a double's bits):
 //   history.txt:   NORMAL_CONTROL NORMAL_VALUE TANGENTIAL_CONTROL TANGENTIAL_VALUE
@@ -34,6 +39,12 @@
 //   list_reference.txt: after every step "S" and per contact "depth ux F_N F_x W", then "T F_N F_x
 //   W"
 //                  of the interface's totals
+//   torsion_history.txt: NORMAL_CONTROL NORMAL_VALUE TWIST_CONTROL TWIST_VALUE (mdr.h numbers)
+//   torsion_reference.txt: "S depth a F_N phi M M_slip W dW mu_F_N steps pieces" after every step
+//                  (dW: the step's dissipated energy; steps and pieces in decimal), as
+//                  reference.txt from kTorsionRestoreAt on again; then of the final state
+//                  "K k+ k-", "L count" and count lines "I r_begin r_end direction", "T tau
+//                  route_difference" at the radii a*k/8 for k = 0..9, and "E stored_energy"
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <google/protobuf/util/json_util.h>
@@ -62,6 +73,7 @@ namespace {
 using service::ContactOperations;
 
 constexpr int kRestoreAt = 100;
+constexpr int kTorsionRestoreAt = 50;  // c_torsion.c's too
 constexpr char kSessionId[] = "capi";
 constexpr char kSessionName[] = "sessions/capi";
 
@@ -100,21 +112,25 @@ std::string Hex(double value) {
   return text;
 }
 
-v1::Step ToProto(const HistoryStep& s) {
-  v1::Step step;
+void SetNormal(const HistoryStep& s, v1::Step* step) {
   switch (s.normal_control) {
     case 1:
-      step.set_depth(s.normal_value);
+      step->set_depth(s.normal_value);
       break;
     case 2:
-      step.set_depth_increment(s.normal_value);
+      step->set_depth_increment(s.normal_value);
       break;
     case 3:
-      step.set_normal_force(s.normal_value);
+      step->set_normal_force(s.normal_value);
       break;
     default:
       break;
   }
+}
+
+v1::Step ToProto(const HistoryStep& s) {
+  v1::Step step;
+  SetNormal(s, &step);
   switch (s.tangential_control) {
     case 1:
       step.set_displacement(s.tangential_value);
@@ -263,6 +279,140 @@ int Generate(const std::string& scene_file, const std::string& dir) {
   return written ? 0 : 1;
 }
 
+// ---- Torsion: the second channel of a HistoryStep is the twist (mdr_twist_control numbers) ----
+
+// Loading by normal force; twist fretting by angle targets, increments and moment targets in
+// partial slip; a load increase at fixed twist, a twist far into slip and load decreases after it
+// (the exact state allows them: every piece on a bound is then clipped to the smaller one), an
+// empty step, and twists after.
+std::vector<HistoryStep> TorsionHistory() {
+  std::vector<HistoryStep> steps{{3, 100, 0, 0}};
+  constexpr int kPerCycle = 20;
+  for (int i = 1; i <= 2 * kPerCycle; ++i) {
+    steps.push_back({0, 0, 1, 3e-3 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
+  }
+  for (int i = 0; i < 10; ++i) steps.push_back({0, 0, 2, i % 2 == 0 ? -4e-4 : 3e-4});
+  for (int i = 1; i <= kPerCycle; ++i) {
+    steps.push_back({0, 0, 3, 2e-3 * std::sin(2 * std::numbers::pi * i / kPerCycle)});
+  }
+  steps.push_back({3, 130, 0, 0});
+  steps.push_back({0, 0, 2, 2e-2});
+  steps.push_back({3, 90, 0, 0});
+  steps.push_back({2, -1e-8, 0, 0});
+  steps.push_back({0, 0, 0, 0});
+  steps.push_back({0, 0, 2, -3e-3});
+  steps.push_back({0, 0, 3, 1e-3});
+  steps.push_back({1, 4.5e-6, 0, 0});
+  steps.push_back({0, 0, 1, 0});
+  return steps;
+}
+
+v1::Step ToTorsionProto(const HistoryStep& s) {
+  v1::Step step;
+  SetNormal(s, &step);
+  switch (s.tangential_control) {
+    case 1:
+      step.set_twist(s.tangential_value);
+      break;
+    case 2:
+      step.set_twist_increment(s.tangential_value);
+      break;
+    case 3:
+      step.set_twisting_moment(s.tangential_value);
+      break;
+    default:
+      break;
+  }
+  return step;
+}
+
+bool ApplyTorsionSteps(ContactOperations& ops, const std::vector<HistoryStep>& steps,
+                       std::size_t first, std::size_t last, std::ostream& out) {
+  for (std::size_t i = first; i < last; ++i) {
+    v1::ApplyRequest request;
+    request.set_session(kSessionName);
+    *request.add_steps() = ToTorsionProto(steps[i]);
+    request.mutable_step_mask()->add_paths("state");
+    request.mutable_step_mask()->add_paths("dissipated_energy");
+    v1::ApplyResponse response;
+    if (!Check(ops.Apply(
+                   std::nullopt, request, [] { return OkStatus(); }, &response),
+               "Apply")) {
+      std::cerr << "at torsional step " << i << "\n";
+      return false;
+    }
+    const v1::StepResult& r = response.step_results(0);
+    const v1::ContactState& s = r.state();
+    out << "S " << Hex(s.depth()) << ' ' << Hex(s.contact_radius()) << ' ' << Hex(s.normal_force())
+        << ' ' << Hex(s.twist()) << ' ' << Hex(s.twisting_moment()) << ' '
+        << Hex(s.full_slip_moment()) << ' ' << Hex(s.dissipated_energy()) << ' '
+        << Hex(r.dissipated_energy()) << ' ' << Hex(s.friction_limit()) << ' ' << s.applied_steps()
+        << ' ' << s.memory_vertices() << '\n';
+  }
+  return true;
+}
+
+bool WriteTorsionFinals(ContactOperations& ops, std::ostream& out) {
+  v1::QueryRequest state_request;
+  state_request.set_session(kSessionName);
+  v1::QueryResponse state;
+  if (!Check(ops.Query(std::nullopt, state_request, &state), "Query state")) return false;
+  v1::QueryRequest request;
+  request.set_session(kSessionName);
+  for (const char* path : {"torsion.stiffness", "torsion.slip_intervals", "torsion.tractions",
+                           "torsion.stored_energy"}) {
+    request.mutable_read_mask()->add_paths(path);
+  }
+  const double a = state.state().contact_radius();
+  for (int k = 0; k < 10; ++k) request.add_radii(a * k / 8);  // two beyond the contact
+  v1::QueryResponse r;
+  if (!Check(ops.Query(std::nullopt, request, &r), "Query torsion")) return false;
+  const v1::TorsionOutputs& t = r.torsion();
+  out << "K " << Hex(t.stiffness_positive()) << ' ' << Hex(t.stiffness_negative()) << '\n';
+  out << "L " << t.slip_intervals_size() << '\n';
+  for (const v1::SlipInterval& i : t.slip_intervals()) {
+    out << "I " << Hex(i.r_begin()) << ' ' << Hex(i.r_end()) << ' ' << i.direction() << '\n';
+  }
+  for (const v1::TorsionTraction& traction : t.tractions()) {
+    out << "T " << Hex(traction.value()) << ' ' << Hex(traction.route_difference()) << '\n';
+  }
+  out << "E " << Hex(t.stored_energy()) << '\n';
+  return true;
+}
+
+int GenerateTorsion(const std::string& scene_file, const std::string& dir) {
+  Result<bridge::SceneDocument> document = bridge::SceneDocument::Load(scene_file);
+  if (!Check(document.status(), "scene file")) return 1;
+  const v1::Scene& scene = document->file().scene();
+  const std::vector<HistoryStep> steps = TorsionHistory();
+  std::ostringstream history;
+  for (const HistoryStep& s : steps) {
+    history << s.normal_control << ' ' << Hex(s.normal_value) << ' ' << s.tangential_control << ' '
+            << Hex(s.tangential_value) << '\n';
+  }
+  ContactOperations ops(service::ServiceLimits{}, service::TestHooks{});
+  std::ostringstream reference;
+  v1::SessionSnapshot middle, final;
+  if (!CreateSession(ops, scene)) return 1;
+  if (!ApplyTorsionSteps(ops, steps, 0, kTorsionRestoreAt, reference) || !Export(ops, &middle)) {
+    return 1;
+  }
+  if (!ApplyTorsionSteps(ops, steps, kTorsionRestoreAt, steps.size(), reference)) return 1;
+  // The caller restores the middle snapshot and repeats the rest, as the service's import does.
+  if (!Import(ops, middle) ||
+      !ApplyTorsionSteps(ops, steps, kTorsionRestoreAt, steps.size(), reference)) {
+    return 1;
+  }
+  if (!WriteTorsionFinals(ops, reference) || !Export(ops, &final)) return 1;
+  const bool written = WriteFile(dir + "/torsion_scene.pb", scene.SerializeAsString()) &&
+                       WriteFile(dir + "/torsion_history.txt", history.str()) &&
+                       WriteFile(dir + "/torsion_reference.txt", reference.str()) &&
+                       WriteFile(dir + "/torsion_snapshot.pb", middle.SerializeAsString()) &&
+                       WriteFile(dir + "/torsion_final.pb", final.SerializeAsString());
+  if (!written) std::cerr << "cannot write into " << dir << "\n";
+  return written ? 0 : 1;
+}
+
 // A contact list's history: per-contact targets and increments of both channels, force targets
 // of both channels together (a curved path per contact) included.
 struct ListStep {
@@ -330,9 +480,10 @@ int GenerateContactList(const std::string& scene_file, const std::string& dir) {
   return written ? 0 : 1;
 }
 
-int CheckImport(const std::string& dir, const std::string& snapshot_path) {
+int CheckImport(const std::string& dir, const std::string& snapshot_path,
+                const std::string& expected_name) {
   v1::SessionSnapshot library, expected;
-  if (!ReadMessage(snapshot_path, &library) || !ReadMessage(dir + "/final.pb", &expected)) {
+  if (!ReadMessage(snapshot_path, &library) || !ReadMessage(dir + "/" + expected_name, &expected)) {
     return 1;
   }
   ContactOperations ops(service::ServiceLimits{}, service::TestHooks{});
@@ -343,6 +494,7 @@ int CheckImport(const std::string& dir, const std::string& snapshot_path) {
   MessageDifferencer differencer;
   differencer.ReportDifferencesToString(&difference);
   bool same = differencer.Compare(exported.contact(), expected.contact());
+  same = differencer.Compare(exported.torsion(), expected.torsion()) && same;
   same = differencer.Compare(exported.scene(), expected.scene()) && same;
   if (exported.applied_steps() != expected.applied_steps()) {
     difference += "applied_steps " + std::to_string(exported.applied_steps()) +
@@ -530,12 +682,16 @@ int main(int argc, char** argv) {
   using namespace mdr::capi_testing;
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "generate" && argc == 4) return Generate(argv[2], argv[3]);
-  if (mode == "import" && argc == 4) return CheckImport(argv[2], argv[3]);
+  if (mode == "import" && (argc == 4 || argc == 5)) {
+    return CheckImport(argv[2], argv[3], argc == 5 ? argv[4] : "final.pb");
+  }
   if (mode == "contact_list" && argc == 4) return GenerateContactList(argv[2], argv[3]);
+  if (mode == "torsion" && argc == 4) return GenerateTorsion(argv[2], argv[3]);
   if (mode == "analysis" && argc == 4) return GenerateAnalysis(argv[2], argv[3]);
   if (mode == "compare_analysis" && argc == 3) return CompareAnalysis(argv[2]);
   std::cerr << "usage: " << argv[0]
-            << " generate SCENE_FILE OUT_DIR | contact_list SCENE_FILE OUT_DIR | import OUT_DIR "
-               "SNAPSHOT | analysis SCENE_FILE OUT_DIR | compare_analysis OUT_DIR\n";
+            << " generate SCENE_FILE OUT_DIR | contact_list SCENE_FILE OUT_DIR | torsion "
+               "SCENE_FILE OUT_DIR | import OUT_DIR SNAPSHOT [EXPECTED] | analysis SCENE_FILE "
+               "OUT_DIR | compare_analysis OUT_DIR\n";
   return 2;
 }

@@ -12,7 +12,12 @@
 // overwritten); for scene bytes the next two bytes give the scene's length; the rest drives
 // steps and queries. A byte 0 of 0xF0 or more runs one analysis (mdr_analysis_run) instead: on
 // fuzzed bytes in either encoding, or on a JSON request of fuzzed numbers and sizes, with a
-// progress callback that may stop a fit; an error has no response and names its field.
+// progress callback that may stop a fit; an error has no response and names its field. A byte 0
+// from 0xE0 to 0xEF drives a torsional contact (mdr_torsion) instead, with the same origins (H1
+// twisted, a piece limit of 16) and checks: steps of either channel or both (refused) with any
+// control and value, a refused step leaves the snapshot's bytes, an accepted one a finite moment
+// within the full-slip moment, every state round-trips, and each kind of scene is refused by the
+// other kind's functions.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
@@ -210,6 +215,201 @@ void Query(const mdr_contact* contact, FuzzedDataProvider& input) {
   }
 }
 
+// ---- Torsional contacts (mdr_torsion) ----
+
+constexpr char kH1TorsionText[] =
+    "scene:\n"
+    "  sphere: {radius: 0.01}\n"
+    "  elastic_pair: {youngs_modulus_1: 210e9, poisson_ratio_1: 0.3, youngs_modulus_2: 210e9,\n"
+    "                 poisson_ratio_2: 0.3}\n"
+    "  friction: 0.3\n"
+    "  options: {max_memory_vertices: 16}\n"
+    "  torsion: {}\n";
+
+std::vector<unsigned char> Snapshot(const mdr_torsion* torsion) {
+  size_t size = 0;
+  if (mdr_torsion_snapshot(torsion, nullptr, 0, &size) != MDR_OUT_OF_RANGE && size != 0) {
+    Fail("asking for the torsion snapshot's size");
+  }
+  std::vector<unsigned char> bytes(size);
+  if (mdr_torsion_snapshot(torsion, bytes.data(), bytes.size(), &size) != MDR_OK) {
+    Fail("a torsion snapshot into a buffer of the size asked for");
+  }
+  bytes.resize(size);
+  return bytes;
+}
+
+void CheckRoundTrip(const mdr_torsion* torsion) {
+  const std::vector<unsigned char> bytes = Snapshot(torsion);
+  mdr_torsion* restored = nullptr;
+  if (mdr_torsion_restore(bytes.data(), bytes.size(), &restored) != MDR_OK) {
+    Fail("a reached torsional state does not restore");
+  }
+  if (Snapshot(restored) != bytes) Fail("a restored torsional state's snapshot differs");
+  mdr_torsion_destroy(restored);
+}
+
+mdr_torsion* TwistedH1() {
+  mdr_torsion* torsion = nullptr;
+  if (mdr_torsion_create_from_text(kH1TorsionText, "h1", &torsion) != MDR_OK) {
+    Fail("twisted H1 from text");
+  }
+  return torsion;
+}
+
+// Each kind of scene is the other kind's error, naming scene.torsion.
+void CheckKindsRefused() {
+  mdr_contact* contact = nullptr;
+  mdr_torsion* torsion = nullptr;
+  if (mdr_contact_create_from_text(kH1TorsionText, "h1", &contact) != MDR_INVALID_ARGUMENT ||
+      std::strcmp(mdr_last_error_field(), "scene.torsion") != 0 || contact != nullptr) {
+    Fail("a contact of a torsional scene");
+  }
+  if (mdr_torsion_create_from_text(kH1Text, "h1", &torsion) != MDR_INVALID_ARGUMENT ||
+      std::strcmp(mdr_last_error_field(), "scene.torsion") != 0 || torsion != nullptr) {
+    Fail("a torsional contact of a tangential scene");
+  }
+}
+
+mdr_torsion* TorsionOrigin(FuzzedDataProvider& input) {
+  mdr_torsion* torsion = nullptr;
+  int status = MDR_OK;
+  switch (input.ConsumeIntegral<std::uint8_t>() % 3) {
+    case 0: {
+      const std::vector<unsigned char> scene =
+          input.ConsumeBytes<unsigned char>(input.ConsumeIntegral<std::uint16_t>());
+      status = mdr_torsion_create(scene.data(), scene.size(), &torsion);
+      break;
+    }
+    case 1:
+      CheckKindsRefused();
+      torsion = TwistedH1();
+      break;
+    default: {
+      mdr_torsion* h1 = TwistedH1();
+      if (mdr_torsion_step(h1, MDR_NORMAL_FORCE, 100, MDR_TWIST_HOLD, 0, nullptr) != MDR_OK ||
+          mdr_torsion_step(h1, MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 2e-3, nullptr) != MDR_OK ||
+          mdr_torsion_step(h1, MDR_NORMAL_HOLD, 0, MDR_TWIST_ANGLE, 1e-3, nullptr) != MDR_OK) {
+        Fail("twisted H1's first steps");
+      }
+      std::vector<unsigned char> bytes = Snapshot(h1);
+      mdr_torsion_destroy(h1);
+      const int writes = input.ConsumeIntegralInRange(0, 8);
+      for (int i = 0; i < writes && !bytes.empty(); ++i) {
+        bytes[input.ConsumeIntegralInRange<size_t>(0, bytes.size() - 1)] =
+            input.ConsumeIntegral<unsigned char>();
+      }
+      status = mdr_torsion_restore(bytes.data(), bytes.size(), &torsion);
+    }
+  }
+  CheckError(status);
+  if ((torsion == nullptr) == (status == MDR_OK)) Fail("a handle with an error, or none without");
+  return torsion;
+}
+
+// A twist or a moment of a twisted contact (mrad, mN m), or any double.
+double AnyTwistValue(FuzzedDataProvider& input) {
+  if (input.ConsumeIntegralInRange(0, 3) == 0) return AnyDouble(input);
+  return input.ConsumeFloatingPointInRange<double>(-5e-3, 5e-3);
+}
+
+void TorsionStep(mdr_torsion* torsion, FuzzedDataProvider& input) {
+  static constexpr int kNormal[] = {MDR_NORMAL_HOLD, MDR_NORMAL_DEPTH, MDR_NORMAL_DEPTH_INCREMENT,
+                                    MDR_NORMAL_FORCE, 42};
+  static constexpr int kTwist[] = {
+      MDR_TWIST_HOLD, MDR_TWIST_ANGLE, MDR_TWIST_ANGLE_INCREMENT, MDR_TWIST_MOMENT, 4, -1};
+  const int normal = input.PickValueInArray(kNormal);
+  const double normal_value =
+      normal == MDR_NORMAL_HOLD && input.ConsumeBool() ? 0 : AnyDouble(input);
+  const int twist = input.PickValueInArray(kTwist);
+  const double twist_value =
+      twist == MDR_TWIST_HOLD && input.ConsumeBool() ? 0 : AnyTwistValue(input);
+  const std::vector<unsigned char> before = Snapshot(torsion);
+  mdr_step_report report{};
+  const int status = mdr_torsion_step(torsion, normal, normal_value, twist, twist_value,
+                                      input.ConsumeBool() ? &report : nullptr);
+  CheckError(status);
+  mdr_torsional_state after{};
+  if (mdr_torsion_state(torsion, &after) != MDR_OK) Fail("torsion state");
+  if (std::getenv("MDR_CAPI_FUZZ_TRACE") != nullptr) {
+    std::fprintf(
+        stderr, "torsion step(%d, %.17g, %d, %.17g) -> %d: delta %.17g phi %.17g M %.17g\n", normal,
+        normal_value, twist, twist_value, status, after.depth, after.twist, after.twisting_moment);
+  }
+  if (status != MDR_OK) {
+    if (Snapshot(torsion) != before) Fail("a refused torsional step changed the state");
+    return;
+  }
+  if (normal != MDR_NORMAL_HOLD && twist != MDR_TWIST_HOLD) Fail("a step moving both channels");
+  // The moment and the full-slip moment are two quadratures of one integral for the quadrature
+  // bounds (a fuzzed scene's cone, power law or table): 1e-7 apart at most, as the engine fuzzer
+  // allows.
+  if (!std::isfinite(after.twisting_moment) ||
+      !(std::abs(after.twisting_moment) <= after.full_slip_moment * (1 + 1e-7))) {
+    Fail("an accepted torsional step left a moment that is not finite or beyond full slip");
+  }
+}
+
+void TorsionQuery(const mdr_torsion* torsion, FuzzedDataProvider& input) {
+  const size_t capacity = input.ConsumeIntegralInRange<size_t>(0, 16);
+  std::vector<double> a(capacity), b(capacity);
+  std::vector<std::int32_t> direction(capacity);
+  size_t count = 0;
+  const bool null_arrays = capacity == 0 && input.ConsumeBool();
+  double* first = null_arrays ? nullptr : a.data();
+  switch (input.ConsumeIntegral<std::uint8_t>() % 4) {
+    case 0: {
+      const int status =
+          mdr_torsion_slip_intervals(torsion, first, b.data(), direction.data(), capacity, &count);
+      CheckError(status);
+      if (status == MDR_OUT_OF_RANGE && count <= capacity) Fail("refused though it fitted");
+      break;
+    }
+    case 1: {
+      std::vector<double> radii(input.ConsumeIntegralInRange<size_t>(0, capacity + 1));
+      for (double& r : radii) r = input.ConsumeBool() ? AnyDouble(input) : 1e-4 * r + 1e-5;
+      const int status =
+          mdr_torsion_tractions(torsion, radii.data(), radii.size(),
+                                input.ConsumeBool() ? first : nullptr, b.data(), capacity);
+      CheckError(status);
+      if (status == MDR_OK) {
+        for (size_t i = 0; i < radii.size(); ++i) {
+          if (std::isnan(b[i])) Fail("a route difference that is NaN");
+        }
+      }
+      break;
+    }
+    case 2: {
+      double positive = 0, negative = 0;
+      CheckError(mdr_torsion_stiffness(torsion, &positive, &negative));
+      break;
+    }
+    default: {
+      double energy = 0;
+      CheckError(mdr_torsion_stored_energy(torsion, input.ConsumeBool() ? &energy : nullptr));
+    }
+  }
+}
+
+void Torsion(FuzzedDataProvider& input) {
+  mdr_torsional_state state{};
+  CheckError(mdr_torsion_state(nullptr, &state));
+  CheckError(mdr_torsion_step(nullptr, MDR_NORMAL_DEPTH, 1e-6, MDR_TWIST_HOLD, 0, nullptr));
+  mdr_torsion* torsion = TorsionOrigin(input);
+  if (torsion == nullptr) return;
+  CheckError(mdr_torsion_state(torsion, nullptr));
+  CheckRoundTrip(torsion);
+  for (int i = 0; i < 32 && input.remaining_bytes() > 0; ++i) {
+    if (input.ConsumeIntegral<std::uint8_t>() % 4 == 0) {
+      TorsionQuery(torsion, input);
+    } else {
+      TorsionStep(torsion, input);
+      CheckRoundTrip(torsion);
+    }
+  }
+  mdr_torsion_destroy(torsion);
+}
+
 }  // namespace
 
 // A number as proto3 JSON writes it (NaN and infinities as strings).
@@ -309,6 +509,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   if (size > 0 && data[0] >= 0xF0) {
     input.ConsumeIntegral<std::uint8_t>();
     Analysis(input);
+    return 0;
+  }
+  // From 0xE0 to 0xEF a torsional contact (mdr_torsion).
+  if (size > 0 && data[0] >= 0xE0) {
+    input.ConsumeIntegral<std::uint8_t>();
+    Torsion(input);
     return 0;
   }
   // Null handles and outputs are refused, never dereferenced.

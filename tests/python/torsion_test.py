@@ -2,9 +2,10 @@
 """Torsion (scene.torsion, issue #49) through the Python package mdr against a real mdrd started
 by the package (Client.embedded): a twist by moment target gives the Hertz closed forms, the
 "torsion.*" outputs arrive, an export continues bit for bit after an import, a tangential step
-is refused naming the field and changing nothing, and the in-process client (the C library)
-refuses a torsional scene instead of stepping it tangentially. The package is imported from the
-build tree (PYTHONPATH=<build>/python).
+is refused naming the field and changing nothing, and the in-process client (the C library's
+mdr_torsion) answers a torsional session as the server does, bit for bit, refusals included,
+with snapshots moving both ways. The package is imported from the build tree
+(PYTHONPATH=<build>/python).
 
 Usage: torsion_test.py --mdrd PATH --library PATH
 """
@@ -86,12 +87,96 @@ class TorsionTest(unittest.TestCase):
                 tangential.apply({"twist": 1e-3})
             self.assertEqual(raised.exception.field, "steps[0].twist")
 
-    def test_the_in_process_client_refuses_a_torsional_scene(self):
-        local = mdr.Client.embedded(in_process=True, library=ARGS.library)
-        with self.assertRaises(mdr.MdrError) as raised:
-            local.create_session(TWISTED)
-        self.assertEqual(raised.exception.field, "scene.torsion")
-        self.assertIn("mdrd", raised.exception.message)
+    def test_in_process_torsion_is_the_servers_bit_for_bit(self):
+        steps = ([{"normal_force": 100}]
+                 + [{"twist": 3e-3 * math.sin(2 * math.pi * i / 12)} for i in range(1, 25)]
+                 + [{"twisting_moment": m} for m in (1e-3, -2e-3, 5e-4)]
+                 + [{"twist_increment": -1e-3}, {"normal_force": 130}, {"depth_increment": 1e-8},
+                    {}])
+        more = [{"twist": 2e-3}, {"twisting_moment": -1e-3}, {"depth": 4.5e-6}]
+        step_outputs = ["state", "substeps", "path_error", "dissipated_energy"]
+        radii = [0, 5e-5, 1e-4, 1.5e-4, 2e-4, 3e-4]
+        with mdr.Client.embedded(in_process=True, library=ARGS.library) as local, \
+                local.session(TWISTED) as here, self.client.session(TWISTED) as there:
+            self.assertIsInstance(here, mdr.inprocess.InProcessTorsionSession)
+            a = here.apply(steps, outputs=step_outputs).response
+            b = there.apply(steps, outputs=step_outputs).response
+            self.assertEqual(len(a.step_results), len(steps))
+            for mine, theirs in zip(a.step_results, b.step_results):
+                self.assertEqual(serialized(mine), serialized(theirs))
+            self.assertEqual(serialized(a.state), serialized(b.state))
+            self.assertGreater(a.state.memory_vertices, 1)
+            mine, theirs = (s.query(["state", "torsion"], radii=radii).response
+                            for s in (here, there))
+            self.assertEqual(serialized(mine.state), serialized(theirs.state))
+            self.assertEqual(serialized(mine.torsion), serialized(theirs.torsion))
+            self.assertEqual(len(mine.torsion.memory_pieces), a.state.memory_vertices)
+            self.assertEqual(len(mine.torsion.tractions), len(radii))
+            for path in ("torsion.stiffness", "torsion.stored_energy"):
+                self.assertEqual(serialized(here.query([path]).response.torsion),
+                                 serialized(there.query([path]).response.torsion))
+            mine, theirs = here.export(), there.export()
+            self.assertEqual(serialized(mine.torsion), serialized(theirs.torsion))
+            self.assertEqual(serialized(mine.scene), serialized(theirs.scene))
+            self.assertEqual(mine.applied_steps, theirs.applied_steps)
+            # Snapshots both ways: each side continues the other's state as its own.
+            with self.client.import_session(mine) as on_server, \
+                    local.import_session(theirs) as in_process:
+                slipping = 0
+                for step in more:
+                    self.assertEqual(serialized(on_server.apply(step).state),
+                                     serialized(in_process.apply(step).state))
+                    mine, theirs = (s.query(["torsion"], radii=radii).response.torsion
+                                    for s in (in_process, on_server))
+                    self.assertEqual(serialized(mine), serialized(theirs))
+                    slipping += len(mine.slip_intervals)
+                self.assertGreater(slipping, 0)
+                self.assertEqual(serialized(in_process.export().torsion),
+                                 serialized(on_server.export().torsion))
+
+    def test_in_process_refusals_are_the_servers_and_change_nothing(self):
+        bad_batches = [
+            [{"twist": float("nan")}],
+            [{"twist": 1e-3}, {"normal_force": 120, "twist": 1e-3}],
+            [{"twisting_moment": 1.0}],
+            [{"displacement": 1e-7}],
+            [{"twist": 1e-3}, {"depth_increment": float("inf")}],
+            [{"normal_force": -1}],
+        ]
+        with mdr.Client.embedded(in_process=True, library=ARGS.library) as local, \
+                local.session(TWISTED) as here, self.client.session(TWISTED) as there:
+            for session in (here, there):
+                session.apply([{"normal_force": 100}, {"twist": 2e-3}])
+            before = here.export()
+            for batch in bad_batches:
+                with self.assertRaises(mdr.MdrError) as mine:
+                    here.apply(batch)
+                with self.assertRaises(mdr.MdrError) as theirs:
+                    there.apply(batch)
+                self.assertEqual((mine.exception.code, mine.exception.field),
+                                 (theirs.exception.code, theirs.exception.field), batch)
+                self.assertEqual(mine.exception.message, theirs.exception.message, batch)
+                self.assertEqual(serialized(here.export().torsion), serialized(before.torsion))
+            # The outputs of the other kind of session are refused, as the server refuses them.
+            for path in ("tangential_stiffness", "pressure"):
+                with self.assertRaises(mdr.MdrError) as raised:
+                    here.query([path], radii=[0.0])
+                self.assertEqual(raised.exception.code, grpc.StatusCode.FAILED_PRECONDITION)
+                self.assertEqual(raised.exception.field, "read_mask")
+        with mdr.Client.embedded(in_process=True, library=ARGS.library) as local, \
+                local.session(H1) as tangential:
+            with self.assertRaises(mdr.MdrError) as raised:
+                tangential.apply([{"normal_force": 100}, {"twist": 1e-3}])
+            self.assertEqual(raised.exception.field, "steps[1].twist")
+            self.assertEqual(tangential.query().state.applied_steps, 0)
+            with self.assertRaises(mdr.MdrError) as raised:
+                tangential.query(["torsion.stiffness"])
+            self.assertEqual(raised.exception.code, grpc.StatusCode.FAILED_PRECONDITION)
+
+
+def serialized(message) -> bytes:
+    """A message's bytes: equal bytes are equal doubles, bit for bit."""
+    return message.SerializeToString(deterministic=True)
 
 
 if __name__ == "__main__":

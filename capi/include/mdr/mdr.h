@@ -1,13 +1,15 @@
-/* The C interface of the MDR contact engine (libmdr_c): tangential contacts in-process, with no
- * server, for rig controllers, simulation codes in C, Fortran and Python, MATLAB and LabVIEW.
- * docs/capi.md describes the contract, the allocation and timing guarantees and the callers.
+/* The C interface of the MDR contact engine (libmdr_c): tangential and torsional contacts
+ * in-process, with no server, for rig controllers, simulation codes in C, Fortran and Python,
+ * MATLAB and LabVIEW. docs/capi.md describes the contract, the allocation and timing guarantees and
+ * the callers.
  *
  * The contact is the service's: a scene is the proto's mdr.v1.Scene (serialized bytes, or a
  * YAML/JSON scene file as mdrctl reads it), a step is the proto's Step, and a snapshot is the
  * proto's SessionSnapshot, so a state moves between this library and the service (ExportSession
  * / ImportSession) and continues bit for bit. A scene of one contact is an mdr_contact; a scene
  * with an interface (scene.interface: a shared motion or a contact list of many contacts,
- * docs/interfaces.md) is an mdr_interface.
+ * docs/interfaces.md) is an mdr_interface; a scene with scene.torsion (a twist about the
+ * contact's axis, docs/physics.md "Torsion about the contact's axis") is an mdr_torsion.
  *
  * Conventions of every function:
  * - The return value is an mdr_status: MDR_OK (0) or an error code. On an error nothing changed
@@ -21,7 +23,7 @@
  *   caller learns the size it needs: then MDR_OUT_OF_RANGE names the capacity argument).
  * - A handle is used by one thread at a time (no locking inside); different handles are
  *   independent. The last error is per thread.
- * - Units are SI: m, N, Pa, J.
+ * - Units are SI: m, N, Pa, J; angles in rad, moments in N m.
  */
 #ifndef MDR_MDR_H_
 #define MDR_MDR_H_
@@ -46,8 +48,9 @@ extern "C" {
 /* The revision within that version: it counts additions (functions, enum values, structs). A
  * caller that needs revision R checks mdr_api_revision() >= R. Revision 2: the tangential
  * controls numbered 0..3 (4..6 still accepted), mdr_api_revision, mdr_struct_size, the analysis
- * (mdr_analysis_run) and mdr_buffer. */
-#define MDR_C_API_REVISION 2
+ * (mdr_analysis_run) and mdr_buffer. Revision 3: torsional contacts (mdr_torsion, its functions,
+ * mdr_twist_control, mdr_torsional_state and MDR_STRUCT_TORSIONAL_STATE). */
+#define MDR_C_API_REVISION 3
 
 /* Status codes: the numbers of the gRPC status codes the service answers with. */
 typedef enum mdr_status {
@@ -81,6 +84,14 @@ typedef enum mdr_tangential_control {
   MDR_TANGENTIAL_DISPLACEMENT_INCREMENT = 2, /* change of ux in m, finite */
   MDR_TANGENTIAL_FORCE = 3                   /* target F_x in N, |F_x| <= mu F_N at the end */
 } mdr_tangential_control;
+
+/* The twist of a torsional contact (mdr_torsion_step) about the contact's axis. */
+typedef enum mdr_twist_control {
+  MDR_TWIST_HOLD = 0,
+  MDR_TWIST_ANGLE = 1,           /* target twist phi in rad, finite */
+  MDR_TWIST_ANGLE_INCREMENT = 2, /* change of phi in rad, finite */
+  MDR_TWIST_MOMENT = 3           /* target moment M_z in N m, |M_z| < the full-slip moment */
+} mdr_twist_control;
 
 /* Routes of the surface tractions (the proto's TractionRoute). */
 typedef enum mdr_traction_route {
@@ -116,6 +127,24 @@ typedef struct mdr_step_report {
   double dissipated; /* J dissipated by the step (0 when energy is not tracked) */
 } mdr_step_report;
 
+/* The state of a torsional contact after the last step: the proto's ContactState of a torsional
+ * session. Stable layout: 9 doubles then 2 uint64_t, 88 bytes, no padding (applied_steps at byte
+ * 72; a Fortran bind(C) type, a ctypes Structure, a LabVIEW cluster of 9 DBL and 2 U64). */
+typedef struct mdr_torsional_state {
+  double depth;                 /* delta in m (<= 0: no contact) */
+  double contact_radius;        /* a in m */
+  double normal_force;          /* F_N in N */
+  double twist;                 /* phi in rad */
+  double twisting_moment;       /* M_z in N m */
+  double full_slip_moment;      /* the supremum of |M_z| at this load in N m (Hertz: 3 pi mu F_N
+                                   a / 16) */
+  double dissipated_energy;     /* J since creation (always tracked) */
+  double last_step_dissipation; /* J dissipated by the last step */
+  double friction_limit;        /* mu F_N in N */
+  uint64_t applied_steps;       /* steps applied since creation (carried by snapshots) */
+  uint64_t memory_pieces;       /* pieces of the torsional memory (the service's memory_vertices) */
+} mdr_torsional_state;
+
 /* An opaque contact: its scene's configuration and its state. */
 typedef struct mdr_contact mdr_contact;
 
@@ -127,18 +156,21 @@ MDR_API int mdr_api_revision(void);
 
 /* The structs whose layout is part of the interface, for mdr_struct_size. */
 typedef enum mdr_struct_id {
-  MDR_STRUCT_STATE = 1,      /* mdr_state */
-  MDR_STRUCT_STEP_REPORT = 2 /* mdr_step_report */
+  MDR_STRUCT_STATE = 1,          /* mdr_state */
+  MDR_STRUCT_STEP_REPORT = 2,    /* mdr_step_report */
+  MDR_STRUCT_TORSIONAL_STATE = 3 /* mdr_torsional_state (since revision 3) */
 } mdr_struct_id;
 /* The size in bytes of a struct as the loaded library lays it out (0 for an unknown id): a
  * caller that declares the struct itself (LabVIEW's cluster, a ctypes Structure, a dlopen
  * caller) compares it with its own size before the first call that fills one. */
 MDR_API size_t mdr_struct_size(int id);
-/* Nonzero when the loaded library lays out this header's structs as this header does. */
-#define MDR_LAYOUT_MATCHES()                                        \
-  (mdr_version() == MDR_C_API_VERSION &&                            \
-   mdr_struct_size(MDR_STRUCT_STATE) == sizeof(struct mdr_state) && \
-   mdr_struct_size(MDR_STRUCT_STEP_REPORT) == sizeof(struct mdr_step_report))
+/* Nonzero when the loaded library lays out this header's structs as this header does (a library
+ * before revision 3 has no mdr_torsional_state: 0 then). */
+#define MDR_LAYOUT_MATCHES()                                                    \
+  (mdr_version() == MDR_C_API_VERSION &&                                        \
+   mdr_struct_size(MDR_STRUCT_STATE) == sizeof(struct mdr_state) &&             \
+   mdr_struct_size(MDR_STRUCT_STEP_REPORT) == sizeof(struct mdr_step_report) && \
+   mdr_struct_size(MDR_STRUCT_TORSIONAL_STATE) == sizeof(struct mdr_torsional_state))
 /* The library's release, e.g. "0.1.0" (static storage). */
 MDR_API const char* mdr_version_string(void);
 
@@ -165,7 +197,8 @@ MDR_API int mdr_contact_create_from_text(const char* text, const char* name, mdr
 /* Creates a contact from a serialized mdr.v1.SessionSnapshot, as the service's ImportSession
  * does (version 1; a single contact: an interface's snapshot is mdr_interface_restore's): it
  * continues bit for bit like the exported session. Errors name "snapshot.<field>". The create
- * functions refuse an interface scene (INVALID_ARGUMENT naming scene.interface). */
+ * functions refuse an interface scene (INVALID_ARGUMENT naming scene.interface) and a torsional
+ * one (naming scene.torsion: it is an mdr_torsion's). */
 MDR_API int mdr_contact_restore(const void* snapshot, size_t size, mdr_contact** out);
 
 /* Releases a contact (NULL: nothing happens). */
@@ -264,6 +297,65 @@ MDR_API int mdr_interface_contact_states(const mdr_interface* interface, mdr_sta
  * mdr_contact_snapshot (the service's ImportSession accepts it). */
 MDR_API int mdr_interface_snapshot(const mdr_interface* interface, void* buffer, size_t capacity,
                                    size_t* size);
+
+/* ---- Torsion about the contact's axis (docs/physics.md "Torsion", docs/capi.md "Torsion") ---- */
+
+/* An opaque torsional contact: a scene with scene.torsion, as a torsional session of the service
+ * (the same construction, steps, outputs and snapshots: server/bridge torsion_session). */
+typedef struct mdr_torsion mdr_torsion;
+
+/* Create, create from a scene file's text, restore from a SessionSnapshot and release a
+ * torsional contact: as the mdr_contact functions, for a scene with scene.torsion (a scene
+ * without it is refused, INVALID_ARGUMENT naming scene.torsion or snapshot.scene.torsion). The
+ * service's checks apply: a single contact (scene.interface unset), METHOD_EXACT, no rig,
+ * friction > 0 and no flat punch, each naming its field. A restored contact continues bit for
+ * bit like the exported session (ImportSession's checks of snapshot.torsion). */
+MDR_API int mdr_torsion_create(const void* scene, size_t size, mdr_torsion** out);
+MDR_API int mdr_torsion_create_from_text(const char* text, const char* name, mdr_torsion** out);
+MDR_API int mdr_torsion_restore(const void* snapshot, size_t size, mdr_torsion** out);
+MDR_API void mdr_torsion_destroy(mdr_torsion* torsion);
+
+/* Applies one step, atomically (on error the contact is unchanged): the normal channel at fixed
+ * twist or the twist at fixed normal load, each exact. One that moves both channels is refused
+ * (INVALID_ARGUMENT naming twist_control; apply them as two steps). Both HOLD is an empty step
+ * (counted). A moment target must stay below the full-slip moment (FAILED_PRECONDITION naming
+ * twist_value); a load decrease that would leave springs on the bound of the larger contact is
+ * FAILED_PRECONDITION naming normal_value; a memory beyond scene.options.max_memory_vertices
+ * pieces is RESOURCE_EXHAUSTED. Errors name normal_control, normal_value, twist_control or
+ * twist_value. report (may be NULL): substeps 1, path_error 0, dissipated the step's energy.
+ * Unlike mdr_contact_step, every step allocates (docs/capi.md, "Torsion"). */
+MDR_API int mdr_torsion_step(mdr_torsion* torsion, int normal_control, double normal_value,
+                             int twist_control, double twist_value, mdr_step_report* report);
+
+/* The state after the last step (allocation-free once the process has called it: the core's
+ * integrals build their quadrature rule, a static, on first use; docs/capi.md "Torsion"). */
+MDR_API int mdr_torsion_state(const mdr_torsion* torsion, mdr_torsional_state* out);
+
+/* dM_z/dphi for a small further twist in +phi (*positive) and in -phi (*negative), in N m/rad;
+ * 0 out of contact (allocation-free). */
+MDR_API int mdr_torsion_stiffness(const mdr_torsion* torsion, double* positive, double* negative);
+
+/* The annuli whose springs slip (lie on a bound of the current contact): interval i is
+ * [r_begin[i], r_end[i]] in m, direction[i] +1 slipping in +phi, -1 in -phi, ordered by radius.
+ * Arrays and count as for mdr_contact_slip_intervals. */
+MDR_API int mdr_torsion_slip_intervals(const mdr_torsion* torsion, double* r_begin, double* r_end,
+                                       int32_t* direction, size_t capacity, size_t* count);
+
+/* The circumferential traction tau_phi(r) in Pa at n radii (m, each finite and >= 0; 0 at r = 0
+ * and outside the contact), by the Abel route, and |its difference from the superposition
+ * route| in Pa (the service's torsion.tractions: value and route_difference, a check of both
+ * quadratures, not a bound of the error). Each output array holds capacity elements (>= n);
+ * either may be NULL if not wanted. */
+MDR_API int mdr_torsion_tractions(const mdr_torsion* torsion, const double* radii, size_t n,
+                                  double* traction, double* route_difference, size_t capacity);
+
+/* The elastic energy the springs hold, in J (allocation-free as mdr_torsion_state). */
+MDR_API int mdr_torsion_stored_energy(const mdr_torsion* torsion, double* energy);
+
+/* The exact state as a serialized mdr.v1.SessionSnapshot with snapshot.torsion, as
+ * mdr_contact_snapshot (the service's ImportSession and mdr_torsion_restore accept it). */
+MDR_API int mdr_torsion_snapshot(const mdr_torsion* torsion, void* buffer, size_t capacity,
+                                 size_t* size);
 
 /* ---- The analysis of measured loops (docs/analysis.md, docs/capi.md "Analysis") ---- */
 

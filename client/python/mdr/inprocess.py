@@ -9,10 +9,12 @@ by one argument:
             r.tangential_displacement                      # numpy array, one value per step
 
 The numbers are the service's, bit for bit (the library runs the service's conversion and the
-same engine), and snapshots move both ways (export() / import_session()). One contact per session:
-interface scenes need a server. The analysis (analyze_loops, fit_loops, fretting_map, backbone)
-runs the service's own operations through mdr_analysis_run. The library is found at $MDR_C_LIBRARY, next to this package, or
-by the system's loader (libmdr_c.so.1).
+same engine), and snapshots move both ways (export() / import_session()). One contact per session,
+tangential or torsional (scene.torsion: steps by twist, twist_increment or twisting_moment, the
+"torsion.*" query outputs): interface scenes need a server. The analysis (analyze_loops,
+fit_loops, fretting_map, backbone) runs the service's own operations through mdr_analysis_run.
+The library is found at $MDR_C_LIBRARY, next to this package, or by the system's loader
+(libmdr_c.so.1).
 """
 import ctypes
 import ctypes.util
@@ -34,6 +36,7 @@ _OUT_OF_RANGE = 11
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p)
 _NORMAL = {"depth": 1, "depth_increment": 2, "normal_force": 3}
 _TANGENTIAL = {"displacement": 1, "displacement_increment": 2, "tangential_force": 3}
+_TWIST = {"twist": 1, "twist_increment": 2, "twisting_moment": 3}
 _ROUTES = {"both": 1, "abel": 2, "jager": 3}
 # The ContactState fields that mdr_state carries, in its order (mdr.h).
 _STATE_DOUBLES = ("depth", "tangential_displacement", "contact_radius", "normal_force",
@@ -41,12 +44,27 @@ _STATE_DOUBLES = ("depth", "tangential_displacement", "contact_radius", "normal_
                   "actuator_displacement", "actuator_depth", "last_step_dissipation")
 _QUERY_OUTPUTS = ("state", "tangential_stiffness", "slip_intervals", "jager_weights",
                   "tractions", "pressure")
+# mdr_torsional_state's doubles, in its order (mdr.h); the ContactState fields of the same names.
+_TORSIONAL_STATE_DOUBLES = ("depth", "contact_radius", "normal_force", "twist", "twisting_moment",
+                            "full_slip_moment", "dissipated_energy", "last_step_dissipation",
+                            "friction_limit")
+_TORSION_OUTPUTS = ("stiffness", "slip_intervals", "tractions", "memory_pieces", "stored_energy")
+# The service's refusal of a tangential channel in a torsional session (torsion_session.cc).
+_TANGENTIAL_IN_TORSION = (
+    "must be unset in a torsional session (scene.torsion): a twist combined with a tangential "
+    "displacement or force has no exact model (docs/physics.md, \"Torsion\"); drive such a "
+    "contact tangentially in a session without scene.torsion")
 _STEP_OUTPUTS = ("state", "substeps", "path_error", "dissipated_energy")
 
 
 class _State(ctypes.Structure):
     _fields_ = [(name, ctypes.c_double) for name in _STATE_DOUBLES] + [
         ("applied_steps", ctypes.c_uint64), ("memory_vertices", ctypes.c_uint64)]
+
+
+class _TorsionalState(ctypes.Structure):
+    _fields_ = [(name, ctypes.c_double) for name in _TORSIONAL_STATE_DOUBLES] + [
+        ("applied_steps", ctypes.c_uint64), ("memory_pieces", ctypes.c_uint64)]
 
 
 class _StepReport(ctypes.Structure):
@@ -64,7 +82,7 @@ def _library_path() -> str:
 
 
 def load_library(path: Optional[str] = None) -> ctypes.CDLL:
-    """libmdr_c with the signatures of mdr.h (interface version 1)."""
+    """libmdr_c with the signatures of mdr.h (interface version 1, revision 3 or later)."""
     where = path or _library_path()
     try:
         lib = ctypes.CDLL(where)
@@ -74,6 +92,12 @@ def load_library(path: Optional[str] = None) -> ctypes.CDLL:
             f"(pip install client/python builds and bundles libmdr_c.so.1), or set "
             f"MDR_C_LIBRARY to the library's path (built as build/release/capi/libmdr_c.so.1)"
         ) from None
+    # Revision 3 brought the torsion functions; a library before it lacks their symbols.
+    revision = lib.mdr_api_revision() if hasattr(lib, "mdr_api_revision") else 1
+    if revision < 3:
+        raise ImportError(f"libmdr_c at {where} is of interface revision {revision}; this "
+                          f"package needs revision 3 (torsional contacts): rebuild or reinstall "
+                          f"it with the package")
     handle, size, dbl = ctypes.c_void_p, ctypes.c_size_t, ctypes.POINTER(ctypes.c_double)
     signatures = {
         "mdr_version": [],
@@ -89,6 +113,17 @@ def load_library(path: Optional[str] = None) -> ctypes.CDLL:
         "mdr_contact_tractions": [handle, dbl, size, ctypes.c_int, dbl, dbl, dbl, dbl, size],
         "mdr_contact_snapshot": [handle, ctypes.c_void_p, size, ctypes.POINTER(size)],
         "mdr_last_error_code": [],
+        "mdr_torsion_create": [ctypes.c_char_p, size, ctypes.POINTER(handle)],
+        "mdr_torsion_restore": [ctypes.c_char_p, size, ctypes.POINTER(handle)],
+        "mdr_torsion_step": [handle, ctypes.c_int, ctypes.c_double, ctypes.c_int,
+                             ctypes.c_double, ctypes.POINTER(_StepReport)],
+        "mdr_torsion_state": [handle, ctypes.POINTER(_TorsionalState)],
+        "mdr_torsion_stiffness": [handle, dbl, dbl],
+        "mdr_torsion_slip_intervals": [handle, dbl, dbl, ctypes.POINTER(ctypes.c_int32), size,
+                                       ctypes.POINTER(size)],
+        "mdr_torsion_tractions": [handle, dbl, size, dbl, dbl, size],
+        "mdr_torsion_stored_energy": [handle, dbl],
+        "mdr_torsion_snapshot": [handle, ctypes.c_void_p, size, ctypes.POINTER(size)],
     }
     signatures["mdr_analysis_run"] = [ctypes.c_int, ctypes.c_int, ctypes.c_char_p, size,
                                       _PROGRESS, ctypes.c_void_p, ctypes.POINTER(handle)]
@@ -96,6 +131,7 @@ def load_library(path: Optional[str] = None) -> ctypes.CDLL:
         getattr(lib, name).argtypes = arguments
         getattr(lib, name).restype = ctypes.c_int
     lib.mdr_contact_destroy.argtypes, lib.mdr_contact_destroy.restype = [handle], None
+    lib.mdr_torsion_destroy.argtypes, lib.mdr_torsion_destroy.restype = [handle], None
     lib.mdr_buffer_data.argtypes, lib.mdr_buffer_data.restype = [handle], ctypes.c_void_p
     lib.mdr_buffer_size.argtypes, lib.mdr_buffer_size.restype = [handle], size
     lib.mdr_buffer_destroy.argtypes, lib.mdr_buffer_destroy.restype = [handle], None
@@ -138,9 +174,8 @@ class InProcessClient(analysis.AnalysisCalls):
             return
         field = self._lib.mdr_last_error_field().decode()
         message = self._lib.mdr_last_error_message().decode()
-        if field and message.startswith(field + ": "):
-            message = message[len(field) + 2:]
-        raise MdrError(_code_of(status), field, message)
+        raise MdrError(_code_of(status), field,
+                       _without_prefix(message, field) if field else message)
 
     # The analysis: mdr_analysis_run on the serialized request, the service's own operations.
     _ANALYSES = {"AnalyzeLoops": (1, an.AnalyzeLoopsResponse), "FitLoops": (2, an.FitResult),
@@ -187,23 +222,26 @@ class InProcessClient(analysis.AnalysisCalls):
                                f"the fit took longer than {timeout} s") from None
             raise
 
-    def _adopt(self, handle: ctypes.c_void_p, session_id: str) -> "InProcessSession":
+    def _adopt(self, kind, handle: ctypes.c_void_p, session_id: str) -> "InProcessSession":
         session_id = session_id or f"local-{next(self._ids)}"
         name = f"sessions/{session_id}"
         if name in self._sessions:
-            self._lib.mdr_contact_destroy(handle)
+            kind.function(self._lib, "destroy")(handle)
             raise MdrError(grpc.StatusCode.ALREADY_EXISTS, "session_id",
                            f"a session {name!r} exists")
-        session = InProcessSession(self, name, handle)
+        session = kind(self, name, handle)
         self._sessions[name] = session
         return session
 
     def create_session(self, scene: SceneLike, session_id: str = "") -> "InProcessSession":
-        """A new contact of the scene (a dict, a Scene, or a scene file's path)."""
-        data = to_scene(scene).SerializeToString()
+        """A new contact of the scene (a dict, a Scene, or a scene file's path); a torsional one
+        (InProcessTorsionSession) when the scene has torsion."""
+        scene = to_scene(scene)
+        kind = _session_kind(scene)
+        data = scene.SerializeToString()
         handle = ctypes.c_void_p()
-        self._check(self._lib.mdr_contact_create(data, len(data), ctypes.byref(handle)))
-        return self._adopt(handle, session_id)
+        self._check(kind.function(self._lib, "create")(data, len(data), ctypes.byref(handle)))
+        return self._adopt(kind, handle, session_id)
 
     def session(self, scene: SceneLike, session_id: str = "") -> "InProcessSession":
         """create_session, for a with statement (deleted on exit)."""
@@ -212,17 +250,32 @@ class InProcessClient(analysis.AnalysisCalls):
     def import_session(self, snapshot: api.SessionSnapshot,
                        session_id: str = "") -> "InProcessSession":
         """A session continuing a snapshot (from export() here or a server's ExportSession)."""
+        kind = _session_kind(snapshot.scene)
         data = snapshot.SerializeToString()
         handle = ctypes.c_void_p()
-        self._check(self._lib.mdr_contact_restore(data, len(data), ctypes.byref(handle)))
-        return self._adopt(handle, session_id)
+        self._check(kind.function(self._lib, "restore")(data, len(data), ctypes.byref(handle)))
+        return self._adopt(kind, handle, session_id)
 
     def list_sessions(self) -> list:
         return sorted(self._sessions)
 
 
+def _session_kind(scene) -> type:
+    return InProcessTorsionSession if scene.HasField("torsion") else InProcessSession
+
+
+def _without_prefix(message: str, field: str) -> str:
+    return message[len(field) + 2:] if message.startswith(field + ": ") else message
+
+
 class InProcessSession:
     """A contact in this process with Session's API (apply, query, export, delete)."""
+
+    _HANDLE = "mdr_contact"  # the C functions' prefix: mdr_contact_create, ..._step, ...
+
+    @classmethod
+    def function(cls, lib: ctypes.CDLL, name: str):
+        return getattr(lib, f"{cls._HANDLE}_{name}")
 
     def __init__(self, client: InProcessClient, name: str, handle: ctypes.c_void_p):
         self.client = client
@@ -249,18 +302,18 @@ class InProcessSession:
 
     def delete(self) -> None:
         if self._handle:
-            self._lib.mdr_contact_destroy(self._handle)
+            self.function(self._lib, "destroy")(self._handle)
             self._handle = None
             self.client._sessions.pop(self.name, None)
 
     def export(self) -> api.SessionSnapshot:
+        snapshot_of = self.function(self._lib, "snapshot")
         size = ctypes.c_size_t()
-        status = self._lib.mdr_contact_snapshot(self._live(), None, 0, ctypes.byref(size))
+        status = snapshot_of(self._live(), None, 0, ctypes.byref(size))
         if status != _OUT_OF_RANGE:
             self.client._check(status)
         buffer = ctypes.create_string_buffer(size.value)
-        self.client._check(self._lib.mdr_contact_snapshot(self._handle, buffer, size,
-                                                          ctypes.byref(size)))
+        self.client._check(snapshot_of(self._handle, buffer, size, ctypes.byref(size)))
         snapshot = api.SessionSnapshot()
         snapshot.ParseFromString(buffer.raw[:size.value])
         snapshot.source_name = self.name
@@ -278,23 +331,26 @@ class InProcessSession:
     def _step(self, step, report: _StepReport) -> None:
         normal = step.WhichOneof("normal")
         tangential = step.WhichOneof("tangential")
-        if step.contact_normal_values or step.contact_tangential_values:
-            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "contact_normal_values",
-                           "per-contact values are for contact list sessions (a server's)")
+        _refuse_per_contact_values(step)
+        if step.WhichOneof("torsional"):
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, step.WhichOneof("torsional"),
+                           "must be unset: only a torsional session (scene.torsion) takes a "
+                           "twist")
+        self._call_step(step, {"normal_value": normal, "tangential_value": tangential},
+                        _NORMAL.get(normal, 0), getattr(step, normal) if normal else 0.0,
+                        _TANGENTIAL.get(tangential, 0),
+                        getattr(step, tangential) if tangential else 0.0, ctypes.byref(report))
+
+    def _call_step(self, step, fields: dict, *arguments) -> None:
+        """The C step on arguments; its errors name the library's arguments, which `fields` maps
+        to the Step's fields that the service names."""
         try:
-            self.client._check(self._lib.mdr_contact_step(
-                self._live(), _NORMAL.get(normal, 0), getattr(step, normal) if normal else 0.0,
-                _TANGENTIAL.get(tangential, 0), getattr(step, tangential) if tangential else 0.0,
-                ctypes.byref(report)))
+            self.client._check(self.function(self._lib, "step")(self._live(), *arguments))
         except MdrError as error:
-            # The library names its arguments; the service names the Step's fields.
-            field = {"normal_value": normal, "tangential_value": tangential}.get(error.field)
+            field = fields.get(error.field)
             if not field:
                 raise
-            message = error.message
-            if message.startswith(field + ": "):
-                message = message[len(field) + 2:]
-            raise MdrError(error.code, field, message) from None
+            raise MdrError(error.code, field, _without_prefix(error.message, field)) from None
 
     def apply(self, steps: Union[StepLike, Iterable[StepLike]],
               outputs: Sequence[str] = ("state",), request_id: str = "") -> ApplyResult:
@@ -333,8 +389,9 @@ class InProcessSession:
     def _restore(self, snapshot: api.SessionSnapshot) -> None:
         data = snapshot.SerializeToString()
         handle = ctypes.c_void_p()
-        self.client._check(self._lib.mdr_contact_restore(data, len(data), ctypes.byref(handle)))
-        self._lib.mdr_contact_destroy(self._handle)
+        self.client._check(self.function(self._lib, "restore")(data, len(data),
+                                                               ctypes.byref(handle)))
+        self.function(self._lib, "destroy")(self._handle)
         self._handle = handle
 
     def _sized(self, function, kinds, *extra):
@@ -352,6 +409,9 @@ class InProcessSession:
               route: str = "both") -> QueryResult:
         """Session.query in this process: "state", "tangential_stiffness", "slip_intervals",
         "jager_weights", "tractions" and "pressure" (the others need a server)."""
+        if any(path.split(".")[0] == "torsion" for path in outputs):
+            raise MdrError(grpc.StatusCode.FAILED_PRECONDITION, "read_mask",
+                           '"torsion.*" outputs need a torsional session (scene.torsion)')
         unknown = [path for path in outputs if path.split(".")[0] not in _QUERY_OUTPUTS]
         if unknown:
             raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "read_mask",
@@ -403,3 +463,97 @@ class InProcessSession:
                 for i in range(n):
                     getattr(response, name).add(radius=radii[i], value=value[i],
                                                 error_estimate=error[i])
+
+
+def _refuse_per_contact_values(step) -> None:
+    if step.contact_normal_values or step.contact_tangential_values:
+        raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "contact_normal_values",
+                       "per-contact values are for contact list sessions (a server's)")
+
+
+class InProcessTorsionSession(InProcessSession):
+    """A torsional contact (scene.torsion) in this process, through mdr_torsion: steps move the
+    normal channel or the twist (twist, twist_increment, twisting_moment), one per step; query
+    reads "state" and "torsion.*" (stiffness, slip_intervals, tractions at radii, memory_pieces,
+    stored_energy), as a server's torsional session answers them."""
+
+    _HANDLE = "mdr_torsion"
+
+    def _state(self) -> api.ContactState:
+        raw = _TorsionalState()
+        self.client._check(self._lib.mdr_torsion_state(self._live(), ctypes.byref(raw)))
+        # The service's torsional state: no rig, so the actuator's depth is the contact's.
+        state = api.ContactState(applied_steps=raw.applied_steps,
+                                 memory_vertices=raw.memory_pieces, actuator_depth=raw.depth)
+        for name in _TORSIONAL_STATE_DOUBLES:
+            if name != "last_step_dissipation":  # the Energy output's, not the state's
+                setattr(state, name, getattr(raw, name))
+        return state
+
+    def _step(self, step, report: _StepReport) -> None:
+        normal = step.WhichOneof("normal")
+        twist = step.WhichOneof("torsional")
+        _refuse_per_contact_values(step)
+        if step.WhichOneof("tangential"):  # mdr_torsion_step has no tangential channel
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, step.WhichOneof("tangential"),
+                           _TANGENTIAL_IN_TORSION)
+        # Both channels in one step: the library names the twist's control, the service its field.
+        self._call_step(step, {"normal_value": normal, "twist_value": twist,
+                               "twist_control": twist},
+                        _NORMAL.get(normal, 0), getattr(step, normal) if normal else 0.0,
+                        _TWIST.get(twist, 0), getattr(step, twist) if twist else 0.0,
+                        ctypes.byref(report))
+
+    def query(self, outputs: Sequence[str] = ("state",), radii: Sequence[float] = (),
+              route: str = "both") -> QueryResult:
+        """Session.query of a torsional session in this process: "state" and "torsion" or its
+        fields "torsion.stiffness", "torsion.slip_intervals", "torsion.tractions" (at radii),
+        "torsion.memory_pieces", "torsion.stored_energy". route is not used (tau_phi has its
+        two routes in value and route_difference)."""
+        selected = set()
+        for path in outputs:
+            head, _, rest = path.partition(".")
+            if head == "state" and not rest:
+                continue
+            if head != "torsion" or (rest and rest not in _TORSION_OUTPUTS):
+                raise MdrError(grpc.StatusCode.FAILED_PRECONDITION, "read_mask",
+                               f"{path!r}: a torsional session in process answers \"state\" "
+                               f"and \"torsion\" or its fields {list(_TORSION_OUTPUTS)}")
+            selected.update([rest] if rest else _TORSION_OUTPUTS)
+        response = api.QueryResponse()
+        if "state" in outputs or not outputs:
+            response.state.CopyFrom(self._state())
+        torsion = response.torsion
+        if "stiffness" in selected:
+            positive, negative = ctypes.c_double(), ctypes.c_double()
+            self.client._check(self._lib.mdr_torsion_stiffness(self._live(), positive, negative))
+            torsion.stiffness_positive, torsion.stiffness_negative = positive.value, negative.value
+        if "slip_intervals" in selected:
+            (begin, end, direction), n = self._sized(
+                self._lib.mdr_torsion_slip_intervals, (ctypes.c_double, ctypes.c_double,
+                                                       ctypes.c_int32))
+            for i in range(n):
+                torsion.slip_intervals.add(r_begin=begin[i], r_end=end[i], direction=direction[i])
+        if "tractions" in selected:
+            self._tractions(torsion, list(radii))
+        if "memory_pieces" in selected:  # the snapshot holds the memory, piece by piece
+            torsion.memory_pieces.extend(self.export().torsion.pieces)
+        if "stored_energy" in selected:
+            energy = ctypes.c_double()
+            self.client._check(self._lib.mdr_torsion_stored_energy(self._live(), energy))
+            torsion.stored_energy = energy.value
+        if not selected:
+            response.ClearField("torsion")
+        return QueryResult.of(response)
+
+    def _tractions(self, torsion, radii) -> None:
+        n = len(radii)
+        if n == 0:
+            raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "radii",
+                           "required (at least one radius) when torsion.tractions are read")
+        value, difference = (ctypes.c_double * n)(), (ctypes.c_double * n)()
+        self.client._check(self._lib.mdr_torsion_tractions(
+            self._live(), (ctypes.c_double * n)(*radii), n, value, difference, n))
+        for i in range(n):
+            torsion.tractions.add(radius=radii[i], value=value[i],
+                                  route_difference=difference[i])

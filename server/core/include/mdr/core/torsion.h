@@ -140,10 +140,12 @@ class TorsionalMemory {
   TorsionSnapshot Snapshot() const;
 
   // Twists by increment (rad, finite) at the current contact radius: v <- clamp(v + increment,
-  // -B, B), exact for any size. Field: twist_increment.
+  // -B, B), exact for any size. A twist whose sliding work would take the dissipated energy
+  // beyond the finite doubles is refused (InvalidArgument, nothing changed): no snapshot could
+  // hold it. Field: twist_increment.
   Status Twist(double increment);
   // Twists to the angle (rad, finite): the increment angle - twist(), and twist() == angle
-  // exactly afterwards. Field: twist.
+  // exactly afterwards; refused as Twist. Field: twist.
   Status TwistTo(double angle);
   // Twists at the current contact radius until the moment is target (N m, finite), the increment
   // found by a bracketed Newton iteration on the exact moment with the exact stiffness as its
@@ -159,8 +161,8 @@ class TorsionalMemory {
   // (finite, >= 0). Growing adds springs at v = 0; shrinking clips to the smaller bound and
   // forgets the springs outside (their energy is dissipated). A decrease whose result would break
   // |F| <= 1 fails with FailedPrecondition, and a growth to a contact whose stiffness or
-  // full-slip moment overflows the doubles with InvalidArgument; neither changes anything.
-  // Field: contact_radius.
+  // full-slip moment overflows the doubles, or a decrease whose loss would take the dissipated
+  // energy beyond them, with InvalidArgument; none changes anything. Field: contact_radius.
   Status SetContactRadius(double contact_radius);
 
   double twist() const { return twist_; }
@@ -194,8 +196,11 @@ class TorsionalMemory {
  private:
   TorsionalMemory(std::shared_ptr<const TorsionBound> bound, double torsional_modulus,
                   double contact_radius);
-  // The clip of one twist increment, after which the twist is `twist`.
-  void ApplyTwist(double increment, double twist);
+  // The clip of one twist increment, after which the twist is `twist`; refused naming `field`
+  // when its loss overflows the dissipated energy.
+  Status ApplyTwist(double increment, double twist, const char* field);
+  // InvalidArgument naming `field` when the dissipated energy plus `dissipation` is not finite.
+  Status CheckDissipation(double dissipation, const char* field) const;
   double Value(const TorsionPiece& piece, double x) const;
   double Slope(const TorsionPiece& piece, double x) const;
   // The pieces v + shift clipped to +-B(x; radius) on [0, radius) into *out, and the energy the
