@@ -323,12 +323,12 @@ MDR_API void mdr_torsion_destroy(mdr_torsion* torsion);
  * FAILED_PRECONDITION naming normal_value; a memory beyond scene.options.max_memory_vertices
  * pieces is RESOURCE_EXHAUSTED. Errors name normal_control, normal_value, twist_control or
  * twist_value. report (may be NULL): substeps 1, path_error 0, dissipated the step's energy.
- * Unlike mdr_contact_step, every step allocates (docs/capi.md, "Torsion"). */
+ * Once warmed up, a twist by angle or increment allocates nothing; a moment target and a load
+ * change allocate (docs/capi.md, "Torsion"). */
 MDR_API int mdr_torsion_step(mdr_torsion* torsion, int normal_control, double normal_value,
                              int twist_control, double twist_value, mdr_step_report* report);
 
-/* The state after the last step (allocation-free once the process has called it: the core's
- * integrals build their quadrature rule, a static, on first use; docs/capi.md "Torsion"). */
+/* The state after the last step (allocation-free). */
 MDR_API int mdr_torsion_state(const mdr_torsion* torsion, mdr_torsional_state* out);
 
 /* dM_z/dphi for a small further twist in +phi (*positive) and in -phi (*negative), in N m/rad;
