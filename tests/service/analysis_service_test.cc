@@ -13,6 +13,8 @@
 #include "mdr/analysis/identify.h"
 #include "mdr/analysis/loops.h"
 #include "mdr/bridge/conversion.h"
+#include "mdr/bridge/torsion_session.h"
+#include "mdr/core/material.h"
 #include "service_test_util.h"
 
 namespace mdr::service_testing {
@@ -494,6 +496,158 @@ TEST_F(AnalysisServiceTest, BackboneAnswersTheLibrarysLoops) {
   bad = request;
   bad.clear_amplitudes();
   ExpectInvalidArgument(stub_->Backbone(Context().get(), bad, &response), "amplitudes");
+}
+
+// ---- Torsional records (issue #49) --------------------------------------------------------------
+
+v1::Scene TorsionalScene(double compliance = 0) {
+  v1::Scene scene = SteelSphereOnSteelFlat();
+  scene.mutable_torsion()->set_rig_compliance(compliance);
+  return scene;
+}
+
+// A torsional record of the core's own steady loop through the shaft's compliance: twist
+// triangles from 0, `per_cycle` samples a cycle.
+v1::LoopSamples TorsionalRecord(double normal_force, double amplitude, double compliance,
+                                int cycles = 3, int per_cycle = 200) {
+  analysis::TorsionalScene scene = *bridge::ToTorsionalScene(
+      TorsionalScene(compliance), CoreOf(TorsionalScene(compliance)));
+  TorsionalContact contact = *analysis::PressTorsionalContact(scene, normal_force);
+  v1::LoopSamples samples;
+  for (int k = 0; k <= cycles * per_cycle; ++k) {
+    const double phase = static_cast<double>(k % per_cycle) / per_cycle;
+    const double wave = phase < 0.25 ? 4 * phase : phase < 0.75 ? 2 - 4 * phase : 4 * phase - 4;
+    EXPECT_TRUE(contact.TwistThroughCompliance(amplitude * wave, compliance).ok());
+    samples.add_twist(amplitude * wave);
+    samples.add_twisting_moment(contact.memory().Moment());
+  }
+  return samples;
+}
+
+TEST_F(AnalysisServiceTest, TorsionalRecordsAreAnalysedAndClassifiedAgainstTheFullSlipMoment) {
+  v1::AnalyzeLoopsRequest request;
+  *request.mutable_samples() = TorsionalRecord(100, 6e-3, 0.5);
+  request.mutable_options()->set_rig_compliance(0.5);
+  request.mutable_options()->set_normal_force(100);
+  *request.mutable_scene() = TorsionalScene();
+  v1::AnalyzeLoopsResponse response;
+  ASSERT_TRUE(stub_->AnalyzeLoops(Context().get(), request, &response).ok());
+  ASSERT_EQ(response.cycles_size(), 2);
+  const v1::CycleFigures& cycle = response.cycles(1);
+  // The library's own figures of the same record, and the scene's full-slip moment.
+  analysis::LoopSamples samples;
+  samples.channel = analysis::LoopChannel::kTorsional;
+  samples.displacement.assign(request.samples().twist().begin(), request.samples().twist().end());
+  samples.tangential_force.assign(request.samples().twisting_moment().begin(),
+                                  request.samples().twisting_moment().end());
+  analysis::LoopOptions options;
+  options.rig_compliance = 0.5;
+  options.normal_force = 100;
+  const analysis::LoopAnalysis expected = *analysis::AnalyzeLoops(samples, options);
+  EXPECT_EQ(cycle.force_amplitude(), expected.cycles[1].force_amplitude);
+  EXPECT_EQ(cycle.dissipated_energy(), expected.cycles[1].dissipated_energy);
+  EXPECT_EQ(cycle.contact().displacement_amplitude(),
+            expected.cycles[1].contact->displacement_amplitude);
+  EXPECT_TRUE(std::isnan(cycle.friction_coefficient()));
+  EXPECT_EQ(cycle.regime(), v1::REGIME_PARTIAL_SLIP);
+  const double slip = *analysis::FullSlipMoment(
+      *bridge::ToTorsionalScene(TorsionalScene(), CoreOf(TorsionalScene())), 100);
+  EXPECT_EQ(cycle.full_slip_moment(), slip);
+  EXPECT_LT(cycle.force_amplitude(), slip);
+
+  // A record is one pair or the other; the scene must match the record; the columns are named.
+  v1::AnalyzeLoopsRequest bad = request;
+  bad.mutable_samples()->add_displacement(0);
+  ExpectInvalidArgument(stub_->AnalyzeLoops(Context().get(), bad, &response), "samples.twist");
+  bad = request;
+  bad.mutable_scene()->clear_torsion();
+  ExpectInvalidArgument(stub_->AnalyzeLoops(Context().get(), bad, &response), "scene.torsion");
+  bad = request;
+  bad.mutable_samples()->set_twist(7, 101);
+  ExpectInvalidArgument(stub_->AnalyzeLoops(Context().get(), bad, &response), "samples.twist[7]");
+  bad = request;
+  bad.mutable_samples()->mutable_twisting_moment()->RemoveLast();
+  ExpectInvalidArgument(stub_->AnalyzeLoops(Context().get(), bad, &response),
+                        "samples.twisting_moment");
+}
+
+TEST_F(AnalysisServiceTest, TorsionalFitsGiveMuGtAndTheShaftBack) {
+  v1::FitLoopsRequest request;
+  *request.mutable_scene() = TorsionalScene(0.3);
+  request.mutable_scene()->set_friction(0.4);
+  request.mutable_scene()->mutable_torsion()->set_torsional_modulus(3e10);
+  for (double load : {30.0, 100.0, 300.0}) {
+    auto* set = request.add_sets();
+    *set->mutable_samples() = TorsionalRecord(load, 6e-3, 0.5, 2, 120);
+    set->set_normal_force(load);
+  }
+  const std::pair<v1::FitParameter, std::pair<double, double>> free[] = {
+      {v1::FIT_PARAMETER_FRICTION, {0.05, 2}},
+      {v1::FIT_PARAMETER_TORSIONAL_MODULUS, {1e9, 1e12}},
+      {v1::FIT_PARAMETER_RIG_COMPLIANCE, {0, 10}}};
+  for (const auto& [parameter, bounds] : free) {
+    auto* f = request.add_free();
+    f->set_parameter(parameter);
+    f->set_lower(bounds.first);
+    f->set_upper(bounds.second);
+  }
+  const FitStream fit = Fit(request);
+  ASSERT_TRUE(fit.status.ok()) << fit.status.error_message();
+  const v1::FitResult& result = fit.responses.back().result();
+  const double g_t = *TorsionalModulusOfPair(210e9, 0.3, 210e9, 0.3);
+  ExpectRelativelyNear(result.estimates(0).value(), 0.3, 1e-8);
+  ExpectRelativelyNear(result.estimates(1).value(), g_t, 1e-8);
+  ExpectRelativelyNear(result.estimates(2).value(), 0.5, 1e-8);
+  EXPECT_TRUE(result.identified());
+  // The fitted scene carries G_t and the shaft in scene.torsion.
+  EXPECT_EQ(result.fitted_scene().torsion().torsional_modulus(), result.estimates(1).value());
+  EXPECT_EQ(result.fitted_scene().torsion().rig_compliance(), result.estimates(2).value());
+  EXPECT_FALSE(result.has_guessed_rig_compliance());
+
+  // A tangential record in a torsional fit is named.
+  v1::FitLoopsRequest bad = request;
+  bad.mutable_sets(1)->clear_samples();
+  bad.mutable_sets(1)->mutable_samples()->add_displacement(0);
+  bad.mutable_sets(1)->mutable_samples()->add_tangential_force(0);
+  const FitStream refused = Fit(bad);
+  EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused.status.error_message().find("sets[1].samples"), std::string::npos)
+      << refused.status.error_message();
+}
+
+TEST_F(AnalysisServiceTest, TheTorsionalBackboneThroughTheShaft) {
+  v1::BackboneRequest request;
+  *request.mutable_scene() = TorsionalScene(0.5);
+  request.set_normal_force(100);
+  request.set_kind(v1::BackboneRequest::AMPLITUDE_KIND_ACTUATOR_DISPLACEMENT);
+  for (double phi : {1e-4, 2e-3, 6e-3}) request.add_amplitudes(phi);
+  v1::BackboneResponse response;
+  ASSERT_TRUE(stub_->Backbone(Context().get(), request, &response).ok());
+  const auto expected = *analysis::TorsionalBackbone(
+      *bridge::ToTorsionalScene(TorsionalScene(0.5), CoreOf(TorsionalScene(0.5))), 100,
+      analysis::AmplitudeKind::kActuatorDisplacement, {1e-4, 2e-3, 6e-3});
+  ASSERT_EQ(response.loops_size(), 3);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(response.loops(k).secant_stiffness(), expected[k].secant_stiffness);
+    EXPECT_EQ(response.loops(k).damping_ratio(), expected[k].damping_ratio);
+  }
+  // The moment amplitude must stay below the full-slip moment; no map of a torsional scene.
+  v1::BackboneRequest beyond = request;
+  beyond.set_kind(v1::BackboneRequest::AMPLITUDE_KIND_FORCE);
+  beyond.set_amplitudes(2, 1);  // N m, far above 3 pi mu F_N a / 16 = 3.3e-3 N m
+  ExpectInvalidArgument(stub_->Backbone(Context().get(), beyond, &response), "amplitudes[2]");
+  v1::FrettingMapRequest map;
+  *map.mutable_scene() = TorsionalScene();
+  map.add_normal_forces(100);
+  map.add_relative_amplitudes(0.5);
+  v1::FrettingMapResponse map_response;
+  ExpectInvalidArgument(stub_->FrettingMap(Context().get(), map, &map_response), "scene.torsion");
+  // Sessions refuse the shaft they do not model.
+  v1::CreateSessionRequest create;
+  *create.mutable_session()->mutable_scene() = TorsionalScene(0.5);
+  v1::Session session;
+  ExpectInvalidArgument(stub_->CreateSession(Context().get(), create, &session),
+                        "session.scene.torsion.rig_compliance");
 }
 
 }  // namespace

@@ -94,6 +94,29 @@ TEST_F(TorsionServiceTest, AMonotoneTwistGivesTheHertzClosedForms) {
   EXPECT_LT(query.torsion().stiffness_positive(), query.torsion().stiffness_negative());
 }
 
+// scene.torsion.torsional_modulus replaces the material's G_t (what FitLoops identified): the
+// stiffness 16 G_t a^3 / 3 scales with it, the normal problem (E*) does not change.
+TEST_F(TorsionServiceTest, TheScenesTorsionalModulusReplacesTheMaterials) {
+  v1::Scene scene = TwistedSteelSphere();
+  const double material = *TorsionalModulusOfPair(kYoungsModulus, kPoissonRatio, kYoungsModulus,
+                                                   kPoissonRatio);
+  scene.mutable_torsion()->set_torsional_modulus(0.5 * material);
+  const std::string session = CreateScene(scene);
+  v1::ApplyResponse response;
+  ASSERT_TRUE(Apply(session, {NormalForceStep(100)}, &response).ok());
+  ExpectRelativelyNear(response.state().contact_radius(), HertzContactRadius(100), 1e-12);
+  v1::QueryResponse query;
+  ASSERT_TRUE(Query(session, &query, {"torsion.stiffness"}).ok());
+  ExpectRelativelyNear(query.torsion().stiffness_positive(), 0.5 * HertzTorsionalStiffness(100),
+                       1e-12);
+  scene.mutable_torsion()->set_torsional_modulus(0);
+  v1::CreateSessionRequest create;
+  *create.mutable_session()->mutable_scene() = scene;
+  v1::Session created;
+  ExpectInvalidArgument(stub_->CreateSession(Context().get(), create, &created),
+                        "session.scene.torsion.torsional_modulus");
+}
+
 TEST_F(TorsionServiceTest, EveryAnswerIsTheCoresBitForBit) {
   const std::string session = CreateScene(TwistedSteelSphere());
   TorsionalContact core = CoreContact();

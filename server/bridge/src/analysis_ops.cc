@@ -221,6 +221,8 @@ analysis::Parameter ToCore(v1::FitParameter parameter) {
       return analysis::Parameter::kRigCompliance;
     case v1::FIT_PARAMETER_DISPLACEMENT_OFFSET:
       return analysis::Parameter::kDisplacementOffset;
+    case v1::FIT_PARAMETER_TORSIONAL_MODULUS:
+      return analysis::Parameter::kTorsionalModulus;
     default:
       return analysis::Parameter::kFriction;
   }
@@ -256,7 +258,14 @@ v1::Scene FittedScene(const v1::Scene& scene, const ContactConfig& start,
         }
         break;
       case analysis::Parameter::kRigCompliance:
-        fitted.mutable_rig()->set_tangential_compliance(e.value);
+        if (fitted.has_torsion()) {
+          fitted.mutable_torsion()->set_rig_compliance(e.value);
+        } else {
+          fitted.mutable_rig()->set_tangential_compliance(e.value);
+        }
+        break;
+      case analysis::Parameter::kTorsionalModulus:
+        fitted.mutable_torsion()->set_torsional_modulus(e.value);
         break;
       case analysis::Parameter::kDisplacementOffset:
         break;  // not part of a scene
@@ -398,7 +407,13 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, std::size_t max_memory_ve
                    v1::FitResult* result) {
   if (Status s = CheckCount("sets", request.sets_size(), kMaxLoopSets); !s.ok()) return s;
   std::size_t samples = 0;
-  for (const auto& set : request.sets()) samples += set.samples().displacement_size();
+  for (int k = 0; k < request.sets_size(); ++k) {
+    const v1::LoopSamples& set = request.sets(k).samples();
+    if (Status s = CheckChannel(set); !s.ok()) {
+      return s.WithFieldPrefix(Indexed("sets", static_cast<std::size_t>(k)) + ".samples");
+    }
+    samples += SampleCount(set);
+  }
   if (samples > kMaxFittedSamples) {
     return ResourceExhausted("sets", std::to_string(samples) + " samples exceed the limit of " +
                                          std::to_string(kMaxFittedSamples) + " for a fit");
@@ -412,6 +427,12 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, std::size_t max_memory_ve
   if (!scene.ok()) return scene.status();
   const std::optional<ProfileFamily> family = FamilyOf(request.scene());
   analysis::FitOptions options;
+  if (request.scene().has_torsion()) {
+    Result<analysis::TorsionalScene> torsion = ToTorsionalScene(request.scene(), *scene);
+    if (!torsion.ok()) return torsion.status();
+    options.torsion = analysis::TorsionalFitScene{.torsional_modulus = torsion->torsional_modulus,
+                                                  .rig_compliance = torsion->rig_compliance};
+  }
   for (int k = 0; k < request.free_size(); ++k) {
     const auto& free = request.free(k);
     const std::string field = Indexed("free", static_cast<std::size_t>(k));
@@ -505,7 +526,8 @@ Status RunFitLoops(const v1::FitLoopsRequest& request, std::size_t max_memory_ve
   *result->mutable_fitted_scene() = FittedScene(request.scene(), *scene, *fit);
   std::set<double> loads;
   for (const analysis::SetFit& set : fit->sets) loads.insert(set.normal_force);
-  if (const std::optional<double> n = ExponentOf(request.scene()); n && loads.size() >= 2) {
+  if (const std::optional<double> n = ExponentOf(request.scene());
+      n && loads.size() >= 2 && !options.torsion) {
     Result<analysis::ComplianceGuess> guess =
         analysis::GuessRigCompliance(sets, *n, options.reversal_threshold);
     if (guess.ok()) {

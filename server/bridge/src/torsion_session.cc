@@ -29,8 +29,16 @@ std::string MaterialPath(const v1::Scene& scene) {
                                                           : "scene.rigid_on_half_space";
 }
 
-// G_t of the scene's material (validated by ToContactConfig).
+// G_t: scene.torsion's, or the scene's material's (validated by ToContactConfig).
 Result<double> TorsionalModulus(const v1::Scene& scene) {
+  if (scene.torsion().has_torsional_modulus()) {
+    const double modulus = scene.torsion().torsional_modulus();
+    if (!(modulus >= 1e-100 && modulus <= 1e100)) {
+      return InvalidArgument("scene.torsion.torsional_modulus",
+                             "must be in [1e-100, 1e100] Pa, got " + FormatNumber(modulus));
+    }
+    return modulus;
+  }
   if (scene.material_case() == v1::Scene::kElasticPair) {
     const v1::ElasticPair& m = scene.elastic_pair();
     Result<double> modulus = TorsionalModulusOfPair(m.youngs_modulus_1(), m.poisson_ratio_1(),
