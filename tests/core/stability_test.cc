@@ -9,6 +9,7 @@
 #include "fixtures/slip_state_check.h"
 #include "mdr/core/contact.h"
 #include "mdr/core/jager.h"
+#include "mdr/core/torsion.h"
 #include "mdr/core/traction.h"
 #include "test_util.h"
 
@@ -244,6 +245,107 @@ TEST(StabilityTest, SmallAmplitudeFrettingStatesAllRestore) {
     }
   }
   std::printf("[ restore ] %ld small-amplitude fretting states restored\n", states);
+}
+
+// Torsion (issue #49): random histories of twisted contacts over materials (nu 0 .. 0.5, moduli
+// 1e6 .. 1e12 Pa), friction 1e-3 .. 10, scales (depths 1e-9 .. 1e-3 m) and profiles (spheres and,
+// as their steps cost a quadrature, fewer cones and power laws), twisted by angle, increment,
+// moment and back to earlier twists exactly, with the normal load raised and lowered (a decrease
+// the memory refuses must change nothing). After every step: the exact regime (|F| <= 1, decided
+// from the pieces), |M| below the full-slip moment, finite non-negative energies, a loss >= 0,
+// and the snapshot restored, continuing bit for bit with the history's remaining steps.
+TEST(StabilityTest, TorsionalHistoriesKeepTheirInvariantsAndRestore) {
+  RandomScene random{std::mt19937_64(4949)};
+  int refused_decreases = 0, restored = 0;
+  for (int history = 0; history < 400; ++history) {
+    const bool sphere = history % 8 != 0;
+    const ProfilePtr profile =
+        sphere              ? *MakeSphere(random.LogUniform(1e-4, 1))
+        : history % 16 == 0 ? *MakeCone(random.Uniform(0.01, 1.4))
+                            : *MakePowerLaw(random.LogUniform(1e-2, 1e2), random.Uniform(0.5, 6));
+    const double young = random.LogUniform(1e6, 1e12), nu = random.Uniform(0, 0.5);
+    const double e_star = young / (1 - nu * nu), g_t = young / (2 * (1 + nu));
+    const double friction = random.LogUniform(1e-3, 10);
+    TorsionalContact c = *TorsionalContact::Create(profile, friction, e_star, g_t);
+    const double d0 = random.LogUniform(1e-9, 1e-3);
+    TorsionStep press;
+    press.normal = NormalControl::kDepth;
+    press.normal_value = d0;
+    ASSERT_TRUE(c.Apply(press).ok());
+    // The twist scale: the bound at half the contact radius.
+    const double scale = MakeTorsionBound(profile, friction, e_star, g_t)
+                             .value()
+                             ->Bound(c.memory().contact_radius() / 2, c.memory().contact_radius());
+    std::vector<double> twists = {0.0};
+    std::vector<TorsionStep> steps;
+    for (int k = 0; k < (sphere ? 14 : 5); ++k) {
+      TorsionStep s;
+      switch (random.rng() % 6) {
+        case 0:
+          s.normal = NormalControl::kDepth;
+          s.normal_value = d0 * random.Uniform(0.3, 1.6);
+          break;
+        case 1:
+          s.twist = TwistControl::kAngle;
+          s.twist_value = twists[random.rng() % twists.size()];  // back exactly
+          break;
+        case 2:
+          s.twist = TwistControl::kMoment;
+          s.twist_value = random.Uniform(-0.98, 0.98);  // of the full-slip moment, set below
+          break;
+        case 3:
+          s.twist = TwistControl::kAngleIncrement;
+          s.twist_value = random.Sign() * random.LogUniform(1e-12, 3) * scale;
+          break;
+        default:
+          s.twist = TwistControl::kAngle;
+          s.twist_value = random.Uniform(-3, 3) * scale;
+      }
+      steps.push_back(s);
+    }
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      TorsionStep s = steps[k];
+      if (s.twist == TwistControl::kMoment) s.twist_value *= c.memory().FullSlipMoment();
+      const TorsionSnapshot before = c.memory().Snapshot();
+      const Status status = c.Apply(s);
+      if (!status.ok()) {
+        // Only a load decrease that would leave the exact regime may be refused, changing nothing.
+        ASSERT_EQ(status.code(), StatusCode::kFailedPrecondition)
+            << status.ToString() << " history " << history;
+        ASSERT_EQ(c.memory().Snapshot(), before);
+        ++refused_decreases;
+        continue;
+      }
+      const TorsionalMemory& m = c.memory();
+      ASSERT_TRUE(m.IsExact()) << "history " << history << " step " << k;
+      const double moment = m.Moment(), slip = m.FullSlipMoment();
+      ASSERT_TRUE(std::isfinite(moment) && std::isfinite(m.StoredEnergy()));
+      ASSERT_LE(std::abs(moment), slip * (1 + 1e-9) + 1e-300)
+          << "history " << history << " step " << k << " " << profile->Describe();
+      ASSERT_GE(m.StoredEnergy(), 0);
+      ASSERT_GE(m.last_step_dissipation(), 0);
+      ASSERT_GE(m.dissipated_energy(), 0);
+      twists.push_back(m.twist());
+      // Restored from its snapshot, the contact continues bit for bit.
+      Result<TorsionalContact> copy =
+          TorsionalContact::Restore(profile, friction, e_star, g_t, c.depth(), m.Snapshot());
+      ASSERT_TRUE(copy.ok()) << copy.status().ToString() << " history " << history;
+      TorsionalContact original = c;
+      for (std::size_t j = k + 1; j < steps.size(); ++j) {
+        TorsionStep next = steps[j];
+        if (next.twist == TwistControl::kMoment) {
+          next.twist_value *= original.memory().FullSlipMoment();
+        }
+        const Status a = original.Apply(next), b = copy->Apply(next);
+        ASSERT_EQ(a.code(), b.code()) << "history " << history << " step " << j;
+      }
+      ASSERT_EQ(original.memory().Snapshot(), copy->memory().Snapshot())
+          << "history " << history << " restored after step " << k;
+      ++restored;
+    }
+  }
+  EXPECT_GT(refused_decreases, 20) << "the histories must reach the refused decreases";
+  EXPECT_GT(restored, 3000);
 }
 
 }  // namespace
