@@ -232,6 +232,7 @@ int HertzTorsionTable::PanelOf(double t, double w, double* s) {
     *s = 2 * j + 1 - 4 * kS * w;
     return j;
   }
+  if (!(t > 0)) return kPanels;  // no panel (the centre's expansions answer, or NaN does)
   const int k = -std::ilogb(t) - 1;  // t in [2^-(k+1), 2^-k)
   if (k >= kBands) return kPanels;
   const double u = std::ldexp(t, k + 1);  // in [1, 2)
@@ -276,8 +277,11 @@ HertzTorsionTable::Tails HertzTorsionTable::Integrals(double t, double w) const 
 }
 
 HertzTorsionTable::Point HertzTorsionTable::Inverse(double y) const {
-  // h(2^-k) grows about like (k + 2) ln 2 - 1: start in that band and walk to the panel.
-  int p = kS * std::clamp(static_cast<int>((y + 1) / std::numbers::ln2) - 2, 0, kBands - 1);
+  if (!(y > 0)) return {1, 0};  // h = 0 at the edge (and no NaN goes further)
+  // h(2^-k) grows about like (k + 2) ln 2 - 1: start in that band and walk to the panel (the
+  // band clamped as a double: y may be far beyond an int's range, or infinite).
+  const double band = std::clamp((y + 1) / std::numbers::ln2 - 2, 0.0, double{kBands - 1});
+  int p = kS * static_cast<int>(band);
   while (p > 0 && y < panels_[p].y_lo) --p;
   while (p < kPanels && y >= panels_[p].y_hi) ++p;
   if (p >= kPanels) {  // the centre: L = (y + 1)(1 + t0^2 / 4), t0 = 4 e^-(y + 1)

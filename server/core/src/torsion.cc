@@ -116,8 +116,9 @@ class HertzTorsionBound final : public TorsionBound {
   double Bound(double x, double a) const override {
     if (x >= a) return 0;
     if (x <= 0) return kInf;
-    // Where x / a would underflow: h = ln(4 a / x) - 1 to far below round-off.
-    if (x < kTinyRatio * a) return scale_ * a * (std::log(4 * (a / x)) - 1);
+    // Where x / a would underflow: h = ln(4 a / x) - 1 to far below round-off (a / x itself may
+    // overflow, its logarithm not).
+    if (x < kTinyRatio * a) return scale_ * a * (std::log(4 * a) - std::log(x) - 1);
     return scale_ * a * table_.H(x / a, (a - x) / a);
   }
   double Slope(double x, double a) const override {
@@ -283,6 +284,9 @@ ValueOf<F> Integrate(const F& f, double lo, double hi, const Rule& rule) {
   double a = lo;
   if (a == 0) {
     a = std::ldexp(hi, -60);
+    // An interval so short that 2^-60 of it underflows (a root at the doubles' resolution of the
+    // centre) is one panel: doubling from 0 would never reach hi (the engine fuzzer's find).
+    if (!(a > 0)) return Gauss16(f, 0, hi);
     sum += Gauss16(f, 0, a);
   }
   while (a < hi) {
@@ -545,10 +549,16 @@ double TorsionalMemory::Slope(const TorsionPiece& piece, double x) const {
 
 double TorsionalMemory::RadiusAtBound(double value, double radius, double lo, double hi) const {
   const double known = bound_->RadiusAtBound(value, radius);
-  if (!std::isnan(known)) return std::clamp(known, lo, hi);
+  // A root below 2^-200 of the piece is the centre's (where the search below starts): the whole
+  // piece is beyond the bound (a stick disk below 1e-60 of it is no state: its ends would be
+  // subnormal, its moment x^3 below any round-off).
+  if (!std::isnan(known)) {
+    return lo == 0 && known < std::ldexp(hi, -200) ? lo : std::clamp(known, lo, hi);
+  }
   // value - B(x) is nondecreasing in x with slope -B'(x); the centre never slips (B = +inf), so
-  // the search starts just above it.
-  const double from = lo > 0 ? lo : std::ldexp(hi, -200);
+  // the search starts just above it (never at 0, where hi is at the doubles' resolution).
+  const double from =
+      lo > 0 ? lo : std::max(std::ldexp(hi, -200), std::numeric_limits<double>::denorm_min());
   auto g = [&](double x) {
     return internal::ValueAndSlope{value - bound_->Bound(x, radius), -bound_->Slope(x, radius)};
   };
@@ -638,7 +648,11 @@ void TorsionalMemory::Clip(double shift, double radius, bool shrinking,
       auto down_slope = [&](double x) { return Slope(shifted, x) + bound_->Slope(x, radius); };
       // The region [lo, hi) of [start, end) where sign * f > 0, as a root of the monotone f.
       auto region = [&](const auto& f, const auto& slope, int sign, double* lo, double* hi) {
-        const double from = start > 0 ? start : std::ldexp(end, -200);
+        // Above the centre, where B is infinite: 2^-200 of the piece, and never 0 itself (a
+        // piece at the doubles' resolution of the centre underflows it).
+        const double from =
+            start > 0 ? start
+                      : std::max(std::ldexp(end, -200), std::numeric_limits<double>::denorm_min());
         const double f_start = sign * f(from), f_end = sign * f(end);
         if (!(f_start > 0) && !(f_end > 0)) return false;
         if (f_start > 0 && f_end > 0) {
