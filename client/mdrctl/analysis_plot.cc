@@ -312,7 +312,10 @@ void AddFitLoopsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, 
   script->text << "set multiplot layout " << rows << "," << columns
                << " title 'measured (grey) and fitted (red) loops'\nset key top left font ',8'\n"
                << "set xlabel " << GnuplotQuoted(axis.label) << "\nset ylabel "
-               << GnuplotQuoted(ForceAxis(labels)) << "\n";
+               << GnuplotQuoted(ForceAxis(labels))
+               << "\n"
+               // Twists in rad take many digits: turned, the tics of a narrow panel stay apart.
+               << (labels.torsional ? "set xtics rotate by 30 right\n" : "");
   for (std::size_t i = 0; i < sets.size(); ++i) {
     const std::string block = Q(data) + " index " + std::to_string(i);
     script->text << "set title " << GnuplotQuoted(sets[i].label) << "\n"
@@ -322,7 +325,8 @@ void AddFitLoopsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, 
                           {block, x + ":($4>0?$3:1/0)", "lines lw 1.5 lc rgb '#d62728'",
                            "fitted, counted"}});
   }
-  script->text << "unset multiplot\nset terminal pngcairo size 1000,700 noenhanced font ',11'\n";
+  script->text << "unset multiplot\nset xtics norotate\n"
+               << "set terminal pngcairo size 1000,700 noenhanced font ',11'\n";
 }
 
 // A panel per set: its residuals against its sample index, the force sensor's noise band and its

@@ -12,6 +12,8 @@ test. The records are made by the engine through `mdrctl synthesize` (a truth wi
   torsion_fit     mdrctl fit on a noise-free torsional campaign (three loads, one set in mrad and
                   mN m) recovers mu, G_t and the shaft's compliance to 1e-6, replays the model
                   through sessions, reports the fitted scene's torsion and skips the fretting map
+  torsion_example examples/torsional_rig/run.sh re-run reproduces the committed data/ byte for
+                  byte and report.json's numbers, and its estimates hold the truth
   torsion_errors  the options' and campaign keys' errors named (a tangential and a torsional
                   option together, unknown units, the other channel's keys), bad cells and the
                   service's sample errors at their line and column, a torsional record with a
@@ -23,11 +25,12 @@ import argparse
 import json
 import math
 import os
+import subprocess
 import sys
 import tempfile
 
 from rig_analysis_test import (Failure, check, check_pngs, close, csv_rows, expect_failure,
-                               expect_success, write, write_mat5)
+                               expect_success, numbers, write, write_mat5)
 
 # H1 (docs/reference-values.md): a steel sphere R = 10 mm on a steel flat, mu = 0.3, at 100 N;
 # twisted to the stick radius c = a/2 on the virgin curve: phi* and M there, and the Hertz loss per
@@ -233,6 +236,38 @@ def case_torsion_fit(args, tmp):
     check_pngs(report, ["loops.png", "residuals.png"], document)
 
 
+# ---- torsion_example ----
+
+def case_torsion_example(args, tmp):
+    example = os.path.join(args.source_dir, "examples", "torsional_rig")
+    out = os.path.join(tmp, "torsional_rig")
+    result = subprocess.run(["bash", os.path.join(example, "run.sh"), out], capture_output=True,
+                            text=True, env={**os.environ, "MDRCTL": args.mdrctl}, timeout=300)
+    check(result.returncode == 0, f"run.sh failed:\n{result.stdout}\n{result.stderr}")
+    for name in sorted(os.listdir(os.path.join(example, "data"))):
+        same = open(os.path.join(example, "data", name)).read() == \
+            open(os.path.join(out, "data", name)).read()
+        check(same, f"data/{name} differs from the committed file")
+    print("ok data/ reproduced byte for byte")
+    committed = dict(numbers(json.load(open(os.path.join(example, "report", "report.json")))))
+    rerun_document = json.load(open(os.path.join(out, "report", "report.json")))
+    rerun = dict(numbers(rerun_document))
+    check(committed.keys() == rerun.keys(),
+          f"report.json keys differ: {set(committed) ^ set(rerun)}")
+    # The fit is deterministic; the tolerance covers other libm versions.
+    worst = max(abs(value - rerun[key]) / max(abs(value), abs(rerun[key]), 1e-300)
+                for key, value in committed.items())
+    check(worst <= 1e-6, f"report.json differs by {worst:.3g} (relative)")
+    print(f"ok {len(committed)} numbers of report.json reproduced (largest relative difference "
+          f"{worst:.3g})")
+    check("FrettingMap refuses" in rerun_document["fretting_map_skipped"], "the map's note")
+    for e in rerun_document["estimates"]:
+        check(e["identified"] and e["truth_inside_95"],
+              f"{e['parameter']}: {e['value']} (truth {e['truth']}) not identified or missed")
+        print(f"  {e['parameter']}: {e['value']:.8g} +- {e['standard_error']:.3g} "
+              f"(truth {e['truth']})")
+
+
 # ---- torsion_errors ----
 
 def case_torsion_errors(args, tmp):
@@ -320,6 +355,7 @@ def case_torsion_errors(args, tmp):
 CASES = {
     "torsion_loops": case_torsion_loops,
     "torsion_fit": case_torsion_fit,
+    "torsion_example": case_torsion_example,
     "torsion_errors": case_torsion_errors,
 }
 
