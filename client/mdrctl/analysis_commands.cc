@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <random>
@@ -24,7 +25,9 @@
 #include "loop_sessions.h"
 #include "mdr/analysis/identify.h"
 #include "mdr/base/validate.h"
+#include "mdr/bridge/conversion.h"
 #include "mdr/bridge/scene_file.h"
+#include "mdr/bridge/torsion_session.h"
 #include "mdr/client/error_details.h"
 #include "mdr/core/material.h"
 #include "plot.h"
@@ -60,6 +63,30 @@ mdr::Status SampleError(const grpc::Status& status, const RigData& csv, const Cs
   const mdr::client::ErrorDetails details = mdr::client::ReadErrorDetails(status);
   if (details.field.empty()) return mdr::InvalidArgument(csv.path, status.error_message());
   return LocateSampleError(details.field, details.description, csv, layout);
+}
+
+// The G_t a torsional scene twists with: scene.torsion.torsional_modulus, else its material's
+// (the service's own conversion). Errors name the Scene's fields ("scene.elastic_pair...").
+mdr::Result<double> TorsionalModulus(const mdr::v1::Scene& scene) {
+  auto config = mdr::bridge::ToContactConfig(scene, std::numeric_limits<std::size_t>::max());
+  if (!config.ok()) return config.status();
+  auto torsion = mdr::bridge::ToTorsionalScene(scene, *config);
+  if (!torsion.ok()) return torsion.status();
+  return torsion->torsional_modulus;
+}
+
+// The scene's rig compliance for a record of `channel`: a tangential record's scene.rig, a
+// torsional one's shaft (scene.torsion.rig_compliance, when not 0); nothing without.
+std::optional<double> SceneRigCompliance(const mdr::v1::Scene& scene,
+                                         mdr::analysis::LoopChannel channel) {
+  if (channel == mdr::analysis::LoopChannel::kTorsional) {
+    if (scene.has_torsion() && scene.torsion().rig_compliance() != 0) {
+      return scene.torsion().rig_compliance();
+    }
+    return std::nullopt;
+  }
+  if (scene.has_rig()) return scene.rig().tangential_compliance();
+  return std::nullopt;
 }
 
 mdr::v1::AnalyzeLoopsRequest AnalysisRequest(const RigData& csv,
@@ -124,34 +151,79 @@ mdr::Status LoopsError(const grpc::Status& status, const RigData& csv, const Csv
   return mdr::InvalidArgument("", status.error_message());
 }
 
+// The record's channel from the options: torsional when any torsional option is given, and then
+// no tangential column or unit may be given (the error names it and the torsional option).
+mdr::Result<mdr::analysis::LoopChannel> ChannelFromArgs(const LoopsArgs& args) {
+  const std::pair<bool, const char*> torsional[] = {
+      {args.twist_column.has_value(), "--twist-column"},
+      {args.moment_column.has_value(), "--moment-column"},
+      {args.twist_unit.has_value(), "--twist-unit"},
+      {args.moment_unit.has_value(), "--moment-unit"}};
+  const char* torsional_option = nullptr;
+  for (const auto& [given, option] : torsional) {
+    if (given && torsional_option == nullptr) torsional_option = option;
+  }
+  if (torsional_option == nullptr) return mdr::analysis::LoopChannel::kTangential;
+  const std::pair<bool, const char*> tangential[] = {
+      {args.displacement_column.has_value(), "--displacement-column"},
+      {args.force_column.has_value(), "--force-column"},
+      {args.displacement_unit.has_value(), "--displacement-unit"}};
+  for (const auto& [given, option] : tangential) {
+    if (!given) continue;
+    return mdr::InvalidArgument(
+        option, std::string("cannot be combined with ") + torsional_option +
+                    ": a record is tangential (--displacement-column, --force-column, "
+                    "--displacement-unit) or torsional (--twist-column, --moment-column, "
+                    "--twist-unit, --moment-unit), not both");
+  }
+  return mdr::analysis::LoopChannel::kTorsional;
+}
+
+// A unit option's factor to SI, `fallback` when it is not given.
+mdr::Status ReadUnit(Quantity quantity, const std::optional<std::string>& unit,
+                     const char* fallback, const std::string& option, double* factor) {
+  auto value = UnitFactor(quantity, unit.value_or(fallback), option);
+  if (!value.ok()) return value.status();
+  *factor = *value;
+  return mdr::OkStatus();
+}
+
 mdr::Result<CsvLayout> LayoutFromArgs(const LoopsArgs& args) {
+  auto channel = ChannelFromArgs(args);
+  if (!channel.ok()) return channel.status();
   CsvLayout layout;
-  layout.displacement_column = args.displacement_column;
-  layout.force_column = args.force_column;
+  layout.channel = *channel;
+  layout.displacement_column = args.displacement_column.value_or(layout.displacement_column);
+  layout.force_column = args.force_column.value_or(layout.force_column);
+  layout.twist_column = args.twist_column.value_or(layout.twist_column);
+  layout.moment_column = args.moment_column.value_or(layout.moment_column);
   layout.normal_force_column = args.normal_force_column;
   layout.time_column = args.time_column;
   layout.run_column = args.run_column;
-  auto u = UnitFactor(Quantity::kDisplacement, args.displacement_unit, "--displacement-unit");
-  if (!u.ok()) return u.status();
-  auto f = UnitFactor(Quantity::kForce, args.force_unit, "--force-unit");
-  if (!f.ok()) return f.status();
-  auto t = UnitFactor(Quantity::kTime, args.time_unit, "--time-unit");
-  if (!t.ok()) return t.status();
-  layout.displacement_unit = *u;
-  layout.force_unit = *f;
-  layout.time_unit = *t;
+  for (const mdr::Status& s :
+       {ReadUnit(Quantity::kDisplacement, args.displacement_unit, "m", "--displacement-unit",
+                 &layout.displacement_unit),
+        ReadUnit(Quantity::kTwist, args.twist_unit, "rad", "--twist-unit", &layout.twist_unit),
+        ReadUnit(Quantity::kMoment, args.moment_unit, "N m", "--moment-unit", &layout.moment_unit),
+        ReadUnit(Quantity::kForce, args.force_unit, "N", "--force-unit", &layout.force_unit),
+        ReadUnit(Quantity::kTime, args.time_unit, "s", "--time-unit", &layout.time_unit)}) {
+    if (!s.ok()) return s;
+  }
   return layout;
 }
 
-mdr::v1::LoopAnalysisOptions LoopsOptions(const LoopsArgs& args, const mdr::v1::Scene* scene) {
+mdr::v1::LoopAnalysisOptions LoopsOptions(const LoopsArgs& args, const CsvLayout& layout,
+                                          const mdr::v1::Scene* scene) {
   mdr::v1::LoopAnalysisOptions options;
   options.set_reversal_threshold(args.reversal_threshold);
   options.set_displacement_resolution(args.displacement_resolution);
   if (args.normal_force) options.set_normal_force(*args.normal_force);
+  const std::optional<double> from_scene =
+      scene != nullptr ? SceneRigCompliance(*scene, layout.channel) : std::nullopt;
   if (args.rig_compliance) {
     options.set_rig_compliance(*args.rig_compliance);
-  } else if (scene != nullptr && scene->has_rig()) {
-    options.set_rig_compliance(scene->rig().tangential_compliance());
+  } else if (from_scene) {
+    options.set_rig_compliance(*from_scene);
   }
   return options;
 }
@@ -189,16 +261,17 @@ mdr::Result<ReportSet> AnalyzeRun(Connection& connection, const LoopsArgs& args,
 }
 
 void PrintLoops(const LoopsArgs& args, const std::vector<ReportSet>& sets, Format format) {
+  const ChannelLabels labels = LabelsOf(sets.front().layout.channel);
   if (args.run_column.empty()) {
-    PrintLoopAnalysis(sets.front().analysis, format, stdout);
+    PrintLoopAnalysis(sets.front().analysis, labels, format, stdout);
     return;
   }
   std::vector<RunAnalysis> runs;
   for (const ReportSet& set : sets) {
-    runs.push_back({*set.csv.run, static_cast<std::size_t>(set.csv.samples.displacement_size()),
-                    set.csv.lines.front(), set.csv.lines.back(), &set.analysis});
+    runs.push_back({*set.csv.run, set.csv.lines.size(), set.csv.lines.front(), set.csv.lines.back(),
+                    &set.analysis});
   }
-  PrintRunAnalyses(runs, format, stdout);
+  PrintRunAnalyses(runs, labels, format, stdout);
 }
 
 // loop.png and cycles.png, or per run run1_loop.png, run1_cycles.png, ... in the file's order.
@@ -209,8 +282,11 @@ mdr::Result<std::vector<std::string>> WriteLoopsReportPlots(const LoopsReport& r
     const ReportSet& set = report.sets[k];
     const std::string prefix = report.run_column.empty() ? "" : "run" + std::to_string(k + 1) + "_";
     const std::string title = set.label + (set.csv.run ? " run " + Printable(*set.csv.run) : "");
-    auto written =
-        WriteLoopsPlots({title, &set.csv.samples, &set.analysis, set.normal_force}, dir, prefix);
+    const PlottedSet plotted{title,         &set.csv.samples,
+                             &set.analysis, set.normal_force,
+                             nullptr,       0,
+                             nullptr,       LabelsOf(set.layout.channel)};
+    auto written = WriteLoopsPlots(plotted, dir, prefix);
     if (!written.ok()) return written.status();
     pngs.insert(pngs.end(), written->begin(), written->end());
   }
@@ -241,7 +317,7 @@ int LoopsCommand(const Common& common, const LoopsArgs& args) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status());
   const mdr::v1::LoopAnalysisOptions options =
-      LoopsOptions(args, document ? &document->file().scene() : nullptr);
+      LoopsOptions(args, *layout, document ? &document->file().scene() : nullptr);
   LoopsReport report;
   report.label = fs::path(args.file).filename().string();
   report.run_column = args.run_column;
@@ -284,12 +360,16 @@ class CampaignFiles {
  private:
   static std::string LayoutKey(const CsvLayout& layout) {
     std::string key;
+    key += IsTorsional(layout) ? "torsional" : "tangential";
+    key += '\0';
     for (const std::string* name :
-         {&layout.displacement_column, &layout.force_column, &layout.normal_force_column,
-          &layout.time_column, &layout.run_column}) {
+         {&layout.displacement_column, &layout.force_column, &layout.twist_column,
+          &layout.moment_column, &layout.normal_force_column, &layout.time_column,
+          &layout.run_column}) {
       key += *name + '\0';
     }
-    for (double unit : {layout.displacement_unit, layout.force_unit, layout.time_unit}) {
+    for (double unit : {layout.displacement_unit, layout.force_unit, layout.time_unit,
+                        layout.twist_unit, layout.moment_unit}) {
       char text[32];  // the shortest text that reads back as the same factor
       key.append(text, std::to_chars(text, text + sizeof text, unit).ptr);
       key += '\0';
@@ -375,7 +455,9 @@ mdr::v1::LoopAnalysisOptions SetOptions(const Campaign& campaign, const ReportSe
   options.set_reversal_threshold(campaign.reversal_threshold);
   options.set_displacement_resolution(campaign.displacement_resolution);
   options.set_normal_force(set.normal_force);
-  if (scene.has_rig()) options.set_rig_compliance(scene.rig().tangential_compliance());
+  if (const std::optional<double> c = SceneRigCompliance(scene, campaign.channel)) {
+    options.set_rig_compliance(*c);
+  }
   return options;
 }
 
@@ -422,14 +504,40 @@ mdr::v1::FitLoopsRequest FitRequest(const Campaign& campaign, const std::vector<
   return request;
 }
 
-void PrintProgress(const mdr::v1::FitLoopsRequest& request, const mdr::v1::FitProgress& progress) {
+void PrintProgress(const mdr::v1::FitLoopsRequest& request, const ChannelLabels& labels,
+                   const mdr::v1::FitProgress& progress) {
   std::string values;
   for (int k = 0; k < progress.values_size() && k < request.free_size(); ++k) {
     values += std::string(k ? ", " : "") + FitParameterName(request.free(k).parameter()) + " " +
               FormatValue(progress.values(k));
   }
-  std::fprintf(stderr, "mdrctl: fit iteration %d: residual RMS %s N (%s)\n", progress.iteration(),
-               FormatValue(progress.residual_rms()).c_str(), values.c_str());
+  std::fprintf(stderr, "mdrctl: fit iteration %d: residual RMS %s %s (%s)\n", progress.iteration(),
+               FormatValue(progress.residual_rms()).c_str(), labels.force_unit.c_str(),
+               values.c_str());
+}
+
+// The model contact's forces (moments) replayed through a session of the fitted scene. A
+// torsional set's session twists the contact itself (sessions hold no shaft): to the model's
+// actuator twist less the shaft's C M, at the set's constant normal force.
+mdr::client::RpcResult<std::vector<double>> ReplayModel(ContactClient& client,
+                                                        const mdr::v1::Scene& fitted,
+                                                        const mdr::v1::SetModel& model,
+                                                        const mdr::v1::SetFit& set_fit) {
+  const std::vector<double> path(model.actuator_path().begin(), model.actuator_path().end());
+  if (fitted.has_torsion()) {
+    const double compliance = fitted.torsion().rig_compliance();
+    std::vector<double> twists(path.size());
+    for (std::size_t k = 0; k < path.size(); ++k) {
+      twists[k] = path[k] - compliance * model.contact_force(static_cast<int>(k));
+    }
+    const double load =
+        model.normal_force().empty() ? set_fit.normal_force() : model.normal_force(0);
+    return ReplayTwists(client, fitted, load, twists);
+  }
+  std::vector<double> normal;
+  if (set_fit.normal_force_measured())
+    normal.assign(model.normal_force().begin(), model.normal_force().end());
+  return ReplayForces(client, fitted, set_fit.normal_force(), normal, path);
 }
 
 // Each set's model as the fit returned it (FitResult.models): the forces the sensor should have
@@ -449,11 +557,7 @@ mdr::Status ReplaySets(ContactClient& client, const mdr::v1::FitResult& fit, Fit
     ReportSet& set = report->sets[i];
     const mdr::v1::SetModel& model = fit.models(static_cast<int>(i));
     const mdr::v1::SetFit& set_fit = fit.sets(static_cast<int>(i));
-    const std::vector<double> path(model.actuator_path().begin(), model.actuator_path().end());
-    std::vector<double> normal;
-    if (set_fit.normal_force_measured())
-      normal.assign(model.normal_force().begin(), model.normal_force().end());
-    auto replayed = ReplayForces(client, fit.fitted_scene(), set_fit.normal_force(), normal, path);
+    auto replayed = ReplayModel(client, fit.fitted_scene(), model, set_fit);
     if (!replayed.ok()) {
       return mdr::Internal(set.csv.path, "the replay of the fitted scene failed: " +
                                              replayed.status().error_message());
@@ -465,9 +569,10 @@ mdr::Status ReplaySets(ContactClient& client, const mdr::v1::FitResult& fit, Fit
     }
     set.model.assign(model.predicted_force().begin(), model.predicted_force().end());
     set.first_counted = set_fit.first_residual();
+    const auto& measured = LoopForces(set.csv.samples);
     double set_sum = 0;
     for (std::size_t k = set.first_counted; k < set.model.size(); ++k) {
-      const double r = set.csv.samples.tangential_force(static_cast<int>(k)) - set.model[k];
+      const double r = measured[static_cast<int>(k)] - set.model[k];
       set_sum += r * r;
     }
     const std::size_t set_count = set.model.size() - set.first_counted;
@@ -509,9 +614,25 @@ std::vector<PlottedSet> PlottedSets(const std::vector<ReportSet>& sets,
     plotted.push_back(
         {set.label, &set.csv.samples, &set.analysis, set.normal_force, &set.model,
          set.first_counted,
-         i < static_cast<std::size_t>(fit.sets_size()) ? &fit.sets(static_cast<int>(i)) : nullptr});
+         i < static_cast<std::size_t>(fit.sets_size()) ? &fit.sets(static_cast<int>(i)) : nullptr,
+         LabelsOf(set.layout.channel)});
   }
   return plotted;
+}
+
+// A torsional campaign's fitted G_t (the scene's, or its material's) and why it has no map: the
+// service draws none of a torsional scene.
+mdr::Status FittedTorsion(const Campaign& campaign, const mdr::v1::Scene& fitted,
+                          FitReport* report) {
+  auto modulus = TorsionalModulus(fitted);
+  if (!modulus.ok())
+    return campaign.lines.Error(modulus.status().field(), modulus.status().message());
+  report->fitted_torsional_modulus = *modulus;
+  report->map_skipped =
+      "A torsional campaign has no fretting map: a twisted contact of a smooth profile never "
+      "slides as a whole at a finite twist, so it has no onset of gross slip to map (FrettingMap "
+      "refuses scene.torsion); its cycles are classified against the full-slip moment instead.";
+  return mdr::OkStatus();
 }
 
 // Fit, analysis with the fitted scene, replay and map: everything of the report but the plots.
@@ -520,8 +641,10 @@ mdr::Status RunCampaign(ContactClient& client, FitReport* report) {
   // The campaign's own scene first: bad data fail here, before the fit.
   if (auto s = AnalyzeSets(client, campaign, campaign.scene, &report->sets); !s.ok()) return s;
   const mdr::v1::FitLoopsRequest request = FitRequest(campaign, report->sets, true);
-  auto fit = client.FitLoops(
-      request, [&](const mdr::v1::FitProgress& progress) { PrintProgress(request, progress); });
+  const ChannelLabels labels = LabelsOf(campaign.channel);
+  auto fit = client.FitLoops(request, [&](const mdr::v1::FitProgress& progress) {
+    PrintProgress(request, labels, progress);
+  });
   if (!fit.ok()) {
     if (auto large =
             RequestTooLarge(fit.status(), "the fit of " + campaign.path, request.ByteSizeLong())) {
@@ -534,6 +657,7 @@ mdr::Status RunCampaign(ContactClient& client, FitReport* report) {
   const mdr::v1::Scene& fitted = report->fit.fitted_scene();
   if (auto s = AnalyzeSets(client, campaign, fitted, &report->sets); !s.ok()) return s;
   if (auto s = ReplaySets(client, report->fit, report); !s.ok()) return s;
+  if (fitted.has_torsion()) return FittedTorsion(campaign, fitted, report);
   report->map_request = MapRequest(campaign, report->sets, fitted);
   auto map = client.FrettingMap(report->map_request);
   if (!map.ok()) return CampaignError(map.status(), campaign, report->sets);
@@ -557,10 +681,11 @@ int FitCommand(const Common& common, const FitArgs& args) {
   auto connection = Connection::Open(common);
   if (!connection.ok()) return Fail(connection.status());
   if (auto s = RunCampaign((*connection)->client(), &report); !s.ok()) return Fail(s);
-  PrintFitResult(report.fit, common.format, stdout);
+  PrintFitResult(report.fit, LabelsOf(campaign->channel), common.format, stdout);
   if (args.report_dir.empty()) return EXIT_SUCCESS;
   report.plots = DrawPlots([&] {
-    return WriteFitPlots(PlottedSets(report.sets, report.fit), report.map, args.report_dir);
+    return WriteFitPlots(PlottedSets(report.sets, report.fit),
+                         report.map_skipped.empty() ? &report.map : nullptr, args.report_dir);
   });
   const mdr::Status written =
       WriteReport(args.report_dir, FitMarkdown(report), FitJson(report), report.plots);
@@ -637,6 +762,12 @@ mdr::Result<std::map<std::string, double>> TruthValues(const mdr::v1::Scene& sce
   truth["displacement_offset"] = 0;
   if (scene.has_sphere()) truth["profile_scale"] = scene.sphere().radius();
   if (scene.has_power_law()) truth["profile_scale"] = scene.power_law().coefficient();
+  if (scene.has_torsion()) {
+    auto modulus = TorsionalModulus(scene);
+    if (!modulus.ok()) return modulus.status().WithFieldPrefix("truth");
+    truth["torsional_modulus"] = *modulus;
+    truth["rig_compliance"] = scene.torsion().rig_compliance();
+  }
   return truth;
 }
 
@@ -660,7 +791,14 @@ mdr::Result<mdr::v1::Scene> StartingScene(const SynthesisSpec& spec,
         scene.set_friction(initial);
         break;
       case mdr::v1::FIT_PARAMETER_RIG_COMPLIANCE:
-        scene.mutable_rig()->set_tangential_compliance(initial);
+        if (scene.has_torsion()) {
+          scene.mutable_torsion()->set_rig_compliance(initial);
+        } else {
+          scene.mutable_rig()->set_tangential_compliance(initial);
+        }
+        break;
+      case mdr::v1::FIT_PARAMETER_TORSIONAL_MODULUS:
+        scene.mutable_torsion()->set_torsional_modulus(initial);
         break;
       case mdr::v1::FIT_PARAMETER_EFFECTIVE_MODULUS: {
         const double factor = initial / truth.at("effective_modulus");
@@ -692,19 +830,26 @@ mdr::Result<mdr::v1::Scene> StartingScene(const SynthesisSpec& spec,
 }
 
 std::string TruthText(const std::map<std::string, double>& truth) {
+  const bool torsional = truth.contains("torsional_modulus");
   std::string text = "friction " + Shortest(truth.at("friction")) + ", effective_modulus " +
-                     Shortest(truth.at("effective_modulus")) + " Pa, rig_compliance " +
-                     Shortest(truth.at("rig_compliance")) + " m/N";
+                     Shortest(truth.at("effective_modulus")) + " Pa";
+  if (torsional) text += ", torsional_modulus " + Shortest(truth.at("torsional_modulus")) + " Pa";
+  text += ", rig_compliance " + Shortest(truth.at("rig_compliance")) +
+          (torsional ? " rad/(N m)" : " m/N");
   if (truth.contains("profile_scale")) {
     text += ", profile_scale " + Shortest(truth.at("profile_scale"));
   }
   return text;
 }
 
-// "p100N_u4um.csv"
-std::string RunFileName(double normal_force, double amplitude) {
+// "p100N_u4um.csv"; a torsional run's "p100N_phi4.8mrad.csv".
+std::string RunFileName(double normal_force, double amplitude, bool torsional) {
   char name[96];
-  std::snprintf(name, sizeof name, "p%gN_u%gum.csv", normal_force, amplitude * 1e6);
+  if (torsional) {
+    std::snprintf(name, sizeof name, "p%gN_phi%gmrad.csv", normal_force, amplitude * 1e3);
+  } else {
+    std::snprintf(name, sizeof name, "p%gN_u%gum.csv", normal_force, amplitude * 1e6);
+  }
   return name;
 }
 
@@ -713,21 +858,40 @@ struct SynthesizedRun {
   double normal_force, amplitude;
 };
 
-// The run with noise, as a CSV file (time, displacement, tangential_force in s, m, N).
+// The run's comment lines after the "# SYNTHETIC" one: its load, path and sampling.
+std::string RunComment(const SynthesisSpec& spec, const SynthesizedRun& run) {
+  std::ostringstream out;
+  out << "# run: normal_force " << Shortest(run.normal_force) << " N, ";
+  if (spec.truth.has_torsion()) {
+    out << "contact twist amplitude " << Shortest(run.amplitude)
+        << " rad, phi_c = PHI sin(2 pi f t); the twist recorded is the actuator's, phi_c + C M "
+           "behind the shaft's compliance C, ";
+  } else {
+    out << "actuator amplitude " << Shortest(run.amplitude) << " m, u = U sin(2 pi f t), ";
+  }
+  out << spec.cycles << " cycles of " << spec.samples_per_cycle << " samples at "
+      << Shortest(spec.sampling_rate) << " Hz\n";
+  return out.str();
+}
+
+// The run with noise, as a CSV file (time, displacement, tangential_force in s, m, N; a
+// torsional run's time, twist, twisting_moment in s, rad, N m).
 mdr::Status WriteRunCsv(const SynthesisSpec& spec, const std::string& truth_text,
                         const SynthesizedRun& run, const RecordedRun& recorded, Gaussian* noise,
                         const fs::path& file) {
   const auto [lo, hi] = std::minmax_element(recorded.force.begin(), recorded.force.end());
   const double force_sd = spec.force_noise + spec.force_noise_relative * 0.5 * (*hi - *lo);
+  const CsvLayout names;
+  const bool torsional = spec.truth.has_torsion();
+  const std::string& position = torsional ? names.twist_column : names.displacement_column;
+  const std::string& force = torsional ? names.moment_column : names.force_column;
   std::ostringstream out;
   out << "# SYNTHETIC: generated by mdrctl synthesize, truth: " << truth_text << "\n"
-      << "# run: normal_force " << Shortest(run.normal_force) << " N, actuator amplitude "
-      << Shortest(run.amplitude) << " m, u = U sin(2 pi f t), " << spec.cycles << " cycles of "
-      << spec.samples_per_cycle << " samples at " << Shortest(spec.sampling_rate) << " Hz\n"
-      << "# noise: Gaussian (Box-Muller over mt19937_64, seed " << spec.seed << "), sd "
-      << Shortest(spec.displacement_noise) << " m on displacement, " << Csv(force_sd)
-      << " N on tangential_force\n"
-      << "time,displacement,tangential_force\n";
+      << RunComment(spec, run) << "# noise: Gaussian (Box-Muller over mt19937_64, seed "
+      << spec.seed << "), sd " << Shortest(spec.displacement_noise) << (torsional ? " rad" : " m")
+      << " on " << position << ", " << Csv(force_sd) << (torsional ? " N m" : " N") << " on "
+      << force << "\n"
+      << "time," << position << "," << force << "\n";
   for (std::size_t i = 0; i < recorded.displacement.size(); ++i) {
     const double u = recorded.displacement[i] + spec.displacement_noise * noise->Next();
     const double f = recorded.force[i] + force_sd * noise->Next();
@@ -774,14 +938,18 @@ Campaign schema (docs/analysis.md, "From a rig's CSV files to a report"):
     mdr.v1.Scene: the starting point of the fit; the free parameters start at `initial`
   columns: {displacement, tangential_force, normal_force, time, run}: header names in the CSV
     files (defaults: displacement, tangential_force; normal_force, time and run: none); run:
-    the column of each row's run id, in files of several runs
-  units: {displacement: m|mm|um|nm, force: N|kN|mN, time: s|ms|us} (defaults m, N, s)
+    the column of each row's run id, in files of several runs. A scene with torsion reads
+    torsional records: {twist, twisting_moment, ...} (defaults twist, twisting_moment)
+  units: {displacement: m|mm|um|nm, force: N|kN|mN, time: s|ms|us} (defaults m, N, s); a
+    torsional campaign's {twist: rad|mrad|urad|deg, moment: N m|N mm|mN m, force (the normal
+    force's), time}
   sets: [{file, normal_force (N)?, run?, columns?, units?}]: one run, a whole CSV file or
     its run `run` (its id in the run column); normal_force is required without a normal_force
     column (with one, the column is replayed and normal_force checked against it); columns and
     units override the defaults above for that file
   free: [{parameter, initial?, lower, upper}]: parameter is friction, effective_modulus,
-    profile_scale, rig_compliance or displacement_offset (SI units; bounds exclusive)
+    profile_scale, rig_compliance, displacement_offset or (torsional) torsional_modulus (SI
+    units, a torsional campaign's compliance in rad/(N m), offset in rad; bounds exclusive)
   nuisances: {force_offset, displacement_drift, moving_mass}: true fits a force offset and a
     drift per set, a moving mass for all (needs time); each set's displacement offset and its
     turning points are fitted always
@@ -807,13 +975,24 @@ std::string CampaignYaml(const SynthesisSpec& spec, const mdr::v1::Scene& starti
       << YAML::Newline << YAML::BeginMap;
   if (!spec.title.empty()) out << YAML::Key << "title" << YAML::Value << spec.title;
   out << YAML::Key << "scene" << YAML::Value << SceneNode(starting);
-  out << YAML::Key << "columns" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-      << "displacement" << YAML::Value << "displacement" << YAML::Key << "tangential_force"
-      << YAML::Value << "tangential_force" << YAML::Key << "time" << YAML::Value << "time"
-      << YAML::EndMap;
-  out << YAML::Key << "units" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-      << "displacement" << YAML::Value << "m" << YAML::Key << "force" << YAML::Value << "N"
-      << YAML::Key << "time" << YAML::Value << "s" << YAML::EndMap;
+  const CsvLayout names;
+  if (spec.truth.has_torsion()) {
+    out << YAML::Key << "columns" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+        << "twist" << YAML::Value << names.twist_column << YAML::Key << "twisting_moment"
+        << YAML::Value << names.moment_column << YAML::Key << "time" << YAML::Value << "time"
+        << YAML::EndMap;
+    out << YAML::Key << "units" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+        << "twist" << YAML::Value << "rad" << YAML::Key << "moment" << YAML::Value << "N m"
+        << YAML::Key << "time" << YAML::Value << "s" << YAML::EndMap;
+  } else {
+    out << YAML::Key << "columns" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+        << "displacement" << YAML::Value << names.displacement_column << YAML::Key
+        << "tangential_force" << YAML::Value << names.force_column << YAML::Key << "time"
+        << YAML::Value << "time" << YAML::EndMap;
+    out << YAML::Key << "units" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+        << "displacement" << YAML::Value << "m" << YAML::Key << "force" << YAML::Value << "N"
+        << YAML::Key << "time" << YAML::Value << "s" << YAML::EndMap;
+  }
   out << YAML::Key << "sets" << YAML::Value << YAML::BeginSeq;
   for (const SynthesizedRun& run : runs) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "file" << YAML::Value << run.file
@@ -871,15 +1050,21 @@ int SynthesizeCommand(const Common& common, const SynthesizeArgs& args) {
   const std::string truth_text = TruthText(*truth);
   Gaussian noise(spec->seed);
   std::vector<SynthesizedRun> runs;
+  const bool torsional = spec->truth.has_torsion();
   for (double normal_force : spec->normal_forces) {
     for (double amplitude : spec->amplitudes) {
-      const SynthesizedRun run{RunFileName(normal_force, amplitude), normal_force, amplitude};
-      auto recorded = RecordSineRun((*connection)->client(), spec->truth, normal_force, amplitude,
-                                    spec->cycles, spec->samples_per_cycle);
+      const SynthesizedRun run{RunFileName(normal_force, amplitude, torsional), normal_force,
+                               amplitude};
+      auto& client = (*connection)->client();
+      auto recorded = torsional ? RecordSineTwistRun(client, spec->truth, normal_force, amplitude,
+                                                     spec->cycles, spec->samples_per_cycle)
+                                : RecordSineRun(client, spec->truth, normal_force, amplitude,
+                                                spec->cycles, spec->samples_per_cycle);
       if (!recorded.ok()) {
         return Fail(spec->lines.Error(
             "truth", "the run at normal_force " + Shortest(normal_force) + " N, amplitude " +
-                         Shortest(amplitude) + " m failed: " + recorded.status().error_message()));
+                         Shortest(amplitude) + (torsional ? " rad" : " m") +
+                         " failed: " + recorded.status().error_message()));
       }
       const fs::path file = fs::path(args.out_dir) / run.file;
       if (auto s = WriteRunCsv(*spec, truth_text, run, *recorded, &noise, file); !s.ok()) {

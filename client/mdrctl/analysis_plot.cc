@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "plot.h"
+#include "rig_csv.h"
 
 namespace mdrctl {
 namespace {
@@ -44,30 +45,52 @@ std::ofstream DataFile(const fs::path& file) {
 // The regime as a number for the scripts: 0 unknown, 1 sticking, 2 partial slip, 3 gross slip.
 int RegimeCode(mdr::v1::Regime regime) { return static_cast<int>(regime); }
 
-// u [m], F_x [N], the number of the cycle the sample belongs to (0: outside complete cycles).
+// How the position axis is drawn: u in µm (the data's metres times 1e6), phi in rad.
+struct PositionAxis {
+  std::string scale;  // gnuplot's factor on the data's SI values
+  std::string label;  // the axis' label without what it measures
+};
+PositionAxis AxisOf(const ChannelLabels& labels) {
+  if (labels.torsional) return {"1", labels.position + " [" + labels.position_unit + "]"};
+  return {"1e6", labels.position + " [µm]"};
+}
+
+// "($1*1e6)": column `column` of the data in the axis' unit.
+std::string Scaled(const PositionAxis& axis, int column) {
+  return "($" + std::to_string(column) + "*" + axis.scale + ")";
+}
+
+std::string ForceAxis(const ChannelLabels& labels) {
+  return labels.force + " [" + labels.force_unit + "]";
+}
+
+// u [m] (phi [rad]), F_x [N] (M [N m]), the number of the cycle the sample belongs to (0: outside
+// complete cycles).
 void WriteLoop(const PlottedSet& set, const fs::path& file) {
   std::ofstream out = DataFile(file);
-  out << "# u[m] F_x[N] cycle\n";
-  const auto& samples = *set.samples;
+  out << "# " << set.labels.position << "[" << set.labels.position_unit << "] " << set.labels.force
+      << "[" << set.labels.force_unit << "] cycle\n";
+  const auto& positions = LoopPositions(*set.samples);
+  const auto& forces = LoopForces(*set.samples);
   const auto& cycles = set.analysis->cycles();
   int cycle = 0;
-  for (int i = 0; i < samples.displacement_size(); ++i) {
+  for (int i = 0; i < positions.size(); ++i) {
     while (cycle < cycles.size() && static_cast<std::uint64_t>(i) > cycles[cycle].last_sample()) {
       ++cycle;
     }
     const bool inside =
         cycle < cycles.size() && static_cast<std::uint64_t>(i) >= cycles[cycle].first_sample();
-    out << samples.displacement(i) << ' ' << samples.tangential_force(i) << ' '
-        << (inside ? cycle + 1 : 0) << '\n';
+    out << positions[i] << ' ' << forces[i] << ' ' << (inside ? cycle + 1 : 0) << '\n';
   }
 }
 
-// One block per set: the figures of each cycle.
+// One block per set: the figures of each cycle (a torsional record's in rad and N m, its
+// full-slip moment last).
 void WriteCycles(const std::vector<PlottedSet>& sets, const fs::path& file) {
   std::ofstream out = DataFile(file);
   for (const PlottedSet& set : sets) {
     out << "# " << set.label
-        << ": cycle Q*[N] P[N] Q*/P Ed[J] delta_0[m] C A B A_c B_c C_onset delta*[m]\n";
+        << ": cycle Q*[N] P[N] Q*/P Ed[J] delta_0[m] C A B A_c B_c C_onset delta*[m] M_slip[N m]\n";
     for (int i = 0; i < set.analysis->cycles_size(); ++i) {
       const CycleFigures& c = set.analysis->cycles(i);
       const double nan = std::nan("");
@@ -77,7 +100,11 @@ void WriteCycles(const std::vector<PlottedSet>& sets, const fs::path& file) {
           << c.sliding_ratio() << ' ' << (c.has_contact() ? c.contact().energy_ratio() : nan) << ' '
           << (c.has_contact() ? c.contact().sliding_ratio() : nan) << ' '
           << (c.regime() != mdr::v1::REGIME_UNSPECIFIED ? c.onset_system_free_ratio() : nan) << ' '
-          << c.displacement_amplitude() << '\n';
+          << c.displacement_amplitude() << ' '
+          << (set.labels.torsional && c.regime() != mdr::v1::REGIME_UNSPECIFIED
+                  ? c.full_slip_moment()
+                  : nan)
+          << '\n';
     }
     out << "\n\n";
   }
@@ -172,6 +199,23 @@ bool AnyRegime(const std::vector<PlottedSet>& sets) {
   return false;
 }
 
+// The first panel of cycles.png: Q*/P with loads (a tangential record), else Q* (a torsional
+// record's M*, with the full-slip moment where a scene classified the cycles).
+void AddAmplitudePanel(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  const ChannelLabels& labels = sets.front().labels;
+  if (!labels.torsional && AllHaveLoads(sets)) {
+    script->text << "set ylabel 'Q*/P (contact)'\n" << Plot(PerSet(sets, data, "1:4", "Q*/P"));
+    return;
+  }
+  std::vector<Series> series = PerSet(sets, data, "1:2", labels.amplitude);
+  if (labels.torsional && AnyRegime(sets)) {
+    series = Joined(series, PerSet(sets, data, "1:14", "M_slip", 2));
+  }
+  script->text << "set ylabel "
+               << GnuplotQuoted(labels.amplitude + " [" + labels.force_unit + "] (contact)") << "\n"
+               << Plot(series);
+}
+
 // Q* (or Q*/P), Ed, A and B (and the contact's A), C (and the onset's) per cycle.
 void AddCyclePlots(const std::vector<PlottedSet>& sets, const fs::path& data,
                    const std::string& png, Script* script) {
@@ -181,9 +225,7 @@ void AddCyclePlots(const std::vector<PlottedSet>& sets, const fs::path& data,
   script->text << "set multiplot layout 2,2 title 'figures per cycle'\nset key bottom right "
                   "font ',9'\nset xlabel 'cycle'\nunset title\n"
                << (cycles <= 20 ? "set xtics 1\n" : "");  // a tic per cycle while legible
-  const bool loads = AllHaveLoads(sets);
-  script->text << "set ylabel " << (loads ? "'Q*/P (contact)'" : "'Q* [N] (contact)'") << "\n"
-               << Plot(PerSet(sets, data, loads ? "1:4" : "1:2", loads ? "Q*/P" : "Q*"));
+  AddAmplitudePanel(sets, data, script);
   script->text << "set ylabel 'Ed [µJ] (contact)'\n"
                << Plot(PerSet(sets, data, "1:($5*1e6)", "Ed"));
   std::vector<Series> ratios = Joined(PerSet(sets, data, "1:8", "A (contact+rig)"),
@@ -191,19 +233,24 @@ void AddCyclePlots(const std::vector<PlottedSet>& sets, const fs::path& data,
   if (AnyContact(sets)) ratios = Joined(ratios, PerSet(sets, data, "1:10", "A_c (contact)", 3));
   script->text << "set ylabel 'A, B'\n" << Plot(ratios);
   std::vector<Series> c = PerSet(sets, data, "1:7", "C");
-  if (AnyRegime(sets)) c = Joined(c, PerSet(sets, data, "1:12", "onset C", 2));
+  if (AnyRegime(sets) && !sets.front().labels.torsional) {
+    c = Joined(c, PerSet(sets, data, "1:12", "onset C", 2));
+  }
   script->text << "set ylabel 'C (contact)'\n"
                << Plot(c) << "unset multiplot\nset xtics autofreq\nset key default\n";
 }
 
-// One block per set: u [m], measured F_x, model F_x [N], counted (1) or burn-in (0).
+// One block per set: u [m], measured F_x, model F_x [N] (phi [rad], M [N m]), counted (1) or
+// burn-in (0).
 void WriteFitLoops(const std::vector<PlottedSet>& sets, const fs::path& file) {
   std::ofstream out = DataFile(file);
   for (const PlottedSet& set : sets) {
-    out << "# " << set.label << ": u[m] F_x[N] model[N] counted\n";
-    for (int i = 0; i < set.samples->displacement_size(); ++i) {
-      out << set.samples->displacement(i) << ' ' << set.samples->tangential_force(i) << ' '
-          << (*set.model)[i] << ' ' << (static_cast<std::size_t>(i) >= set.first_counted) << '\n';
+    const auto& positions = LoopPositions(*set.samples);
+    const auto& forces = LoopForces(*set.samples);
+    out << "# " << set.label << ": position, measured force, model force, counted\n";
+    for (int i = 0; i < positions.size(); ++i) {
+      out << positions[i] << ' ' << forces[i] << ' ' << (*set.model)[i] << ' '
+          << (static_cast<std::size_t>(i) >= set.first_counted) << '\n';
     }
     out << "\n\n";
   }
@@ -213,9 +260,10 @@ void WriteFitLoops(const std::vector<PlottedSet>& sets, const fs::path& file) {
 void WriteResiduals(const std::vector<PlottedSet>& sets, const fs::path& file) {
   std::ofstream out = DataFile(file);
   for (const PlottedSet& set : sets) {
-    out << "# " << set.label << ": counted sample, F_x measured - model [N]\n";
-    for (int i = static_cast<int>(set.first_counted); i < set.samples->displacement_size(); ++i) {
-      out << i << ' ' << set.samples->tangential_force(i) - (*set.model)[i] << '\n';
+    const auto& forces = LoopForces(*set.samples);
+    out << "# " << set.label << ": counted sample, measured - model force\n";
+    for (int i = static_cast<int>(set.first_counted); i < forces.size(); ++i) {
+      out << i << ' ' << forces[i] - (*set.model)[i] << '\n';
     }
     out << "\n\n";
   }
@@ -253,6 +301,9 @@ void WriteMap(const std::vector<PlottedSet>& sets, const mdr::v1::FrettingMapRes
 }
 
 void AddFitLoopsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  const ChannelLabels& labels = sets.front().labels;
+  const PositionAxis axis = AxisOf(labels);
+  const std::string x = Scaled(axis, 1);
   const int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(sets.size()))));
   const int rows = static_cast<int>((sets.size() + columns - 1) / columns);
   script->text << "set terminal pngcairo size " << 420 * columns + 80 << "," << 340 * rows + 60
@@ -260,30 +311,38 @@ void AddFitLoopsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, 
   script->Output("loops.png");
   script->text << "set multiplot layout " << rows << "," << columns
                << " title 'measured (grey) and fitted (red) loops'\nset key top left font ',8'\n"
-               << "set xlabel 'u [µm]'\nset ylabel 'F_x [N]'\n";
+               << "set xlabel " << GnuplotQuoted(axis.label) << "\nset ylabel "
+               << GnuplotQuoted(ForceAxis(labels))
+               << "\n"
+               // Twists in rad take many digits: turned, the tics of a narrow panel stay apart.
+               << (labels.torsional ? "set xtics rotate by 30 right\n" : "");
   for (std::size_t i = 0; i < sets.size(); ++i) {
     const std::string block = Q(data) + " index " + std::to_string(i);
     script->text << "set title " << GnuplotQuoted(sets[i].label) << "\n"
-                 << Plot({{block, "($1*1e6):2", "points pt 7 ps 0.3 lc rgb '#999999'", "measured"},
-                          {block, "($1*1e6):($4>0?1/0:$3)", "lines lw 1 dt 2 lc rgb '#f0a0a0'",
+                 << Plot({{block, x + ":2", "points pt 7 ps 0.3 lc rgb '#999999'", "measured"},
+                          {block, x + ":($4>0?1/0:$3)", "lines lw 1 dt 2 lc rgb '#f0a0a0'",
                            "fitted, burn-in"},
-                          {block, "($1*1e6):($4>0?$3:1/0)", "lines lw 1.5 lc rgb '#d62728'",
+                          {block, x + ":($4>0?$3:1/0)", "lines lw 1.5 lc rgb '#d62728'",
                            "fitted, counted"}});
   }
-  script->text << "unset multiplot\nset terminal pngcairo size 1000,700 noenhanced font ',11'\n";
+  script->text << "unset multiplot\nset xtics norotate\n"
+               << "set terminal pngcairo size 1000,700 noenhanced font ',11'\n";
 }
 
 // A panel per set: its residuals against its sample index, the force sensor's noise band and its
 // adequacy verdict in the title.
 void AddResidualsPlot(const std::vector<PlottedSet>& sets, const fs::path& data, Script* script) {
+  const ChannelLabels& labels = sets.front().labels;
   const int columns = sets.size() > 4 ? 3 : sets.size() > 1 ? 2 : 1;
   const int rows = static_cast<int>((sets.size() + columns - 1) / columns);
   script->text << "set terminal pngcairo size " << 420 * columns << "," << 300 * rows
                << " noenhanced font ',10'\n";
   script->Output("residuals.png");
-  script->text << "set multiplot layout " << rows << "," << columns
-               << " title 'residuals of the fit, F_x measured - fitted, per set'\n"
-               << "set key top left font ',8'\nset xlabel 'sample'\nset ylabel 'residual [N]'\n";
+  script->text << "set multiplot layout " << rows << "," << columns << " title "
+               << GnuplotQuoted("residuals of the fit, " + labels.force +
+                                " measured - fitted, per set")
+               << "\nset key top left font ',8'\nset xlabel 'sample'\nset ylabel "
+               << GnuplotQuoted("residual [" + labels.force_unit + "]") << "\n";
   for (std::size_t i = 0; i < sets.size(); ++i) {
     const PlottedSet& set = sets[i];
     std::string title = set.label;
@@ -297,7 +356,7 @@ void AddResidualsPlot(const std::vector<PlottedSet>& sets, const fs::path& data,
       title += verdict;
       const std::string band = std::to_string(2 * set.fit->force_noise());
       series.push_back({series.front().source, "1:(" + band + ")",
-                        "lines lw 1 dt 2 lc rgb '#555555'", "+-2 force noise"});
+                        "lines lw 1 dt 2 lc rgb '#555555'", "+-2 " + labels.force_word + " noise"});
       series.push_back(
           {series.front().source, "1:(-" + band + ")", "lines lw 1 dt 2 lc rgb '#555555'", ""});
     }
@@ -345,18 +404,20 @@ void AddMapPlots(const mdr::v1::FrettingMapResponse& map, const fs::path& dir, S
 }  // namespace
 
 mdr::Result<std::vector<std::string>> WriteFitPlots(const std::vector<PlottedSet>& sets,
-                                                    const mdr::v1::FrettingMapResponse& map,
+                                                    const mdr::v1::FrettingMapResponse* map,
                                                     const std::string& dir) {
   TemporaryDirectory temporary;
   if (temporary.path().empty()) return mdr::Internal("--report", "cannot create a temporary dir");
   const fs::path& data = temporary.path();
   WriteFitLoops(sets, data / "loops.dat");
   WriteResiduals(sets, data / "residuals.dat");
-  WriteMap(sets, map, data);
   Script script(fs::absolute(dir));
   AddFitLoopsPlot(sets, data / "loops.dat", &script);
   AddResidualsPlot(sets, data / "residuals.dat", &script);
-  AddMapPlots(map, data, &script);
+  if (map != nullptr) {
+    WriteMap(sets, *map, data);
+    AddMapPlots(*map, data, &script);
+  }
   const fs::path script_file = data / "plots.gp";
   std::ofstream(script_file) << script.text.str();
   if (mdr::Status s = RunGnuplot(script_file.string(), "--report"); !s.ok()) return s;
@@ -372,13 +433,17 @@ mdr::Result<std::vector<std::string>> WriteLoopsPlots(const PlottedSet& set, con
   WriteCycles({set}, temporary.path() / "cycles.dat");
   Script script(out);
   script.Output(prefix + "loop.png");
-  script.Labels(set.label + ": F_x over u, coloured by cycle", "u [µm] (contact+rig)", "F_x [N]");
+  const PositionAxis axis = AxisOf(set.labels);
+  const std::string x = Scaled(axis, 1);
+  script.Labels(
+      set.label + ": " + set.labels.force + " over " + set.labels.position + ", coloured by cycle",
+      axis.label + " (contact+rig)", ForceAxis(set.labels));
   const int cycles = std::max(set.analysis->cycles_size(), 1);
   script.text << "set key top left\nset cbrange [0.5:" << cycles + 0.5 << "]\nset cblabel 'cycle'\n"
-              << "set palette rgb 33,13,10\nplot " << Q(temporary.path() / "loop.dat")
-              << " using ($1*1e6):2 with lines lc rgb '#bbbbbb' title 'outside complete cycles', "
-              << Q(temporary.path() / "loop.dat")
-              << " using ($1*1e6):($3>0?$2:1/0):3 with lines lw 1.5 lc palette title 'cycles'\n"
+              << "set palette rgb 33,13,10\nplot " << Q(temporary.path() / "loop.dat") << " using "
+              << x << ":2 with lines lc rgb '#bbbbbb' title 'outside complete cycles', "
+              << Q(temporary.path() / "loop.dat") << " using " << x
+              << ":($3>0?$2:1/0):3 with lines lw 1.5 lc palette title 'cycles'\n"
               << "unset colorbox\n";
   AddCyclePlots({set}, temporary.path() / "cycles.dat", prefix + "cycles.png", &script);
   const fs::path script_file = temporary.path() / "plots.gp";

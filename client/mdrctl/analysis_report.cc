@@ -67,9 +67,13 @@ class MarkdownTable {
   std::vector<std::vector<std::string>> rows_;
 };
 
+ChannelLabels SetLabels(const ReportSet& set) { return LabelsOf(set.layout.channel); }
+
+ChannelLabels CampaignLabels(const Campaign& campaign) { return LabelsOf(campaign.channel); }
+
 // The per-cycle table, each figure's header labelled with what it measures.
-std::string CycleTable(const AnalyzeLoopsResponse& analysis) {
-  const std::vector<CycleColumn> columns = CycleColumns(analysis);
+std::string CycleTable(const AnalyzeLoopsResponse& analysis, const ChannelLabels& labels) {
+  const std::vector<CycleColumn> columns = CycleColumns(analysis, labels);
   std::vector<std::string> header{"cycle"};
   for (const CycleColumn& column : columns) {
     const std::string label = MeasureLabel(analysis, column.figure);
@@ -109,11 +113,11 @@ std::string FlagSummary(const AnalyzeLoopsResponse& analysis) {
          std::to_string(asymmetric) + " asymmetric, " + std::to_string(hooked) + " hooked";
 }
 
-std::string AnalysisSummary(const AnalyzeLoopsResponse& analysis) {
+std::string AnalysisSummary(const AnalyzeLoopsResponse& analysis, const ChannelLabels& labels) {
   std::string text = std::to_string(analysis.cycles_size()) + " complete cycles between " +
                      std::to_string(analysis.reversals_size()) + " reversals (threshold " +
-                     Num(analysis.reversal_threshold()) + " m); friction drift over the run " +
-                     Num(analysis.friction_drift()) +
+                     Num(analysis.reversal_threshold()) + " " + labels.position_unit +
+                     "); friction drift over the run " + Num(analysis.friction_drift()) +
                      (analysis.friction_drifts() ? " (**drifts**)" : "") + "; " +
                      FlagSummary(analysis) + ".";
   const std::string regimes = RegimeCounts(analysis);
@@ -121,11 +125,15 @@ std::string AnalysisSummary(const AnalyzeLoopsResponse& analysis) {
   return text;
 }
 
-const char* kMeasuresNote =
-    "Labels: *contact* figures are the contact's own whatever the rig in series (forces, "
-    "dissipated energy, half-opening, C); *contact+rig* figures include the rig's compliance "
-    "(displacement amplitude, A, B, stiffnesses) and are biased by it (docs/analysis.md, "
-    "\"The rig in series\").";
+std::string MeasuresNote(const ChannelLabels& labels) {
+  return "Labels: *contact* figures are the contact's own whatever the rig in series (" +
+         labels.force_word +
+         "s, dissipated energy, half-opening, C); *contact+rig* figures include the rig's "
+         "compliance (" +
+         labels.position_word +
+         " amplitude, A, B, stiffnesses) and are biased by it (docs/analysis.md, \"The rig in "
+         "series\").";
+}
 
 std::string PlotsSection(const Plots& plots, const std::vector<std::string>& captions) {
   std::string md = "## Plots\n\n";
@@ -138,11 +146,16 @@ std::string PlotsSection(const Plots& plots, const std::vector<std::string>& cap
 }
 
 std::string LayoutText(const CsvLayout& layout) {
-  std::string text = "displacement " + Code(layout.displacement_column) + " (x" +
-                     Num(layout.displacement_unit) + " m), tangential force " +
-                     Code(layout.force_column) + " (x" + Num(layout.force_unit) + " N)";
+  std::string text = IsTorsional(layout)
+                         ? "twist " + Code(layout.twist_column) + " (x" + Num(layout.twist_unit) +
+                               " rad), twisting moment " + Code(layout.moment_column) + " (x" +
+                               Num(layout.moment_unit) + " N m)"
+                         : "displacement " + Code(layout.displacement_column) + " (x" +
+                               Num(layout.displacement_unit) + " m), tangential force " +
+                               Code(layout.force_column) + " (x" + Num(layout.force_unit) + " N)";
   if (!layout.normal_force_column.empty()) {
-    text += ", normal force " + Code(layout.normal_force_column);
+    text += ", normal force " + Code(layout.normal_force_column) +
+            (IsTorsional(layout) ? " (x" + Num(layout.force_unit) + " N)" : "");
   }
   if (!layout.time_column.empty()) {
     text += ", time " + Code(layout.time_column) + " (x" + Num(layout.time_unit) + " s)";
@@ -150,7 +163,36 @@ std::string LayoutText(const CsvLayout& layout) {
   return text;
 }
 
+// A torsional layout: its channel, columns and units (a tangential one keeps the keys it always
+// had).
+void WriteTorsionalLayout(const CsvLayout& layout, JsonWriter* json) {
+  json->BeginObject()
+      .Key("channel")
+      .String("torsional")
+      .Key("twist_column")
+      .String(layout.twist_column)
+      .Key("moment_column")
+      .String(layout.moment_column)
+      .Key("normal_force_column")
+      .String(layout.normal_force_column)
+      .Key("time_column")
+      .String(layout.time_column)
+      .Key("twist_unit_rad")
+      .Number(layout.twist_unit)
+      .Key("moment_unit_n_m")
+      .Number(layout.moment_unit)
+      .Key("normal_force_unit_n")
+      .Number(layout.force_unit)
+      .Key("time_unit_s")
+      .Number(layout.time_unit)
+      .EndObject();
+}
+
 void WriteLayout(const CsvLayout& layout, JsonWriter* json) {
+  if (IsTorsional(layout)) {
+    WriteTorsionalLayout(layout, json);
+    return;
+  }
   json->BeginObject()
       .Key("displacement_column")
       .String(layout.displacement_column)
@@ -219,6 +261,7 @@ std::string SyntheticSection(const std::vector<ReportSet>& sets) {
 
 std::string FittedSection(const FitReport& report) {
   const Campaign& campaign = *report.campaign;
+  const ChannelLabels labels = CampaignLabels(campaign);
   std::string md = "## What was fitted\n\n";
   md += "Scene: " +
         (campaign.scene_source == "inline" ? std::string("inline in the campaign")
@@ -232,7 +275,8 @@ std::string FittedSection(const FitReport& report) {
   }
   md += free.str() +
         "\nLoop sets, each replayed through the exact engine at its normal force; "
-        "residuals (F_x measured - fitted) count from reversal number " +
+        "residuals (" +
+        labels.force + " measured - fitted) count from reversal number " +
         std::to_string(report.request.has_burn_in_reversals() ? report.request.burn_in_reversals()
                                                               : 2) +
         " of each set on:\n\n";
@@ -247,25 +291,30 @@ std::string FittedSection(const FitReport& report) {
              Num(f.normal_force_max()) + "]" +
              (set.declared_normal_force ? ", declared " + Num(*set.declared_normal_force) : "");
     }
-    sets.Row({Code(set.label), load, std::to_string(set.csv.samples.displacement_size()),
+    sets.Row({Code(set.label), load, std::to_string(set.csv.lines.size()),
               std::to_string(set.first_counted), std::to_string(set.analysis.cycles_size()),
               LayoutText(set.layout)});
   }
   const auto& nuisances = report.request.nuisances();
   std::string asked;
   for (const auto& [on, name] :
-       {std::pair{nuisances.force_offset(), "a force offset per set"},
-        std::pair{nuisances.displacement_drift(), "a displacement drift per set"},
-        std::pair{nuisances.moving_mass(), "a moving mass"}}) {
-    if (on) asked += std::string(asked.empty() ? "" : ", ") + name;
+       {std::pair{nuisances.force_offset(), "a " + labels.force_word + " offset per set"},
+        std::pair{nuisances.displacement_drift(), "a " + labels.position_word + " drift per set"},
+        std::pair{nuisances.moving_mass(),
+                  std::string(labels.torsional ? "a moment of inertia" : "a moving mass")}}) {
+    if (on) asked += (asked.empty() ? "" : ", ") + name;
   }
-  md += sets.str() +
-        "\nFitted with them, always: every set's press point (its displacement offset) and every "
-        "turning point from the first counted reversal on; " +
+  md += sets.str() + "\nFitted with them, always: every set's press point (its " +
+        labels.position_word +
+        " offset) and every turning point from the first counted reversal on; " +
         (asked.empty() ? std::string("no other nuisance parameters") : "and " + asked) +
-        ". The replayed path is each set's displacement smoothed within its half-cycles between "
-        "the fitted turning points; each residual is weighed by its effective variance "
-        "(docs/analysis.md, \"Identification\").\n\n";
+        ". The replayed path is each set's " + labels.position_word +
+        " smoothed within its half-cycles between the fitted turning points" +
+        (labels.torsional ? ", through the shaft's torsional compliance at the set's constant "
+                            "normal force"
+                          : "") +
+        "; each residual is weighed by its effective variance (docs/analysis.md, "
+        "\"Identification\").\n\n";
   return md;
 }
 
@@ -273,6 +322,10 @@ std::string FittedSection(const FitReport& report) {
 // set to that noise.
 std::string AdequacySection(const FitReport& report) {
   const FitResult& fit = report.fit;
+  const ChannelLabels labels = CampaignLabels(*report.campaign);
+  const auto in = [](const std::string& what, const std::string& unit) {
+    return what + " [" + unit + "]";
+  };
   std::string md =
       "### Noise and model adequacy per set\n\n"
       "Each channel's noise is estimated from its own samples (the spread of their third "
@@ -280,9 +333,11 @@ std::string AdequacySection(const FitReport& report) {
       "independent from sample to sample). The model explains a set when its residuals, each "
       "over its noise, have a reduced chi-square near 1 (a misfit above 1.5) and show no "
       "structure repeated over the cycles (a misfit below p = 1e-4).\n\n";
-  MarkdownTable table({"set", "u noise [m]", "F noise [N]", "F_N noise [N]", "u / F noise corr.",
-                       "residual RMS [N]", "reduced chi-square", "autocorrelation", "structure p",
-                       "slip", "verdict"});
+  MarkdownTable table({"set", in(labels.position + " noise", labels.position_unit),
+                       in(labels.force + " noise", labels.force_unit), "F_N noise [N]",
+                       labels.position + " / " + labels.force + " noise corr.",
+                       in("residual RMS", labels.force_unit), "reduced chi-square",
+                       "autocorrelation", "structure p", "slip", "verdict"});
   for (int i = 0; i < fit.sets_size() && i < static_cast<int>(report.sets.size()); ++i) {
     const mdr::v1::SetFit& s = fit.sets(i);
     table.Row(
@@ -332,31 +387,66 @@ std::string NuisanceSection(const FitReport& report) {
   return md + table.str() + "\n";
 }
 
+// A fit parameter's unit in this campaign (a torsional one's compliance and offset in rad).
+std::string ParameterUnit(mdr::v1::FitParameter parameter, const Campaign& campaign) {
+  const ChannelLabels labels = CampaignLabels(campaign);
+  switch (parameter) {
+    case mdr::v1::FIT_PARAMETER_EFFECTIVE_MODULUS:
+    case mdr::v1::FIT_PARAMETER_TORSIONAL_MODULUS:
+      return "Pa";
+    case mdr::v1::FIT_PARAMETER_PROFILE_SCALE:
+      return campaign.scene.has_sphere() ? "m" : "the power law's";
+    case mdr::v1::FIT_PARAMETER_RIG_COMPLIANCE:
+      return labels.compliance_unit;
+    case mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET:
+      return labels.position_unit;
+    default:
+      return "1";
+  }
+}
+
+// A torsional fit's scene besides the estimates: the G_t and the shaft it replayed.
+std::string FittedTorsionText(const FitReport& report) {
+  const mdr::v1::Scene& fitted = report.fit.fitted_scene();
+  if (!fitted.has_torsion()) return "";
+  return "The fitted scene's torsion: torsional_modulus G_t = " +
+         Num(report.fitted_torsional_modulus, 8) + " Pa" +
+         (fitted.torsion().has_torsional_modulus() ? "" : " (its material's)") +
+         ", rig_compliance " + Num(fitted.torsion().rig_compliance(), 8) +
+         " rad/(N m) (the shaft between the contact and the twist sensor).\n\n";
+}
+
 std::string EstimatesSection(const FitReport& report) {
   const FitResult& fit = report.fit;
+  const ChannelLabels labels = CampaignLabels(*report.campaign);
   std::string md = "## Estimates\n\n";
-  MarkdownTable table({"parameter", "estimate", "standard error", "95 % interval",
+  MarkdownTable table({"parameter", "unit", "estimate", "standard error", "95 % interval",
                        "relative half-width", "interval", "verdict"});
   for (const ParameterEstimate& e : fit.estimates()) {
-    table.Row({FitParameterName(e.parameter()), Num(e.value(), 8), Num(e.standard_error(), 3),
+    table.Row({FitParameterName(e.parameter()), ParameterUnit(e.parameter(), *report.campaign),
+               Num(e.value(), 8), Num(e.standard_error(), 3),
                "[" + Num(e.lower_95(), 8) + ", " + Num(e.upper_95(), 8) + "]",
                Num(0.5 * (e.upper_95() - e.lower_95()) / std::abs(e.value()), 3),
                e.interval() == mdr::v1::INTERVAL_METHOD_HALF_CYCLE_SANDWICH ? "half-cycle sandwich"
                                                                             : "Wald",
                e.identified() ? "identified" : "**not identified**"});
   }
-  md += table.str() + "\n";
+  md += table.str() + "\n" + FittedTorsionText(report);
+  const std::string& unit = labels.force_unit;
   md += std::string(fit.converged() ? "The fit converged" : "**The fit did not converge**") +
         " after " + std::to_string(fit.iterations()) + " iterations; residual RMS " +
-        Num(fit.residual_rms()) + " N over " + std::to_string(fit.residuals()) +
+        Num(fit.residual_rms()) + " " + unit + " over " + std::to_string(fit.residuals()) +
         " counted samples.\n\n";
-  md +=
-      "Replay check: the model's contact forces, replayed through a session of the fitted "
-      "scene along the model's own actuator path (and measured normal force), agree to " +
-      Num(report.replay_difference, 3) +
-      " N at most; the residual RMS of the model the fit returned is " +
-      Num(report.replay_rms, 10) + " N over " + std::to_string(report.replay_residuals) +
-      " samples, against the fit's " + Num(fit.residual_rms(), 10) + " N.\n\n";
+  md += "Replay check: the model's contact " + labels.force_word +
+        "s, replayed through a session of the fitted scene along the model's own " +
+        (labels.torsional ? "contact twist (its actuator twist less the shaft's C M: sessions "
+                            "hold no shaft) at its normal force"
+                          : "actuator path (and measured normal force)") +
+        ", agree to " + Num(report.replay_difference, 3) + " " + unit +
+        " at most; the residual RMS of the model the fit returned is " +
+        Num(report.replay_rms, 10) + " " + unit + " over " +
+        std::to_string(report.replay_residuals) + " samples, against the fit's " +
+        Num(fit.residual_rms(), 10) + " " + unit + ".\n\n";
   return md + AdequacySection(report) + NuisanceSection(report);
 }
 
@@ -441,6 +531,11 @@ std::string VerdictSection(const FitReport& report) {
           " estimates miss the truth the data were generated with (above).\n";
   }
   md += "\n### Rig compliance from the reversal slopes\n\n";
+  if (report.campaign->channel == mdr::analysis::LoopChannel::kTorsional) {
+    return md +
+           "Not computed for a torsional campaign: the fit identifies the shaft's compliance "
+           "(rig_compliance) itself.\n\n";
+  }
   if (!fit.has_guessed_rig_compliance()) {
     return md +
            "Not computed: it needs loop sets at two or more normal forces and a power-law "
@@ -464,22 +559,46 @@ std::string VerdictSection(const FitReport& report) {
 }
 
 std::string SetsSection(const FitReport& report) {
+  const ChannelLabels labels = CampaignLabels(*report.campaign);
   std::string md = "## Loop sets: figures per cycle\n\n";
-  md +=
-      "Each set analysed with the fitted scene: the regimes against the fitted scene's onset of "
-      "gross slip at the set's load, the contact figures (delta*_c, A_c, B_c) with the fitted "
-      "rig compliance. " +
-      std::string(kMeasuresNote) + "\n\n";
+  md += "Each set analysed with the fitted scene: the regimes against the fitted scene's " +
+        std::string(labels.torsional ? "full-slip moment" : "onset of gross slip") +
+        " at the set's load, the contact figures (" + labels.position_amplitude +
+        "_c, A_c, B_c) with the fitted rig compliance. " + MeasuresNote(labels) + "\n\n";
   for (const ReportSet& set : report.sets) {
     md += "### " + Code(set.label) + " at P = " + Num(set.normal_force) + " N\n\n";
-    md += AnalysisSummary(set.analysis) +
-          " Replay residual RMS over its counted samples: " + Num(set.replay_rms) + " N.\n\n";
-    md += CycleTable(set.analysis) + "\n";
+    md += AnalysisSummary(set.analysis, labels) +
+          " Replay residual RMS over its counted samples: " + Num(set.replay_rms) + " " +
+          labels.force_unit + ".\n\n";
+    md += CycleTable(set.analysis, labels) + "\n";
   }
   return md;
 }
 
+// A torsional campaign has no fretting map (report.map_skipped says why): each set's moment
+// amplitude against the fitted scene's full-slip moment at its load instead.
+std::string FullSlipSection(const FitReport& report) {
+  std::string md = "## No fretting map: the full-slip moments of the fitted scene\n\n" +
+                   report.map_skipped +
+                   "\n\nEach set's moment amplitude against the fitted "
+                   "scene's full-slip moment at its load:\n\n";
+  MarkdownTable table(
+      {"file", "P [N]", "M* [N m] (contact)", "M_slip [N m]", "M* / M_slip", "regimes"});
+  for (const ReportSet& set : report.sets) {
+    double amplitude = 0, slip = std::nan("");
+    for (const CycleFigures& c : set.analysis.cycles()) {
+      amplitude += c.force_amplitude();
+      slip = c.full_slip_moment();
+    }
+    amplitude /= std::max(1, set.analysis.cycles_size());
+    table.Row({Code(set.label), Num(set.normal_force), Num(amplitude), Num(slip),
+               Num(amplitude / slip, 4), RegimeCounts(set.analysis)});
+  }
+  return md + table.str() + "\n";
+}
+
 std::string MapSection(const FitReport& report) {
+  if (!report.map_skipped.empty()) return FullSlipSection(report);
   std::string md = "## Fretting map of the fitted scene\n\n";
   md +=
       "At each load, the onset of gross slip (Q* = mu P) through the rig, and the exact loops "
@@ -532,7 +651,7 @@ void WriteSetJson(const ReportSet& set, bool fit, JsonWriter* json) {
     json->Key("last_line").Number(static_cast<double>(set.csv.lines.back()));
   }
   json->Key("normal_force").Number(set.normal_force);
-  json->Key("samples").Number(set.csv.samples.displacement_size());
+  json->Key("samples").Number(static_cast<double>(set.csv.lines.size()));
   json->Key("synthetic");
   if (set.csv.synthetic) {
     json->String(*set.csv.synthetic);
@@ -560,12 +679,13 @@ void WritePlotsJson(const Plots& plots, JsonWriter* json) {
 
 std::string LoopsMarkdown(const LoopsReport& report) {
   const ReportSet& first = report.sets.front();
+  const ChannelLabels labels = SetLabels(first);
   std::string md = "# Loop analysis of " + Code(report.label) + "\n\n";
   if (first.csv.synthetic) {
     md += "> **Synthetic input**: " + Code(*first.csv.synthetic) + "\n\n";
   }
   std::size_t samples = 0;
-  for (const ReportSet& set : report.sets) samples += set.csv.samples.displacement_size();
+  for (const ReportSet& set : report.sets) samples += set.csv.lines.size();
   md += "Columns: " + LayoutText(first.layout) + "; " + std::to_string(samples) + " samples";
   md += report.run_column.empty()
             ? "."
@@ -575,27 +695,30 @@ std::string LoopsMarkdown(const LoopsReport& report) {
     md += " Normal force " + Num(report.options.normal_force()) + " N (given).";
   }
   if (report.options.has_rig_compliance()) {
-    md += " Rig compliance " + Num(report.options.rig_compliance()) +
-          " m/N: the contact figures (delta*_c, A_c, B_c) are u - C_t F_x's.";
+    md += " Rig compliance " + Num(report.options.rig_compliance()) + " " + labels.compliance_unit +
+          ": the contact figures (" + labels.position_amplitude + "_c, A_c, B_c) are " +
+          (labels.torsional ? "phi - C M's (through the shaft)." : "u - C_t F_x's.");
   }
   if (!report.scene_source.empty()) {
-    md +=
-        " Regimes against the onset of gross slip of the scene " + Code(report.scene_source) + ".";
+    md += (labels.torsional ? " Regimes against the full-slip moment of the scene "
+                            : " Regimes against the onset of gross slip of the scene ") +
+          Code(report.scene_source) + ".";
   }
   std::vector<std::string> captions;
   if (report.run_column.empty()) {
-    md += "\n\n" + AnalysisSummary(first.analysis) + "\n\n" + kMeasuresNote + "\n\n" +
-          CycleTable(first.analysis) + "\n";
+    md += "\n\n" + AnalysisSummary(first.analysis, labels) + "\n\n" + MeasuresNote(labels) +
+          "\n\n" + CycleTable(first.analysis, labels) + "\n";
     captions = {"the measured loop, coloured by cycle", "the figures per cycle"};
   } else {
-    md += "\n\n" + std::string(kMeasuresNote) + "\n\n";
+    md += "\n\n" + MeasuresNote(labels) + "\n\n";
     for (const ReportSet& set : report.sets) {
       const std::string run = "run " + Code(Printable(*set.csv.run));
       md += "## Run " + Code(Printable(*set.csv.run)) + "\n\n" +
-            std::to_string(set.csv.samples.displacement_size()) + " samples, " +
+            std::to_string(set.csv.lines.size()) + " samples, " +
             (set.csv.format == RigFormat::kMat ? "elements " : "lines ") +
             std::to_string(set.csv.lines.front()) + " to " + std::to_string(set.csv.lines.back()) +
-            ". " + AnalysisSummary(set.analysis) + "\n\n" + CycleTable(set.analysis) + "\n";
+            ". " + AnalysisSummary(set.analysis, labels) + "\n\n" +
+            CycleTable(set.analysis, labels) + "\n";
       captions.push_back(run + ": the measured loop, coloured by cycle");
       captions.push_back(run + ": the figures per cycle");
     }
@@ -632,7 +755,8 @@ std::string FitMarkdown(const FitReport& report) {
         SetsSection(report) + MapSection(report);
   return md + PlotsSection(report.plots,
                            {"measured and fitted loops per set",
-                            "residuals (measured - fitted) per set, with the force noise",
+                            "residuals (measured - fitted) per set, with the " +
+                                CampaignLabels(campaign).force_word + " noise",
                             "fretting map: Q*/P against the actuator amplitude, with the onsets "
                             "and the measured cycles",
                             "regimes: the boundary, the map's loops and the measured cycles"});
@@ -670,6 +794,18 @@ std::string FitJson(const FitReport& report) {
   json.Key("sets").BeginArray();
   for (const ReportSet& set : report.sets) WriteSetJson(set, true, &json);
   json.EndArray();
+  if (report.fit.fitted_scene().has_torsion()) {
+    json.Key("fitted_torsion").BeginObject();
+    json.Key("torsional_modulus").Number(report.fitted_torsional_modulus);
+    json.Key("rig_compliance").Number(report.fit.fitted_scene().torsion().rig_compliance());
+    json.EndObject();
+  }
+  if (!report.map_skipped.empty()) {
+    json.Key("fretting_map_skipped").String(report.map_skipped);
+    WritePlotsJson(report.plots, &json);
+    json.EndObject();
+    return json.Pretty();
+  }
   mdr::v1::FrettingMapResponse map = report.map;
   map.clear_compute_seconds();
   json.Key("fretting_map").BeginObject();

@@ -15,7 +15,8 @@
 
 namespace mdrctl {
 
-// One CSV file (or one run of a file of several: csv.run) and what was computed from it.
+// One CSV file (or one run of a file of several: csv.run) and what was computed from it; a
+// torsional record's (layout.channel) forces are moments, its displacements twists.
 struct ReportSet {
   std::string label;  // the file as given (and its run)
   RigData csv;
@@ -25,8 +26,8 @@ struct ReportSet {
   double normal_force = 0;
   std::optional<double> declared_normal_force;  // mdrctl fit: as the campaign gives it
   mdr::v1::AnalyzeLoopsResponse analysis;
-  // mdrctl fit: the force the fitted model says the sensor should have read at each sample, the
-  // first sample the fit counts and the RMS of measured minus model from it on.
+  // mdrctl fit: the force (moment) the fitted model says the sensor should have read at each
+  // sample, the first sample the fit counts and the RMS of measured minus model from it on.
   std::vector<double> model;
   std::size_t first_counted = 0;
   double replay_rms = 0;
@@ -54,11 +55,16 @@ struct FitReport {
   mdr::v1::FitResult fit;
   double replay_rms = 0;  // over every set's counted samples
   std::size_t replay_residuals = 0;
-  // N: the largest difference between the model contact's forces and a session of the fitted
-  // scene replayed along the model's path.
+  // N (N m): the largest difference between the model contact's forces (moments) and a session
+  // of the fitted scene replayed along the model's path.
   double replay_difference = 0;
   mdr::v1::FrettingMapRequest map_request;
   mdr::v1::FrettingMapResponse map;
+  // Why there is no fretting map ("" when there is one): a torsional campaign has none.
+  std::string map_skipped;
+  // A torsional campaign: the fitted scene's G_t in Pa (scene.torsion.torsional_modulus, else
+  // its material's), which the fit replayed.
+  double fitted_torsional_modulus = 0;
   Plots plots;
 };
 

@@ -19,10 +19,27 @@ namespace fs = std::filesystem;
 using mdr::v1::FitLoopsRequest;
 using mdr::v1::FitParameter;
 
-constexpr FitParameter kFitParameters[] = {
-    mdr::v1::FIT_PARAMETER_FRICTION, mdr::v1::FIT_PARAMETER_EFFECTIVE_MODULUS,
-    mdr::v1::FIT_PARAMETER_PROFILE_SCALE, mdr::v1::FIT_PARAMETER_RIG_COMPLIANCE,
-    mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET};
+constexpr FitParameter kFitParameters[] = {mdr::v1::FIT_PARAMETER_FRICTION,
+                                           mdr::v1::FIT_PARAMETER_EFFECTIVE_MODULUS,
+                                           mdr::v1::FIT_PARAMETER_PROFILE_SCALE,
+                                           mdr::v1::FIT_PARAMETER_RIG_COMPLIANCE,
+                                           mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET,
+                                           mdr::v1::FIT_PARAMETER_TORSIONAL_MODULUS};
+
+using mdr::analysis::LoopChannel;
+
+// The column and unit keys of one channel only: a campaign reads the pair its scene asks for.
+struct ChannelKeys {
+  std::vector<std::string_view> columns, units;
+};
+ChannelKeys OwnKeys(LoopChannel channel) {
+  if (channel == LoopChannel::kTorsional)
+    return {{"twist", "twisting_moment"}, {"twist", "moment"}};
+  return {{"displacement", "tangential_force"}, {"displacement"}};
+}
+LoopChannel Other(LoopChannel channel) {
+  return channel == LoopChannel::kTorsional ? LoopChannel::kTangential : LoopChannel::kTorsional;
+}
 
 // A parsed YAML file with the line of every field, and typed readers whose errors point at it.
 class YamlDoc {
@@ -189,24 +206,50 @@ class YamlDoc {
     target = std::move(assigned_value_).value();                \
   } while (false)
 
-// `columns: {displacement, tangential_force, normal_force, time, run}` and
-// `units: {displacement, force, time}` of `map` over `layout`.
+// A key of the other channel's columns or units (`what`) is refused by name: a tangential
+// campaign's scene has no torsion, a torsional one's reads twists and moments.
+mdr::Status CheckChannelKeys(const YamlDoc& doc, const YAML::Node& map, const std::string& field,
+                             LoopChannel channel, bool columns) {
+  const ChannelKeys other = OwnKeys(Other(channel));
+  for (std::string_view key : columns ? other.columns : other.units) {
+    if (!map[std::string(key)]) continue;
+    return doc.Error(
+        YamlDoc::Join(field, std::string(key)),
+        channel == LoopChannel::kTorsional
+            ? "is a tangential record's; the campaign's scene has torsion, so its sets are read "
+              "as torsional records (columns twist and twisting_moment, units twist and moment)"
+            : "is a torsional record's; it needs a scene with torsion (scene.torsion), else the "
+              "sets are tangential records (columns displacement and tangential_force)");
+  }
+  return mdr::OkStatus();
+}
+
+// `columns: {displacement, tangential_force | twist, twisting_moment, normal_force, time, run}`
+// and `units: {displacement | twist, moment, force, time}` of `map` over `layout`, for the
+// layout's channel.
 mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::string& field,
                        CsvLayout* layout) {
   const std::string prefix = field.empty() ? "" : field + ".";
   if (const YAML::Node columns = map["columns"]) {
     const std::string f = prefix + "columns";
     if (auto s = doc.CheckKeys(columns, f,
-                               {"displacement", "tangential_force", "normal_force", "time", "run"});
+                               {"displacement", "tangential_force", "twist", "twisting_moment",
+                                "normal_force", "time", "run"});
         !s.ok()) {
       return s;
     }
+    if (auto s = CheckChannelKeys(doc, columns, f, layout->channel, true); !s.ok()) return s;
     if (columns["displacement"])
       MDRCTL_ASSIGN(layout->displacement_column,
                     doc.String(columns["displacement"], f + ".displacement"));
     if (columns["tangential_force"])
       MDRCTL_ASSIGN(layout->force_column,
                     doc.String(columns["tangential_force"], f + ".tangential_force"));
+    if (columns["twist"])
+      MDRCTL_ASSIGN(layout->twist_column, doc.String(columns["twist"], f + ".twist"));
+    if (columns["twisting_moment"])
+      MDRCTL_ASSIGN(layout->moment_column,
+                    doc.String(columns["twisting_moment"], f + ".twisting_moment"));
     if (columns["normal_force"])
       MDRCTL_ASSIGN(layout->normal_force_column,
                     doc.String(columns["normal_force"], f + ".normal_force"));
@@ -216,7 +259,11 @@ mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::str
   }
   if (const YAML::Node units = map["units"]) {
     const std::string f = prefix + "units";
-    if (auto s = doc.CheckKeys(units, f, {"displacement", "force", "time"}); !s.ok()) return s;
+    if (auto s = doc.CheckKeys(units, f, {"displacement", "force", "twist", "moment", "time"});
+        !s.ok()) {
+      return s;
+    }
+    if (auto s = CheckChannelKeys(doc, units, f, layout->channel, false); !s.ok()) return s;
     const auto unit = [&](const char* key, Quantity quantity, double* factor) -> mdr::Status {
       if (!units[key]) return mdr::OkStatus();
       auto name = doc.String(units[key], f + "." + key);
@@ -230,6 +277,8 @@ mdr::Status ReadLayout(const YamlDoc& doc, const YAML::Node& map, const std::str
       return s;
     if (auto s = unit("force", Quantity::kForce, &layout->force_unit); !s.ok()) return s;
     if (auto s = unit("time", Quantity::kTime, &layout->time_unit); !s.ok()) return s;
+    if (auto s = unit("twist", Quantity::kTwist, &layout->twist_unit); !s.ok()) return s;
+    if (auto s = unit("moment", Quantity::kMoment, &layout->moment_unit); !s.ok()) return s;
   }
   return mdr::OkStatus();
 }
@@ -393,7 +442,7 @@ mdr::Result<std::map<std::string, double>> ReadTruth(const YamlDoc& doc, const Y
   std::map<std::string, double> truth;
   if (auto s = doc.CheckKeys(node, "truth",
                              {"friction", "effective_modulus", "profile_scale", "rig_compliance",
-                              "displacement_offset"});
+                              "displacement_offset", "torsional_modulus"});
       !s.ok()) {
     return s;
   }
@@ -402,6 +451,55 @@ mdr::Result<std::map<std::string, double>> ReadTruth(const YamlDoc& doc, const Y
     MDRCTL_ASSIGN(truth[key], doc.Number(entry.second, "truth." + key));
   }
   return truth;
+}
+
+// `noise: {seed, displacement, force | force_relative}`, or for a torsional truth `{seed, twist,
+// moment | moment_relative}` (rad and N m): the other channel's keys are refused by name.
+mdr::Status ReadNoise(const YamlDoc& doc, const YAML::Node& noise, SynthesisSpec* spec) {
+  const bool torsional = spec->truth.has_torsion();
+  const std::string position = torsional ? "twist" : "displacement";
+  const std::string force = torsional ? "moment" : "force";
+  if (auto s = doc.CheckKeys(noise, "noise",
+                             {"seed", "displacement", "force", "force_relative", "twist", "moment",
+                              "moment_relative"});
+      !s.ok()) {
+    return s;
+  }
+  for (const char* key : torsional
+                             ? std::vector<const char*>{"displacement", "force", "force_relative"}
+                             : std::vector<const char*>{"twist", "moment", "moment_relative"}) {
+    if (noise[key]) {
+      return doc.Error(std::string("noise.") + key,
+                       torsional ? "is a tangential record's; a torsional truth (scene.torsion) "
+                                   "takes twist (rad), moment or moment_relative (N m)"
+                                 : "is a torsional record's; it needs a truth with torsion");
+    }
+  }
+  if (noise["seed"]) {
+    double seed = 0;
+    MDRCTL_ASSIGN(seed, doc.NonNegative(noise["seed"], "noise.seed"));
+    if (seed != std::floor(seed) || seed > 9007199254740992.0) {
+      return doc.Error("noise.seed", "must be an integer in [0, 2^53]");
+    }
+    spec->seed = static_cast<std::uint64_t>(seed);
+  }
+  if (noise[position]) {
+    MDRCTL_ASSIGN(spec->displacement_noise, doc.NonNegative(noise[position], "noise." + position));
+  }
+  const std::string relative = force + "_relative";
+  if (noise[force] && noise[relative]) {
+    return doc.Error("noise." + force, "give " + force + " (" + (torsional ? "N m" : "N") +
+                                           ") or " + relative + " (of " +
+                                           (torsional ? "M*" : "Q*") + "), not both");
+  }
+  if (noise[force]) {
+    MDRCTL_ASSIGN(spec->force_noise, doc.NonNegative(noise[force], "noise." + force));
+  }
+  if (noise[relative]) {
+    MDRCTL_ASSIGN(spec->force_noise_relative,
+                  doc.NonNegative(noise[relative], "noise." + relative));
+  }
+  return mdr::OkStatus();
 }
 
 }  // namespace
@@ -418,6 +516,8 @@ const char* FitParameterName(FitParameter parameter) {
       return "rig_compliance";
     case mdr::v1::FIT_PARAMETER_DISPLACEMENT_OFFSET:
       return "displacement_offset";
+    case mdr::v1::FIT_PARAMETER_TORSIONAL_MODULUS:
+      return "torsional_modulus";
     default:
       return "unspecified";
   }
@@ -464,7 +564,9 @@ mdr::Result<Campaign> LoadCampaign(const std::string& path) {
       !s.ok()) {
     return s;
   }
+  if (campaign.scene.has_torsion()) campaign.channel = LoopChannel::kTorsional;
   CsvLayout defaults;
+  defaults.channel = campaign.channel;
   if (auto s = ReadLayout(doc, root, "", &defaults); !s.ok()) return s;
   MDRCTL_ASSIGN(campaign.sets, ReadSets(doc, defaults));
   FitSection fit;
@@ -520,31 +622,7 @@ mdr::Result<SynthesisSpec> LoadSynthesisSpec(const std::string& path) {
   }
   MDRCTL_ASSIGN(spec.sampling_rate, doc.Positive(root["sampling_rate"], "sampling_rate"));
   if (const YAML::Node noise = root["noise"]) {
-    if (auto s = doc.CheckKeys(noise, "noise", {"seed", "displacement", "force", "force_relative"});
-        !s.ok()) {
-      return s;
-    }
-    if (noise["seed"]) {
-      double seed = 0;
-      MDRCTL_ASSIGN(seed, doc.NonNegative(noise["seed"], "noise.seed"));
-      if (seed != std::floor(seed) || seed > 9007199254740992.0) {
-        return doc.Error("noise.seed", "must be an integer in [0, 2^53]");
-      }
-      spec.seed = static_cast<std::uint64_t>(seed);
-    }
-    if (noise["displacement"]) {
-      MDRCTL_ASSIGN(spec.displacement_noise,
-                    doc.NonNegative(noise["displacement"], "noise.displacement"));
-    }
-    if (noise["force"] && noise["force_relative"]) {
-      return doc.Error("noise.force", "give force (N) or force_relative (of Q*), not both");
-    }
-    if (noise["force"])
-      MDRCTL_ASSIGN(spec.force_noise, doc.NonNegative(noise["force"], "noise.force"));
-    if (noise["force_relative"]) {
-      MDRCTL_ASSIGN(spec.force_noise_relative,
-                    doc.NonNegative(noise["force_relative"], "noise.force_relative"));
-    }
+    if (auto s = ReadNoise(doc, noise, &spec); !s.ok()) return s;
   }
   const YAML::Node fit_node = root["fit"];
   if (auto s = doc.CheckKeys(

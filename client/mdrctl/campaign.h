@@ -18,7 +18,8 @@
 
 namespace mdrctl {
 
-// "friction", "effective_modulus", "profile_scale", "rig_compliance", "displacement_offset".
+// "friction", "effective_modulus", "profile_scale", "rig_compliance", "displacement_offset",
+// "torsional_modulus".
 const char* FitParameterName(mdr::v1::FitParameter parameter);
 
 // Field path -> the 1-based line of its key in a YAML file.
@@ -53,6 +54,9 @@ struct Campaign {
   std::string path;
   std::string title;
   mdr::v1::Scene scene;
+  // Torsional when the scene has torsion: every set is then read as a torsional record (its
+  // twist and twisting-moment columns) and the fit is torsional.
+  mdr::analysis::LoopChannel channel = mdr::analysis::LoopChannel::kTangential;
   std::string scene_source;  // the scene file's path, or "inline"
   std::vector<CampaignSet> sets;
   std::vector<mdr::v1::FitLoopsRequest::FreeParameter> free;
@@ -74,19 +78,22 @@ mdr::Result<Campaign> LoadCampaign(const std::string& path);
 // The relative amplitudes of the fretting map when the campaign gives none.
 std::vector<double> DefaultMapAmplitudes();
 
+// A synthetic campaign's spec. A truth with torsion makes torsional runs: the amplitudes are the
+// contact's twist amplitudes (rad), the noise is the twist's (rad) and the moment's (N m).
 struct SynthesisSpec {
   std::string path;
   std::string title;
   mdr::v1::Scene truth;
   std::vector<double> normal_forces;  // N
-  std::vector<double> amplitudes;     // actuator displacement amplitudes, m
+  // The actuator's displacement amplitudes, m; torsional: the contact's twist amplitudes, rad.
+  std::vector<double> amplitudes;
   int cycles = 0;
   int samples_per_cycle = 0;
   double sampling_rate = 0;  // Hz: t = i / sampling_rate
   std::uint64_t seed = 1;
-  double displacement_noise = 0;    // standard deviation, m
-  double force_noise = 0;           // standard deviation, N
-  double force_noise_relative = 0;  // standard deviation over the run's noise-free Q*
+  double displacement_noise = 0;    // standard deviation, m (rad)
+  double force_noise = 0;           // standard deviation, N (N m)
+  double force_noise_relative = 0;  // standard deviation over the run's noise-free Q* (M*)
   // Copied into the campaign (the fit section of the spec).
   std::vector<mdr::v1::FitLoopsRequest::FreeParameter> free;
   mdr::v1::FitLoopsRequest::Nuisances nuisances;

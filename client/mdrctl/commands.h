@@ -68,23 +68,30 @@ int ImportCommand(const Common& common, const std::string& snapshot_file, const 
 int TransformCommand(const Common& common, const std::string& request_file);
 
 // mdrctl loops FILE.csv: the figures of every cycle of a rig's CSV file (AnalyzeLoops), of each
-// run of a file of several.
+// run of a file of several. A record is tangential, or torsional when any torsional option
+// (twist_column, moment_column, twist_unit, moment_unit) is given; a tangential column or unit
+// given with one is refused. Unset columns and units take their channel's defaults.
 struct LoopsArgs {
   std::string file;
-  std::string displacement_column = "displacement";
-  std::string force_column = "tangential_force";
-  std::string normal_force_column;  // optional
-  std::string time_column;          // optional
-  std::string run_column;           // optional: each sample's run id
-  std::optional<std::string> run;   // only this run (needs run_column)
-  std::string displacement_unit = "m";
-  std::string force_unit = "N";
+  std::optional<std::string> displacement_column;  // default "displacement"
+  std::optional<std::string> force_column;         // default "tangential_force"
+  std::optional<std::string> twist_column;         // default "twist"
+  std::optional<std::string> moment_column;        // default "twisting_moment"
+  std::string normal_force_column;                 // optional
+  std::string time_column;                         // optional
+  std::string run_column;                          // optional: each sample's run id
+  std::optional<std::string> run;                  // only this run (needs run_column)
+  std::optional<std::string> displacement_unit;    // default m
+  std::optional<std::string> twist_unit;           // default rad
+  std::optional<std::string> moment_unit;          // default "N m"
+  std::string force_unit = "N";  // the tangential and the normal force's (torsional: the normal's)
   std::string time_unit = "s";
-  std::optional<double> normal_force;    // N, when the file has no normal force column
-  std::optional<double> rig_compliance;  // m/N; unset: the scene's rig, if any
-  double reversal_threshold = 0;         // m; 0: automatic
-  double displacement_resolution = 0;    // m, for the regimes
-  std::string scene;                     // scene file whose scene classifies the regimes
+  std::optional<double> normal_force;  // N, when the file has no normal force column
+  // m/N (torsional: rad/(N m)); unset: the scene's rig (scene.torsion.rig_compliance), if any.
+  std::optional<double> rig_compliance;
+  double reversal_threshold = 0;       // m (rad); 0: automatic
+  double displacement_resolution = 0;  // m (rad), for the regimes
+  std::string scene;                   // scene file whose scene classifies the regimes
   std::string report_dir;
 };
 int LoopsCommand(const Common& common, const LoopsArgs& args);

@@ -10,10 +10,11 @@
 
 namespace mdrctl {
 
-// What a run records after each step: the actuator's displacement and F_x.
+// What a run records after each step: the actuator's displacement and F_x (a torsional run: the
+// actuator's twist and the twisting moment).
 struct RecordedRun {
-  std::vector<double> displacement;  // m
-  std::vector<double> force;         // N
+  std::vector<double> displacement;  // m (rad)
+  std::vector<double> force;         // N (N m)
 };
 
 // A session of `scene` pressed to `normal_force` with the actuator at 0 (sample 0), then the
@@ -23,6 +24,23 @@ mdr::client::RpcResult<RecordedRun> RecordSineRun(mdr::client::ContactClient& cl
                                                   const mdr::v1::Scene& scene, double normal_force,
                                                   double amplitude, int cycles,
                                                   int samples_per_cycle);
+
+// A torsional scene's run: a session of the contact alone (sessions hold no shaft) pressed to
+// `normal_force` at twist 0 (sample 0), then twisted to phi_k = amplitude sin(2 pi k /
+// samples_per_cycle), k = 1 .. cycles * samples_per_cycle. The recorded twist is the actuator's
+// behind the scene's shaft, phi_k + C M_k (C: scene.torsion.rig_compliance). The session is
+// deleted afterwards.
+mdr::client::RpcResult<RecordedRun> RecordSineTwistRun(mdr::client::ContactClient& client,
+                                                       const mdr::v1::Scene& scene,
+                                                       double normal_force, double amplitude,
+                                                       int cycles, int samples_per_cycle);
+
+// The twisting moment after each twist of the contact of a torsional scene (without its shaft,
+// which sessions do not hold): pressed to normal_force at twist 0, then twisted to each twist.
+mdr::client::RpcResult<std::vector<double>> ReplayTwists(mdr::client::ContactClient& client,
+                                                         const mdr::v1::Scene& scene,
+                                                         double normal_force,
+                                                         const std::vector<double>& twists);
 
 // F_x after each step of the replay in a session of `scene` (as FitLoops replays a set): the
 // contact pressed to normal_force (or normal.front()) with the actuator at 0, then the actuator at

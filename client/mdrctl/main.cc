@@ -130,14 +130,26 @@ int main(int argc, char** argv) {
                    "CSV file with a header line, or MATLAB file (*.mat) whose variables are the "
                    "columns")
       ->required();
-  loops
-      ->add_option("--displacement-column", loops_args.displacement_column,
-                   "Header name (MAT file: variable name) of the displacement")
-      ->capture_default_str();
-  loops
-      ->add_option("--force-column", loops_args.force_column,
-                   "Header name (MAT: variable) of the tangential force")
-      ->capture_default_str();
+  // An optional's setter: options given explicitly are told from defaults (a tangential column
+  // beside a torsional one is refused).
+  const auto set = [](std::optional<std::string>* target) {
+    return [target](const std::string& value) { *target = value; };
+  };
+  loops->add_option_function<std::string>(
+      "--displacement-column", set(&loops_args.displacement_column),
+      "Header name (MAT file: variable name) of the displacement (default: displacement)");
+  loops->add_option_function<std::string>(
+      "--force-column", set(&loops_args.force_column),
+      "Header name (MAT: variable) of the tangential force (default: tangential_force)");
+  loops->add_option_function<std::string>(
+      "--twist-column", set(&loops_args.twist_column),
+      "Header name (MAT: variable) of the twist of a torsional record (default: twist); any "
+      "torsional option makes the record torsional: twist and twisting moment instead of "
+      "displacement and tangential force");
+  loops->add_option_function<std::string>(
+      "--moment-column", set(&loops_args.moment_column),
+      "Header name (MAT: variable) of the twisting moment of a torsional record (default: "
+      "twisting_moment)");
   loops->add_option("--normal-force-column", loops_args.normal_force_column,
                     "Header name (MAT: variable) of the normal force (optional)");
   loops->add_option("--time-column", loops_args.time_column,
@@ -148,9 +160,18 @@ int main(int argc, char** argv) {
   loops->add_option_function<std::string>(
       "--run", [&loops_args](const std::string& id) { loops_args.run = id; },
       "Analyse only this run of the --run-column (its id as the file writes it)");
-  loops->add_option("--displacement-unit", loops_args.displacement_unit, "m, mm, um or nm")
-      ->capture_default_str();
-  loops->add_option("--force-unit", loops_args.force_unit, "N, kN or mN (also the normal force's)")
+  loops->add_option_function<std::string>("--displacement-unit", set(&loops_args.displacement_unit),
+                                          "m, mm, um or nm (default: m)");
+  loops->add_option_function<std::string>("--twist-unit", set(&loops_args.twist_unit),
+                                          "A torsional record's twist: rad, mrad, urad or deg "
+                                          "(default: rad)");
+  loops->add_option_function<std::string>("--moment-unit", set(&loops_args.moment_unit),
+                                          "A torsional record's twisting moment: 'N m', 'N mm' or "
+                                          "'mN m' (default: N m)");
+  loops
+      ->add_option("--force-unit", loops_args.force_unit,
+                   "N, kN or mN: the tangential and the normal force's (a torsional record: the "
+                   "normal force's)")
       ->capture_default_str();
   loops->add_option("--time-unit", loops_args.time_unit, "s, ms or us")->capture_default_str();
   loops->add_option_function<double>(
@@ -158,15 +179,18 @@ int main(int argc, char** argv) {
       "Normal force in N when the file has no normal force column");
   loops->add_option_function<double>(
       "--rig-compliance", [&loops_args](double c) { loops_args.rig_compliance = c; },
-      "The rig's tangential compliance in m/N: the contact's own figures too (default: the "
-      "--scene's rig)");
+      "The rig's tangential compliance in m/N (a torsional record: the shaft's torsional "
+      "compliance in rad/(N m)): the contact's own figures too (default: the --scene's rig, or "
+      "its torsion.rig_compliance)");
   loops->add_option("--reversal-threshold", loops_args.reversal_threshold,
-                    "Hysteresis of the reversal detection in m (0: 5 % of the typical stroke)");
+                    "Hysteresis of the reversal detection in m, a torsional record's in rad (0: 5 "
+                    "% of the typical stroke)");
   loops->add_option("--displacement-resolution", loops_args.displacement_resolution,
-                    "The sensor's resolution in m: narrower loops count as sticking, their C and "
-                    "mu_e as nan");
+                    "The sensor's resolution in m (torsional: rad): narrower loops count as "
+                    "sticking, their C and mu_e as nan");
   loops->add_option("--scene", loops_args.scene,
-                    "Scene file (YAML/JSON) whose scene classifies each cycle's regime");
+                    "Scene file (YAML/JSON) whose scene classifies each cycle's regime (a "
+                    "torsional record's scene has torsion: its full-slip moment)");
   loops->add_option("--report", loops_args.report_dir,
                     "Write report.md, report.json and PNG plots into this directory");
   loops->callback([&] { exit_code = mdrctl::LoopsCommand(common, loops_args); });

@@ -383,6 +383,38 @@ void PrintSessions(const std::vector<mdr::v1::Session>& sessions, Format format,
 
 std::string FormatValue(double value) { return Number(value); }
 
+ChannelLabels LabelsOf(mdr::analysis::LoopChannel channel) {
+  const mdr::analysis::ChannelNames names = mdr::analysis::NamesOf(channel);
+  if (channel == mdr::analysis::LoopChannel::kTorsional) {
+    return {.torsional = true,
+            .position = "phi",
+            .position_unit = names.position_unit,
+            .force = "M",
+            .force_unit = names.force_unit,
+            .position_word = "twist",
+            .force_word = "moment",
+            .amplitude = "M*",
+            .position_amplitude = "phi*",
+            .half_opening = "phi_0",
+            .stiffness_unit = "N m/rad",
+            .compliance_unit = "rad/(N m)",
+            .mass_unit = "kg m^2"};
+  }
+  return {.torsional = false,
+          .position = "u",
+          .position_unit = names.position_unit,
+          .force = "F_x",
+          .force_unit = names.force_unit,
+          .position_word = "displacement",
+          .force_word = "force",
+          .amplitude = "Q*",
+          .position_amplitude = "delta*",
+          .half_opening = "delta_0",
+          .stiffness_unit = "N/m",
+          .compliance_unit = "m/N",
+          .mass_unit = "kg"};
+}
+
 std::string RegimeLabel(mdr::v1::Regime regime) {
   switch (regime) {
     case mdr::v1::REGIME_STICKING:
@@ -402,7 +434,8 @@ std::string MeasureLabel(const mdr::v1::AnalyzeLoopsResponse& analysis, const st
   return found->second == mdr::v1::MEASURES_CONTACT ? "contact" : "contact+rig";
 }
 
-std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analysis) {
+std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analysis,
+                                      const ChannelLabels& labels) {
   using Cycle = mdr::v1::CycleFigures;
   const auto number = [](double (Cycle::*get)() const) {
     return [get](const Cycle& c) { return Number((c.*get)()); };
@@ -410,26 +443,36 @@ std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analy
   const auto contact = [](double (mdr::v1::ContactFigures::*get)() const) {
     return [get](const Cycle& c) { return Number((c.contact().*get)()); };
   };
+  const auto in = [](const std::string& symbol, const std::string& unit) {
+    return symbol + " [" + unit + "]";
+  };
   std::vector<CycleColumn> columns{
       {"first", "first_sample", "",
        [](const Cycle& c) { return std::to_string(c.first_sample()); }},
       {"last", "last_sample", "", [](const Cycle& c) { return std::to_string(c.last_sample()); }},
-      {"Q* [N]", "force_amplitude", "force_amplitude", number(&Cycle::force_amplitude)},
+      {in(labels.amplitude, labels.force_unit), "force_amplitude", "force_amplitude",
+       number(&Cycle::force_amplitude)},
       {"Ed [J]", "dissipated_energy", "dissipated_energy", number(&Cycle::dissipated_energy)},
-      {"delta_0 [m]", "half_opening", "half_opening", number(&Cycle::half_opening)},
+      {in(labels.half_opening, labels.position_unit), "half_opening", "half_opening",
+       number(&Cycle::half_opening)},
       {"C", "system_free_ratio", "system_free_ratio", number(&Cycle::system_free_ratio)},
-      {"P [N]", "normal_force", "normal_force", number(&Cycle::normal_force)},
-      {"mu", "friction_coefficient", "friction_coefficient", number(&Cycle::friction_coefficient)},
-      {"delta* [m]", "displacement_amplitude", "displacement_amplitude",
-       number(&Cycle::displacement_amplitude)},
-      {"A", "energy_ratio", "energy_ratio", number(&Cycle::energy_ratio)},
-      {"B", "sliding_ratio", "sliding_ratio", number(&Cycle::sliding_ratio)},
-      {"k_sec [N/m]", "secant_stiffness", "secant_stiffness", number(&Cycle::secant_stiffness)}};
+      {"P [N]", "normal_force", "normal_force", number(&Cycle::normal_force)}};
+  if (!labels.torsional) {  // a torsional record's M*/P is a length, not a friction coefficient
+    columns.push_back({"mu", "friction_coefficient", "friction_coefficient",
+                       number(&Cycle::friction_coefficient)});
+  }
+  columns.insert(columns.end(),
+                 {{in(labels.position_amplitude, labels.position_unit), "displacement_amplitude",
+                   "displacement_amplitude", number(&Cycle::displacement_amplitude)},
+                  {"A", "energy_ratio", "energy_ratio", number(&Cycle::energy_ratio)},
+                  {"B", "sliding_ratio", "sliding_ratio", number(&Cycle::sliding_ratio)},
+                  {in("k_sec", labels.stiffness_unit), "secant_stiffness", "secant_stiffness",
+                   number(&Cycle::secant_stiffness)}});
   const auto has_contact = [](const Cycle& c) { return c.has_contact(); };
   if (std::any_of(analysis.cycles().begin(), analysis.cycles().end(), has_contact)) {
     using Contact = mdr::v1::ContactFigures;
-    columns.push_back({"delta*_c [m]", "contact_displacement_amplitude",
-                       "contact.displacement_amplitude",
+    columns.push_back({in(labels.position_amplitude + "_c", labels.position_unit),
+                       "contact_displacement_amplitude", "contact.displacement_amplitude",
                        contact(&Contact::displacement_amplitude)});
     columns.push_back(
         {"A_c", "contact_energy_ratio", "contact.energy_ratio", contact(&Contact::energy_ratio)});
@@ -440,8 +483,11 @@ std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analy
   if (std::any_of(analysis.cycles().begin(), analysis.cycles().end(), has_regime)) {
     columns.push_back(
         {"regime", "regime", "", [](const Cycle& c) { return RegimeLabel(c.regime()); }});
-    columns.push_back(
-        {"C onset", "onset_system_free_ratio", "", number(&Cycle::onset_system_free_ratio)});
+    columns.push_back(labels.torsional
+                          ? CycleColumn{in("M_slip", labels.force_unit), "full_slip_moment", "",
+                                        number(&Cycle::full_slip_moment)}
+                          : CycleColumn{"C onset", "onset_system_free_ratio", "",
+                                        number(&Cycle::onset_system_free_ratio)});
   }
   columns.push_back({"flags", "flags", "", [](const Cycle& c) {
                        std::string flags;
@@ -462,7 +508,8 @@ std::string NuisanceLabel(mdr::v1::Nuisance nuisance) {
   return name;
 }
 
-void PrintFitResult(const mdr::v1::FitResult& result, Format format, std::FILE* out) {
+void PrintFitResult(const mdr::v1::FitResult& result, const ChannelLabels& labels, Format format,
+                    std::FILE* out) {
   mdr::v1::FitResult fit = result;
   fit.clear_models();  // sample by sample: for plots (the report's), not for the terminal
   if (format == Format::kJson) {
@@ -485,8 +532,14 @@ void PrintFitResult(const mdr::v1::FitResult& result, Format format, std::FILE* 
   if (format != Format::kTable) return;
   // What each set says of the model, and the nuisances.
   Table sets;
-  sets.header = {"set",         "u_noise",    "F_noise",        "chi2",
-                 "structure_p", "gross_slip", "turning_points", "verdict"};
+  sets.header = {"set",
+                 labels.position + "_noise [" + labels.position_unit + "]",
+                 labels.force + "_noise [" + labels.force_unit + "]",
+                 "chi2",
+                 "structure_p",
+                 "gross_slip",
+                 "turning_points",
+                 "verdict"};
   for (int i = 0; i < fit.sets_size(); ++i) {
     const auto& s = fit.sets(i);
     sets.rows.push_back({std::to_string(i), Number(s.displacement_noise()), Number(s.force_noise()),
@@ -512,9 +565,10 @@ void PrintFitResult(const mdr::v1::FitResult& result, Format format, std::FILE* 
     nuisances.Print(format, out);
   }
   std::fprintf(out,
-               "\nresidual RMS %s N over %llu samples (reduced chi-square %s), %d iterations%s, "
+               "\nresidual RMS %s %s over %llu samples (reduced chi-square %s), %d iterations%s, "
                "condition number %s: %s\n",
-               Number(fit.residual_rms()).c_str(), static_cast<unsigned long long>(fit.residuals()),
+               Number(fit.residual_rms()).c_str(), labels.force_unit.c_str(),
+               static_cast<unsigned long long>(fit.residuals()),
                Number(fit.reduced_chi_square()).c_str(), fit.iterations(),
                fit.converged() ? ", converged" : ", NOT converged",
                Number(fit.condition_number()).c_str(),
@@ -523,8 +577,8 @@ void PrintFitResult(const mdr::v1::FitResult& result, Format format, std::FILE* 
                                   : "NOT every parameter identified");
   for (const std::string& note : fit.notes()) std::fprintf(out, "note: %s\n", note.c_str());
   if (fit.has_guessed_rig_compliance()) {
-    std::fprintf(out, "rig compliance from the reversal slopes (a starting point): %s m/N\n",
-                 Number(fit.guessed_rig_compliance()).c_str());
+    std::fprintf(out, "rig compliance from the reversal slopes (a starting point): %s %s\n",
+                 Number(fit.guessed_rig_compliance()).c_str(), labels.compliance_unit.c_str());
   }
 }
 
@@ -559,7 +613,8 @@ Table CycleTable(const std::vector<CycleColumn>& columns, Format format,
 }
 
 void PrintAnalysisFooter(const mdr::v1::AnalyzeLoopsResponse& analysis,
-                         const std::vector<CycleColumn>& columns, std::FILE* out) {
+                         const std::vector<CycleColumn>& columns, const ChannelLabels& labels,
+                         std::FILE* out) {
   std::string biased;
   for (const CycleColumn& column : columns) {
     if (MeasureLabel(analysis, column.figure) == "contact+rig") {
@@ -570,28 +625,29 @@ void PrintAnalysisFooter(const mdr::v1::AnalyzeLoopsResponse& analysis,
                "\nbiased by the rig's compliance (contact+rig): %s; the other figures measure the "
                "contact alone\n",
                biased.c_str());
-  std::fprintf(out, "reversal threshold %s m, friction drift %s%s\n",
-               Number(analysis.reversal_threshold()).c_str(),
+  std::fprintf(out, "reversal threshold %s %s, friction drift %s%s\n",
+               Number(analysis.reversal_threshold()).c_str(), labels.position_unit.c_str(),
                Number(analysis.friction_drift()).c_str(),
                analysis.friction_drifts() ? " (drifts)" : "");
 }
 
 }  // namespace
 
-void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
-                       std::FILE* out) {
+void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, const ChannelLabels& labels,
+                       Format format, std::FILE* out) {
   if (format == Format::kJson) {
     std::fputs(ToJson(analysis).c_str(), out);
     return;
   }
-  const std::vector<CycleColumn> columns = CycleColumns(analysis);
+  const std::vector<CycleColumn> columns = CycleColumns(analysis, labels);
   Table table = CycleTable(columns, format, {});
   AddCycleRows(analysis, columns, format, {}, &table);
   table.Print(format, out);
-  if (format == Format::kTable) PrintAnalysisFooter(analysis, columns, out);
+  if (format == Format::kTable) PrintAnalysisFooter(analysis, columns, labels, out);
 }
 
-void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::FILE* out) {
+void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, const ChannelLabels& labels,
+                      Format format, std::FILE* out) {
   if (format == Format::kJson) {
     JsonWriter json;
     json.BeginObject().Key("runs").BeginArray();
@@ -611,7 +667,7 @@ void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::
       std::fprintf(out, "%srun %s: %zu samples, lines %zu to %zu\n",
                    &run == &runs.front() ? "" : "\n", Printable(run.run).c_str(), run.samples,
                    run.first_line, run.last_line);
-      PrintLoopAnalysis(*run.analysis, format, out);
+      PrintLoopAnalysis(*run.analysis, labels, format, out);
     }
     return;
   }
@@ -621,7 +677,7 @@ void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::
   for (const RunAnalysis& run : runs) {
     for (const auto& cycle : run.analysis->cycles()) *all.add_cycles() = cycle;
   }
-  const std::vector<CycleColumn> columns = CycleColumns(all);
+  const std::vector<CycleColumn> columns = CycleColumns(all, labels);
   Table table = CycleTable(columns, format, {"run"});
   for (const RunAnalysis& run : runs) {
     AddCycleRows(*run.analysis, columns, format, {Printable(run.run)}, &table);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "mdr/analysis/loops.h"
 #include "mdr/v1/analysis.pb.h"
 #include "mdr/v1/contact_service.pb.h"
 #include "mdr/v1/scene_file.pb.h"
@@ -35,6 +36,25 @@ void PrintMessage(const google::protobuf::Message& message, Format format, std::
 // "%.10g", the numbers of every table.
 std::string FormatValue(double value);
 
+// How a record's loop is written in tables, reports and plots: its position and force with their
+// units (the library's, mdr::analysis::NamesOf) and the symbols of the figures built on them. A
+// torsional record keeps every figure's definition with phi for u and M for F_x
+// (docs/analysis.md, "Torsional records").
+struct ChannelLabels {
+  bool torsional = false;
+  std::string position, position_unit;  // "u", "m" | "phi", "rad"
+  std::string force, force_unit;        // "F_x", "N" | "M", "N m"
+  std::string position_word;            // "displacement" | "twist"
+  std::string force_word;               // "force" | "moment"
+  std::string amplitude;                // "Q*" | "M*"
+  std::string position_amplitude;       // "delta*" | "phi*"
+  std::string half_opening;             // "delta_0" | "phi_0"
+  std::string stiffness_unit;           // "N/m" | "N m/rad"
+  std::string compliance_unit;          // "m/N" | "rad/(N m)"
+  std::string mass_unit;                // "kg" | "kg m^2" (the moving mass: a moment of inertia)
+};
+ChannelLabels LabelsOf(mdr::analysis::LoopChannel channel);
+
 // A column of the per-cycle table of a loop analysis.
 struct CycleColumn {
   std::string header;    // table and Markdown, e.g. "Q* [N]"
@@ -45,17 +65,20 @@ struct CycleColumn {
   std::function<std::string(const mdr::v1::CycleFigures&)> cell;
 };
 // The columns for this analysis: the rig-free contact figures only with a rig compliance, the
-// regime only with a scene.
-std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analysis);
+// regime only with a scene (with the onset's C, or a torsional record's full-slip moment); a
+// torsional record has no friction coefficient (M*/P is a length).
+std::vector<CycleColumn> CycleColumns(const mdr::v1::AnalyzeLoopsResponse& analysis,
+                                      const ChannelLabels& labels);
 // "contact" or "contact+rig" for a figure, "" if `measures` does not name it.
 std::string MeasureLabel(const mdr::v1::AnalyzeLoopsResponse& analysis, const std::string& figure);
 // "partial slip", "gross slip", "sticking", or "-".
 std::string RegimeLabel(mdr::v1::Regime regime);
 // The estimates one per row (table: then the fit's figures and notes), or the JSON result.
-void PrintFitResult(const mdr::v1::FitResult& fit, Format format, std::FILE* out);
+void PrintFitResult(const mdr::v1::FitResult& fit, const ChannelLabels& labels, Format format,
+                    std::FILE* out);
 // One row per cycle (table, CSV; table adds which figures the rig biases) or the JSON response.
-void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, Format format,
-                       std::FILE* out);
+void PrintLoopAnalysis(const mdr::v1::AnalyzeLoopsResponse& analysis, const ChannelLabels& labels,
+                       Format format, std::FILE* out);
 
 // One run of a file of several (mdrctl loops --run-column) and its analysis.
 struct RunAnalysis {
@@ -68,6 +91,7 @@ struct RunAnalysis {
 // escaped as Printable), then its table as PrintLoopAnalysis prints it; CSV: one table, the run's
 // id (quoted so) first on every row; JSON: {"runs": [{run, samples, first_line, last_line,
 // analysis}]}, the id as written, analysis the AnalyzeLoopsResponse.
-void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, Format format, std::FILE* out);
+void PrintRunAnalyses(const std::vector<RunAnalysis>& runs, const ChannelLabels& labels,
+                      Format format, std::FILE* out);
 
 }  // namespace mdrctl

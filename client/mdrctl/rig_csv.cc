@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <optional>
 #include <regex>
 #include <system_error>
@@ -25,6 +26,9 @@ constexpr std::array<UnitName, 5> kDisplacementUnits{
     {{"m", 1}, {"mm", 1e-3}, {"um", 1e-6}, {"µm", 1e-6}, {"nm", 1e-9}}};
 constexpr std::array<UnitName, 3> kForceUnits{{{"N", 1}, {"kN", 1e3}, {"mN", 1e-3}}};
 constexpr std::array<UnitName, 4> kTimeUnits{{{"s", 1}, {"ms", 1e-3}, {"us", 1e-6}, {"µs", 1e-6}}};
+constexpr std::array<UnitName, 5> kTwistUnits{
+    {{"rad", 1}, {"mrad", 1e-3}, {"urad", 1e-6}, {"µrad", 1e-6}, {"deg", std::numbers::pi / 180}}};
+constexpr std::array<UnitName, 3> kMomentUnits{{{"N m", 1}, {"N mm", 1e-3}, {"mN m", 1e-3}}};
 
 template <std::size_t N>
 mdr::Result<double> Lookup(const std::array<UnitName, N>& units, const std::string& unit,
@@ -204,6 +208,8 @@ RigData RunOf(const RigData& file, const RigRun& run) {
   };
   copy(file.samples.displacement(), piece.samples.mutable_displacement());
   copy(file.samples.tangential_force(), piece.samples.mutable_tangential_force());
+  copy(file.samples.twist(), piece.samples.mutable_twist());
+  copy(file.samples.twisting_moment(), piece.samples.mutable_twisting_moment());
   copy(file.samples.normal_force(), piece.samples.mutable_normal_force());
   copy(file.samples.time(), piece.samples.mutable_time());
   piece.lines.assign(file.lines.begin() + begin, file.lines.begin() + end);
@@ -318,16 +324,39 @@ mdr::Result<double> UnitFactor(Quantity quantity, const std::string& unit,
       return Lookup(kDisplacementUnits, unit, field);
     case Quantity::kForce:
       return Lookup(kForceUnits, unit, field);
+    case Quantity::kTwist:
+      return Lookup(kTwistUnits, unit, field);
+    case Quantity::kMoment:
+      return Lookup(kMomentUnits, unit, field);
     case Quantity::kTime:
       break;
   }
   return Lookup(kTimeUnits, unit, field);
 }
 
+bool IsTorsional(const CsvLayout& layout) {
+  return layout.channel == mdr::analysis::LoopChannel::kTorsional;
+}
+
+const google::protobuf::RepeatedField<double>& LoopPositions(const mdr::v1::LoopSamples& samples) {
+  return samples.twist().empty() ? samples.displacement() : samples.twist();
+}
+
+const google::protobuf::RepeatedField<double>& LoopForces(const mdr::v1::LoopSamples& samples) {
+  return samples.twist().empty() ? samples.tangential_force() : samples.twisting_moment();
+}
+
 std::vector<SelectedColumn> SelectColumns(const CsvLayout& layout, mdr::v1::LoopSamples* samples) {
-  std::vector<SelectedColumn> columns{
-      {layout.displacement_column, layout.displacement_unit, samples->mutable_displacement()},
-      {layout.force_column, layout.force_unit, samples->mutable_tangential_force()}};
+  std::vector<SelectedColumn> columns =
+      IsTorsional(layout)
+          ? std::vector<SelectedColumn>{{layout.twist_column, layout.twist_unit,
+                                         samples->mutable_twist()},
+                                        {layout.moment_column, layout.moment_unit,
+                                         samples->mutable_twisting_moment()}}
+          : std::vector<SelectedColumn>{
+                {layout.displacement_column, layout.displacement_unit,
+                 samples->mutable_displacement()},
+                {layout.force_column, layout.force_unit, samples->mutable_tangential_force()}};
   if (!layout.normal_force_column.empty()) {
     columns.push_back(
         {layout.normal_force_column, layout.force_unit, samples->mutable_normal_force()});
@@ -454,7 +483,7 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
 mdr::Status LocateSampleError(const std::string& field, const std::string& message,
                               const RigData& csv, const CsvLayout& layout) {
   static const std::regex kSample(
-      R"((?:^|\.)samples\.(displacement|tangential_force|normal_force|time)(?:\[([0-9]+)\])?$)");
+      R"((?:^|\.)samples\.(displacement|tangential_force|twisting_moment|twist|normal_force|time)(?:\[([0-9]+)\])?$)");
   std::smatch match;
   if (!std::regex_search(field, match, kSample)) {
     return mdr::InvalidArgument(csv.path, field.empty() ? message : field + ": " + message);
@@ -462,6 +491,8 @@ mdr::Status LocateSampleError(const std::string& field, const std::string& messa
   const std::string which = match[1];
   const std::string column = which == "displacement"       ? layout.displacement_column
                              : which == "tangential_force" ? layout.force_column
+                             : which == "twist"            ? layout.twist_column
+                             : which == "twisting_moment"  ? layout.moment_column
                              : which == "normal_force"     ? layout.normal_force_column
                                                            : layout.time_column;
   std::optional<std::size_t> at;  // the sample's line (CSV) or element (MAT)

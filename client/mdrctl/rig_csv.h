@@ -24,29 +24,45 @@
 #include <unordered_map>
 #include <vector>
 
+#include "mdr/analysis/loops.h"
 #include "mdr/base/sample_limits.h"
 #include "mdr/base/status.h"
 #include "mdr/v1/analysis.pb.h"
 
 namespace mdrctl {
 
-enum class Quantity { kDisplacement, kForce, kTime };
+enum class Quantity { kDisplacement, kForce, kTime, kTwist, kMoment };
 
 // The factor from `unit` to SI: displacement m, mm, um (or µm), nm; force N, kN, mN; time s, ms,
-// us (or µs). Errors name `field` and list the units of the quantity.
+// us (or µs); twist rad, mrad, urad (or µrad), deg; moment "N m", "N mm", "mN m". Errors name
+// `field` and list the units of the quantity.
 mdr::Result<double> UnitFactor(Quantity quantity, const std::string& unit,
                                const std::string& field);
 
-// Which columns hold what, and their units (factors to SI; the normal force has the force's).
+// Which columns hold what, and their units (factors to SI). A record is tangential (displacement
+// and tangential force) or torsional (twist and twisting moment, docs/analysis.md "Torsional
+// records"): `channel` says which pair of columns is read; the other pair's names are unused.
 struct CsvLayout {
+  mdr::analysis::LoopChannel channel = mdr::analysis::LoopChannel::kTangential;
   std::string displacement_column = "displacement";
   std::string force_column = "tangential_force";
+  std::string twist_column = "twist";
+  std::string moment_column = "twisting_moment";
   std::string normal_force_column;  // empty: none
   std::string time_column;          // empty: none
   // The column of each sample's run id, in a file of several runs; empty: the file is one run.
   std::string run_column;
+  // force_unit is the normal force's too (and in a torsional record only the normal force's).
   double displacement_unit = 1, force_unit = 1, time_unit = 1;
+  double twist_unit = 1, moment_unit = 1;  // to rad and N m
 };
+
+bool IsTorsional(const CsvLayout& layout);
+
+// A record's loop columns whatever its channel: the displacement or the twist, the tangential
+// force or the twisting moment (a record holds one pair or the other).
+const google::protobuf::RepeatedField<double>& LoopPositions(const mdr::v1::LoopSamples& samples);
+const google::protobuf::RepeatedField<double>& LoopForces(const mdr::v1::LoopSamples& samples);
 
 enum class RigFormat { kCsv, kMat };
 
@@ -111,7 +127,8 @@ class RunSplitter {
 };
 
 // A column the layout selects: its name, its factor to SI and the samples' field it fills (the
-// displacement and the tangential force, then the normal force and the time if named).
+// displacement and the tangential force, or the twist and the twisting moment; then the normal
+// force and the time if named).
 struct SelectedColumn {
   std::string name;
   double factor;
@@ -136,7 +153,7 @@ mdr::Result<RigData> ReadRigCsv(const std::string& path, const CsvLayout& layout
 mdr::Result<RigData> ReadRigMat(const std::string& path, const CsvLayout& layout,
                                 const RigFileLimits& limits = {});
 
-// An error of the service about a sample ("samples.time[12]", "sets[2].samples.time[12]") or a
+// An error of the service about a sample ("samples.time[12]", "sets[2].samples.twist[12]") or a
 // column ("samples.displacement") restated at the file's line and column; other errors are
 // prefixed with the file.
 mdr::Status LocateSampleError(const std::string& field, const std::string& message,

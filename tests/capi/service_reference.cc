@@ -13,7 +13,11 @@
 //     records three noisy fretting loops of the scene's contact (the service's conversion, the
 //     core's steps, seeded noise) and writes a request of every analysis, analysis_K.request.pb
 //     (K: the mdr_analysis number), with the service's answer analysis_K.service.pb
-//     (compute_seconds 0, deterministic serialization).
+//     (compute_seconds 0, deterministic serialization). For the Octave package's torsional
+//     records (tests/matlab/torsion_analysis_caller.m) it also twists the scene's contact behind
+//     a shaft and writes torsion_analysis_scene.json, torsion_analysis_samples.txt ("phi M" per
+//     sample) and torsion_analysis_reference.txt, the service's figures as analysis_reference.txt
+//     has them (each "C" line ending in the cycle's full-slip moment).
 //   capi_service_reference compare_analysis OUT_DIR
 //     parses the library's answers analysis_K.library.pb (written by c_analysis.c) and checks
 //     that each, compute_seconds cleared, is the service's answer byte for byte.
@@ -60,11 +64,14 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
+#include "mdr/analysis/exact_loops.h"
 #include "mdr/bridge/analysis_ops.h"
 #include "mdr/bridge/conversion.h"
 #include "mdr/bridge/scene_file.h"
+#include "mdr/bridge/torsion_session.h"
 #include "mdr/service/operations.h"
 
 namespace mdr::capi_testing {
@@ -546,6 +553,123 @@ Result<v1::LoopSamples> RecordLoops(const v1::Scene& scene) {
   return samples;
 }
 
+// A torsional record: the scene's contact (with scene.torsion) pressed to 100 N and twisted
+// behind its shaft through three triangles of 6 mrad, 120 samples each, with 2 urad on the twist
+// and 20 uN m on the moment of seeded noise.
+Result<v1::LoopSamples> RecordTorsion(const v1::Scene& scene) {
+  Result<ContactConfig> config = bridge::ToContactConfig(scene, 65536);
+  if (!config.ok()) return config.status();
+  Result<analysis::TorsionalScene> torsion = bridge::ToTorsionalScene(scene, *config);
+  if (!torsion.ok()) return torsion.status();
+  Result<TorsionalContact> contact = analysis::PressTorsionalContact(*torsion, 100);
+  if (!contact.ok()) return contact.status();
+  std::mt19937_64 random(49);
+  std::normal_distribution<double> noise(0, 1);
+  v1::LoopSamples samples;
+  for (int k = 0; k <= 360; ++k) {
+    const double phase = static_cast<double>(k % 120) / 120;
+    const double wave = phase < 0.25 ? 4 * phase : phase < 0.75 ? 2 - 4 * phase : 4 * phase - 4;
+    if (Status s = contact->TwistThroughCompliance(6e-3 * wave, torsion->rig_compliance); !s.ok()) {
+      return s;
+    }
+    samples.add_twist(6e-3 * wave + 2e-6 * noise(random));
+    samples.add_twisting_moment(contact->memory().Moment() + 2e-5 * noise(random));
+  }
+  return samples;
+}
+
+// A message as proto3 JSON with the proto's field names, for the Octave callers.
+bool WriteJson(const google::protobuf::Message& message, const std::string& path) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  return google::protobuf::util::MessageToJsonString(message, &json, options).ok() &&
+         WriteFile(path, json);
+}
+
+// The figures an Octave caller prints, in hex: "C Q* Ed delta_0 A B k_sec REGIME" per cycle (a
+// torsional record's M*, phi_0, ... and its full-slip moment last), "E value se lower upper
+// verdict" per estimate and "B k_sec damping" per backbone loop.
+std::string AnalysisFigures(const v1::AnalyzeLoopsResponse& loops, const v1::FitResult& fit,
+                            const v1::BackboneResponse& backbone, bool torsional) {
+  std::string figures;
+  for (const v1::CycleFigures& c : loops.cycles()) {
+    figures += "C " + Hex(c.force_amplitude()) + " " + Hex(c.dissipated_energy()) + " " +
+               Hex(c.half_opening()) + " " + Hex(c.energy_ratio()) + " " + Hex(c.sliding_ratio()) +
+               " " + Hex(c.secant_stiffness()) + " " + v1::Regime_Name(c.regime()) +
+               (torsional ? " " + Hex(c.full_slip_moment()) : "") + "\n";
+  }
+  for (const v1::ParameterEstimate& e : fit.estimates()) {
+    figures += "E " + Hex(e.value()) + " " + Hex(e.standard_error()) + " " + Hex(e.lower_95()) +
+               " " + Hex(e.upper_95()) + (e.identified() ? " identified" : " not_identified") +
+               "\n";
+  }
+  for (const v1::LoopFigures& l : backbone.loops()) {
+    figures += "B " + Hex(l.secant_stiffness()) + " " + Hex(l.damping_ratio()) + "\n";
+  }
+  return figures;
+}
+
+// The torsional record's analyses by the service for the Octave caller: the loops classified
+// against the full-slip moment at 100 N, a fit of mu and G_t (and the shaft), the backbone by
+// the actuator's twist.
+int GenerateTorsionalAnalysis(const v1::Scene& tangential, const std::string& dir) {
+  v1::Scene scene = tangential;
+  scene.clear_rig();
+  scene.mutable_torsion()->set_rig_compliance(0.5);
+  Result<v1::LoopSamples> samples = RecordTorsion(scene);
+  if (!Check(samples.status(), "recording the torsional loops")) return 1;
+  const service::ServiceLimits limits;
+  const Interrupt never;
+  v1::AnalyzeLoopsRequest loops;
+  *loops.mutable_samples() = *samples;
+  *loops.mutable_scene() = scene;
+  loops.mutable_options()->set_normal_force(100);
+  loops.mutable_options()->set_rig_compliance(0.5);
+  v1::FitLoopsRequest fit;
+  *fit.mutable_scene() = scene;
+  fit.mutable_scene()->set_friction(0.25);
+  v1::FitLoopsRequest::LoopSet* set = fit.add_sets();
+  *set->mutable_samples() = *samples;
+  set->set_normal_force(100);
+  for (const auto& [parameter, initial, lower, upper] :
+       {std::tuple{v1::FIT_PARAMETER_FRICTION, 0.25, 0.05, 0.9},
+        std::tuple{v1::FIT_PARAMETER_TORSIONAL_MODULUS, 3e10, 1e9, 1e12}}) {
+    v1::FitLoopsRequest::FreeParameter* free = fit.add_free();
+    free->set_parameter(parameter);
+    free->set_initial(initial);
+    free->set_lower(lower);
+    free->set_upper(upper);
+  }
+  v1::BackboneRequest backbone;
+  *backbone.mutable_scene() = scene;
+  backbone.set_normal_force(100);
+  backbone.set_kind(v1::BackboneRequest::AMPLITUDE_KIND_ACTUATOR_DISPLACEMENT);
+  for (double phi : {1e-4, 2e-3, 6e-3}) backbone.add_amplitudes(phi);
+  v1::AnalyzeLoopsResponse loops_answer;
+  v1::FitResult fit_answer;
+  v1::BackboneResponse backbone_answer;
+  if (!Check(bridge::RunAnalyzeLoops(loops, limits.max_memory_vertices, never, &loops_answer),
+             "torsional loops") ||
+      !Check(
+          bridge::RunFitLoops(
+              fit, limits.max_memory_vertices, never, [](const v1::FitProgress&) {}, &fit_answer),
+          "torsional fit") ||
+      !Check(bridge::RunBackbone(backbone, limits.max_memory_vertices, never, &backbone_answer),
+             "torsional backbone")) {
+    return 1;
+  }
+  std::string sample_lines;
+  for (int i = 0; i < samples->twist_size(); ++i) {
+    sample_lines += Hex(samples->twist(i)) + " " + Hex(samples->twisting_moment(i)) + "\n";
+  }
+  const bool written = WriteJson(scene, dir + "/torsion_analysis_scene.json") &&
+                       WriteFile(dir + "/torsion_analysis_samples.txt", sample_lines) &&
+                       WriteFile(dir + "/torsion_analysis_reference.txt",
+                                 AnalysisFigures(loops_answer, fit_answer, backbone_answer, true));
+  return written ? 0 : 1;
+}
+
 template <typename Request, typename Response, typename Run>
 bool WriteAnalysis(const std::string& dir, int k, const Request& request, Run run) {
   Response response;
@@ -590,13 +714,7 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
 
   // For the MATLAB/Octave package (tests/matlab/analysis_caller.m): the scene as JSON, the
   // samples in hex, and the service's figures in hex.
-  std::string scene_json;
-  google::protobuf::util::JsonPrintOptions json_options;
-  json_options.preserve_proto_field_names = true;
-  if (!google::protobuf::util::MessageToJsonString(scene, &scene_json, json_options).ok() ||
-      !WriteFile(dir + "/analysis_scene.json", scene_json)) {
-    return 1;
-  }
+  if (!WriteJson(scene, dir + "/analysis_scene.json")) return 1;
   std::string sample_lines;
   for (int i = 0; i < samples->displacement_size(); ++i) {
     sample_lines += Hex(samples->displacement(i)) + " " + Hex(samples->tangential_force(i)) + "\n";
@@ -633,21 +751,11 @@ int GenerateAnalysis(const std::string& scene_file, const std::string& dir) {
       !ReadMessage(AnalysisPath(dir, kBackbone, "service"), &backbone_answer)) {
     return 1;
   }
-  std::string figures;
-  for (const v1::CycleFigures& c : loops_answer.cycles()) {
-    figures += "C " + Hex(c.force_amplitude()) + " " + Hex(c.dissipated_energy()) + " " +
-               Hex(c.half_opening()) + " " + Hex(c.energy_ratio()) + " " + Hex(c.sliding_ratio()) +
-               " " + Hex(c.secant_stiffness()) + " " + v1::Regime_Name(c.regime()) + "\n";
+  if (!WriteFile(dir + "/analysis_reference.txt",
+                 AnalysisFigures(loops_answer, fit_answer, backbone_answer, false))) {
+    return 1;
   }
-  for (const v1::ParameterEstimate& e : fit_answer.estimates()) {
-    figures += "E " + Hex(e.value()) + " " + Hex(e.standard_error()) + " " + Hex(e.lower_95()) +
-               " " + Hex(e.upper_95()) + (e.identified() ? " identified" : " not_identified") +
-               "\n";
-  }
-  for (const v1::LoopFigures& l : backbone_answer.loops()) {
-    figures += "B " + Hex(l.secant_stiffness()) + " " + Hex(l.damping_ratio()) + "\n";
-  }
-  return WriteFile(dir + "/analysis_reference.txt", figures) ? 0 : 1;
+  return GenerateTorsionalAnalysis(scene, dir);
 }
 
 template <typename Response>

@@ -401,7 +401,8 @@ def case_campaign_errors(args, tmp):
                    r'initial, lower, upper \(\S*typo\.yaml:\d+\)\n$', "an unknown key")
     expect_failure(m, ["fit", variant("name.yaml", "parameter: friction", "parameter: mu")],
                    r'^mdrctl: free\[0\]\.parameter: must be one of friction, effective_modulus, '
-                   r'profile_scale, rig_compliance, displacement_offset, got "mu" '
+                   r'profile_scale, rig_compliance, displacement_offset, torsional_modulus, '
+                   r'got "mu" '
                    r'\(\S*name\.yaml:\d+\)', "an unknown parameter")
     expect_failure(m, ["fit", variant("load.yaml", "normal_force: 50}", "normal_force: -5}")],
                    r'^mdrctl: sets\[0\]\.normal_force: must be > 0, got -5 \(\S*load\.yaml:\d+\)',

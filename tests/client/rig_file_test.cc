@@ -639,6 +639,47 @@ TEST_F(RigFileTest, ServiceErrorsAboutASampleNameTheVariableAndElement) {
   EXPECT_EQ(csv.message(), R"(column "fx": must be finite)");
 }
 
+// A torsional record reads its twist and twisting-moment columns into LoopSamples.twist and
+// twisting_moment, in their own units (the force unit is the normal force's alone), from a CSV
+// and a MAT file alike; a service error about them names their columns.
+TEST_F(RigFileTest, TorsionalRecordsReadTheTwistAndTheMoment) {
+  CsvLayout layout = Layout();
+  layout.channel = mdr::analysis::LoopChannel::kTorsional;
+  layout.twist_column = "x";
+  layout.moment_column = "fx";
+  layout.twist_unit = 1e-3;   // mrad
+  layout.moment_unit = 1e-3;  // N mm
+  auto csv = ReadRigFile(WriteCsv().string(), layout);
+  ASSERT_TRUE(csv.ok()) << csv.status().ToString();
+  EXPECT_TRUE(csv->samples.displacement().empty());
+  EXPECT_TRUE(csv->samples.tangential_force().empty());
+  ASSERT_EQ(csv->samples.twist_size(), static_cast<int>(kDisplacement.size()));
+  for (std::size_t i = 0; i < kDisplacement.size(); ++i) {
+    const int k = static_cast<int>(i);
+    EXPECT_EQ(csv->samples.twist(k), kDisplacement[i] * 1e-3) << i;
+    EXPECT_EQ(csv->samples.twisting_moment(k), kForce[i] * 1e-3) << i;
+    EXPECT_EQ(csv->samples.normal_force(k), NormalForce()[i] * 1e3) << i;  // kN
+  }
+  {
+    MatWriter mat(Path("twist.mat"), MAT_FT_MAT5);
+    ASSERT_TRUE(mat.ok());
+    WriteColumns(mat, MAT_COMPRESSION_NONE);
+  }
+  auto mat = ReadRigFile(Path("twist.mat").string(), layout);
+  ASSERT_TRUE(mat.ok()) << mat.status().ToString();
+  ExpectSameBits(mat->samples.twist(), csv->samples.twist(), "twist");
+  ExpectSameBits(mat->samples.twisting_moment(), csv->samples.twisting_moment(), "moment");
+  EXPECT_EQ(&LoopPositions(csv->samples), &csv->samples.twist());
+  EXPECT_EQ(&LoopForces(csv->samples), &csv->samples.twisting_moment());
+  const mdr::Status status =
+      LocateSampleError("samples.twisting_moment[2]", "must be finite", *csv, layout);
+  EXPECT_EQ(status.field(), csv->path + ":4");
+  EXPECT_EQ(status.message(), R"(column "fx": must be finite)");
+  EXPECT_EQ(
+      LocateSampleError("sets[1].samples.twist", "spans only 1e-16 rad", *csv, layout).message(),
+      R"(column "x": spans only 1e-16 rad)");
+}
+
 // A file of several runs (a run column): every run in the order it first appears, each a
 // contiguous block of rows, its ids as the cells write them (trimmed, unquoted).
 TEST_F(RigFileTest, CsvRunsAreSplitByTheRunColumn) {

@@ -104,4 +104,30 @@ expect_error(@() mdr.backbone(H1, 100, 40), 'mdr:invalidArgument', 'amplitudes',
              'an amplitude beyond mu F_N');
 map = mdr.fretting_map(H1, [50 100], [0.5 2]);
 check(numel(map.loads) == 2 && strcmp(map.loads(1).regimes{2}, 'REGIME_GROSS_SLIP'), 'the map');
+
+% A torsional record (the loops above read as a twist in rad and a moment in N m): the figures
+% keep their definitions, the friction coefficient is NaN, a scene with torsion classifies each
+% cycle against its full-slip moment; the errors name their fields.
+twisted = H1;
+twisted.torsion = struct('rig_compliance', 0);
+record = struct('twist', 1e3 * u, 'twisting_moment', 1e-4 * fx);
+tl = mdr.analyze_loops(record, 'normal_force', 100, 'scene', twisted);
+check(numel(tl.cycles) == 2 && isnan(tl.cycles(1).friction_coefficient), 'a torsional record');
+check(tl.cycles(1).full_slip_moment > tl.cycles(1).force_amplitude, 'the full-slip moment');
+check(strcmp(tl.cycles(1).regime, 'REGIME_PARTIAL_SLIP'), 'a torsional regime');
+check(abs(tl.cycles(1).force_amplitude - 1e-4 * loops.cycles(1).force_amplitude) < 1e-15, ...
+      'M* is the moment column''s Q*');
+both = record;
+both.displacement = u;
+expect_error(@() mdr.analyze_loops(both), 'mdr:invalidArgument', 'samples.twist', ...
+             'a record of both pairs');
+expect_error(@() mdr.analyze_loops(record, 'normal_force', 100, 'scene', H1), ...
+             'mdr:invalidArgument', 'scene.torsion', 'a torsional record with a tangential scene');
+expect_error(@() mdr.analyze_loops(struct('twist', u, 'moment', fx)), 'mdr:invalidArgument', ...
+             'record.moment: unknown field', 'an unknown record field');
+expect_error(@() mdr.fit_loops(twisted, set, free), 'mdr:invalidArgument', 'sets[0].samples', ...
+             'a tangential set in a torsional fit');
+tb = mdr.backbone(twisted, 100, [1e-4 1e-3], 'actuator_displacement');
+check(numel(tb.loops) == 2 && tb.loops(2).force_amplitude > tb.loops(1).force_amplitude, ...
+      'the torsional backbone');
 printf('package_test: all checks passed\n');

@@ -6,6 +6,9 @@ function r = backbone(scene, normal_force, amplitudes, kind)
 %   r = mdr.backbone(scene, FN, amplitudes, 'actuator_displacement')   amplitudes in m, > 0
 %   r.loops(k): force_amplitude (N), actuator_amplitude (m), dissipated_energy (J),
 %   secant_stiffness (N/m), damping_ratio, energy_ratio, ...
+%   A scene with torsion gives the torsional backbone: 'force' amplitudes are M* in N m (below the
+%   full-slip moment), 'actuator_displacement' ones the twist in rad through the shaft
+%   (scene.torsion.rig_compliance); the loops' figures in rad, N m and N m/rad.
   if nargin < 4, kind = 'force'; end
   kinds = struct('force', 'AMPLITUDE_KIND_FORCE', ...
                  'actuator_displacement', 'AMPLITUDE_KIND_ACTUATOR_DISPLACEMENT');

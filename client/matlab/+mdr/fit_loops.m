@@ -8,16 +8,21 @@ function r = fit_loops(scene, sets, free, varargin)
 %     sets   struct array, one per run: displacement (m), tangential_force (N), normal_force (N:
 %            one number, the declared constant load, or one value per sample, replayed as
 %            measured), optionally time (s) and declared_normal_force (N, checked against a
-%            measured column)
+%            measured column). A scene with torsion makes the fit torsional: each set has twist
+%            (rad) and twisting_moment (N m) instead, replayed through the exact torsional memory
+%            at its constant normal force behind the shaft (scene.torsion.rig_compliance)
 %     free   struct array: parameter ('friction', 'effective_modulus' (Pa), 'profile_scale' (m),
-%            'rig_compliance' (m/N), 'displacement_offset' (m)), lower, upper, optionally initial
+%            'rig_compliance' (m/N; torsional: rad/(N m)), 'displacement_offset' (m; torsional:
+%            rad), 'torsional_modulus' (G_t in Pa, torsional fits)), lower, upper, optionally
+%            initial
 %   options: 'progress' (@(p) ...: p.iteration, p.residual_rms (N), p.values; return true to
 %            stop: then an mdr:cancelled error), 'burn_in_reversals', 'reversal_threshold' (m),
 %            'max_iterations', 'nuisances' (struct: force_offset, displacement_drift,
 %            moving_mass), 'displacement_noise' (m), 'force_noise' (N), 'include_models'
 %
 %   r.estimates(k): parameter, value, standard_error, lower_95, upper_95, identified;
-%   r.adequate, r.identified, r.sets(k) (noise, reduced_chi_square, misfit, ...), r.nuisances, ...
+%   r.adequate, r.identified, r.sets(k) (noise, reduced_chi_square, misfit, ...), r.nuisances,
+%   r.fitted_scene (a torsional fit's torsion.torsional_modulus and rig_compliance), ...
   o = mdr.internal.name_value(struct('progress', [], 'burn_in_reversals', [], 'reversal_threshold', [], ...
                         'max_iterations', [], 'nuisances', [], 'displacement_noise', [], ...
                         'force_noise', [], 'include_models', []), varargin, 'mdr.fit_loops');
@@ -38,8 +43,7 @@ function r = fit_loops(scene, sets, free, varargin)
 end
 
 function out = loop_set(set)
-  samples = struct('displacement', mdr.internal.json_array(set.displacement), ...
-                   'tangential_force', mdr.internal.json_array(set.tangential_force));
+  samples = mdr.internal.loop_columns(set, struct());
   out = struct();
   if isfield(set, 'normal_force') && isscalar(set.normal_force)
     out.normal_force = set.normal_force;

@@ -28,6 +28,14 @@ Measured friction loops of a test rig (docs/analysis.md; SI units, numpy arrays 
     m = client.fretting_map(scene, [50, 100, 200], [0.5, 1.5])   # m.regime: (3, 2) strings
     b = client.backbone(scene, 100, np.linspace(1, 30, 30))      # b.damping_ratio over Q* (N)
 
+A torsional record (a ball twisted on a flat; rad and N m) and a scene with "torsion":
+
+    r = client.analyze_loops(twist=phi, twisting_moment=m, normal_force=100, scene=twisted)
+    r.force_amplitude, r.full_slip_moment, r.regime                # M* and M_slip in N m
+    fit = client.fit_loops(twisted, [(phi1, m1, 50), (phi2, m2, 200)],
+                           {"friction": {...}, "torsional_modulus": {...},
+                            "rig_compliance": {...}})               # the shaft in rad/(N m)
+
 The generated API modules are mdr.v1.*_pb2 (messages) and mdr.v1.contact_service_pb2_grpc.
 """
 from .analysis import (FIT_PARAMETERS, NUISANCES, BackboneResult, Estimate, Figures,

@@ -1,6 +1,9 @@
 """The analysis of measured friction loops (docs/analysis.md): requests of AnalyzeLoops, FitLoops,
 FrettingMap and Backbone from numpy arrays, and their answers as numpy arrays. All values are SI
-(m, N, J, s, N/m, Pa, m/N). Client's analyze_loops, fit_loops, fretting_map and backbone use it.
+(m, N, J, s, N/m, Pa, m/N). A torsional record (a ball twisted on a flat: twist in rad, twisting
+moment in N m) keeps every figure's definition with phi for u and M for F_x, so its figures are
+in rad, N m, J and N m/rad and its compliance in rad/(N m) (docs/analysis.md, "Torsional
+records"). Client's analyze_loops, fit_loops, fretting_map and backbone use it.
 """
 from __future__ import annotations
 
@@ -18,7 +21,7 @@ from mdr.v1 import scene_pb2
 from .messages import SceneLike, to_scene
 
 # FitParameter values by name: "friction", "effective_modulus", "profile_scale",
-# "rig_compliance", "displacement_offset".
+# "rig_compliance", "displacement_offset", "torsional_modulus".
 _PARAMETERS = {value.name.removeprefix("FIT_PARAMETER_").lower(): value.number
                for value in an.FitParameter.DESCRIPTOR.values if value.number != 0}
 _PARAMETER_NAMES = {number: name for name, number in _PARAMETERS.items()}
@@ -86,13 +89,15 @@ def _pack_doubles(message, field: str, array: np.ndarray) -> None:
     message.MergeFromString(_varint(number << 3 | 2) + _varint(len(payload)) + payload)
 
 
-def loop_samples(displacement, tangential_force, normal_force=None, time=None,
-                 prefix: str = "") -> an.LoopSamples:
-    """A LoopSamples from columns, one value per sample: displacement u (m), tangential_force
-    F_x (N), optionally normal_force F_N (N) and time t (s). Lengths and values are checked by
-    the server, which names the column or the sample."""
+def loop_samples(displacement=None, tangential_force=None, normal_force=None, time=None,
+                 prefix: str = "", *, twist=None, twisting_moment=None) -> an.LoopSamples:
+    """A LoopSamples from columns, one value per sample: displacement u (m) and tangential_force
+    F_x (N), or for a torsional record twist phi (rad) and twisting_moment M (N m); optionally
+    normal_force F_N (N) and time t (s). Every given column is sent: the server checks lengths,
+    values and that a record holds one pair, not both, and names the column or the sample."""
     samples = an.LoopSamples()
     columns = (("displacement", displacement), ("tangential_force", tangential_force),
+               ("twist", twist), ("twisting_moment", twisting_moment),
                ("normal_force", normal_force), ("time", time))
     for name, values in columns:
         if values is not None:
@@ -100,7 +105,8 @@ def loop_samples(displacement, tangential_force, normal_force=None, time=None,
     return samples
 
 
-def analyze_request(displacement, tangential_force, normal_force=None, time=None, *,
+def analyze_request(displacement=None, tangential_force=None, normal_force=None, time=None, *,
+                    twist=None, twisting_moment=None,
                     scene: Optional[SceneLike] = None, rig_compliance: Optional[float] = None,
                     reversal_threshold: float = 0.0, displacement_resolution: float = 0.0,
                     closure_tolerance: Optional[float] = None,
@@ -110,7 +116,8 @@ def analyze_request(displacement, tangential_force, normal_force=None, time=None
     """The AnalyzeLoopsRequest of Client.analyze_loops (its arguments)."""
     constant = normal_force is not None and np.ndim(normal_force) == 0
     request = an.AnalyzeLoopsRequest(samples=loop_samples(
-        displacement, tangential_force, None if constant else normal_force, time))
+        displacement, tangential_force, None if constant else normal_force, time, twist=twist,
+        twisting_moment=twisting_moment))
     options = request.options
     if constant:
         options.normal_force = _number("normal_force", normal_force)
@@ -128,48 +135,52 @@ def analyze_request(displacement, tangential_force, normal_force=None, time=None
     return request
 
 
-_SET_KEYS = ("displacement", "tangential_force", "normal_force", "time",
-             "declared_normal_force")
+_SET_KEYS = ("displacement", "tangential_force", "twist", "twisting_moment", "normal_force",
+             "time", "declared_normal_force")
+# A set's loop columns by channel: a tuple's first two items, a dict's keys.
+_PAIRS = {False: ("displacement", "tangential_force"), True: ("twist", "twisting_moment")}
 
 
-def _loop_set(index: int, item) -> an.FitLoopsRequest.LoopSet:
-    """One loop set: (displacement, tangential_force, normal_force[, time]), a dict with those
-    keys (and optionally declared_normal_force), or a FitLoopsRequest.LoopSet. normal_force is
-    one number (the set's constant load, N) or an array (the measured normal force, replayed as
-    measured; declared_normal_force is then checked against it)."""
+def _loop_set(index: int, item, torsional: bool = False) -> an.FitLoopsRequest.LoopSet:
+    """One loop set: (displacement, tangential_force, normal_force[, time]) (a torsional fit's:
+    (twist, twisting_moment, normal_force[, time])), a dict with those keys (and optionally
+    declared_normal_force), or a FitLoopsRequest.LoopSet. normal_force is one number (the set's
+    constant load, N) or an array (the measured normal force, replayed as measured;
+    declared_normal_force is then checked against it)."""
     if isinstance(item, an.FitLoopsRequest.LoopSet):
         return item
     name = f"sets[{index}]"
+    pair = _PAIRS[torsional]
+    columns = {}
     declared = None
-    time = None
     if isinstance(item, Mapping):
         unknown = sorted(set(item) - set(_SET_KEYS))
         if unknown:
             raise ValueError(f"{name}: unknown key {unknown[0]!r} (a set has "
                              f"{', '.join(_SET_KEYS)})")
-        missing = [key for key in ("displacement", "tangential_force", "normal_force")
-                   if key not in item]
-        if missing:
-            raise ValueError(f"{name} needs {missing[0]}")
-        displacement, force, load = (item["displacement"], item["tangential_force"],
-                                     item["normal_force"])
-        time, declared = item.get("time"), item.get("declared_normal_force")
+        if "normal_force" not in item:
+            raise ValueError(f"{name} needs normal_force")
+        if not any(key in item for key in _PAIRS[False] + _PAIRS[True]):
+            raise ValueError(f"{name} needs {' and '.join(pair)}")
+        columns = {key: item[key] for key in _PAIRS[False] + _PAIRS[True] if key in item}
+        load, time, declared = item["normal_force"], item.get("time"), item.get(
+            "declared_normal_force")
     else:
+        shape = f"({', '.join(pair)}, normal_force[, time])"
         try:
-            displacement, force, load, *rest = item
+            position, force, load, *rest = item
         except (TypeError, ValueError):
-            raise ValueError(f"{name} must be (displacement, tangential_force, normal_force"
-                             f"[, time]) or a dict of them") from None
+            raise ValueError(f"{name} must be {shape} or a dict of them") from None
         if len(rest) > 1:
-            raise ValueError(f"{name} must be (displacement, tangential_force, normal_force"
-                             f"[, time]), got {len(rest) + 3} items")
+            raise ValueError(f"{name} must be {shape}, got {len(rest) + 3} items")
+        columns = dict(zip(pair, (position, force)))
         time = rest[0] if rest else None
     column = np.ndim(load) != 0
     if not column and declared is not None:
         raise ValueError(f"{name}.declared_normal_force needs normal_force as a column")
     loop_set = an.FitLoopsRequest.LoopSet(
-        samples=loop_samples(displacement, force, load if column else None, time,
-                             prefix=f"{name}.samples."))
+        samples=loop_samples(normal_force=load if column else None, time=time,
+                             prefix=f"{name}.samples.", **columns))
     if not column:
         loop_set.normal_force = _number(f"{name}.normal_force", load)
     elif declared is not None:
@@ -236,7 +247,9 @@ def fit_request(scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int
                                  reversal_threshold=_number("reversal_threshold",
                                                             reversal_threshold),
                                  include_models=bool(include_models))
-    request.sets.extend(_loop_set(i, item) for i, item in enumerate(sets))
+    # The scene decides a tuple's columns: with torsion, (twist, twisting_moment, ...).
+    torsional = request.scene.HasField("torsion")
+    request.sets.extend(_loop_set(i, item, torsional) for i, item in enumerate(sets))
     request.free.extend(free_parameters(free))
     for name, value in (("burn_in_reversals", burn_in_reversals),
                         ("max_iterations", max_iterations)):
@@ -340,7 +353,8 @@ def figures_of(messages: Sequence, message_type, shape: Optional[tuple] = None,
 class Estimate(NamedTuple):
     """One fitted parameter: its value, standard error and 95 % interval in the parameter's unit
     (friction: 1; effective_modulus: Pa; profile_scale: m for a sphere's radius;
-    rig_compliance: m/N; displacement_offset: m), and whether the data identify it."""
+    rig_compliance: m/N; displacement_offset: m; a torsional fit's rig_compliance: rad/(N m),
+    displacement_offset: rad, torsional_modulus: Pa), and whether the data identify it."""
     value: float
     standard_error: float
     lower_95: float
@@ -350,8 +364,8 @@ class Estimate(NamedTuple):
 
 class NuisanceFit(NamedTuple):
     """One fitted nuisance: its name ("force_offset" N, "displacement_offset" m,
-    "displacement_drift" m over the set, "moving_mass" kg), the set it belongs to (None: the
-    fit's), value, standard error and Wald 95 % interval, whether the data determine it, and its
+    "displacement_drift" m over the set, "moving_mass" kg; a torsional fit's in N m, rad, rad and
+    kg m^2), the set it belongs to (None: the fit's), value, standard error and Wald 95 % interval, whether the data determine it, and its
     effect: {free parameter: how far the estimate would move if the nuisance were held at zero}."""
     name: str
     set: Optional[int]
@@ -387,7 +401,12 @@ class LoopAnalysisResult:
     sliding_ratio, secant_stiffness, stiffness_increasing, stiffness_decreasing), or None without
     rig_compliance. flags: closure_error, not_closed, asymmetry, asymmetric, hook_ratio, hooked.
     regime ("sticking", "partial_slip", "gross_slip") and onset_system_free_ratio (the scene's C
-    at the onset of gross slip): with a scene, else None. reversals: the sample indices of every
+    at the onset of gross slip): with a scene, else None. torsional: the record was torsional
+    (twist, twisting_moment): every figure is then in rad and N m (force_amplitude M*,
+    half_opening and displacement_amplitude in rad, stiffnesses in N m/rad), its
+    friction_coefficient and energy_friction_coefficient are NaN (M*/P is a length), and with a
+    scene full_slip_moment (N m, the scene's at each cycle's normal force) takes the place of
+    onset_system_free_ratio (None otherwise). reversals: the sample indices of every
     reversal; reversal_threshold: the one used (m). measures: figure name -> "contact" (the
     same whatever the rig) or "contact+rig" (biased by the rig), "contact.*" for the contact
     figures. friction_drift: the relative change of mu (or Q*) across the run, friction_drifts
@@ -398,6 +417,8 @@ class LoopAnalysisResult:
     flags: Figures
     regime: Optional[np.ndarray]
     onset_system_free_ratio: Optional[np.ndarray]
+    full_slip_moment: Optional[np.ndarray]
+    torsional: bool
     reversals: np.ndarray
     reversal_threshold: float
     measures: dict
@@ -413,22 +434,28 @@ class LoopAnalysisResult:
         return len(self.raw.cycles)
 
     @classmethod
-    def of(cls, response: an.AnalyzeLoopsResponse) -> "LoopAnalysisResult":
+    def of(cls, response: an.AnalyzeLoopsResponse,
+           torsional: bool = False) -> "LoopAnalysisResult":
+        """The result of a response; torsional: the request's record was (twist,
+        twisting_moment), which the response does not repeat."""
         cycles = response.cycles
         classified = any(c.regime != an.REGIME_UNSPECIFIED for c in cycles)
         figures = figures_of(cycles, an.CycleFigures,
-                             skip=("regime", "onset_system_free_ratio"))
+                             skip=("regime", "onset_system_free_ratio", "full_slip_moment"))
         contact = (figures_of([c.contact for c in cycles], an.ContactFigures)
                    if cycles and all(c.HasField("contact") for c in cycles) else None)
         flags = figures_of([c.flags for c in cycles], an.LoopFlags)
-        regime = onset = None
+        regime = onset = slip = None
         if classified:
             regime = _array([c.regime for c in cycles],
                             an.CycleFigures.DESCRIPTOR.fields_by_name["regime"])
-            onset = np.array([c.onset_system_free_ratio for c in cycles])
+            if torsional:
+                slip = np.array([c.full_slip_moment for c in cycles])
+            else:
+                onset = np.array([c.onset_system_free_ratio for c in cycles])
         measures = {name: _MEASURES.get(value, _enum_name(an.Measures.DESCRIPTOR, value))
                     for name, value in sorted(response.measures.items())}
-        return cls(figures, contact, flags, regime, onset,
+        return cls(figures, contact, flags, regime, onset, slip, bool(torsional),
                    np.array(response.reversals, dtype=np.int64), response.reversal_threshold,
                    measures, response.friction_drift, response.friction_drifts, response)
 
@@ -579,8 +606,9 @@ class FrettingMapResult:
 class BackboneResult:
     """Backbone's answer: loops, every LoopFigures field as an array over the amplitudes, also
     read as attributes (secant_stiffness Q*/delta* in N/m, damping_ratio Ed/(2 pi Q* delta*),
-    force_amplitude Q* in N, actuator_amplitude delta* in m ...); amplitudes and kind: the
-    request's ("force": N, "actuator_displacement": m); raw: the BackboneResponse."""
+    force_amplitude Q* in N, actuator_amplitude delta* in m ...; a torsional scene's M* in N m,
+    twists in rad, N m/rad); amplitudes and kind: the request's ("force": N or N m,
+    "actuator_displacement": m or rad); raw: the BackboneResponse."""
     amplitudes: np.ndarray
     kind: str
     loops: Figures
@@ -611,7 +639,8 @@ class AnalysisCalls(abc.ABC):
              timeout: Optional[float]) -> an.FitResult:
         """The FitResult of request; on_progress(FitProgress) while the fit runs."""
 
-    def analyze_loops(self, displacement, tangential_force, normal_force=None, time=None, *,
+    def analyze_loops(self, displacement=None, tangential_force=None, normal_force=None,
+                      time=None, *, twist=None, twisting_moment=None,
                       scene: Optional[SceneLike] = None, rig_compliance: Optional[float] = None,
                       reversal_threshold: float = 0.0, displacement_resolution: float = 0.0,
                       closure_tolerance: Optional[float] = None,
@@ -621,21 +650,28 @@ class AnalysisCalls(abc.ABC):
         """The figures of every complete cycle of a run (AnalyzeLoops).
 
         displacement u (m) and tangential_force F_x (N): one value per sample (sequences or numpy
-        arrays); normal_force F_N (N): one value per sample, or one number for a constant load
-        that was not measured; time t (s): one per sample, strictly increasing. scene (a Scene,
-        dict or scene file): classifies each cycle against the scene's onset of gross slip at
-        the cycle's normal force (which must then be given). rig_compliance C_t (m/N): adds the
-        contact's own figures. reversal_threshold (m; 0: 5 % of the median peak-to-peak
-        displacement), displacement_resolution (m: narrower loops stick, their C is NaN), the
-        flag tolerances (None: the service's defaults). The service's checks of lengths and
-        values name them (MdrError, field "samples.displacement[12]")."""
+        arrays); or a torsional record (a ball twisted on a flat), twist phi (rad) and
+        twisting_moment M (N m) as keywords instead: every figure keeps its definition with phi
+        for u and M for F_x (result.torsional). normal_force F_N (N): one value per sample, or one
+        number for a constant load that was not measured; time t (s): one per sample, strictly
+        increasing. scene (a Scene, dict or scene file): classifies each cycle against the
+        scene's onset of gross slip at the cycle's normal force (which must then be given); a
+        torsional record's scene has torsion and classifies against its full-slip moment
+        (result.full_slip_moment). rig_compliance C_t (m/N; torsional: the shaft's, rad/(N m)):
+        adds the contact's own figures. reversal_threshold (m, rad; 0: 5 % of the median
+        peak-to-peak displacement), displacement_resolution (m, rad: narrower loops stick, their
+        C is NaN), the flag tolerances (None: the service's defaults). The service's checks name
+        the field (MdrError, field "samples.displacement[12]", "samples.twist" for a record of
+        both pairs, "scene.torsion" for a scene of the other kind)."""
         request = analyze_request(
-            displacement, tangential_force, normal_force, time, scene=scene,
+            displacement, tangential_force, normal_force, time, twist=twist,
+            twisting_moment=twisting_moment, scene=scene,
             rig_compliance=rig_compliance, reversal_threshold=reversal_threshold,
             displacement_resolution=displacement_resolution,
             closure_tolerance=closure_tolerance, asymmetry_tolerance=asymmetry_tolerance,
             hook_tolerance=hook_tolerance, drift_tolerance=drift_tolerance)
-        return LoopAnalysisResult.of(self._analyze("AnalyzeLoops", request))
+        torsional = len(request.samples.twist) > 0 or len(request.samples.twisting_moment) > 0
+        return LoopAnalysisResult.of(self._analyze("AnalyzeLoops", request), torsional)
 
     def fit_loops(self, scene: SceneLike, sets, free, *, burn_in_reversals: Optional[int] = None,
                   reversal_threshold: float = 0.0, max_iterations: int = 0, nuisances=(),
@@ -648,10 +684,16 @@ class AnalysisCalls(abc.ABC):
         sets: 1 to 64 loop sets, each (displacement in m, tangential_force in N, normal_force
         in N[, time in s]) or a dict with those keys: normal_force one number (the set's constant
         load) or an array (the measured normal force, replayed as measured; a dict's
-        declared_normal_force is then checked against it). free: {"friction": {"lower": 0.1,
-        "upper": 1, "initial": 0.4}, "rig_compliance": {...}, ...} (initial optional: the
-        scene's value), or a list of such dicts with a "parameter" key; names: friction,
-        effective_modulus (Pa), profile_scale (m), rig_compliance (m/N), displacement_offset (m).
+        declared_normal_force is then checked against it). A scene with torsion makes the fit
+        torsional: each set is then (twist in rad, twisting_moment in N m, normal_force[, time])
+        or a dict with the keys twist and twisting_moment, replayed through the exact torsional
+        memory at its constant normal force (a column's mean) behind the shaft's compliance
+        (scene.torsion.rig_compliance). free: {"friction": {"lower": 0.1, "upper": 1,
+        "initial": 0.4}, "rig_compliance": {...}, ...} (initial optional: the scene's value), or
+        a list of such dicts with a "parameter" key; names: friction, effective_modulus (Pa),
+        profile_scale (m), rig_compliance (m/N; torsional: rad/(N m)), displacement_offset (m;
+        torsional: rad), torsional_modulus (G_t in Pa, torsional fits; the fitted scene's
+        torsion carries it and the shaft).
         burn_in_reversals: residuals count from this reversal of each set on (None: 2);
         reversal_threshold in m (0: automatic); max_iterations (0: 200). nuisances: any of
         "force_offset", "displacement_drift" (per set) and "moving_mass" (needs time); every
@@ -683,6 +725,9 @@ class AnalysisCalls(abc.ABC):
                  kind: str = "force") -> BackboneResult:
         """Secant stiffness and damping ratio of the exact steady loops against amplitude at one
         normal force in N (Backbone). kind: "force" (amplitudes Q* in N, in (0, mu F_N]) or
-        "actuator_displacement" (amplitudes in m, > 0); 1 to 1000 amplitudes."""
+        "actuator_displacement" (amplitudes in m, > 0); 1 to 1000 amplitudes. A scene with
+        torsion gives the torsional backbone: "force" amplitudes are M* in N m (below the
+        full-slip moment), "actuator_displacement" ones the twist in rad through the shaft
+        (scene.torsion.rig_compliance); the loops' figures are in rad and N m."""
         request = backbone_request(scene, normal_force, amplitudes, kind)
         return BackboneResult.of(request, self._analyze("Backbone", request))

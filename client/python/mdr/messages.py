@@ -17,10 +17,12 @@ from mdr.v1 import scene_file_pb2, scene_pb2
 SceneLike = Union[scene_pb2.Scene, Mapping, str, os.PathLike]
 StepLike = Union[scene_pb2.Step, Mapping]
 
-# Per-step state fields, in the order of ContactState.
+# Per-step state fields, in the order of ContactState (a torsional session's twist in rad,
+# twisting_moment and full_slip_moment in N m; 0 in other sessions).
 STATE_FIELDS = ("depth", "tangential_displacement", "contact_radius", "normal_force",
                 "tangential_force", "dissipated_energy", "friction_limit", "applied_steps",
-                "memory_vertices", "actuator_displacement", "actuator_depth")
+                "memory_vertices", "actuator_displacement", "actuator_depth", "twist",
+                "twisting_moment", "full_slip_moment")
 
 
 def _json_numbers(data):
