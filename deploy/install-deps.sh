@@ -10,13 +10,13 @@ set -euo pipefail
 RUNTIME_PACKAGES=(
   ca-certificates libgrpc++1.51 libgrpc29 libprotobuf32 libgsl27 libgslcblas0 libspdlog1.10 libfmt9
   libabsl20220623 libc-ares2 libre2-9 libssl3 libsqlite3-0 libyaml-cpp0.7 libcpp-httplib0.11
-  libmatio11
+  libmatio11 libfftw3-double3
 )
 COMPILE_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libgrpc++-dev protobuf-compiler-grpc protobuf-compiler libprotobuf-dev
   libeigen3-dev libgsl-dev libspdlog-dev libgtest-dev libgmock-dev
-  libcli11-dev libyaml-cpp-dev libsqlite3-dev libcpp-httplib-dev libmatio-dev
+  libcli11-dev libyaml-cpp-dev libsqlite3-dev libcpp-httplib-dev libmatio-dev libfftw3-dev
 )
 BUILD_PACKAGES=(
   "${COMPILE_PACKAGES[@]}" git libbenchmark-dev nlohmann-json3-dev openssl

@@ -168,9 +168,15 @@ TEST(PeriodicTest, TheSensitivitiesAreTheFiniteDifferences) {
           ExpectJacobianIsTheDifferences(config, 100, Nested(48, relative * u_s), 1e-7 * u_s);
       // In partial slip every row remembers turning points; a punch sticks whole below gross
       // slip (its rows are the stiffness alone; the waveform peaks at 1.33 of its amplitude).
-      if (!punch && relative < 1) EXPECT_GT(off_diagonal, 24);
-      if (punch && relative < 0.5) EXPECT_EQ(off_diagonal, 0);
-      if (relative > 1) EXPECT_GT(off_diagonal, 0);
+      if (!punch && relative < 1) {
+        EXPECT_GT(off_diagonal, 24);
+      }
+      if (punch && relative < 0.5) {
+        EXPECT_EQ(off_diagonal, 0);
+      }
+      if (relative > 1) {
+        EXPECT_GT(off_diagonal, 0);
+      }
     }
   }
 }
@@ -212,7 +218,9 @@ TEST(PeriodicTest, ContactsAddUp) {
     energy += one.dissipated_energy;
     for (std::size_t i = 0; i < u.size(); ++i) {
       for (std::size_t j = 0; j < u.size(); ++j) {
-        if (one.jacobian.At(i, j) != 0) EXPECT_NE(all.jacobian.At(i, j), 0);
+        if (one.jacobian.At(i, j) != 0) {
+          EXPECT_NE(all.jacobian.At(i, j), 0);
+        }
       }
     }
   }

@@ -4,7 +4,6 @@
 #include <bit>
 #include <cmath>
 #include <string>
-#include <unordered_map>
 #include <utility>
 
 #include "mdr/base/validate.h"
@@ -31,49 +30,67 @@ Status CheckSamples(std::span<const double> u) {
 }
 
 // The sample of each turning point of the path, by the bits of its displacement: a memory
-// segment's anchor is the contact's ux at the turning point, exactly that sample's value.
+// segment's anchor is the contact's ux at the turning point, exactly that sample's value. Few
+// turning points stay remembered, so a flat list searched from the latest is the fastest map.
 class TurningPoints {
  public:
   void Set(double value, std::uint32_t sample) {
-    samples_[std::bit_cast<std::uint64_t>(value)] = sample;
+    const std::uint64_t bits = std::bit_cast<std::uint64_t>(value);
+    for (auto& [key, at] : points_) {
+      if (key == bits) {
+        at = sample;
+        return;
+      }
+    }
+    points_.emplace_back(bits, sample);
   }
   const std::uint32_t* Find(double value) const {
-    const auto it = samples_.find(std::bit_cast<std::uint64_t>(value));
-    return it == samples_.end() ? nullptr : &it->second;
+    const std::uint64_t bits = std::bit_cast<std::uint64_t>(value);
+    for (auto it = points_.rbegin(); it != points_.rend(); ++it) {
+      if (it->first == bits) return &it->second;
+    }
+    return nullptr;
   }
 
  private:
-  std::unordered_map<std::uint64_t, std::uint32_t> samples_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> points_;
 };
 
-// The rows of the sensitivities, summed over contacts: per row its (column, value) entries.
+// The entries of the sensitivities, summed over contacts, compressed into rows at the end.
 class Rows {
  public:
-  explicit Rows(std::size_t samples) : rows_(samples) {}
-  void Add(std::size_t row, std::uint32_t column, double value) {
-    rows_[row].emplace_back(column, value);
+  explicit Rows(std::size_t samples) : samples_(samples) {}
+  void Add(std::uint32_t row, std::uint32_t column, double value) {
+    entries_.push_back({row, column, value});
   }
-  // Another contact's rows after this one's.
+  void Clear() { entries_.clear(); }
+  // Another contact's entries after this one's.
   void Append(const Rows& other) {
-    for (std::size_t i = 0; i < rows_.size(); ++i) {
-      rows_[i].insert(rows_[i].end(), other.rows_[i].begin(), other.rows_[i].end());
-    }
+    entries_.insert(entries_.end(), other.entries_.begin(), other.entries_.end());
   }
-  // Columns increasing, repeated columns summed.
-  PeriodicJacobian Compress() {
+  // By row (a counting sort, stable), columns increasing within a row, repeats summed in the
+  // order they were added.
+  PeriodicJacobian Compress() const {
     PeriodicJacobian j;
-    j.samples = rows_.size();
+    j.samples = samples_;
+    std::vector<std::uint32_t> start(samples_ + 1, 0);
+    for (const Entry& e : entries_) ++start[e.row + 1];
+    for (std::size_t i = 0; i < samples_; ++i) start[i + 1] += start[i];
+    std::vector<Entry> sorted(entries_.size());
+    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    for (const Entry& e : entries_) sorted[next[e.row]++] = e;
     j.row_begin.push_back(0);
-    for (auto& row : rows_) {
-      std::sort(row.begin(), row.end(),
-                [](const auto& a, const auto& b) { return a.first < b.first; });
-      for (std::size_t k = 0; k < row.size(); ++k) {
-        if (!j.column.empty() && j.column.size() > j.row_begin.back() &&
-            j.column.back() == row[k].first) {
-          j.value.back() += row[k].second;
+    for (std::size_t i = 0; i < samples_; ++i) {
+      const auto first = sorted.begin() + start[i], last = sorted.begin() + start[i + 1];
+      std::stable_sort(first, last,
+                       [](const Entry& a, const Entry& b) { return a.column < b.column; });
+      const std::size_t row_start = j.column.size();
+      for (auto it = first; it != last; ++it) {
+        if (j.column.size() > row_start && j.column.back() == it->column) {
+          j.value.back() += it->value;
         } else {
-          j.column.push_back(row[k].first);
-          j.value.push_back(row[k].second);
+          j.column.push_back(it->column);
+          j.value.push_back(it->value);
         }
       }
       j.row_begin.push_back(static_cast<std::uint32_t>(j.column.size()));
@@ -82,7 +99,12 @@ class Rows {
   }
 
  private:
-  std::vector<std::vector<std::pair<std::uint32_t, double>>> rows_;
+  struct Entry {
+    std::uint32_t row, column;
+    double value;
+  };
+  std::size_t samples_;
+  std::vector<Entry> entries_;
 };
 
 // One contact driven around the period: the start (the period's maximum, minimum and maximum
@@ -238,14 +260,14 @@ Result<PeriodicResponse> SteadyPeriod(const std::vector<Contact>& pressed,
     }
     // Recorded until a period ends where it began (its samples then repeat in every later one).
     std::vector<double> force(n);
-    Rows own(options.jacobian ? n : 0);
+    Rows own(n);
     double loss = 0;
     bool steady = false;
     int periods = options.warmup_periods;
     while (!steady && periods < options.max_periods) {
       const ContactSnapshot start = contact.Snapshot();
       std::fill(force.begin(), force.end(), 0.0);
-      own = Rows(options.jacobian ? n : 0);
+      own.Clear();
       loss = 0;
       if (Status s = marcher.Period(&force, options.jacobian ? &own : nullptr, &loss); !s.ok()) {
         return s;
@@ -265,9 +287,7 @@ Result<PeriodicResponse> SteadyPeriod(const std::vector<Contact>& pressed,
   return response;
 }
 
-Result<PeriodicResponse> SteadyPeriod(const ContactConfig& config, double normal_force,
-                                      std::span<const double> displacement,
-                                      const PeriodicOptions& options, const Interrupt& interrupt) {
+Result<Contact> PressForPeriod(const ContactConfig& config, double normal_force) {
   if (Status s = RequirePositive("normal_force", normal_force); !s.ok()) return s;
   ContactConfig tracked = config;
   tracked.track_energy = true;
@@ -279,16 +299,25 @@ Result<PeriodicResponse> SteadyPeriod(const ContactConfig& config, double normal
   press.normal_value = normal_force;
   if (Status s = contact.Apply(press); !s.ok())
     return Status(s.code(), "normal_force", s.message());
-  Result<PeriodicResponse> response =
-      SteadyPeriod(std::vector<Contact>{std::move(contact)}, displacement, options, interrupt);
-  if (!response.ok()) {
-    // The one contact's fields are the config's.
-    const Status& s = response.status();
-    const std::string prefix = "contacts[0].";
-    return s.field().rfind(prefix, 0) == 0
-               ? Status(s.code(), s.field().substr(prefix.size()), s.message())
-               : s;
-  }
+  return contact;
+}
+
+Status AsSingleContact(const Status& status) {
+  // The one contact's fields are the config's.
+  const std::string prefix = "contacts[0].";
+  return status.field().rfind(prefix, 0) == 0
+             ? Status(status.code(), status.field().substr(prefix.size()), status.message())
+             : status;
+}
+
+Result<PeriodicResponse> SteadyPeriod(const ContactConfig& config, double normal_force,
+                                      std::span<const double> displacement,
+                                      const PeriodicOptions& options, const Interrupt& interrupt) {
+  Result<Contact> contact = PressForPeriod(config, normal_force);
+  if (!contact.ok()) return contact.status();
+  Result<PeriodicResponse> response = SteadyPeriod(std::vector<Contact>{std::move(contact).value()},
+                                                   displacement, options, interrupt);
+  if (!response.ok()) return AsSingleContact(response.status());
   return response;
 }
 

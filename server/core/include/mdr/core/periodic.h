@@ -70,6 +70,13 @@ Result<PeriodicResponse> SteadyPeriod(const ContactConfig& config, double normal
                                       const PeriodicOptions& options = {},
                                       const Interrupt& interrupt = {});
 
+// The contact of `config` pressed to `normal_force` (N, > 0) at u = 0 with its energy tracked:
+// what the single-contact evaluations start from. Errors name "normal_force" or the config's
+// field.
+Result<Contact> PressForPeriod(const ContactConfig& config, double normal_force);
+// An error of the contacts' overload for one contact, its "contacts[0]." prefix dropped.
+Status AsSingleContact(const Status& status);
+
 // The same for contacts already pressed (each at its own constant depth and u = 0: an interface's
 // asperities under a shared approach, Interface::contact(i)), all driven by the same
 // displacement: the forces, losses and sensitivities summed. A contact out of contact adds
