@@ -2,6 +2,7 @@
 // name the argument and change nothing, snapshots, and no allocation in a steady fretting cycle.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -895,9 +896,8 @@ TEST_F(CapiTorsionTest, WarmTwistsAndReadsAllocateNothing) {
   EXPECT_EQ(CountAllocations([&] { cycle(MDR_TWIST_ANGLE_INCREMENT); }), 0);
   // A moment target's Newton iteration steps trial copies: those allocate (docs/capi.md).
   const double target = 0.5 * State().full_slip_moment;
-  EXPECT_GT(CountAllocations([&] {
-              EXPECT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_MOMENT, target), MDR_OK);
-            }),
+  EXPECT_GT(CountAllocations(
+                [&] { EXPECT_EQ(Step(MDR_NORMAL_HOLD, 0, MDR_TWIST_MOMENT, target), MDR_OK); }),
             0);
   EXPECT_LE(State().memory_pieces, 8u);
   mdr_torsional_state state;
@@ -1077,7 +1077,7 @@ TEST(CapiAnalysis, FitReportsProgressAndStopsWhenAsked) {
 TEST(CapiVersion, StructSizesAndRevisionAreReported) {
   EXPECT_EQ(mdr_version(), MDR_C_API_VERSION);
   EXPECT_EQ(mdr_api_revision(), MDR_C_API_REVISION);
-  EXPECT_EQ(MDR_C_API_REVISION, 3);
+  EXPECT_EQ(MDR_C_API_REVISION, 4);
   EXPECT_EQ(mdr_struct_size(MDR_STRUCT_STATE), 96u);
   EXPECT_EQ(mdr_struct_size(MDR_STRUCT_STEP_REPORT), 24u);
   EXPECT_EQ(mdr_struct_size(MDR_STRUCT_TORSIONAL_STATE), 88u);
@@ -1200,6 +1200,287 @@ TEST(CapiRandomBytes, ScenesAndSnapshotsFailCleanly) {
     }
   }
   EXPECT_GT(created, 0);  // some mutations are still valid states (a changed u inside the cone)
+}
+
+}  // namespace
+
+namespace {
+
+// ---- The harmonic-balance element (docs/dynamics.md) ----
+
+// H1 at 100 N: mu F_N = 30 N; its slip distance mu kappa delta is about 1.27 um.
+constexpr double kPressForce = 100;
+constexpr double kSlip = 1.27e-6;
+const std::vector<int32_t> kElementHarmonics = {0, 1, 2, 3};
+constexpr int kPeriodSamples = 64;
+
+// u(tau_j) of the coefficients [U_0, U_1^c, U_1^s, ...] of kElementHarmonics, summed directly.
+std::vector<double> SamplesOf(const std::vector<double>& u) {
+  std::vector<double> samples(kPeriodSamples, u[0]);
+  for (int j = 0; j < kPeriodSamples; ++j) {
+    const double tau = 2 * std::numbers::pi * j / kPeriodSamples;
+    for (std::size_t k = 1; k < kElementHarmonics.size(); ++k) {
+      const int h = kElementHarmonics[k];
+      samples[j] += u[2 * k - 1] * std::cos(h * tau) + u[2 * k] * std::sin(h * tau);
+    }
+  }
+  return samples;
+}
+
+// The coefficients of force samples, summed directly (mean; 2/N sum f cos; 2/N sum f sin).
+std::vector<double> CoefficientsOf(const std::vector<double>& f) {
+  std::vector<double> out(2 * kElementHarmonics.size() - 1, 0);
+  for (int j = 0; j < kPeriodSamples; ++j) {
+    const double tau = 2 * std::numbers::pi * j / kPeriodSamples;
+    out[0] += f[j] / kPeriodSamples;
+    for (std::size_t k = 1; k < kElementHarmonics.size(); ++k) {
+      const int h = kElementHarmonics[k];
+      out[2 * k - 1] += 2 * f[j] * std::cos(h * tau) / kPeriodSamples;
+      out[2 * k] += 2 * f[j] * std::sin(h * tau) / kPeriodSamples;
+    }
+  }
+  return out;
+}
+
+struct Evaluation {
+  std::vector<double> force, jacobian;
+  double loss = 0;
+};
+
+Evaluation Aft(const mdr_element* element, const std::vector<double>& u, bool jacobian = true) {
+  Evaluation e;
+  e.force.resize(u.size());
+  if (jacobian) e.jacobian.resize(u.size() * u.size());
+  EXPECT_EQ(mdr_element_aft(element, u.data(), u.size(), kElementHarmonics.data(),
+                            kElementHarmonics.size(), kPeriodSamples, e.force.data(),
+                            jacobian ? e.jacobian.data() : nullptr, &e.loss),
+            MDR_OK)
+      << mdr_last_error_message();
+  return e;
+}
+
+// What the element computes, stepped by hand: a contact (or the interface, its tangential force
+// the total) pressed to kPressForce, moved to the period's largest sample, its smallest and its
+// largest again, then marched two periods from there; the second one's forces and loss.
+template <typename StepTo, typename ForceOf>
+Evaluation SteppedPeriod(const std::vector<double>& samples, StepTo step_to, ForceOf force_of) {
+  const auto [lo, hi] = std::minmax_element(samples.begin(), samples.end());
+  const int top = static_cast<int>(hi - samples.begin());
+  step_to(*hi), step_to(*lo), step_to(*hi);
+  Evaluation e;
+  std::vector<double> force(kPeriodSamples);
+  for (int period = 0; period < 2; ++period) {
+    e.loss = 0;
+    for (int i = 1; i <= kPeriodSamples; ++i) {
+      const int j = (top + i) % kPeriodSamples;
+      e.loss += step_to(samples[j]);
+      force[j] = force_of();
+    }
+  }
+  e.force = CoefficientsOf(force);
+  return e;
+}
+
+void ExpectSameCoefficients(const Evaluation& element, const Evaluation& stepped) {
+  double largest = 0;
+  for (double f : stepped.force) largest = std::max(largest, std::abs(f));
+  ASSERT_EQ(element.force.size(), stepped.force.size());
+  for (std::size_t i = 0; i < stepped.force.size(); ++i) {
+    EXPECT_NEAR(element.force[i], stepped.force[i], 1e-12 * largest) << "F[" << i << "]";
+  }
+  EXPECT_NEAR(element.loss, stepped.loss, 1e-12 * stepped.loss);
+}
+
+// A displacement with inner reversals: a first harmonic of `amplitude` with a third.
+std::vector<double> Displacement(double amplitude) {
+  return {0.05 * amplitude, amplitude, 0.2 * amplitude, 0, 0.1 * amplitude, 0.3 * amplitude, 0};
+}
+
+TEST(CapiElement, IsTheContactSteppedThroughItsSteadyPeriod) {
+  mdr_element* element = nullptr;
+  ASSERT_EQ(mdr_element_create_from_text(kScene, "h1.yaml", kPressForce, &element), MDR_OK)
+      << mdr_last_error_message();
+  for (double amplitude : {0.3 * kSlip, 0.9 * kSlip, 2.5 * kSlip}) {
+    SCOPED_TRACE(amplitude / kSlip);
+    const std::vector<double> u = Displacement(amplitude);
+    mdr_contact* contact = nullptr;
+    ASSERT_EQ(mdr_contact_create_from_text(kScene, "h1.yaml", &contact), MDR_OK);
+    ASSERT_EQ(
+        mdr_contact_step(contact, MDR_NORMAL_FORCE, kPressForce, MDR_TANGENTIAL_HOLD, 0, nullptr),
+        MDR_OK);
+    const Evaluation stepped = SteppedPeriod(
+        SamplesOf(u),
+        [&](double x) {
+          mdr_step_report report{};
+          EXPECT_EQ(mdr_contact_step(contact, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, x,
+                                     &report),
+                    MDR_OK);
+          return report.dissipated;
+        },
+        [&] {
+          mdr_state state{};
+          EXPECT_EQ(mdr_contact_state(contact, &state), MDR_OK);
+          return state.tangential_force;
+        });
+    mdr_contact_destroy(contact);
+    const Evaluation first = Aft(element, u);
+    ExpectSameCoefficients(first, stepped);
+    if (amplitude > kSlip) EXPECT_NEAR(first.force[2], 0, 30);  // bounded by mu F_N
+    // The element is unchanged by a call: the same bits again, with or without the Jacobian.
+    const Evaluation again = Aft(element, u, false);
+    EXPECT_EQ(std::memcmp(first.force.data(), again.force.data(), 8 * u.size()), 0);
+    EXPECT_EQ(first.loss, again.loss);
+  }
+  mdr_element_destroy(element);
+}
+
+TEST(CapiElement, TheJacobianIsTheCentralDifferences) {
+  mdr_element* element = nullptr;
+  ASSERT_EQ(mdr_element_create_from_text(kScene, "h1.yaml", kPressForce, &element), MDR_OK);
+  for (double amplitude : {0.3 * kSlip, 0.9 * kSlip, 2.5 * kSlip}) {
+    SCOPED_TRACE(amplitude / kSlip);
+    const std::vector<double> u = Displacement(amplitude);
+    const Evaluation at = Aft(element, u);
+    const std::size_t m = u.size();
+    double largest = 0;
+    for (double d : at.jacobian) largest = std::max(largest, std::abs(d));
+    EXPECT_GT(largest, 1e7);  // of the order of the contact's stiffness, 8 a G*
+    const double h = 1e-7 * kSlip;
+    for (std::size_t b = 0; b < m; ++b) {
+      std::vector<double> plus = u, minus = u;
+      plus[b] += h, minus[b] -= h;
+      const Evaluation up = Aft(element, plus, false), down = Aft(element, minus, false);
+      for (std::size_t a = 0; a < m; ++a) {
+        EXPECT_NEAR(at.jacobian[a * m + b], (up.force[a] - down.force[a]) / (2 * h), 1e-6 * largest)
+            << "dF[" << a << "]/dU[" << b << "]";
+      }
+    }
+  }
+  mdr_element_destroy(element);
+}
+
+// Three asperities under a shared motion (docs/interfaces.md), one of them 0.5 um low.
+constexpr char kSharedMotion[] = R"(
+scene:
+  sphere: {radius: 0.01}
+  elastic_pair:
+    youngs_modulus_1: 210e9
+    poisson_ratio_1: 0.3
+    youngs_modulus_2: 210e9
+    poisson_ratio_2: 0.3
+  friction: 0.3
+  interface:
+    kind: KIND_SHARED_MOTION
+    explicit_list: {heights: [0, -0.5e-6, 0], radii: [0.01, 0.005, 0.02]}
+)";
+
+TEST(CapiElement, AnInterfacesAsperitiesAreTheInterfaceSteppedThroughItsPeriod) {
+  mdr_element* element = nullptr;
+  ASSERT_EQ(
+      mdr_element_create_from_text(kSharedMotion, "interface.yaml", 3 * kPressForce, &element),
+      MDR_OK)
+      << mdr_last_error_message();
+  mdr_interface* interface = nullptr;
+  ASSERT_EQ(mdr_interface_create_from_text(kSharedMotion, "interface.yaml", &interface), MDR_OK);
+  ASSERT_EQ(mdr_interface_step(interface, MDR_NORMAL_FORCE, 3 * kPressForce, MDR_TANGENTIAL_HOLD, 0,
+                               nullptr, nullptr, 0),
+            MDR_OK);
+  const std::vector<double> u = Displacement(1.5 * kSlip);
+  double dissipated = 0;
+  const Evaluation stepped = SteppedPeriod(
+      SamplesOf(u),
+      [&](double x) {
+        EXPECT_EQ(mdr_interface_step(interface, MDR_NORMAL_HOLD, 0, MDR_TANGENTIAL_DISPLACEMENT, x,
+                                     nullptr, nullptr, 0),
+                  MDR_OK);
+        mdr_state state{};
+        EXPECT_EQ(mdr_interface_state(interface, &state), MDR_OK);
+        const double step = state.dissipated_energy - dissipated;
+        dissipated = state.dissipated_energy;
+        return step;
+      },
+      [&] {
+        mdr_state state{};
+        EXPECT_EQ(mdr_interface_state(interface, &state), MDR_OK);
+        return state.tangential_force;
+      });
+  mdr_interface_destroy(interface);
+  const Evaluation evaluated = Aft(element, u);
+  double largest = 0;
+  for (double f : stepped.force) largest = std::max(largest, std::abs(f));
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    EXPECT_NEAR(evaluated.force[i], stepped.force[i], 1e-12 * largest) << "F[" << i << "]";
+  }
+  // The interface's loss is a difference of its running total: round-off of that total.
+  EXPECT_NEAR(evaluated.loss, stepped.loss, 1e-9 * stepped.loss);
+  mdr_element_destroy(element);
+}
+
+std::string ElementScene(const std::string& extra) { return std::string(kScene) + extra; }
+
+TEST(CapiElement, BadScenesAndCallsNameTheArgument) {
+  mdr_element* element = reinterpret_cast<mdr_element*>(1);
+  ExpectError(mdr_element_create_from_text(kScene, "h1.yaml", 0, &element), MDR_INVALID_ARGUMENT,
+              "normal_force");
+  EXPECT_EQ(element, nullptr);
+  ExpectError(mdr_element_create_from_text(kScene, "h1.yaml",
+                                           std::numeric_limits<double>::quiet_NaN(), &element),
+              MDR_INVALID_ARGUMENT, "normal_force");
+  ExpectError(mdr_element_create_from_text(ElementScene("  torsion: {}\n").c_str(), "t.yaml",
+                                           kPressForce, &element),
+              MDR_INVALID_ARGUMENT, "scene.torsion");
+  ExpectError(mdr_element_create_from_text(kContactList, "list.yaml", kPressForce, &element),
+              MDR_INVALID_ARGUMENT, "scene.interface.kind");
+  ExpectError(mdr_element_create_from_text(ElementScene("  method: METHOD_GRID\n").c_str(),
+                                           "grid.yaml", kPressForce, &element),
+              MDR_INVALID_ARGUMENT, "scene.method");
+  ExpectError(
+      mdr_element_create_from_text(ElementScene("  rig: {tangential_compliance: 1e-8}\n").c_str(),
+                                   "rig.yaml", kPressForce, &element),
+      MDR_INVALID_ARGUMENT, "scene.rig");
+  ExpectError(mdr_element_create_from_text("scene: {sphere: {radius: -1}}", "bad.yaml", kPressForce,
+                                           &element),
+              MDR_INVALID_ARGUMENT, "scene.sphere.radius");
+  ExpectError(mdr_element_create_from_text(kScene, "h1.yaml", kPressForce, nullptr),
+              MDR_INVALID_ARGUMENT, "out");
+
+  ASSERT_EQ(mdr_element_create_from_text(kScene, "h1.yaml", kPressForce, &element), MDR_OK);
+  const std::vector<double> u = Displacement(kSlip);
+  std::vector<double> force(u.size()), jacobian(u.size() * u.size());
+  auto aft = [&](const mdr_element* e, const std::vector<double>& coefficients,
+                 const std::vector<int32_t>& harmonics, int samples, double* f) {
+    return mdr_element_aft(e, coefficients.data(), coefficients.size(), harmonics.data(),
+                           harmonics.size(), samples, f, jacobian.data(), nullptr);
+  };
+  ExpectError(aft(nullptr, u, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT,
+              "element");
+  ExpectError(aft(element, u, kElementHarmonics, 64, nullptr), MDR_INVALID_ARGUMENT, "force");
+  ExpectError(aft(element, u, kElementHarmonics, 100, force.data()), MDR_INVALID_ARGUMENT,
+              "samples");
+  ExpectError(aft(element, u, kElementHarmonics, 4, force.data()), MDR_INVALID_ARGUMENT, "samples");
+  ExpectError(aft(element, u, {0, 2, 1, 3}, 64, force.data()), MDR_INVALID_ARGUMENT,
+              "harmonics[2]");
+  ExpectError(aft(element, u, {0, 1, 2, 32}, 64, force.data()), MDR_INVALID_ARGUMENT,
+              "harmonics[3]");
+  ExpectError(aft(element, {1e-6, 0}, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT,
+              "coefficients");
+  std::vector<double> bad = u;
+  bad[3] = std::numeric_limits<double>::infinity();
+  ExpectError(aft(element, bad, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT,
+              "coefficients[3]");
+  bad = u;
+  bad[0] = 2;  // every sample beyond 1 m
+  EXPECT_EQ(aft(element, bad, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(mdr_last_error_field()).find("displacement["), std::string::npos)
+      << mdr_last_error_field();
+  // Refused calls wrote nothing and changed nothing: the next good call is the first's bits.
+  std::vector<double> before(u.size());
+  ASSERT_EQ(aft(element, u, kElementHarmonics, 64, before.data()), MDR_OK);
+  ASSERT_EQ(aft(element, bad, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT);
+  ASSERT_EQ(aft(element, u, kElementHarmonics, 64, force.data()), MDR_OK);
+  EXPECT_EQ(force, before);
+  mdr_element_destroy(element);
+  mdr_element_destroy(nullptr);  // as free(NULL)
 }
 
 }  // namespace

@@ -49,8 +49,9 @@ extern "C" {
  * caller that needs revision R checks mdr_api_revision() >= R. Revision 2: the tangential
  * controls numbered 0..3 (4..6 still accepted), mdr_api_revision, mdr_struct_size, the analysis
  * (mdr_analysis_run) and mdr_buffer. Revision 3: torsional contacts (mdr_torsion, its functions,
- * mdr_twist_control, mdr_torsional_state and MDR_STRUCT_TORSIONAL_STATE). */
-#define MDR_C_API_REVISION 3
+ * mdr_twist_control, mdr_torsional_state and MDR_STRUCT_TORSIONAL_STATE). Revision 4: the
+ * harmonic-balance element (mdr_element and its functions). */
+#define MDR_C_API_REVISION 4
 
 /* Status codes: the numbers of the gRPC status codes the service answers with. */
 typedef enum mdr_status {
@@ -356,6 +357,37 @@ MDR_API int mdr_torsion_stored_energy(const mdr_torsion* torsion, double* energy
  * mdr_contact_snapshot (the service's ImportSession and mdr_torsion_restore accept it). */
 MDR_API int mdr_torsion_snapshot(const mdr_torsion* torsion, void* buffer, size_t capacity,
                                  size_t* size);
+
+/* ---- The harmonic-balance element (docs/dynamics.md) ---- */
+
+/* An opaque contact element for harmonic balance: a single contact, or an interface's asperities
+ * under a shared motion (scene.interface, KIND_SHARED_MOTION), pressed once to a constant normal
+ * force at u = 0. */
+typedef struct mdr_element mdr_element;
+
+/* Creates an element from a serialized mdr.v1.Scene (or, _from_text, a scene file's text) pressed
+ * to normal_force in N (> 0; an interface's total, its approach solved exactly). Errors name
+ * "normal_force" or "scene.<field>" (a torsional scene, the grid method, a rig and a contact
+ * list are refused). Release with mdr_element_destroy. */
+MDR_API int mdr_element_create(const void* scene, size_t size, double normal_force,
+                               mdr_element** out);
+MDR_API int mdr_element_create_from_text(const char* text, const char* name, double normal_force,
+                                         mdr_element** out);
+MDR_API void mdr_element_destroy(mdr_element* element);
+
+/* One alternating frequency-time evaluation: the tangential displacement's coefficients
+ * u(tau) = U_0 + sum_h U_h^c cos(h tau) + U_h^s sin(h tau) for the harmonics given (increasing,
+ * 0 first when present; count = 1 for harmonic 0 + 2 per other one, ordered [U_0, U_h1^c, U_h1^s,
+ * ...]) to the steady contact force's coefficients in the same form (force: count values) and,
+ * if jacobian is not NULL, dF_a/dU_b (count x count, row-major), exactly (the element is
+ * rate-independent: dF/domega = 0). samples: time samples per period, a power of two in
+ * [8, 65536] above twice the highest harmonic. dissipated_energy (may be NULL): J per period.
+ * The element is unchanged: every call starts from the pressed state, and a refused call writes
+ * nothing. Errors name element, coefficients (count), coefficients[i] (finite), harmonics[k],
+ * samples, force, or displacement[j] for a time sample beyond 1 m. */
+MDR_API int mdr_element_aft(const mdr_element* element, const double* coefficients, size_t count,
+                            const int32_t* harmonics, size_t harmonic_count, int32_t samples,
+                            double* force, double* jacobian, double* dissipated_energy);
 
 /* ---- The analysis of measured loops (docs/analysis.md, docs/capi.md "Analysis") ---- */
 

@@ -201,7 +201,9 @@ class Marcher {
   TurningPoints turning_;
 };
 
-Status CheckContact(const Contact& contact) {
+}  // namespace
+
+Status CheckPeriodicContact(const Contact& contact) {
   const ContactConfig& config = contact.config();
   if (config.method != Method::kExact) {
     return InvalidArgument("method",
@@ -219,8 +221,6 @@ Status CheckContact(const Contact& contact) {
   }
   return OkStatus();
 }
-
-}  // namespace
 
 double PeriodicJacobian::At(std::size_t i, std::size_t j) const {
   for (std::uint32_t k = row_begin[i]; k < row_begin[i + 1]; ++k) {
@@ -242,7 +242,7 @@ Result<PeriodicResponse> SteadyPeriod(const std::vector<Contact>& pressed,
                                               std::to_string(options.max_periods));
   }
   for (std::size_t i = 0; i < pressed.size(); ++i) {
-    if (Status s = CheckContact(pressed[i]); !s.ok())
+    if (Status s = CheckPeriodicContact(pressed[i]); !s.ok())
       return s.WithFieldPrefix(Indexed("contacts", i));
   }
   const std::size_t n = displacement.size();
@@ -294,6 +294,7 @@ Result<Contact> PressForPeriod(const ContactConfig& config, double normal_force)
   Result<Contact> created = Contact::Create(tracked);
   if (!created.ok()) return created.status();
   Contact contact = std::move(created).value();
+  if (Status s = CheckPeriodicContact(contact); !s.ok()) return s;
   Step press;
   press.normal = NormalControl::kForce;
   press.normal_value = normal_force;

@@ -77,6 +77,11 @@ Result<Contact> PressForPeriod(const ContactConfig& config, double normal_force)
 // An error of the contacts' overload for one contact, its "contacts[0]." prefix dropped.
 Status AsSingleContact(const Status& status);
 
+// What a periodic evaluation requires of a contact before it is driven: the exact method, no rig,
+// its energy tracked and u = 0. Errors name the config's field ("method", "rig", "track_energy")
+// or "tangential_displacement".
+Status CheckPeriodicContact(const Contact& contact);
+
 // The same for contacts already pressed (each at its own constant depth and u = 0: an interface's
 // asperities under a shared approach, Interface::contact(i)), all driven by the same
 // displacement: the forces, losses and sensitivities summed. A contact out of contact adds
