@@ -127,11 +127,18 @@ def load_library(path: Optional[str] = None) -> ctypes.CDLL:
     }
     signatures["mdr_analysis_run"] = [ctypes.c_int, ctypes.c_int, ctypes.c_char_p, size,
                                       _PROGRESS, ctypes.c_void_p, ctypes.POINTER(handle)]
+    if revision >= 4:  # the harmonic-balance element (mdr.dynamics)
+        signatures["mdr_element_create"] = [ctypes.c_char_p, size, ctypes.c_double,
+                                            ctypes.POINTER(handle)]
+        signatures["mdr_element_aft"] = [handle, dbl, size, ctypes.POINTER(ctypes.c_int32), size,
+                                         ctypes.c_int32, dbl, dbl, dbl]
     for name, arguments in signatures.items():
         getattr(lib, name).argtypes = arguments
         getattr(lib, name).restype = ctypes.c_int
     lib.mdr_contact_destroy.argtypes, lib.mdr_contact_destroy.restype = [handle], None
     lib.mdr_torsion_destroy.argtypes, lib.mdr_torsion_destroy.restype = [handle], None
+    if revision >= 4:
+        lib.mdr_element_destroy.argtypes, lib.mdr_element_destroy.restype = [handle], None
     lib.mdr_buffer_data.argtypes, lib.mdr_buffer_data.restype = [handle], ctypes.c_void_p
     lib.mdr_buffer_size.argtypes, lib.mdr_buffer_size.restype = [handle], size
     lib.mdr_buffer_destroy.argtypes, lib.mdr_buffer_destroy.restype = [handle], None
@@ -148,6 +155,15 @@ def _code_of(number: int) -> grpc.StatusCode:
         if code.value[0] == number:
             return code
     return grpc.StatusCode.UNKNOWN
+
+
+def check(lib: ctypes.CDLL, status: int) -> None:
+    """Raises the calling thread's last libmdr_c error as an MdrError unless status is 0."""
+    if status == 0:
+        return
+    field = lib.mdr_last_error_field().decode()
+    message = lib.mdr_last_error_message().decode()
+    raise MdrError(_code_of(status), field, _without_prefix(message, field) if field else message)
 
 
 class InProcessClient(analysis.AnalysisCalls):
@@ -170,12 +186,7 @@ class InProcessClient(analysis.AnalysisCalls):
             session.delete()
 
     def _check(self, status: int) -> None:
-        if status == 0:
-            return
-        field = self._lib.mdr_last_error_field().decode()
-        message = self._lib.mdr_last_error_message().decode()
-        raise MdrError(_code_of(status), field,
-                       _without_prefix(message, field) if field else message)
+        check(self._lib, status)
 
     # The analysis: mdr_analysis_run on the serialized request, the service's own operations.
     _ANALYSES = {"AnalyzeLoops": (1, an.AnalyzeLoopsResponse), "FitLoops": (2, an.FitResult),
