@@ -71,14 +71,14 @@ class ContactElementTest(unittest.TestCase):
         with mdr.Client.embedded(in_process=True, library=ARGS.library) as local, \
                 local.session(H1) as session:
             session.apply({"normal_force": PRESS})
-            session.apply([{"tangential_displacement": float(x)}
+            session.apply([{"displacement": float(x)}
                            for x in (u[top], u.min(), u[top])])
             for period in range(2):
                 before = session.query().state.dissipated_energy
                 for i in range(1, SAMPLES + 1):
                     j = (top + i) % SAMPLES
                     force[j] = session.apply(
-                        {"tangential_displacement": float(u[j])}).state.tangential_force
+                        {"displacement": float(u[j])}).state.tangential_force
                 loss = session.query().state.dissipated_energy - before
         return coefficients_of(force), loss
 
