@@ -12,8 +12,8 @@
 // writes DIR/frf.csv (the continuation's branches at three excitation levels, H = 7) and
 // DIR/check.csv (five frequencies per level: the time integration's steady amplitude beside the
 // harmonic-balance amplitude at H = 1, 3, 5, 7). With --check it exits 1 unless every H = 7
-// amplitude lies within 1e-3 of the time integration's and the largest H = 7 error is below the
-// largest H = 1 one.
+// amplitude lies within 1e-3 of the time integration's and the largest error shrinks from H = 1
+// to 3, 5 and 7.
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
 
@@ -23,6 +23,7 @@
 #include <complex>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -36,7 +37,7 @@ namespace {
 using mdr::AftResponse;
 using mdr::Contact;
 constexpr double kPi = std::numbers::pi;
-constexpr int kSamples = 256;  // AFT samples per period
+constexpr int kSamples = 1024;  // AFT samples per period (256 alias to about 5e-5 of x)
 
 struct Oscillator {
   double mass = 1;         // kg
@@ -113,8 +114,8 @@ class Balance {
   static double Amplitude(const Eigen::VectorXd& x) {
     const int harmonics = static_cast<int>(x.size() - 1) / 2;
     double peak = 0;
-    for (int j = 0; j < 4096; ++j) {
-      const double tau = 2 * kPi * j / 4096;
+    for (int j = 0; j < 16384; ++j) {
+      const double tau = 2 * kPi * j / 16384;
       double v = x(0);
       for (int h = 1; h <= harmonics; ++h) {
         v += x(2 * h - 1) * std::cos(h * tau) + x(2 * h) * std::sin(h * tau);
@@ -231,7 +232,9 @@ int Derivatives(double t, const double y[], double dydt[], void* data) {
 }
 
 // The steady amplitude: integrated from rest for `periods` periods, the excitation ramped up over
-// the first `ramp` of them, the largest |x| over the last one (512 points per period).
+// the first `ramp` of them, the largest |x| over the last one (kPeakSamples points).
+constexpr int kPeakSamples = 16384;
+
 double TimeAmplitude(const Oscillator& o, double force, double omega, int periods, int ramp) {
   TimeModel model{&o, o.contact, force, omega, ramp * 2 * kPi / omega};
   gsl_odeiv2_system system{Derivatives, nullptr, 2, &model};
@@ -241,8 +244,10 @@ double TimeAmplitude(const Oscillator& o, double force, double omega, int period
   const double period = 2 * kPi / omega;
   double y[2] = {0, 0}, t = 0, h = period / 512, peak = 0;
   for (int p = 0; p < periods; ++p) {
-    for (int k = 1; k <= 512; ++k) {
-      const double until = period * (p + static_cast<double>(k) / 512);
+    // The last period finely: a peak sampled every 2 pi / n is low by up to (pi / n)^2 / 2.
+    const int n = p == periods - 1 ? kPeakSamples : 512;
+    for (int k = 1; k <= n; ++k) {
+      const double until = period * (p + static_cast<double>(k) / n);
       while (t < until) {
         if (gsl_odeiv2_evolve_apply(evolve, control, step, &system, &t, until, &h, y) !=
             GSL_SUCCESS) {
@@ -268,6 +273,14 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[i], "--out") == 0 && i + 1 < argc) out = argv[++i];
     if (std::strcmp(argv[i], "--check") == 0) check = true;
   }
+  std::error_code made;
+  std::filesystem::create_directories(out, made);
+  std::FILE* f = std::fopen((out + "/frf.csv").c_str(), "w");
+  std::FILE* table = std::fopen((out + "/check.csv").c_str(), "w");
+  if (f == nullptr || table == nullptr) {
+    std::fprintf(stderr, "mdr_hb_example: cannot write frf.csv and check.csv in %s\n", out.c_str());
+    return 2;
+  }
   gsl_set_error_handler_off();
   const Oscillator o = MakeOscillator();
   const double k_total = o.stiffness + o.contact.tangential_stiffness().positive;
@@ -276,22 +289,19 @@ int main(int argc, char** argv) {
   std::printf("natural frequency (stuck) %.1f rad/s; levels 1, 5, 25 N (mu F_N = 30 N)\n", omega0);
 
   // The frequency response at H = 7.
-  if (std::FILE* f = std::fopen((out + "/frf.csv").c_str(), "w")) {
-    std::fprintf(f, "force_N,omega_rad_s,amplitude_m\n");
-    for (double level : levels) {
-      const Balance b(o, 7, level);
-      for (const auto& [omega, x] : Continue(b, o, level, 0.8 * omega0, 1.1 * omega0)) {
-        std::fprintf(f, "%g,%.10g,%.10g\n", level, omega, Balance::Amplitude(x));
-      }
+  std::fprintf(f, "force_N,omega_rad_s,amplitude_m\n");
+  for (double level : levels) {
+    const Balance b(o, 7, level);
+    for (const auto& [omega, x] : Continue(b, o, level, 0.8 * omega0, 1.1 * omega0)) {
+      std::fprintf(f, "%g,%.10g,%.10g\n", level, omega, Balance::Amplitude(x));
     }
-    std::fclose(f);
   }
+  std::fclose(f);
 
   // The check: five frequencies per level against time integration.
-  std::FILE* table = std::fopen((out + "/check.csv").c_str(), "w");
-  if (table) std::fprintf(table, "force_N,omega_rad_s,time_m,hb1_m,hb3_m,hb5_m,hb7_m\n");
+  std::fprintf(table, "force_N,omega_rad_s,time_m,hb1_m,hb3_m,hb5_m,hb7_m\n");
   bool ok = true;
-  double worst = 0, worst_h1 = 0;
+  double worst[4] = {0, 0, 0, 0};  // the largest error at H = 1, 3, 5, 7
   for (double level : levels) {
     for (double ratio : {0.85, 0.93, 0.97, 1.0, 1.05}) {
       const double omega = ratio * omega0;
@@ -317,20 +327,17 @@ int main(int argc, char** argv) {
       std::printf(
           "P %5.1f N  Omega/omega0 %.2f  time %.6e m  H=1 %.1e  H=3 %.1e  H=5 %.1e  H=7 %.1e\n",
           level, ratio, time, error[0], error[1], error[2], error[3]);
-      if (table) {
-        std::fprintf(table, "%g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g\n", level, omega, time,
-                     amplitude[0], amplitude[1], amplitude[2], amplitude[3]);
-      }
-      worst = std::max(worst, error[3]);
-      worst_h1 = std::max(worst_h1, error[0]);
+      std::fprintf(table, "%g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g\n", level, omega, time,
+                   amplitude[0], amplitude[1], amplitude[2], amplitude[3]);
+      for (int k = 0; k < 4; ++k) worst[k] = std::max(worst[k], error[k]);
       ok = ok && error[3] <= 1e-3;
     }
   }
-  // Where the response is nearly harmonic both errors are the time integration's own sampling
-  // of the peak (about 5e-5); the truncation shows in the worst case.
-  ok = ok && worst < worst_h1;
-  if (table) std::fclose(table);
-  std::printf("largest error against the time integration: H = 7 %.2e, H = 1 %.2e\n", worst,
-              worst_h1);
+  // The truncation error shrinks with H (pointwise it may not, where it is at the level of the
+  // AFT's sampling and the integration's, about 1e-7 of the amplitude).
+  ok = ok && worst[3] < worst[2] && worst[2] < worst[1] && worst[1] < worst[0];
+  std::fclose(table);
+  std::printf("largest error against the time integration: H = 1 %.1e, 3 %.1e, 5 %.1e, 7 %.1e\n",
+              worst[0], worst[1], worst[2], worst[3]);
   return check && !ok ? 1 : 0;
 }

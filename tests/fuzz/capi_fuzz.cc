@@ -17,7 +17,10 @@
 // twisted, a piece limit of 16) and checks: steps of either channel or both (refused) with any
 // control and value, a refused step leaves the snapshot's bytes, an accepted one a finite moment
 // within the full-slip moment, every state round-trips, and each kind of scene is refused by the
-// other kind's functions.
+// other kind's functions. A byte 0 from 0xD0 to 0xDF drives a harmonic-balance element
+// (mdr_element: H1, a shared-motion interface or scene bytes, pressed to a fuzzed force) through
+// fuzzed harmonics, sample counts and coefficients, and checks: an error names its field, an
+// answer is finite, bounded by 4/pi mu F_N, and the same bits on a second call.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
@@ -503,12 +506,106 @@ void Analysis(FuzzedDataProvider& input) {
   mdr_buffer_destroy(response);
 }
 
+// ---- The harmonic-balance element (mdr_element) ----
+
+constexpr char kSharedMotionText[] =
+    "scene:\n"
+    "  sphere: {radius: 0.01}\n"
+    "  elastic_pair: {youngs_modulus_1: 210e9, poisson_ratio_1: 0.3, youngs_modulus_2: 210e9,\n"
+    "                 poisson_ratio_2: 0.3}\n"
+    "  friction: 0.3\n"
+    "  interface: {kind: KIND_SHARED_MOTION,\n"
+    "              explicit_list: {heights: [0, -0.5e-6, 0], radii: [0.01, 0.005, 0.02]}}\n";
+
+// An element of H1 or of three asperities under a shared motion (mu = 0.3, so |F| <= 0.3 P at
+// every instant), pressed to a fuzzed force, or of fuzzed scene bytes (no bound known).
+mdr_element* ElementOrigin(FuzzedDataProvider& input, double* friction_limit) {
+  const int origin = input.ConsumeIntegral<std::uint8_t>() % 3;
+  const double force = input.ConsumeBool() ? 100 : AnyDouble(input);
+  mdr_element* element = reinterpret_cast<mdr_element*>(1);
+  int status = MDR_OK;
+  *friction_limit = origin == 2 ? INFINITY : 0.3 * force;
+  if (origin == 2) {
+    const std::vector<unsigned char> scene =
+        input.ConsumeBytes<unsigned char>(input.ConsumeIntegral<std::uint16_t>());
+    status = mdr_element_create(scene.data(), scene.size(), force, &element);
+  } else {
+    status = mdr_element_create_from_text(origin == 0 ? kH1Text : kSharedMotionText, "element",
+                                          force, &element);
+  }
+  CheckError(status);
+  if (status != MDR_OK && element != nullptr) Fail("a refused element with a handle");
+  if (status == MDR_OK && element == nullptr) Fail("a created element without a handle");
+  return element;
+}
+
+// Fuzzed harmonics, sample counts and coefficients: refused by name, or finite coefficients whose
+// mean and harmonics the friction limit bounds (|F_h| <= 4/pi max |f|), the same bits again on a
+// second call (the element is unchanged), and a finite loss and Jacobian.
+void ElementAft(const mdr_element* element, double friction_limit, FuzzedDataProvider& input) {
+  static constexpr std::int32_t kSamples[] = {0, 4, 8, 16, 32, 64, 100, 128, -8, 1 << 17};
+  std::vector<std::int32_t> harmonics(input.ConsumeIntegralInRange(0, 6));
+  for (std::int32_t& h : harmonics) h = input.ConsumeIntegralInRange(-2, 40);
+  if (input.ConsumeBool()) {  // mostly a valid list: increasing from 0
+    for (std::size_t k = 0; k < harmonics.size(); ++k) harmonics[k] = static_cast<int>(k);
+  }
+  std::size_t count = 0;
+  for (const std::int32_t h : harmonics) count += h == 0 ? 1 : 2;
+  if (input.ConsumeIntegral<std::uint8_t>() % 8 == 0) count = input.ConsumeIntegralInRange(0, 12);
+  std::vector<double> u(count);
+  for (double& value : u) {
+    value = input.ConsumeBool() ? input.ConsumeFloatingPointInRange<double>(-3e-6, 3e-6)
+                                : AnyDouble(input);
+  }
+  const std::int32_t samples = input.PickValueInArray(kSamples);
+  const bool with_jacobian = input.ConsumeBool();
+  std::vector<double> force(count), again(count), jacobian(count * count);
+  double loss = NAN, loss_again = NAN;
+  const int status = mdr_element_aft(element, u.data(), count, harmonics.data(), harmonics.size(),
+                                     samples, force.data(),
+                                     with_jacobian ? jacobian.data() : nullptr, &loss);
+  CheckError(status);
+  if (status != MDR_OK) return;
+  if (!std::isfinite(loss)) Fail("an element's loss that is not finite");
+  const double bound = friction_limit * (4 / M_PI) * (1 + 1e-9) + 1e-300;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!std::isfinite(force[i])) Fail("an element's force coefficient that is not finite");
+    if (std::abs(force[i]) > bound) Fail("an element's force coefficient above 4/pi mu P");
+  }
+  for (const double d : jacobian) {
+    if (!std::isfinite(d)) Fail("an element's Jacobian entry that is not finite");
+  }
+  if (mdr_element_aft(element, u.data(), count, harmonics.data(), harmonics.size(), samples,
+                      again.data(), nullptr, &loss_again) != MDR_OK ||
+      std::memcmp(force.data(), again.data(), count * sizeof(double)) != 0 ||
+      std::memcmp(&loss, &loss_again, sizeof loss) != 0) {
+    Fail("an element's second call differs from its first");
+  }
+}
+
+void Element(FuzzedDataProvider& input) {
+  CheckError(mdr_element_aft(nullptr, nullptr, 0, nullptr, 0, 64, nullptr, nullptr, nullptr));
+  double friction_limit = 0;
+  mdr_element* element = ElementOrigin(input, &friction_limit);
+  if (element == nullptr) return;
+  for (int i = 0; i < 4 && input.remaining_bytes() > 0; ++i) {
+    ElementAft(element, friction_limit, input);
+  }
+  mdr_element_destroy(element);
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, size_t size) {
   FuzzedDataProvider input(data, size);
   // Inputs whose first byte is 0xF0 or more run the analysis (mdr_analysis_run) instead.
   if (size > 0 && data[0] >= 0xF0) {
     input.ConsumeIntegral<std::uint8_t>();
     Analysis(input);
+    return 0;
+  }
+  // From 0xD0 to 0xDF a harmonic-balance element (mdr_element).
+  if (size > 0 && data[0] >= 0xD0 && data[0] < 0xE0) {
+    input.ConsumeIntegral<std::uint8_t>();
+    Element(input);
     return 0;
   }
   // From 0xE0 to 0xEF a torsional contact (mdr_torsion).
