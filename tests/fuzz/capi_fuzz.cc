@@ -561,9 +561,9 @@ void ElementAft(const mdr_element* element, double friction_limit, FuzzedDataPro
   const bool with_jacobian = input.ConsumeBool();
   std::vector<double> force(count), again(count), jacobian(count * count);
   double loss = NAN, loss_again = NAN;
-  const int status = mdr_element_aft(element, u.data(), count, harmonics.data(), harmonics.size(),
-                                     samples, force.data(),
-                                     with_jacobian ? jacobian.data() : nullptr, &loss);
+  const int status =
+      mdr_element_aft(element, u.data(), count, harmonics.data(), harmonics.size(), samples,
+                      force.data(), with_jacobian ? jacobian.data() : nullptr, &loss);
   CheckError(status);
   if (status != MDR_OK) return;
   if (!std::isfinite(loss)) Fail("an element's loss that is not finite");

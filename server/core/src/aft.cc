@@ -19,12 +19,13 @@ constexpr int kMinSamples = 8, kMaxSamples = 65536;
 
 // FFTW's real transforms of one length, planned once per process (FFTW's planner is not
 // thread-safe; executing a plan on arrays of one's own is), with the length's cosine and sine
-// table for the Jacobian's basis.
+// table for the Jacobian's basis. The plans live as long as the process: the cache is never
+// destroyed, so no thread can find a plan gone while exit runs static destructors.
 class Transforms {
  public:
   static const Transforms& Of(int n) {
     static std::mutex mutex;
-    static std::map<int, std::unique_ptr<Transforms>> plans;
+    static auto& plans = *new std::map<int, std::unique_ptr<Transforms>>;
     std::lock_guard lock(mutex);
     std::unique_ptr<Transforms>& plan = plans[n];
     if (!plan) plan.reset(new Transforms(n));
