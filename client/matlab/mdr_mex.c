@@ -10,7 +10,7 @@
  *
  * Commands (inputs after the command; outputs):
  *   'version'                                   -> [api_version, revision], release string
- *   'live'                                      -> the number of live handles
+ *   'live'                                      -> the number of live handles (of both kinds)
  *   'create', text, name                        -> handle (scene file text: YAML or JSON)
  *   'restore', bytes (uint8)                    -> handle (a SessionSnapshot)
  *   'destroy', handle
@@ -22,6 +22,9 @@
  *   'jager_weights', handle                     -> n-by-3 [r_begin, r_end, weight], edge weight
  *   'tractions', handle, radii, route           -> n-by-4 [tau, tau_error, p, p_error]
  *   'snapshot', handle                          -> uint8 row
+ *   'element_create', text, name, normal_force  -> element handle (docs/dynamics.md)
+ *   'element_aft', handle, U, harmonics, samples -> F (column), dF/dU, energy per period
+ *   'element_destroy', handle
  *   'analysis', number, request_json [, progress_function]
  *                                               -> response JSON with its numbers replaced by
  *                                                  their indices, the numbers (ExactNumbers)
@@ -36,43 +39,63 @@
 
 /* ---- The live handles ---- */
 
+/* What a handle points to: each kind has its own functions, and a handle of one kind given to
+ * the other's command is refused. */
+typedef enum { kContact, kElement } Kind;
+
 typedef struct {
-  mdr_contact** items;
+  void* pointer;
+  Kind kind;
+} Live;
+
+typedef struct {
+  Live* items;
   size_t count, capacity;
 } Handles;
 
 static Handles live = {NULL, 0, 0};
 
+static void Release(Live item) {
+  if (item.kind == kContact) {
+    mdr_contact_destroy((mdr_contact*)item.pointer);
+  } else {
+    mdr_element_destroy((mdr_element*)item.pointer);
+  }
+}
+
 static void ReleaseAll(void) {
   size_t i;
-  for (i = 0; i < live.count; ++i) mdr_contact_destroy(live.items[i]);
+  for (i = 0; i < live.count; ++i) Release(live.items[i]);
   free(live.items);
   live.items = NULL;
   live.count = live.capacity = 0;
 }
 
-static void Remember(mdr_contact* contact) {
+static void Remember(void* pointer, Kind kind) {
+  const Live item = {pointer, kind};
   if (live.count == live.capacity) {
     const size_t capacity = live.capacity == 0 ? 16 : 2 * live.capacity;
-    mdr_contact** items = (mdr_contact**)realloc(live.items, capacity * sizeof *items);
+    Live* items = (Live*)realloc(live.items, capacity * sizeof *items);
     if (items == NULL) {
-      mdr_contact_destroy(contact);
+      Release(item);
       mexErrMsgIdAndTxt("mdr:resourceExhausted", "out of memory for the handle table");
     }
     live.items = items;
     live.capacity = capacity;
   }
-  live.items[live.count++] = contact;
+  live.items[live.count++] = item;
 }
 
-/* The index of a live handle, or (size_t)-1. */
-static size_t Find(const mdr_contact* contact) {
+/* The index of a live handle of that kind, or (size_t)-1. */
+static size_t Find(const void* pointer, Kind kind) {
   size_t i;
   for (i = 0; i < live.count; ++i) {
-    if (live.items[i] == contact) return i;
+    if (live.items[i].pointer == pointer && live.items[i].kind == kind) return i;
   }
   return (size_t)-1;
 }
+
+static void Forget(size_t index) { live.items[index] = live.items[--live.count]; }
 
 /* ---- Errors ---- */
 
@@ -137,22 +160,28 @@ static int Integer(const mxArray* argument, const char* name) {
   return (int)value;
 }
 
-static mdr_contact* Handle(const mxArray* argument) {
-  mdr_contact* contact;
+/* The live handle of that kind an argument holds (an error otherwise). */
+static void* LiveHandle(const mxArray* argument, Kind kind) {
+  void* pointer;
   if (!mxIsUint64(argument) || mxGetNumberOfElements(argument) != 1) {
     mexErrMsgIdAndTxt("mdr:invalidArgument", "handle: must be a uint64 scalar from mdr_mex");
   }
-  contact = (mdr_contact*)(uintptr_t)(*(const uint64_t*)mxGetData(argument));
-  if (Find(contact) == (size_t)-1) {
+  pointer = (void*)(uintptr_t)(*(const uint64_t*)mxGetData(argument));
+  if (Find(pointer, kind) == (size_t)-1) {
     mexErrMsgIdAndTxt("mdr:invalidArgument",
-                      "handle: not a live contact (destroyed, or not made by this MEX file)");
+                      "handle: not a live %s (destroyed, or not made by this MEX file)",
+                      kind == kContact ? "contact" : "element");
   }
-  return contact;
+  return pointer;
 }
 
-static mxArray* HandleArray(mdr_contact* contact) {
+static mdr_contact* Handle(const mxArray* argument) {
+  return (mdr_contact*)LiveHandle(argument, kContact);
+}
+
+static mxArray* HandleArray(void* pointer) {
   mxArray* array = mxCreateNumericMatrix(1, 1, mxUINT64_CLASS, mxREAL);
-  *(uint64_t*)mxGetData(array) = (uint64_t)(uintptr_t)contact;
+  *(uint64_t*)mxGetData(array) = (uint64_t)(uintptr_t)pointer;
   return array;
 }
 
@@ -178,7 +207,7 @@ static void Create(mxArray* plhs[], const mxArray* prhs[]) {
   mxFree(text);
   mxFree(name);
   Check(status);
-  Remember(contact);
+  Remember(contact, kContact);
   plhs[0] = HandleArray(contact);
 }
 
@@ -186,14 +215,13 @@ static void Restore(mxArray* plhs[], const mxArray* prhs[]) {
   mdr_contact* contact = NULL;
   if (!mxIsUint8(prhs[1])) Usage("snapshot: must be a uint8 array");
   Check(mdr_contact_restore(mxGetData(prhs[1]), mxGetNumberOfElements(prhs[1]), &contact));
-  Remember(contact);
+  Remember(contact, kContact);
   plhs[0] = HandleArray(contact);
 }
 
 static void Destroy(const mxArray* prhs[]) {
   mdr_contact* contact = Handle(prhs[1]);
-  const size_t index = Find(contact);
-  live.items[index] = live.items[--live.count];
+  Forget(Find(contact, kContact));
   mdr_contact_destroy(contact);
 }
 
@@ -440,6 +468,75 @@ static void Analysis(int nrhs, mxArray* plhs[], const mxArray* prhs[]) {
   mdr_buffer_destroy(response);
 }
 
+/* ---- The harmonic-balance element (docs/dynamics.md) ---- */
+
+static void ElementCreate(mxArray* plhs[], const mxArray* prhs[]) {
+  char* text = String(prhs[1], "text");
+  char* name = String(prhs[2], "name");
+  const double normal_force = Scalar(prhs[3], "normal_force");
+  mdr_element* element = NULL;
+  const int status = mdr_element_create_from_text(text, name, normal_force, &element);
+  mxFree(text);
+  mxFree(name);
+  Check(status);
+  Remember(element, kElement);
+  plhs[0] = HandleArray(element);
+}
+
+static void ElementDestroy(const mxArray* prhs[]) {
+  mdr_element* element = (mdr_element*)LiveHandle(prhs[1], kElement);
+  Forget(Find(element, kElement));
+  mdr_element_destroy(element);
+}
+
+/* [F, dF/dU, energy]: F a column like U; dF/dU count-by-count (MATLAB's column-major array is
+ * the row-major result transposed), or empty when not asked for. */
+static void ElementAft(int nlhs, mxArray* plhs[], const mxArray* prhs[]) {
+  const mdr_element* element = (const mdr_element*)LiveHandle(prhs[1], kElement);
+  const mxArray* u = prhs[2];
+  const mxArray* h = prhs[3];
+  const int samples = Integer(prhs[4], "samples");
+  size_t count, harmonic_count, k;
+  int32_t* harmonics;
+  double energy = 0;
+  double* jacobian = NULL;
+  int status;
+  if (!mxIsDouble(u) || mxIsComplex(u)) Usage("coefficients: must be a real double vector");
+  if (!mxIsDouble(h) || mxIsComplex(h)) Usage("harmonics: must be a real double vector");
+  count = mxGetNumberOfElements(u);
+  harmonic_count = mxGetNumberOfElements(h);
+  harmonics = (int32_t*)mxMalloc((harmonic_count > 0 ? harmonic_count : 1) * sizeof *harmonics);
+  for (k = 0; k < harmonic_count; ++k) {
+    const double value = mxGetPr(h)[k];
+    if (!(value >= -1e9 && value <= 1e9) || value != (double)(int32_t)value) {
+      mxFree(harmonics);
+      mexErrMsgIdAndTxt("mdr:invalidArgument", "harmonics(%zu): must be an integer, got %g",
+                        k + 1, value);
+    }
+    harmonics[k] = (int32_t)value;
+  }
+  plhs[0] = mxCreateDoubleMatrix(count, 1, mxREAL);
+  if (nlhs > 1) {
+    plhs[1] = mxCreateDoubleMatrix(count, count, mxREAL);
+    jacobian = mxGetPr(plhs[1]);
+  }
+  status = mdr_element_aft(element, mxGetPr(u), count, harmonics, harmonic_count, samples,
+                           mxGetPr(plhs[0]), jacobian, &energy);
+  mxFree(harmonics);
+  Check(status);
+  if (jacobian != NULL) { /* row-major to column-major: transpose in place */
+    size_t a, b;
+    for (a = 0; a < count; ++a) {
+      for (b = a + 1; b < count; ++b) {
+        const double t = jacobian[a * count + b];
+        jacobian[a * count + b] = jacobian[b * count + a];
+        jacobian[b * count + a] = t;
+      }
+    }
+  }
+  if (nlhs > 2) plhs[2] = mxCreateDoubleScalar(energy);
+}
+
 void mexFunction(int nlhs, mxArray* plhs[], int nrhs, const mxArray* prhs[]) {
   char* command;
   static int registered = 0;
@@ -490,6 +587,15 @@ void mexFunction(int nlhs, mxArray* plhs[], int nrhs, const mxArray* prhs[]) {
   } else if (strcmp(command, "snapshot") == 0) {
     Arguments(nrhs, 2, "usage: mdr_mex('snapshot', handle)");
     Snapshot(plhs, prhs);
+  } else if (strcmp(command, "element_create") == 0) {
+    Arguments(nrhs, 4, "usage: mdr_mex('element_create', text, name, normal_force)");
+    ElementCreate(plhs, prhs);
+  } else if (strcmp(command, "element_aft") == 0) {
+    Arguments(nrhs, 5, "usage: mdr_mex('element_aft', handle, coefficients, harmonics, samples)");
+    ElementAft(nlhs, plhs, prhs);
+  } else if (strcmp(command, "element_destroy") == 0) {
+    Arguments(nrhs, 2, "usage: mdr_mex('element_destroy', handle)");
+    ElementDestroy(prhs);
   } else if (strcmp(command, "analysis") == 0) {
     if (nrhs != 3 && nrhs != 4) Usage("usage: mdr_mex('analysis', number, request[, progress])");
     Analysis(nrhs, plhs, prhs);

@@ -130,4 +130,63 @@ expect_error(@() mdr.fit_loops(twisted, set, free), 'mdr:invalidArgument', 'sets
 tb = mdr.backbone(twisted, 100, [1e-4 1e-3], 'actuator_displacement');
 check(numel(tb.loops) == 2 && tb.loops(2).force_amplitude > tb.loops(1).force_amplitude, ...
       'the torsional backbone');
+% The harmonic-balance element (docs/dynamics.md): its coefficients are an mdr.Contact stepped
+% through the same steady period (pressed to 100 N, moved to the period's largest sample, its
+% smallest and its largest again, then two periods from there) and summed directly; its Jacobian
+% the central differences; the element unchanged by a call; refusals named.
+h = [0 1 3];
+Nt = 64;
+U = [0.05; 1; 0.2; 0.1; -0.3] * 1.5e-6;
+tau = 2 * pi * (0:Nt-1)' / Nt;
+u = U(1) + U(2) * cos(tau) + U(3) * sin(tau) + U(4) * cos(3 * tau) + U(5) * sin(3 * tau);
+e = mdr.ContactElement(H1, 100);
+[F, dFdU, energy] = e.aft(U, h, Nt);
+c = mdr.Contact(H1);
+c.step('normal_force', 100);
+[~, top] = max(u);
+c.step('displacement', u(top));
+c.step('displacement', min(u));
+c.step('displacement', u(top));
+f = zeros(Nt, 1);
+for period = 1:2
+  loss = 0;
+  for i = 1:Nt
+    j = mod(top - 1 + i, Nt) + 1;
+    r = c.step('displacement', u(j));
+    loss = loss + r.dissipated;
+    s = c.state();
+    f(j) = s.tangential_force;
+  end
+end
+expected = [mean(f); 2 / Nt * [f' * cos(tau); f' * sin(tau); f' * cos(3 * tau); f' * sin(3 * tau)]];
+check(max(abs(F - expected)) <= 1e-12 * max(abs(expected)), 'the element is the stepped period');
+check(abs(energy / loss - 1) <= 1e-12, 'the element''s loss is the stepped period''s');
+check(isequal(size(dFdU), [5 5]), 'the Jacobian is 5 by 5');
+step = 1e-7 * 1.27e-6;
+for b = 1:5
+  d = zeros(5, 1);
+  d(b) = step;
+  numeric = (e.aft(U + d, h, Nt) - e.aft(U - d, h, Nt)) / (2 * step);
+  check(max(abs(dFdU(:, b) - numeric)) <= 1e-6 * max(abs(dFdU(:))), ...
+        sprintf('dF/dU(:, %d) is the central differences', b));
+end
+check(isequal(e.aft(U, h, Nt), F), 'a second call gives the same bits');
+expect_error(@() e.aft(U, h, 100), 'mdr:invalidArgument', 'samples', 'Nt not a power of two');
+expect_error(@() e.aft(U, [0 3 1], Nt), 'mdr:invalidArgument', 'harmonics[2]', ...
+             'harmonics not increasing');
+expect_error(@() e.aft([U; 0], h, Nt), 'mdr:invalidArgument', 'coefficients', ...
+             'a coefficient too many');
+expect_error(@() e.aft([U(1:2); NaN; U(4:5)], h, Nt), 'mdr:invalidArgument', ...
+             'coefficients[2]', 'a NaN coefficient');
+expect_error(@() mdr.ContactElement(H1, 0), 'mdr:invalidArgument', 'normal_force', ...
+             'no normal force');
+expect_error(@() mdr.ContactElement(struct('sphere', struct('radius', -1)), 100), ...
+             'mdr:invalidArgument', 'scene.sphere.radius', 'a bad scene');
+live = mdr_mex('live');
+handle = mdr_mex('element_create', mdr.internal.to_json(struct('scene', H1)), 'h1', 100);
+expect_error(@() mdr_mex('state', handle), 'mdr:invalidArgument', 'not a live contact', ...
+             'an element handle given to a contact command');
+mdr_mex('element_destroy', handle);
+clear e c
+check(mdr_mex('live') == live - 2, 'a cleared element still holds its handle');
 printf('package_test: all checks passed\n');
