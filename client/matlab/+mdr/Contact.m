@@ -41,15 +41,7 @@ classdef Contact < handle
       if nargin ~= 1
         error('mdr:invalidArgument', 'usage: mdr.Contact(scene) with a struct or a file name');
       end
-      if ischar(scene)
-        text = fileread(scene);
-        name = scene;
-      elseif isstruct(scene) && isscalar(scene)
-        text = mdr.internal.to_json(struct('scene', scene));
-        name = 'scene';
-      else
-        error('mdr:invalidArgument', 'scene: must be a struct or a scene file name');
-      end
+      [text, name] = mdr.internal.scene_text(scene);
       obj.handle = mdr_mex('create', text, name);
     end
 

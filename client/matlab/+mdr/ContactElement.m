@@ -29,15 +29,7 @@ classdef ContactElement < handle
       if nargin ~= 2
         error('mdr:invalidArgument', 'usage: mdr.ContactElement(scene, normal_force)');
       end
-      if ischar(scene)
-        text = fileread(scene);
-        name = scene;
-      elseif isstruct(scene) && isscalar(scene)
-        text = mdr.internal.to_json(struct('scene', scene));
-        name = 'scene';
-      else
-        error('mdr:invalidArgument', 'scene: must be a struct or a scene file name');
-      end
+      [text, name] = mdr.internal.scene_text(scene);
       obj.handle = mdr_mex('element_create', text, name, normal_force);
     end
 

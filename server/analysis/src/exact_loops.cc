@@ -32,6 +32,24 @@ Result<double> ZeroForceDisplacement(Contact contact) {
   return contact.actuator_displacement();
 }
 
+// The loops of `amplitudes` in order (loop_at(amplitude) -> Result<LoopFigures>); an error of
+// the amplitude names its index in "amplitudes".
+template <typename LoopAt>
+Result<std::vector<LoopFigures>> BackboneOf(const std::vector<double>& amplitudes,
+                                            const LoopAt& loop_at) {
+  std::vector<LoopFigures> backbone;
+  for (std::size_t k = 0; k < amplitudes.size(); ++k) {
+    Result<LoopFigures> loop = loop_at(amplitudes[k]);
+    if (!loop.ok()) {
+      return loop.status().field() == "amplitude"
+                 ? Status(loop.status().code(), Indexed("amplitudes", k), loop.status().message())
+                 : loop.status();
+    }
+    backbone.push_back(*loop);
+  }
+  return backbone;
+}
+
 // Ratio that is 0 where its denominator is (a loop without width or amplitude).
 double Ratio(double numerator, double denominator) {
   return denominator > 0 ? numerator / denominator : 0;
@@ -186,17 +204,9 @@ Result<std::vector<FrettingMapLoad>> FrettingMap(const ContactConfig& scene,
 Result<std::vector<LoopFigures>> Backbone(const ContactConfig& scene, double normal_force,
                                           AmplitudeKind kind, const std::vector<double>& amplitudes,
                                           const Interrupt& interrupt) {
-  std::vector<LoopFigures> backbone;
-  for (std::size_t k = 0; k < amplitudes.size(); ++k) {
-    Result<LoopFigures> loop = ExactLoop(scene, normal_force, kind, amplitudes[k], interrupt);
-    if (!loop.ok()) {
-      return loop.status().field() == "amplitude"
-                 ? Status(loop.status().code(), Indexed("amplitudes", k), loop.status().message())
-                 : loop.status();
-    }
-    backbone.push_back(*loop);
-  }
-  return backbone;
+  return BackboneOf(amplitudes, [&](double amplitude) {
+    return ExactLoop(scene, normal_force, kind, amplitude, interrupt);
+  });
 }
 
 // ---- Torsional loops ---------------------------------------------------------------------------
@@ -303,18 +313,9 @@ Result<std::vector<LoopFigures>> TorsionalBackbone(const TorsionalScene& scene,
                                                    double normal_force, AmplitudeKind kind,
                                                    const std::vector<double>& amplitudes,
                                                    const Interrupt& interrupt) {
-  std::vector<LoopFigures> backbone;
-  for (std::size_t k = 0; k < amplitudes.size(); ++k) {
-    Result<LoopFigures> loop =
-        ExactTorsionalLoop(scene, normal_force, kind, amplitudes[k], interrupt);
-    if (!loop.ok()) {
-      return loop.status().field() == "amplitude"
-                 ? Status(loop.status().code(), Indexed("amplitudes", k), loop.status().message())
-                 : loop.status();
-    }
-    backbone.push_back(*loop);
-  }
-  return backbone;
+  return BackboneOf(amplitudes, [&](double amplitude) {
+    return ExactTorsionalLoop(scene, normal_force, kind, amplitude, interrupt);
+  });
 }
 
 }  // namespace mdr::analysis
