@@ -1,6 +1,7 @@
 // The harmonic-balance element of the C interface (docs/dynamics.md): a contact, or an
 // interface's asperities, pressed once to a constant normal force, then evaluated by AFT for the
 // displacement coefficients of every Newton iteration (mdr/core/aft.h).
+#include <algorithm>
 #include <climits>
 #include <cstdint>
 #include <span>
@@ -77,6 +78,11 @@ CallStatus Aft(const mdr_element* element, const double* coefficients, std::size
   if (Status s = RequireNonNull(harmonics, "harmonics"); !s.ok()) return s;
   if (Status s = RequireNonNull(coefficients, "coefficients"); !s.ok()) return s;
   if (Status s = RequireNonNull(force, "force"); !s.ok()) return s;
+  // Increasing harmonics below samples / 2 <= 32768: a longer list is refused before it is read.
+  if (harmonic_count > 32768) {
+    return InvalidArgument("harmonic_count",
+                           "must be at most 32768, got " + std::to_string(harmonic_count));
+  }
   const std::vector<int> h(harmonics, harmonics + harmonic_count);
   AftOptions options;
   options.samples = samples;

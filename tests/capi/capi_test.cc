@@ -1466,6 +1466,9 @@ TEST(CapiElement, BadScenesAndCallsNameTheArgument) {
               "harmonics[3]");
   ExpectError(aft(element, {1e-6, 0}, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT,
               "coefficients");
+  ExpectError(mdr_element_aft(element, u.data(), u.size(), kElementHarmonics.data(), SIZE_MAX, 64,
+                              force.data(), nullptr, nullptr),
+              MDR_INVALID_ARGUMENT, "harmonic_count");
   std::vector<double> bad = u;
   bad[3] = std::numeric_limits<double>::infinity();
   ExpectError(aft(element, bad, kElementHarmonics, 64, force.data()), MDR_INVALID_ARGUMENT,

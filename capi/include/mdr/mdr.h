@@ -383,8 +383,9 @@ MDR_API void mdr_element_destroy(mdr_element* element);
  * rate-independent: dF/domega = 0). samples: time samples per period, a power of two in
  * [8, 65536] above twice the highest harmonic. dissipated_energy (may be NULL): J per period.
  * The element is unchanged: every call starts from the pressed state, and a refused call writes
- * nothing. Errors name element, coefficients (count), coefficients[i] (finite), harmonics[k],
- * samples, force, or displacement[j] for a time sample beyond 1 m. */
+ * nothing. Errors name element, coefficients (count), coefficients[i] (finite), harmonics,
+ * harmonic_count (at most 32768), harmonics[k], samples, force, or displacement[j] for a time
+ * sample beyond 1 m. */
 MDR_API int mdr_element_aft(const mdr_element* element, const double* coefficients, size_t count,
                             const int32_t* harmonics, size_t harmonic_count, int32_t samples,
                             double* force, double* jacobian, double* dissipated_energy);
