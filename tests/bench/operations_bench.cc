@@ -8,8 +8,11 @@
 #include <benchmark/benchmark.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "fixtures/reference_scenes.h"
@@ -127,6 +130,77 @@ void BM_ServiceInlineOneStep(benchmark::State& state) {
                  std::to_string(sessions) + (sessions == 1 ? " session" : " sessions"));
 }
 BENCHMARK(BM_ServiceInlineOneStep)->ArgsProduct({{0, 1}, {1, 13}});
+
+// What a StreamApply message asking for one force costs against one asking for the whole state
+// (ApplyRequest.state_mask, issue #54): the inline step and the serialization of its answer,
+// which the transport's thread also pays. Energy on, one session per side, M-D cycling.
+struct InlineAnswers {
+  explicit InlineAnswers(bool one_force)
+      : operations(mdr::service::ServiceLimits{}, {}),
+        requests(OneStepCycleRequests(LoadedSession(operations, true), true)) {
+    for (mdr::v1::ApplyRequest& request : requests) {
+      if (one_force) request.mutable_state_mask()->add_paths("tangential_force");
+    }
+  }
+  // Every message of the process, over every run of a benchmark (instructions.sh divides
+  // callgrind's count of Next by it).
+  static inline std::size_t messages = 0;
+  // One message: the step, its answer serialized; returns the answer's bytes.
+  [[gnu::noinline]] std::size_t Next() {
+    ++messages;
+    response.Clear();
+    const std::optional<mdr::Status> status = operations.ApplyIfBounded(
+        std::nullopt, requests[i++ % requests.size()], response.mutable_result(), &recent);
+    if (!status) Fail(mdr::Internal("", "the step was not bounded"));
+    if (!status->ok()) Fail(*status);
+    response.SerializeToString(&bytes);
+    return bytes.size();
+  }
+  mdr::service::ContactOperations operations;
+  std::vector<mdr::v1::ApplyRequest> requests;
+  mdr::service::RecentSessions recent;
+  mdr::v1::StreamApplyResponse response;
+  std::string bytes;
+  std::size_t i = 0;
+};
+
+// Arg 0: the whole state, 1: state_mask "tangential_force". For callgrind (instructions.sh).
+void BM_InlineAnswer(benchmark::State& state) {
+  InlineAnswers answers(state.range(0) != 0);
+  std::size_t bytes = 0;
+  for (auto _ : state) bytes = answers.Next();
+  state.counters["answer_bytes"] = static_cast<double>(bytes);
+  state.counters["messages_in_process"] = static_cast<double>(InlineAnswers::messages);
+  state.SetLabel(state.range(0) != 0 ? "one force" : "whole state");
+}
+BENCHMARK(BM_InlineAnswer)->Arg(0)->Arg(1);
+
+// Both in one run, alternated in rounds of kRound messages: the median ns per message of each
+// and one_force_over_whole, the ratio of the medians.
+void BM_OneForceOverWholeState(benchmark::State& state) {
+  constexpr int kRound = 512;
+  InlineAnswers whole(false), one(true);
+  std::vector<double> whole_ns, one_ns;
+  const auto round = [](InlineAnswers& answers) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int k = 0; k < kRound; ++k) benchmark::DoNotOptimize(answers.Next());
+    return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start)
+               .count() /
+           kRound;
+  };
+  for (auto _ : state) {
+    whole_ns.push_back(round(whole));
+    one_ns.push_back(round(one));
+  }
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["whole_ns"] = median(whole_ns);
+  state.counters["one_force_ns"] = median(one_ns);
+  state.counters["one_force_over_whole"] = median(one_ns) / median(whole_ns);
+}
+BENCHMARK(BM_OneForceOverWholeState)->Iterations(200);
 
 // Applies a batch of `steps` steps of the cycle (energy on or off) to a loaded H1 session, exact
 // or on a grid of grid_springs springs, once per iteration.

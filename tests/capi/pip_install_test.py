@@ -78,6 +78,18 @@ with local, mdr.Client.embedded() as server:
     # Snapshots both ways: the library's state continues on the server and the server's here.
     with server.import_session(snap_a) as on_server, local.import_session(snap_b) as here:
         same(on_server.apply(CYCLE), here.apply(CYCLE), "after import")
+    # state_fields: the final state holds the asked fields, in process as on the server.
+    with local.session(H1) as here, server.session(H1) as there:
+        masked = [s.apply(LOAD, state_fields=["tangential_force", "normal_force"]).state
+                  for s in (here, there)]
+        assert masked[0] == masked[1] and masked[0].depth == 0 and masked[0].normal_force > 0
+        for s in (here, there):
+            try:
+                s.apply(CYCLE, state_fields=["tangential_force", "forces"])
+                raise AssertionError("an unknown state field was accepted")
+            except mdr.MdrError as error:
+                assert error.field == "state_mask.paths[1]", error.field
+            assert s.export().applied_steps == 1
     # Errors name the Step's field, as the server does, and change nothing.
     with local.session(H1) as s:
         s.apply(LOAD)

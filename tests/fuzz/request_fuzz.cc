@@ -354,6 +354,41 @@ void CheckState(const mdr::v1::ContactState& state) {
         "the twisting moment is finite and at most the full-slip moment");
 }
 
+// After an accepted Apply: GetSession shows the state a Query computes from the contact, bit for
+// bit (a single contact's session keeps a few values and derives the rest, Session::
+// ReadResource), and the answer holds exactly the fields its state_mask selects, with those
+// values (all of them for an empty mask).
+void CheckAnsweredAndCommittedState(ContactOperations& operations, const std::string& session,
+                                    const mdr::v1::ApplyRequest& request,
+                                    const mdr::v1::ContactState& answered) {
+  mdr::v1::QueryRequest query;
+  query.set_session(session);
+  mdr::v1::QueryResponse computed;
+  Check(operations.Query(std::nullopt, query, &computed).ok(), "the state can be queried");
+  mdr::v1::GetSessionRequest get;
+  get.set_name(session);
+  mdr::v1::Session got;
+  Check(operations.GetSession(std::nullopt, get, &got).ok(), "the session can be read");
+  Check(got.state().SerializeAsString() == computed.state().SerializeAsString(),
+        "GetSession shows the state a Query computes");
+  mdr::v1::ContactState expected = computed.state();
+  if (request.state_mask().paths_size() > 0) {
+    expected.Clear();
+    const google::protobuf::Reflection* reflection = expected.GetReflection();
+    for (const std::string& path : request.state_mask().paths()) {
+      const auto* field = mdr::v1::ContactState::descriptor()->FindFieldByName(path);
+      Check(field != nullptr, "an accepted state_mask names ContactState fields");
+      if (field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) {
+        reflection->SetDouble(&expected, field, reflection->GetDouble(computed.state(), field));
+      } else {
+        reflection->SetUInt64(&expected, field, reflection->GetUInt64(computed.state(), field));
+      }
+    }
+  }
+  Check(answered.SerializeAsString() == expected.SerializeAsString(),
+        "the answer holds the fields its state_mask selects, as the session holds them");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
@@ -420,6 +455,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (status.ok()) {
       changed[target] = true;
       CheckState(response.state());
+      if (!response.replayed()) {
+        CheckAnsweredAndCommittedState(operations, session, request, response.state());
+      }
       CheckSlipState(before_state, Export(operations, session), request);
       CheckRoundTrips(service, session, &request);
       return 0;

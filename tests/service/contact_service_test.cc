@@ -222,6 +222,119 @@ TEST_F(ContactServiceTest, StepMaskSelectsPerStepFields) {
   EXPECT_EQ(StateOf(session).applied_steps(), 4u);
 }
 
+// The fields of `whole` that `paths` name, and nothing else.
+v1::ContactState SelectedFields(const v1::ContactState& whole,
+                                const std::vector<std::string>& paths) {
+  v1::ContactState selected;
+  const google::protobuf::Reflection* reflection = whole.GetReflection();
+  for (const std::string& path : paths) {
+    const google::protobuf::FieldDescriptor* field =
+        v1::ContactState::descriptor()->FindFieldByName(path);
+    EXPECT_NE(field, nullptr) << path;
+    if (field == nullptr) continue;
+    if (field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) {
+      reflection->SetDouble(&selected, field, reflection->GetDouble(whole, field));
+    } else {
+      reflection->SetUInt64(&selected, field, reflection->GetUInt64(whole, field));
+    }
+  }
+  return selected;
+}
+
+// ApplyRequest.state_mask (issue #54): the answer holds the selected fields, bit for bit as a
+// whole-state answer holds them, and nothing else; GetSession shows the whole state either way.
+// For every kind of session, on the inline path (one straight step) and on the workers (a
+// batch), with a rig whose actuator fields GetSession derives from the kept ones.
+TEST_F(ContactServiceTest, StateMaskAnswersOnlyTheSelectedFieldsAndGetSessionTheWholeState) {
+  v1::Scene rig = SteelSphereOnSteelFlat();
+  rig.mutable_rig()->set_tangential_compliance(2e-9);
+  rig.mutable_rig()->set_normal_compliance(1e-9);
+  v1::Scene grid = SteelSphereOnSteelFlat();
+  grid.set_method(v1::METHOD_GRID);
+  grid.mutable_grid()->set_size(300);
+  grid.mutable_grid()->set_max_radius(3e-4);
+  v1::Scene interface = SteelSphereOnSteelFlat();
+  interface.mutable_interface()->set_kind(v1::Interface::KIND_SHARED_MOTION);
+  interface.mutable_interface()->mutable_explicit_list()->mutable_heights()->Add(0);
+  interface.mutable_interface()->mutable_explicit_list()->mutable_heights()->Add(0.4 * kDepth);
+  interface.mutable_interface()->mutable_explicit_list()->mutable_radii()->Add(kRadius);
+  interface.mutable_interface()->mutable_explicit_list()->mutable_radii()->Add(2 * kRadius);
+  const std::vector<v1::Step> tangential = {DisplacementStep(2e-7), DisplacementStep(-1e-7),
+                                            DisplacementStep(3e-8)};
+  const std::vector<v1::Step> twists = {bridge_testing::TwistStep(2e-3),
+                                        bridge_testing::TwistStep(-1e-3),
+                                        bridge_testing::TwistStep(5e-4)};
+  struct Case {
+    const char* name;
+    v1::Scene scene;
+    const std::vector<v1::Step>& steps;
+    std::vector<std::string> mask;
+  };
+  const std::vector<Case> cases = {
+      {"sphere", SteelSphereOnSteelFlat(), tangential, {"tangential_force"}},
+      {"sphere, derived fields", SteelSphereOnSteelFlat(), tangential,
+       {"normal_force", "contact_radius", "applied_steps"}},
+      {"rig", rig, tangential, {"actuator_displacement", "tangential_force", "friction_limit"}},
+      {"grid", grid, tangential, {"tangential_force", "memory_vertices"}},
+      {"interface", interface, tangential, {"tangential_force"}},
+      {"torsion", bridge_testing::TwistedSteelSphere(), twists, {"twisting_moment", "twist"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string masked = CreateScene(c.scene), whole = CreateScene(c.scene);
+    // One step at a time (the inline path where it applies), then all of them as one batch.
+    std::vector<std::vector<v1::Step>> batches = {{NormalForceStep(100)}};
+    for (const v1::Step& step : c.steps) batches.push_back({step});
+    batches.push_back(c.steps);
+    for (const std::vector<v1::Step>& batch : batches) {
+      v1::ApplyResponse from_whole, from_masked;
+      ASSERT_TRUE(Apply(whole, batch, &from_whole).ok());
+      v1::ApplyRequest request = ApplyRequestFor(masked, batch);
+      *request.mutable_state_mask() = Mask(c.mask);
+      const grpc::Status status = stub_->Apply(Context().get(), request, &from_masked);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      EXPECT_EQ(from_masked.state().SerializeAsString(),
+                SelectedFields(from_whole.state(), c.mask).SerializeAsString())
+          << from_masked.state().ShortDebugString() << " against "
+          << from_whole.state().ShortDebugString();
+      v1::GetSessionRequest get;
+      v1::Session got_masked, got_whole;
+      get.set_name(masked);
+      ASSERT_TRUE(stub_->GetSession(Context().get(), get, &got_masked).ok());
+      get.set_name(whole);
+      ASSERT_TRUE(stub_->GetSession(Context().get(), get, &got_whole).ok());
+      EXPECT_EQ(got_masked.state().SerializeAsString(), from_whole.state().SerializeAsString())
+          << got_masked.state().ShortDebugString() << " against "
+          << from_whole.state().ShortDebugString();
+      EXPECT_EQ(got_whole.state().SerializeAsString(), from_whole.state().SerializeAsString());
+    }
+  }
+}
+
+TEST_F(ContactServiceTest, AStateMaskOfAnUnknownFieldOrAnotherReplayIsRefusedChangingNothing) {
+  const std::string session = CreateOrDie();
+  v1::ApplyResponse response;
+  ASSERT_TRUE(Apply(session, {DepthStep(kDepth)}, &response).ok());
+  v1::ApplyRequest request = ApplyRequestFor(session, {DisplacementStep(1e-7)});
+  *request.mutable_state_mask() = Mask({"tangential_force", "state.normal_force"});
+  grpc::Status status = stub_->Apply(Context().get(), request, &response);
+  ExpectInvalidArgument(status, "state_mask.paths[1]");
+  EXPECT_THAT(status.error_message(), HasSubstr("not a field of ContactState"));
+  EXPECT_EQ(StateOf(session).applied_steps(), 1u);
+
+  // A request id remembers the answer to its mask: a retry with another mask is another request.
+  request = ApplyRequestFor(session, {DisplacementStep(1e-7)}, {}, "masked-once");
+  *request.mutable_state_mask() = Mask({"tangential_force"});
+  ASSERT_TRUE(stub_->Apply(Context().get(), request, &response).ok());
+  const v1::ApplyResponse first = response;
+  ASSERT_TRUE(stub_->Apply(Context().get(), request, &response).ok());
+  EXPECT_TRUE(response.replayed());
+  EXPECT_EQ(response.state().SerializeAsString(), first.state().SerializeAsString());
+  *request.mutable_state_mask() = Mask({"normal_force"});
+  ExpectInvalidArgument(stub_->Apply(Context().get(), request, &response), "request_id");
+  EXPECT_EQ(StateOf(session).applied_steps(), 2u);
+}
+
 // Apply's messages are reused from call to call: nothing of an earlier call shows in a later one.
 TEST_F(ContactServiceTest, LaterCallsCarryNothingOfEarlierOnes) {
   const std::string session = CreateOrDie();

@@ -281,24 +281,31 @@ class Session:
     def export(self) -> api.SessionSnapshot:
         return self.client.export_session(self.name)
 
-    def _request(self, steps, outputs, request_id: str) -> api.ApplyRequest:
+    def _request(self, steps, outputs, request_id: str,
+                 state_fields: Sequence[str] = ()) -> api.ApplyRequest:
         request = api.ApplyRequest(session=self.name, steps=to_steps(steps),
                                    request_id=request_id)
         request.step_mask.CopyFrom(_mask(outputs))
+        request.state_mask.CopyFrom(_mask(state_fields))
         return request
 
     def apply(self, steps: Union[StepLike, Iterable[StepLike]],
-              outputs: Sequence[str] = ("state",), request_id: str = "") -> ApplyResult:
+              outputs: Sequence[str] = ("state",), request_id: str = "",
+              state_fields: Sequence[str] = ()) -> ApplyResult:
         """Applies the steps as one atomic batch (all or none). outputs: the per-step results
         (step_mask paths: "state", "substeps", "path_error", "dissipated_energy"; () for none).
-        With a request_id the call is idempotent and retried on UNAVAILABLE."""
-        response = self.client._call("Apply", self._request(steps, outputs, request_id),
+        state_fields: the ContactState fields of the final state to compute and send, e.g.
+        ("tangential_force",) (state_mask; () for all). With a request_id the call is
+        idempotent and retried on UNAVAILABLE."""
+        response = self.client._call("Apply",
+                                     self._request(steps, outputs, request_id, state_fields),
                                      idempotent=bool(request_id), session=self.name)
         return ApplyResult.of(response)
 
     def stream(self, steps: Iterable[Union[StepLike, Sequence[StepLike]]],
                outputs: Sequence[str] = ("state",), window: int = 32,
-               timeout: Optional[float] = None) -> Iterable[ApplyResult]:
+               timeout: Optional[float] = None,
+               state_fields: Sequence[str] = ()) -> Iterable[ApplyResult]:
         """Streams the steps (each item a step, or a list of steps for one atomic batch) and
         yields one ApplyResult per item, in order. At most `window` items are in flight: the
         iterable is read only as results are consumed (back-pressure). The server applies every
@@ -306,7 +313,7 @@ class Session:
         items already in flight are read, and MdrError is raised with `item` (the failed item's
         index) and `applied_after` (how many of the in-flight items after it were applied, at
         most window - 1). timeout: the deadline of the whole stream in seconds (default: the
-        client's)."""
+        client's). state_fields: as in apply, for every item."""
         if window < 1:
             raise ValueError(f"window must be >= 1, got {window}")
         credit = threading.Semaphore(window)
@@ -319,7 +326,8 @@ class Session:
                         return
                 if stop.is_set():
                     return
-                yield api.StreamApplyRequest(apply=self._request(item, outputs, ""))
+                yield api.StreamApplyRequest(
+                    apply=self._request(item, outputs, "", state_fields))
 
         call = self.client._stub.StreamApply(
             requests(), timeout=timeout or self.client.timeout,

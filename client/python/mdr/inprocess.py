@@ -364,14 +364,22 @@ class InProcessSession:
             raise MdrError(error.code, field, _without_prefix(error.message, field)) from None
 
     def apply(self, steps: Union[StepLike, Iterable[StepLike]],
-              outputs: Sequence[str] = ("state",), request_id: str = "") -> ApplyResult:
+              outputs: Sequence[str] = ("state",), request_id: str = "",
+              state_fields: Sequence[str] = ()) -> ApplyResult:
         """Session.apply in this process: the steps as one atomic batch (on a failure the
-        session is restored to its state before the batch and MdrError names steps[i])."""
+        session is restored to its state before the batch and MdrError names steps[i]).
+        state_fields: the ContactState fields of the final state returned (() for all)."""
         steps = to_steps(steps)
         unknown = [path for path in outputs if path.split(".")[0] not in _STEP_OUTPUTS]
         if unknown:
             raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, "step_mask",
                            f"unknown paths {unknown}; known: {list(_STEP_OUTPUTS)}")
+        known = api.ContactState.DESCRIPTOR.fields_by_name
+        for i, path in enumerate(state_fields):
+            if path not in known:
+                raise MdrError(grpc.StatusCode.INVALID_ARGUMENT, f"state_mask.paths[{i}]",
+                               f"{path!r} is not a field of ContactState; valid: "
+                               f"{', '.join(known)}")
         before = self.export() if len(steps) > 1 else None
         response = api.ApplyResponse()
         report = _StepReport()
@@ -394,7 +402,12 @@ class InProcessSession:
                     result.path_error = report.path_error
                 if "dissipated_energy" in outputs:
                     result.dissipated_energy = report.dissipated
-        response.state.CopyFrom(self._state())
+        state = self._state()
+        if state_fields:
+            for name in known:
+                if name not in state_fields:
+                    state.ClearField(name)
+        response.state.CopyFrom(state)
         return ApplyResult.of(response)
 
     def _restore(self, snapshot: api.SessionSnapshot) -> None:

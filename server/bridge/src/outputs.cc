@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <limits>
 #include <set>
+#include <string_view>
+#include <unordered_map>
 #include <string>
 #include <vector>
 
@@ -87,6 +89,15 @@ std::vector<Leaf> StateLeaves() {
   return leaves;
 }
 
+const std::vector<Leaf>& ContactStateLeaves() {
+  static const std::vector<Leaf> leaves = [] {
+    std::vector<Leaf> all;
+    for (const StateField& field : kStateFields) all.push_back({field.name, field.output});
+    return all;
+  }();
+  return leaves;
+}
+
 const std::vector<Leaf>& StepResultLeaves() {
   static const std::vector<Leaf> leaves = [] {
     std::vector<Leaf> all = StateLeaves();
@@ -143,13 +154,17 @@ std::string TopLevelPaths(const std::vector<Leaf>& leaves) {
 // A path selects the leaf it names and every leaf below it.
 Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
                                const std::vector<Leaf>& leaves, const char* mask_field,
-                               const char* message_name) {
+                               const char* message_name,
+                               const char* example = "\"state.normal_force\"") {
   OutputSelection selection;
   for (int i = 0; i < mask.paths_size(); ++i) {
     const std::string& path = mask.paths(i);
     bool matched = false;
     for (const Leaf& leaf : leaves) {
-      if (leaf.path == path || leaf.path.starts_with(path + ".")) {
+      // No string built: a mask is parsed once per message of a stream.
+      const bool below = leaf.path.size() > path.size() && leaf.path[path.size()] == '.' &&
+                         leaf.path.starts_with(path);
+      if (below || leaf.path == path) {
         selection.add(leaf.output);
         matched = true;
       }
@@ -158,7 +173,7 @@ Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
       return InvalidArgument(std::string(mask_field) + ".paths[" + std::to_string(i) + "]",
                              Quoted(path) + " is not a field of " + message_name +
                                  "; valid: " + TopLevelPaths(leaves) +
-                                 " or one of their fields (e.g. \"state.normal_force\")");
+                                 " or one of their fields (e.g. " + example + ")");
     }
   }
   return selection;
@@ -319,9 +334,12 @@ void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimat
 }
 
 OutputSelection OutputSelection::FullState() {
-  OutputSelection selection;
-  for (const StateField& field : kStateFields) selection.add(field.output);
-  return selection;
+  static const OutputSelection full = [] {
+    OutputSelection selection;
+    for (const StateField& field : kStateFields) selection.add(field.output);
+    return selection;
+  }();
+  return full;
 }
 
 bool OutputSelection::any_state() const {
@@ -332,7 +350,37 @@ bool OutputSelection::any_state() const {
 }
 
 Result<OutputSelection> SelectStepOutputs(const google::protobuf::FieldMask& mask) {
+  if (mask.paths_size() == 0) return OutputSelection();
   return Select(mask, StepResultLeaves(), "step_mask", "StepResult");
+}
+
+Result<OutputSelection> SelectStateOutputs(const google::protobuf::FieldMask& mask) {
+  if (mask.paths_size() == 0) return OutputSelection::FullState();
+  // ContactState has no nested fields: a path is a field's name, looked up by hash (a stream
+  // parses its mask with every message).
+  static const std::unordered_map<std::string_view, Output> kByName = [] {
+    std::unordered_map<std::string_view, Output> by_name;
+    for (const StateField& field : kStateFields) by_name.emplace(field.name, field.output);
+    return by_name;
+  }();
+  OutputSelection selection;
+  for (const std::string& path : mask.paths()) {
+    const auto found = kByName.find(path);
+    if (found == kByName.end()) {
+      return Select(mask, ContactStateLeaves(), "state_mask", "ContactState",
+                    "\"tangential_force\"");  // names the path
+    }
+    selection.add(found->second);
+  }
+  return selection;
+}
+
+Result<BatchOutputs> SelectBatchOutputs(const v1::ApplyRequest& request) {
+  Result<OutputSelection> steps = SelectStepOutputs(request.step_mask());
+  if (!steps.ok()) return steps.status();
+  Result<OutputSelection> state = SelectStateOutputs(request.state_mask());
+  if (!state.ok()) return state.status();
+  return BatchOutputs{*steps, *state};
 }
 
 Result<OutputSelection> SelectQueryOutputs(const google::protobuf::FieldMask& mask) {
@@ -348,6 +396,58 @@ void WriteState(const Contact& contact, std::uint64_t applied_steps,
     field.write(contact, applied_steps, state);
     Count(counters, field.output);
   }
+}
+
+OutputSelection OutputSelection::KeptState() {
+  static const OutputSelection kept = [] {
+    OutputSelection selection;
+    for (Output output :
+         {Output::kDepth, Output::kTangentialDisplacement, Output::kTangentialForce,
+          Output::kDissipatedEnergy, Output::kAppliedSteps, Output::kMemoryVertices}) {
+      selection.add(output);
+    }
+    return selection;
+  }();
+  return kept;
+}
+
+KeptState KeepState(const Contact& contact, std::uint64_t applied_steps) {
+  return {contact.depth(),
+          contact.tangential_displacement(),
+          contact.tangential_force(),
+          contact.dissipated_energy(),
+          applied_steps,
+          contact.memory().vertex_count()};
+}
+
+void WriteKeptState(const KeptState& kept, const OutputSelection& selection,
+                    v1::ContactState* state) {
+  if (selection.has(Output::kDepth)) state->set_depth(kept.depth);
+  if (selection.has(Output::kTangentialDisplacement)) {
+    state->set_tangential_displacement(kept.tangential_displacement);
+  }
+  if (selection.has(Output::kTangentialForce)) state->set_tangential_force(kept.tangential_force);
+  if (selection.has(Output::kDissipatedEnergy)) {
+    state->set_dissipated_energy(kept.dissipated_energy);
+  }
+  if (selection.has(Output::kAppliedSteps)) state->set_applied_steps(kept.applied_steps);
+  if (selection.has(Output::kMemoryVertices)) state->set_memory_vertices(kept.memory_vertices);
+}
+
+// The same expressions as Contact's accessors (contact.cc) on the kept values: bit for bit.
+void WriteCompleteState(const ContactConfig& config, const KeptState& kept,
+                        v1::ContactState* state) {
+  WriteKeptState(kept, OutputSelection::FullState(), state);
+  const double normal_force = NormalForceAtDepth(config, kept.depth);
+  state->set_contact_radius(ContactRadiusAtDepth(config, kept.depth));
+  state->set_normal_force(normal_force);
+  state->set_friction_limit(config.friction * normal_force);
+  state->set_actuator_displacement(
+      config.rig.tangential > 0
+          ? kept.tangential_displacement + config.rig.tangential * kept.tangential_force
+          : kept.tangential_displacement);
+  state->set_actuator_depth(config.rig.normal > 0 ? kept.depth + config.rig.normal * normal_force
+                                                  : kept.depth);
 }
 
 void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const StepReport& report,

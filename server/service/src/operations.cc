@@ -33,7 +33,7 @@ using bridge::RadialSampling;
 using bridge::RestoreInterface;
 using bridge::RestoreTorsionalContact;
 using bridge::SelectQueryOutputs;
-using bridge::SelectStepOutputs;
+using bridge::SelectBatchOutputs;
 using bridge::StateBudget;
 using bridge::StateBytes;
 using bridge::StateCharge;
@@ -137,11 +137,11 @@ Status ContactOperations::Restore(const JournaledSession& journaled,
   // for request ids are the same), no deadline and no response limit. Journal::Load checked that
   // the batches are numbered without gaps.
   for (const JournaledBatch& batch : journaled.batches) {
-    Result<OutputSelection> step_outputs = SelectStepOutputs(batch.request.step_mask());
+    Result<bridge::BatchOutputs> outputs = SelectBatchOutputs(batch.request);
     v1::ApplyResponse response;
-    Status status = step_outputs.status();
+    Status status = outputs.status();
     if (status.ok()) {
-      status = restored->Apply(batch.request, *step_outputs, nullptr,
+      status = restored->Apply(batch.request, *outputs, nullptr,
                                std::numeric_limits<std::size_t>::max(), &response);
     }
     if (status.ok() && response.replayed()) {
@@ -396,8 +396,8 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
     return InvalidArgument("steps", "must contain at least one step");
   }
   if (Status s = ValidateRequestId(request.request_id()); !s.ok()) return s;
-  Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
-  if (!step_outputs.ok()) return step_outputs.status();
+  Result<bridge::BatchOutputs> outputs = SelectBatchOutputs(request);
+  if (!outputs.ok()) return outputs.status();
   std::shared_ptr<Session> session;
   if (Status status = FindSession(caller, request.session(), recent, &session); !status.ok()) {
     return status;
@@ -406,7 +406,7 @@ Status ContactOperations::Apply(const Principal& caller, const v1::ApplyRequest&
     if (hooks_.before_step) hooks_.before_step(step_index);
     return interruption ? interruption() : OkStatus();
   };
-  return session->Apply(request, *step_outputs, guard, MaxResponseBytes(), response, interrupt);
+  return session->Apply(request, *outputs, guard, MaxResponseBytes(), response, interrupt);
 }
 
 Status ContactOperations::FindSession(const Principal& caller, const std::string& name,
@@ -424,12 +424,12 @@ std::optional<Status> ContactOperations::ApplyIfBounded(const Principal& caller,
     return std::nullopt;
   }
   if (!ValidateRequestId(request.request_id()).ok()) return std::nullopt;
-  Result<OutputSelection> step_outputs = SelectStepOutputs(request.step_mask());
-  if (!step_outputs.ok()) return std::nullopt;
+  Result<bridge::BatchOutputs> outputs = SelectBatchOutputs(request);
+  if (!outputs.ok()) return std::nullopt;
   std::shared_ptr<Session> session;
   if (!FindSession(caller, request.session(), recent, &session).ok()) return std::nullopt;
   std::optional<Status> applied = session->ApplyIfBounded(
-      request, *step_outputs, limits_.max_inline_vertices, MaxResponseBytes(), response);
+      request, *outputs, limits_.max_inline_vertices, MaxResponseBytes(), response);
   if (applied) ProcessMetrics().inline_batches.Increment();
   return applied;
 }

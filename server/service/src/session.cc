@@ -18,11 +18,16 @@ namespace mdr::service {
 
 using bridge::ApplyInterfaceStep;
 using bridge::ApplyTorsionStep;
+using bridge::BatchOutputs;
 using bridge::BoundsAfterOneStraightStep;
 using bridge::BoundsAtCommit;
 using bridge::CheckExportable;
 using bridge::CheckSingleContactQuery;
 using bridge::CheckSingleContactStep;
+using bridge::KeepState;
+using bridge::KeptState;
+using bridge::WriteCompleteState;
+using bridge::WriteKeptState;
 using bridge::ExportBytesBound;
 using bridge::ExportedSceneBytes;
 using bridge::InterfaceQuery;
@@ -72,6 +77,7 @@ std::uint64_t Fingerprint(const v1::ApplyRequest& request) {
   v1::ApplyRequest content;
   *content.mutable_steps() = request.steps();
   *content.mutable_step_mask() = request.step_mask();
+  *content.mutable_state_mask() = request.state_mask();  // absent: the bytes of before
   return std::hash<std::string>{}(content.SerializeAsString());
 }
 
@@ -109,7 +115,8 @@ Session::Session(std::string name, SessionOrigin state)
       journal_snapshot_sequence_(state.journal_snapshot_sequence),
       charge_(std::move(state.charge)) {
   for (CompletedRequest& completed : state.completed) completed_.Add(std::move(completed));
-  WriteStateLocked(OutputSelection::FullState(), &committed_state_);
+  if (!interface_ && !torsion_) kept_state_config_.emplace(contact_->config());
+  CommitStateLocked(OutputSelection::FullState(), nullptr);
 }
 
 Session::Session(std::string name, UnavailableSession unavailable)
@@ -185,7 +192,7 @@ Status Session::CompactJournalLocked() {
   return status;
 }
 
-Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+Status Session::Apply(const v1::ApplyRequest& request, const BatchOutputs& outputs,
                       const StepGuard& guard, std::size_t max_response_bytes,
                       v1::ApplyResponse* response, const Interrupt& interrupt) {
   if (static_cast<std::uint32_t>(request.steps_size()) > limits_.max_steps_per_batch()) {
@@ -195,11 +202,11 @@ Status Session::Apply(const v1::ApplyRequest& request, const OutputSelection& st
   }
   if (Status status = RequireAvailable(); !status.ok()) return status;
   std::lock_guard lock(mutex_);
-  return ApplyLocked(request, step_outputs, guard, max_response_bytes, response, interrupt);
+  return ApplyLocked(request, outputs, guard, max_response_bytes, response, interrupt);
 }
 
 std::optional<Status> Session::ApplyIfBounded(const v1::ApplyRequest& request,
-                                              const OutputSelection& step_outputs,
+                                              const BatchOutputs& outputs,
                                               std::size_t max_vertices,
                                               std::size_t max_response_bytes,
                                               v1::ApplyResponse* response) {
@@ -213,7 +220,7 @@ std::optional<Status> Session::ApplyIfBounded(const v1::ApplyRequest& request,
       contact_->memory().vertex_count() > max_vertices || !StraightStepLocked(request.steps(0))) {
     return std::nullopt;
   }
-  return ApplyLocked(request, step_outputs, {}, max_response_bytes, response, {});
+  return ApplyLocked(request, outputs, {}, max_response_bytes, response, {});
 }
 
 bool Session::StraightStepLocked(const v1::Step& step) const {
@@ -231,7 +238,7 @@ bool Session::StraightStepLocked(const v1::Step& step) const {
          !(rig.tangential > 0);
 }
 
-Status Session::ApplyLocked(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+Status Session::ApplyLocked(const v1::ApplyRequest& request, const BatchOutputs& outputs,
                             const StepGuard& guard, std::size_t max_response_bytes,
                             v1::ApplyResponse* response, const Interrupt& interrupt) {
   // Removed while the batch waited for the session: its journal entry may be gone already.
@@ -252,7 +259,7 @@ Status Session::ApplyLocked(const v1::ApplyRequest& request, const OutputSelecti
     }
   }
   if (Status status =
-          RunBatch(request, step_outputs, guard, max_response_bytes, response, interrupt);
+          RunBatch(request, outputs, guard, max_response_bytes, response, interrupt);
       !status.ok()) {
     response->Clear();
     return status;
@@ -272,13 +279,13 @@ Status Session::ApplyLocked(const v1::ApplyRequest& request, const OutputSelecti
   return OkStatus();
 }
 
-Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+Status Session::RunBatch(const v1::ApplyRequest& request, const BatchOutputs& outputs,
                          const StepGuard& guard, std::size_t max_response_bytes,
                          v1::ApplyResponse* response, const Interrupt& interrupt) {
   if (interface_) {
-    return RunInterfaceBatch(request, step_outputs, guard, max_response_bytes, response, interrupt);
+    return RunInterfaceBatch(request, outputs, guard, max_response_bytes, response, interrupt);
   }
-  if (torsion_) return RunTorsionBatch(request, step_outputs, guard, max_response_bytes, response);
+  if (torsion_) return RunTorsionBatch(request, outputs, guard, max_response_bytes, response);
   // A single step is atomic in the core; a longer batch (or any batch that the journal must
   // accept before it counts, or that may grow the state past its budget: an exact memory) runs
   // on a copy that is committed at the end, so a failing step, an expired deadline, an exceeded
@@ -286,7 +293,7 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
   if (request.steps_size() == 1 && journal_ == nullptr && contact_->grid_memory() == nullptr &&
       StraightStepLocked(request.steps(0))) {
     bool fall_back = false;
-    Status status = RunStepInPlace(request, step_outputs, guard, response, interrupt, &fall_back);
+    Status status = RunStepInPlace(request, outputs, guard, response, interrupt, &fall_back);
     if (!fall_back) return status;
     response->Clear();
   }
@@ -317,12 +324,12 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
     }
     ++applied;
     path_error = std::max(path_error, report.path_error);
-    if (!step_outputs.empty()) {
-      WriteStepResult(target, applied, report, step_outputs, response->add_step_results());
+    if (!outputs.steps.empty()) {
+      WriteStepResult(target, applied, report, outputs.steps, response->add_step_results());
     }
   }
   return CommitBatchLocked(
-      request, applied, path_error, max_response_bytes, StateBytes(target),
+      request, outputs.state, applied, path_error, max_response_bytes, StateBytes(target),
       ExportBytesBound(target, scene_bytes_),
       [&] {
         if (!on_copy) return;
@@ -337,7 +344,7 @@ Status Session::RunBatch(const v1::ApplyRequest& request, const OutputSelection&
       response);
 }
 
-Status Session::RunStepInPlace(const v1::ApplyRequest& request, const OutputSelection& step_outputs,
+Status Session::RunStepInPlace(const v1::ApplyRequest& request, const BatchOutputs& outputs,
                                const StepGuard& guard, v1::ApplyResponse* response,
                                const Interrupt& interrupt, bool* fall_back) {
   // A one-step response (one small StepResult) is far below any allowed message limit.
@@ -357,15 +364,15 @@ Status Session::RunStepInPlace(const v1::ApplyRequest& request, const OutputSele
   }
   charge_.ForceResize(StateBytes(*contact_));
   const std::uint64_t applied = applied_steps_ + 1;
-  if (!step_outputs.empty()) {
-    WriteStepResult(*contact_, applied, report, step_outputs, response->add_step_results());
+  if (!outputs.steps.empty()) {
+    WriteStepResult(*contact_, applied, report, outputs.steps, response->add_step_results());
   }
-  FinishBatchLocked(applied, report.path_error, response);
+  FinishBatchLocked(applied, report.path_error, outputs.state, response);
   return OkStatus();
 }
 
 Status Session::RunTorsionBatch(const v1::ApplyRequest& request,
-                                const OutputSelection& step_outputs, const StepGuard& guard,
+                                const BatchOutputs& outputs, const StepGuard& guard,
                                 std::size_t max_response_bytes, v1::ApplyResponse* response) {
   TorsionalContact copy = *torsion_;
   const ContactConfig& config = contact_->config();
@@ -377,33 +384,33 @@ Status Session::RunTorsionBatch(const v1::ApplyRequest& request,
       return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }
     ++applied;
-    if (!step_outputs.empty()) {
-      WriteTorsionStepResult(copy, config.friction, applied, step_outputs,
+    if (!outputs.steps.empty()) {
+      WriteTorsionStepResult(copy, config.friction, applied, outputs.steps,
                              response->add_step_results());
     }
   }
   return CommitBatchLocked(
-      request, applied, 0.0, max_response_bytes, StateBytes(*contact_) + StateBytes(copy),
+      request, outputs.state, applied, 0.0, max_response_bytes, StateBytes(*contact_) + StateBytes(copy),
       ExportBytesBound(copy, scene_bytes_), [&] { *torsion_ = std::move(copy); }, response);
 }
 
 Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
-                                  const OutputSelection& step_outputs, const StepGuard& guard,
+                                  const BatchOutputs& outputs, const StepGuard& guard,
                                   std::size_t max_response_bytes, v1::ApplyResponse* response,
                                   const Interrupt& interrupt) {
   if (request.steps_size() == 1 && MovesEveryContactOnce(*interface_, request.steps(0))) {
     bool fall_back = false;
     Status status =
-        RunInterfaceStepInPlace(request, step_outputs, guard, response, interrupt, &fall_back);
+        RunInterfaceStepInPlace(request, outputs, guard, response, interrupt, &fall_back);
     if (!fall_back) return status;
     response->Clear();
   }
-  return RunInterfaceBatchOnCopy(request, step_outputs, guard, max_response_bytes, response,
+  return RunInterfaceBatchOnCopy(request, outputs, guard, max_response_bytes, response,
                                  interrupt);
 }
 
 Status Session::RunInterfaceStepInPlace(const v1::ApplyRequest& request,
-                                        const OutputSelection& step_outputs, const StepGuard& guard,
+                                        const BatchOutputs& outputs, const StepGuard& guard,
                                         v1::ApplyResponse* response, const Interrupt& interrupt,
                                         bool* fall_back) {
   // A one-step response (one small StepResult) is far below any allowed message limit, so the
@@ -426,15 +433,15 @@ Status Session::RunInterfaceStepInPlace(const v1::ApplyRequest& request,
   // What the step allocated was charged above as a bound; now the bytes really held.
   charge_.ForceResize(StateBytes(*interface_));
   const std::uint64_t applied = applied_steps_ + 1;
-  if (!step_outputs.empty()) {
-    WriteInterfaceStepResult(*interface_, applied, step_outputs, response->add_step_results());
+  if (!outputs.steps.empty()) {
+    WriteInterfaceStepResult(*interface_, applied, outputs.steps, response->add_step_results());
   }
-  FinishBatchLocked(applied, 0.0, response);
+  FinishBatchLocked(applied, 0.0, outputs.state, response);
   return OkStatus();
 }
 
 Status Session::RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
-                                        const OutputSelection& step_outputs, const StepGuard& guard,
+                                        const BatchOutputs& outputs, const StepGuard& guard,
                                         std::size_t max_response_bytes, v1::ApplyResponse* response,
                                         const Interrupt& interrupt) {
   Interface copy = *interface_;
@@ -445,12 +452,12 @@ Status Session::RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
       return status.WithFieldPrefix("steps[" + std::to_string(i) + "]");
     }
     ++applied;
-    if (!step_outputs.empty()) {
-      WriteInterfaceStepResult(copy, applied, step_outputs, response->add_step_results());
+    if (!outputs.steps.empty()) {
+      WriteInterfaceStepResult(copy, applied, outputs.steps, response->add_step_results());
     }
   }
   return CommitBatchLocked(
-      request, applied, 0.0, max_response_bytes, StateBytes(copy),
+      request, outputs.state, applied, 0.0, max_response_bytes, StateBytes(copy),
       ExportBytesBound(copy, scene_bytes_), [&] { std::swap(*interface_, copy); }, response);
 }
 
@@ -465,7 +472,8 @@ Status Session::CheckNextStep(const StepGuard& guard, int i, std::uint64_t appli
   return OkStatus();
 }
 
-Status Session::CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t applied,
+Status Session::CommitBatchLocked(const v1::ApplyRequest& request,
+                                  const OutputSelection& state_outputs, std::uint64_t applied,
                                   double path_error, std::size_t max_response_bytes,
                                   std::size_t state_bytes, std::size_t export_bytes,
                                   const std::function<void()>& commit,
@@ -483,7 +491,7 @@ Status Session::CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t
     return status;
   }
   commit();
-  FinishBatchLocked(applied, path_error, response);
+  FinishBatchLocked(applied, path_error, state_outputs, response);
   return OkStatus();
 }
 
@@ -501,17 +509,41 @@ Status Session::AdmitBatchLocked(const v1::ApplyRequest& request, std::size_t st
 }
 
 void Session::FinishBatchLocked(std::uint64_t applied, double path_error,
+                                const OutputSelection& state_outputs,
                                 v1::ApplyResponse* response) {
   ++journal_sequence_;
   ProcessMetrics().steps_applied.Increment(applied - applied_steps_);
   applied_steps_ = applied;
-  WriteStateLocked(OutputSelection::FullState(), response->mutable_state());
-  {
-    std::lock_guard committed_lock(committed_mutex_);
-    committed_state_ = response->state();
-  }
+  CommitStateLocked(state_outputs, response->mutable_state());
   response->mutable_error_estimate()->set_path_error(path_error);
   WriteApproximationErrors(*contact_, response->mutable_error_estimate());
+}
+
+void Session::CommitStateLocked(const OutputSelection& selection, v1::ContactState* state) {
+  if (kept_state_config_) {
+    // Only what needs the contact is computed here, each field once; GetSession derives the
+    // rest (WriteCompleteState).
+    const KeptState kept = KeepState(*contact_, applied_steps_);
+    if (state != nullptr) {
+      const OutputSelection derived = selection.Without(OutputSelection::KeptState());
+      if (!derived.empty()) WriteStateLocked(derived, state);
+      WriteKeptState(kept, selection, state);
+    }
+    std::lock_guard committed_lock(committed_mutex_);
+    committed_kept_ = kept;
+    return;
+  }
+  v1::ContactState committed;
+  WriteStateLocked(OutputSelection::FullState(), &committed);
+  if (state != nullptr) {
+    if (selection == OutputSelection::FullState()) {
+      *state = committed;
+    } else {
+      WriteStateLocked(selection, state);
+    }
+  }
+  std::lock_guard committed_lock(committed_mutex_);
+  committed_state_.Swap(&committed);  // the previous state is freed after the lock
 }
 
 Status Session::ChargeStateLocked(std::size_t state_bytes, std::size_t export_bytes) {
@@ -574,6 +606,15 @@ void Session::ReadResource(v1::Session* resource) const {
     return;
   }
   resource->set_availability(v1::Session::AVAILABILITY_ACTIVE);
+  if (kept_state_config_) {
+    KeptState kept;
+    {
+      std::lock_guard lock(committed_mutex_);
+      kept = committed_kept_;
+    }
+    WriteCompleteState(*kept_state_config_, kept, resource->mutable_state());
+    return;
+  }
   std::lock_guard lock(committed_mutex_);
   *resource->mutable_state() = committed_state_;
 }

@@ -69,7 +69,7 @@ class ContactClient {
   RpcResult<v1::ApplyResponse> Apply(const std::string& session, const v1::Step& step,
                                      const google::protobuf::FieldMask& step_mask = {},
                                      const std::string& request_id = "");
-  // The request as given (session, steps, step_mask, request_id).
+  // The request as given (session, steps, step_mask, state_mask, request_id).
   RpcResult<v1::ApplyResponse> Apply(const v1::ApplyRequest& request);
 
   // Sends every request as one message of a StreamApply stream (pipelined: a second thread

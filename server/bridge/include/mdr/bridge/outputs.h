@@ -74,10 +74,21 @@ class OutputSelection {
  public:
   // Every ContactState field.
   static OutputSelection FullState();
+  // The ContactState fields a single contact's session keeps for GetSession after every batch:
+  // those that need the contact's memory or counters. The others follow from them and the
+  // session's config (CompleteKeptState), computed only when they are read.
+  static OutputSelection KeptState();
 
   bool has(Output output) const { return bits_.test(static_cast<std::size_t>(output)); }
   void add(Output output) { bits_.set(static_cast<std::size_t>(output)); }
   bool empty() const { return bits_.none(); }
+  // The outputs selected here and not in other.
+  OutputSelection Without(const OutputSelection& other) const {
+    OutputSelection rest;
+    rest.bits_ = bits_ & ~other.bits_;
+    return rest;
+  }
+  bool operator==(const OutputSelection&) const = default;
   bool any_state() const;
   bool any_springs() const {
     return has(Output::kSpringTangentialDisplacement) || has(Output::kSpringNormalDisplacement);
@@ -113,6 +124,18 @@ class OutputSelection {
 // The outputs named by ApplyRequest.step_mask (paths of StepResult); empty mask: none. Errors
 // name "step_mask.paths[i]" and list the valid paths.
 Result<OutputSelection> SelectStepOutputs(const google::protobuf::FieldMask& mask);
+// The outputs named by ApplyRequest.state_mask (paths of ContactState); empty mask: every field.
+// Errors name "state_mask.paths[i]".
+Result<OutputSelection> SelectStateOutputs(const google::protobuf::FieldMask& mask);
+
+// What an Apply batch answers: the per-step results (step_mask) and the final state's fields
+// (state_mask).
+struct BatchOutputs {
+  OutputSelection steps;
+  OutputSelection state = OutputSelection::FullState();
+};
+Result<BatchOutputs> SelectBatchOutputs(const v1::ApplyRequest& request);
+
 // The outputs named by QueryRequest.read_mask (paths of QueryResponse); empty mask: "state".
 // Errors name "read_mask.paths[i]".
 Result<OutputSelection> SelectQueryOutputs(const google::protobuf::FieldMask& mask);
@@ -143,6 +166,22 @@ void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimat
 void WriteState(const Contact& contact, std::uint64_t applied_steps,
                 const OutputSelection& selection, v1::ContactState* state,
                 OutputCounters* counters = nullptr);
+
+// The values of OutputSelection::KeptState, as a single contact's session keeps them after every
+// batch for GetSession (a plain struct: copied under a lock with every message).
+struct KeptState {
+  double depth = 0, tangential_displacement = 0, tangential_force = 0, dissipated_energy = 0;
+  std::uint64_t applied_steps = 0, memory_vertices = 0;
+};
+KeptState KeepState(const Contact& contact, std::uint64_t applied_steps);
+// The selected fields of OutputSelection::KeptState, from kept.
+void WriteKeptState(const KeptState& kept, const OutputSelection& selection,
+                    v1::ContactState* state);
+// Every ContactState field: the kept ones, and those that follow from them and the contact's
+// config (contact radius, normal force, friction limit, actuator position), bit for bit as
+// WriteState writes them from the contact.
+void WriteCompleteState(const ContactConfig& config, const KeptState& kept,
+                        v1::ContactState* state);
 
 void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const StepReport& report,
                      const OutputSelection& selection, v1::StepResult* result);

@@ -112,7 +112,7 @@ class Session {
   // A response above max_response_bytes fails with RESOURCE_EXHAUSTED, uncommitted; so does a
   // batch whose state would exceed the state budget or no longer fit one export message.
   // interrupt reaches inside long steps (curved force paths).
-  Status Apply(const v1::ApplyRequest& request, const bridge::OutputSelection& step_outputs,
+  Status Apply(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
                const StepGuard& guard, std::size_t max_response_bytes, v1::ApplyResponse* response,
                const Interrupt& interrupt = {});
 
@@ -120,7 +120,7 @@ class Session {
   // steps"): one straight step (StraightStepLocked) on a single exact contact, not journaled, of
   // at most max_vertices memory vertices; nothing happens otherwise (nullopt).
   std::optional<Status> ApplyIfBounded(const v1::ApplyRequest& request,
-                                       const bridge::OutputSelection& step_outputs,
+                                       const bridge::BatchOutputs& outputs,
                                        std::size_t max_vertices, std::size_t max_response_bytes,
                                        v1::ApplyResponse* response);
 
@@ -161,12 +161,12 @@ class Session {
 
  private:
   Status RemoveLocked(const std::function<Status()>& remove_entry);
-  Status RunBatch(const v1::ApplyRequest& request, const bridge::OutputSelection& step_outputs,
+  Status RunBatch(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
                   const StepGuard& guard, std::size_t max_response_bytes,
                   v1::ApplyResponse* response, const Interrupt& interrupt);
   // A one-step batch in place when it can (RunInterfaceStepInPlace), else on a copy.
   Status RunInterfaceBatch(const v1::ApplyRequest& request,
-                           const bridge::OutputSelection& step_outputs, const StepGuard& guard,
+                           const bridge::BatchOutputs& outputs, const StepGuard& guard,
                            std::size_t max_response_bytes, v1::ApplyResponse* response,
                            const Interrupt& interrupt);
   // One step on interface_ itself: the core's step is atomic, and what could still refuse it
@@ -174,16 +174,16 @@ class Session {
   // in its commit gate, before it changes anything. Sets *fall_back (nothing changed) when the
   // bounds do not fit: the exact check of a batch copy decides then.
   Status RunInterfaceStepInPlace(const v1::ApplyRequest& request,
-                                 const bridge::OutputSelection& step_outputs,
+                                 const bridge::BatchOutputs& outputs,
                                  const StepGuard& guard, v1::ApplyResponse* response,
                                  const Interrupt& interrupt, bool* fall_back);
   // Every step of a torsional session on a copy (a few pieces), moved in at the commit.
   Status RunTorsionBatch(const v1::ApplyRequest& request,
-                         const bridge::OutputSelection& step_outputs, const StepGuard& guard,
+                         const bridge::BatchOutputs& outputs, const StepGuard& guard,
                          std::size_t max_response_bytes, v1::ApplyResponse* response);
   // Every step on a copy of the interface, swapped in at the commit.
   Status RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
-                                 const bridge::OutputSelection& step_outputs,
+                                 const bridge::BatchOutputs& outputs,
                                  const StepGuard& guard, std::size_t max_response_bytes,
                                  v1::ApplyResponse* response, const Interrupt& interrupt);
   // The guard and the step counter's limit before step i.
@@ -197,15 +197,16 @@ class Session {
   // (Contact::Apply is atomic) once the bounds of the state after it are charged; *fall_back
   // when only those bounds did not fit (the exact state after the step may: RunBatch's copy).
   Status RunStepInPlace(const v1::ApplyRequest& request,
-                        const bridge::OutputSelection& step_outputs, const StepGuard& guard,
+                        const bridge::BatchOutputs& outputs, const StepGuard& guard,
                         v1::ApplyResponse* response, const Interrupt& interrupt, bool* fall_back);
   // Apply's work with mutex_ held (the batch size checked).
-  Status ApplyLocked(const v1::ApplyRequest& request, const bridge::OutputSelection& step_outputs,
+  Status ApplyLocked(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
                      const StepGuard& guard, std::size_t max_response_bytes,
                      v1::ApplyResponse* response, const Interrupt& interrupt);
   // The end of a batch whose steps all succeeded: the response size and state checks, the
   // journal (AdmitBatchLocked), then commit() moves the new state in (FinishBatchLocked).
-  Status CommitBatchLocked(const v1::ApplyRequest& request, std::uint64_t applied,
+  Status CommitBatchLocked(const v1::ApplyRequest& request,
+                           const bridge::OutputSelection& state_outputs, std::uint64_t applied,
                            double path_error, std::size_t max_response_bytes,
                            std::size_t state_bytes, std::size_t export_bytes,
                            const std::function<void()>& commit, v1::ApplyResponse* response);
@@ -213,8 +214,14 @@ class Session {
   // writes the batch to the journal; on an error nothing is charged or written.
   Status AdmitBatchLocked(const v1::ApplyRequest& request, std::size_t state_bytes,
                           std::size_t export_bytes);
-  // After the state changed: counters, the committed state and the response's state.
-  void FinishBatchLocked(std::uint64_t applied, double path_error, v1::ApplyResponse* response);
+  // After the state changed: counters, the committed state and the response's state (the
+  // fields of state_outputs).
+  void FinishBatchLocked(std::uint64_t applied, double path_error,
+                         const bridge::OutputSelection& state_outputs,
+                         v1::ApplyResponse* response);
+  // Keeps the state for ReadResource and, unless state is null, writes the selected fields
+  // into *state, each computed once.
+  void CommitStateLocked(const bridge::OutputSelection& selection, v1::ContactState* state);
   void WriteStateLocked(const bridge::OutputSelection& selection, v1::ContactState* state) const;
   void ExportLocked(v1::SessionSnapshot* snapshot) const;
   // Resizes charge_ to state_bytes, unless it exceeds the budget or export_bytes the export
@@ -253,9 +260,16 @@ class Session {
   bridge::StateCharge charge_;               // guarded by mutex_
 
   // The state after the last commit, for ReadResource (GetSession, ListSessions are cheap calls
-  // that must not wait for a running batch on mutex_).
+  // that must not wait for a running batch on mutex_). A single contact's session keeps only the
+  // values of OutputSelection::KeptState (committed_kept_), so that a batch that answers one
+  // field computes little more than that field; ReadResource derives the others from
+  // kept_state_config_. Interface and torsional sessions keep the whole state.
   mutable std::mutex committed_mutex_;
   v1::ContactState committed_state_;  // guarded by committed_mutex_
+  bridge::KeptState committed_kept_;  // guarded by committed_mutex_
+  // A single contact's config (set once by the constructor, never changed: read without a lock);
+  // unset for interface, torsional and unavailable sessions.
+  std::optional<ContactConfig> kept_state_config_;
 };
 
 }  // namespace mdr::service
