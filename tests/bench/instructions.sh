@@ -18,11 +18,15 @@ if [ ! -x "$bench" ] || [ ! -x "$operations" ]; then
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-for kind in 0 1; do
-  valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.$kind" \
-    --toggle-collect='*MeasuredCycles*' "$bench" --benchmark_filter="StepInstructions/$kind/" \
-    --benchmark_format=json > "$work/bench.$kind.json" 2> "$work/valgrind.$kind.log"
-  python3 - "$work/callgrind.$kind" "$work/bench.$kind.json" <<'PY'
+# count NAME FUNCTION_GLOB BENCH FILTER PER_COUNTER UNIT: callgrind's instructions inside
+# FUNCTION_GLOB over one benchmark run, divided by the run's counter PER_COUNTER.
+count() {
+  local name=$1 collect=$2 binary=$3 filter=$4 per=$5 unit=$6
+  valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.$name" \
+    --toggle-collect="$collect" "$binary" --benchmark_filter="$filter" \
+    --benchmark_min_time=0.2 --benchmark_format=json > "$work/$name.json" \
+    2> "$work/valgrind.$name.log"
+  python3 - "$work/callgrind.$name" "$work/$name.json" "$per" "$unit" <<'PY'
 import json, sys
 instructions = None
 for line in open(sys.argv[1]):
@@ -30,26 +34,16 @@ for line in open(sys.argv[1]):
         instructions = int(line.split()[1])
         break
 run = json.load(open(sys.argv[2]))["benchmarks"][0]
-steps = run["asperity_steps"]
-print(f"{run['label']}: {instructions / steps:.0f} instructions per asperity-step "
-      f"({instructions} over {steps:.0f})")
+items = run[sys.argv[3]]
+print(f"{run['label']}: {instructions / items:.0f} instructions per {sys.argv[4]} "
+      f"({instructions} over {items:.0f})")
 PY
+}
+for kind in 0 1; do
+  count "step$kind" '*MeasuredCycles*' "$bench" "StepInstructions/$kind/" asperity_steps \
+    asperity-step
 done
 for answer in 0 1; do
-  valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.answer$answer" \
-    --toggle-collect='*InlineAnswers::Next*' "$operations" \
-    --benchmark_filter="InlineAnswer/$answer\$" --benchmark_min_time=0.02 \
-    --benchmark_format=json > "$work/answer.$answer.json" 2> "$work/valgrind.answer$answer.log"
-  python3 - "$work/callgrind.answer$answer" "$work/answer.$answer.json" <<'PY'
-import json, sys
-instructions = None
-for line in open(sys.argv[1]):
-    if line.startswith(("summary:", "totals:")):
-        instructions = int(line.split()[1])
-        break
-run = json.load(open(sys.argv[2]))["benchmarks"][0]
-messages = run["messages_in_process"]
-print(f"inline message, {run['label']} ({run['answer_bytes']:.0f} bytes): "
-      f"{instructions / messages:.0f} instructions per message ({instructions} over {messages:.0f})")
-PY
+  count "answer$answer" '*InlineAnswers::Next*' "$operations" "InlineAnswer/$answer\$" \
+    messages_in_process "inline message"
 done

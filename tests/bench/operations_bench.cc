@@ -171,7 +171,9 @@ void BM_InlineAnswer(benchmark::State& state) {
   for (auto _ : state) bytes = answers.Next();
   state.counters["answer_bytes"] = static_cast<double>(bytes);
   state.counters["messages_in_process"] = static_cast<double>(InlineAnswers::messages);
-  state.SetLabel(state.range(0) != 0 ? "one force" : "whole state");
+  state.SetLabel(std::string("inline message, ") +
+                 (state.range(0) != 0 ? "one force" : "whole state") + " (" +
+                 std::to_string(bytes) + " bytes)");
 }
 BENCHMARK(BM_InlineAnswer)->Arg(0)->Arg(1);
 
