@@ -272,7 +272,9 @@ TEST_F(ContactServiceTest, StateMaskAnswersOnlyTheSelectedFieldsAndGetSessionThe
   };
   const std::vector<Case> cases = {
       {"sphere", SteelSphereOnSteelFlat(), tangential, {"tangential_force"}},
-      {"sphere, derived fields", SteelSphereOnSteelFlat(), tangential,
+      {"sphere, derived fields",
+       SteelSphereOnSteelFlat(),
+       tangential,
        {"normal_force", "contact_radius", "applied_steps"}},
       {"rig", rig, tangential, {"actuator_displacement", "tangential_force", "friction_limit"}},
       {"grid", grid, tangential, {"tangential_force", "memory_vertices"}},

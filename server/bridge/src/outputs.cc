@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <limits>
 #include <set>
+#include <string>
 #include <string_view>
 #include <unordered_map>
-#include <string>
 #include <vector>
 
 #include "mdr/base/log_value.h"
@@ -442,10 +442,10 @@ void WriteCompleteState(const ContactConfig& config, const KeptState& kept,
   state->set_contact_radius(ContactRadiusAtDepth(config, kept.depth));
   state->set_normal_force(normal_force);
   state->set_friction_limit(config.friction * normal_force);
-  state->set_actuator_displacement(
-      config.rig.tangential > 0
-          ? kept.tangential_displacement + config.rig.tangential * kept.tangential_force
-          : kept.tangential_displacement);
+  state->set_actuator_displacement(config.rig.tangential > 0
+                                       ? kept.tangential_displacement +
+                                             config.rig.tangential * kept.tangential_force
+                                       : kept.tangential_displacement);
   state->set_actuator_depth(config.rig.normal > 0 ? kept.depth + config.rig.normal * normal_force
                                                   : kept.depth);
 }

@@ -24,13 +24,11 @@ using bridge::BoundsAtCommit;
 using bridge::CheckExportable;
 using bridge::CheckSingleContactQuery;
 using bridge::CheckSingleContactStep;
-using bridge::KeepState;
-using bridge::KeptState;
-using bridge::WriteCompleteState;
-using bridge::WriteKeptState;
 using bridge::ExportBytesBound;
 using bridge::ExportedSceneBytes;
 using bridge::InterfaceQuery;
+using bridge::KeepState;
+using bridge::KeptState;
 using bridge::kMaxAppliedSteps;
 using bridge::kSnapshotVersion;
 using bridge::MovesEveryContactOnce;
@@ -46,9 +44,11 @@ using bridge::ToProtoSnapshot;
 using bridge::ToProtoTorsionSnapshot;
 using bridge::WithEffectiveOptions;
 using bridge::WriteApproximationErrors;
+using bridge::WriteCompleteState;
 using bridge::WriteInterfaceQueryOutputs;
 using bridge::WriteInterfaceState;
 using bridge::WriteInterfaceStepResult;
+using bridge::WriteKeptState;
 using bridge::WriteQueryOutputs;
 using bridge::WriteState;
 using bridge::WriteStepResult;
@@ -206,8 +206,7 @@ Status Session::Apply(const v1::ApplyRequest& request, const BatchOutputs& outpu
 }
 
 std::optional<Status> Session::ApplyIfBounded(const v1::ApplyRequest& request,
-                                              const BatchOutputs& outputs,
-                                              std::size_t max_vertices,
+                                              const BatchOutputs& outputs, std::size_t max_vertices,
                                               std::size_t max_response_bytes,
                                               v1::ApplyResponse* response) {
   if (!available() || interface_ || torsion_ || request.steps_size() != 1) return std::nullopt;
@@ -258,8 +257,7 @@ Status Session::ApplyLocked(const v1::ApplyRequest& request, const BatchOutputs&
       return OkStatus();
     }
   }
-  if (Status status =
-          RunBatch(request, outputs, guard, max_response_bytes, response, interrupt);
+  if (Status status = RunBatch(request, outputs, guard, max_response_bytes, response, interrupt);
       !status.ok()) {
     response->Clear();
     return status;
@@ -371,9 +369,9 @@ Status Session::RunStepInPlace(const v1::ApplyRequest& request, const BatchOutpu
   return OkStatus();
 }
 
-Status Session::RunTorsionBatch(const v1::ApplyRequest& request,
-                                const BatchOutputs& outputs, const StepGuard& guard,
-                                std::size_t max_response_bytes, v1::ApplyResponse* response) {
+Status Session::RunTorsionBatch(const v1::ApplyRequest& request, const BatchOutputs& outputs,
+                                const StepGuard& guard, std::size_t max_response_bytes,
+                                v1::ApplyResponse* response) {
   TorsionalContact copy = *torsion_;
   const ContactConfig& config = contact_->config();
   std::uint64_t applied = applied_steps_;
@@ -390,14 +388,14 @@ Status Session::RunTorsionBatch(const v1::ApplyRequest& request,
     }
   }
   return CommitBatchLocked(
-      request, outputs.state, applied, 0.0, max_response_bytes, StateBytes(*contact_) + StateBytes(copy),
-      ExportBytesBound(copy, scene_bytes_), [&] { *torsion_ = std::move(copy); }, response);
+      request, outputs.state, applied, 0.0, max_response_bytes,
+      StateBytes(*contact_) + StateBytes(copy), ExportBytesBound(copy, scene_bytes_),
+      [&] { *torsion_ = std::move(copy); }, response);
 }
 
-Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
-                                  const BatchOutputs& outputs, const StepGuard& guard,
-                                  std::size_t max_response_bytes, v1::ApplyResponse* response,
-                                  const Interrupt& interrupt) {
+Status Session::RunInterfaceBatch(const v1::ApplyRequest& request, const BatchOutputs& outputs,
+                                  const StepGuard& guard, std::size_t max_response_bytes,
+                                  v1::ApplyResponse* response, const Interrupt& interrupt) {
   if (request.steps_size() == 1 && MovesEveryContactOnce(*interface_, request.steps(0))) {
     bool fall_back = false;
     Status status =
@@ -405,8 +403,7 @@ Status Session::RunInterfaceBatch(const v1::ApplyRequest& request,
     if (!fall_back) return status;
     response->Clear();
   }
-  return RunInterfaceBatchOnCopy(request, outputs, guard, max_response_bytes, response,
-                                 interrupt);
+  return RunInterfaceBatchOnCopy(request, outputs, guard, max_response_bytes, response, interrupt);
 }
 
 Status Session::RunInterfaceStepInPlace(const v1::ApplyRequest& request,
@@ -509,8 +506,7 @@ Status Session::AdmitBatchLocked(const v1::ApplyRequest& request, std::size_t st
 }
 
 void Session::FinishBatchLocked(std::uint64_t applied, double path_error,
-                                const OutputSelection& state_outputs,
-                                v1::ApplyResponse* response) {
+                                const OutputSelection& state_outputs, v1::ApplyResponse* response) {
   ++journal_sequence_;
   ProcessMetrics().steps_applied.Increment(applied - applied_steps_);
   applied_steps_ = applied;

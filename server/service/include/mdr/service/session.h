@@ -165,27 +165,26 @@ class Session {
                   const StepGuard& guard, std::size_t max_response_bytes,
                   v1::ApplyResponse* response, const Interrupt& interrupt);
   // A one-step batch in place when it can (RunInterfaceStepInPlace), else on a copy.
-  Status RunInterfaceBatch(const v1::ApplyRequest& request,
-                           const bridge::BatchOutputs& outputs, const StepGuard& guard,
-                           std::size_t max_response_bytes, v1::ApplyResponse* response,
-                           const Interrupt& interrupt);
+  Status RunInterfaceBatch(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
+                           const StepGuard& guard, std::size_t max_response_bytes,
+                           v1::ApplyResponse* response, const Interrupt& interrupt);
   // One step on interface_ itself: the core's step is atomic, and what could still refuse it
   // (the budget and the export limit, from bounds of the step's growth, and the journal) is done
   // in its commit gate, before it changes anything. Sets *fall_back (nothing changed) when the
   // bounds do not fit: the exact check of a batch copy decides then.
   Status RunInterfaceStepInPlace(const v1::ApplyRequest& request,
-                                 const bridge::BatchOutputs& outputs,
-                                 const StepGuard& guard, v1::ApplyResponse* response,
-                                 const Interrupt& interrupt, bool* fall_back);
+                                 const bridge::BatchOutputs& outputs, const StepGuard& guard,
+                                 v1::ApplyResponse* response, const Interrupt& interrupt,
+                                 bool* fall_back);
   // Every step of a torsional session on a copy (a few pieces), moved in at the commit.
-  Status RunTorsionBatch(const v1::ApplyRequest& request,
-                         const bridge::BatchOutputs& outputs, const StepGuard& guard,
-                         std::size_t max_response_bytes, v1::ApplyResponse* response);
+  Status RunTorsionBatch(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
+                         const StepGuard& guard, std::size_t max_response_bytes,
+                         v1::ApplyResponse* response);
   // Every step on a copy of the interface, swapped in at the commit.
   Status RunInterfaceBatchOnCopy(const v1::ApplyRequest& request,
-                                 const bridge::BatchOutputs& outputs,
-                                 const StepGuard& guard, std::size_t max_response_bytes,
-                                 v1::ApplyResponse* response, const Interrupt& interrupt);
+                                 const bridge::BatchOutputs& outputs, const StepGuard& guard,
+                                 std::size_t max_response_bytes, v1::ApplyResponse* response,
+                                 const Interrupt& interrupt);
   // The guard and the step counter's limit before step i.
   static Status CheckNextStep(const StepGuard& guard, int i, std::uint64_t applied);
   // Whether `step` is one exact linear step of this session's single exact contact whatever its
@@ -196,9 +195,9 @@ class Session {
   // A one-step batch of a straight step on an exact contact without a journal, made in place
   // (Contact::Apply is atomic) once the bounds of the state after it are charged; *fall_back
   // when only those bounds did not fit (the exact state after the step may: RunBatch's copy).
-  Status RunStepInPlace(const v1::ApplyRequest& request,
-                        const bridge::BatchOutputs& outputs, const StepGuard& guard,
-                        v1::ApplyResponse* response, const Interrupt& interrupt, bool* fall_back);
+  Status RunStepInPlace(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
+                        const StepGuard& guard, v1::ApplyResponse* response,
+                        const Interrupt& interrupt, bool* fall_back);
   // Apply's work with mutex_ held (the batch size checked).
   Status ApplyLocked(const v1::ApplyRequest& request, const bridge::BatchOutputs& outputs,
                      const StepGuard& guard, std::size_t max_response_bytes,
@@ -217,8 +216,7 @@ class Session {
   // After the state changed: counters, the committed state and the response's state (the
   // fields of state_outputs).
   void FinishBatchLocked(std::uint64_t applied, double path_error,
-                         const bridge::OutputSelection& state_outputs,
-                         v1::ApplyResponse* response);
+                         const bridge::OutputSelection& state_outputs, v1::ApplyResponse* response);
   // Keeps the state for ReadResource and, unless state is null, writes the selected fields
   // into *state, each computed once.
   void CommitStateLocked(const bridge::OutputSelection& selection, v1::ContactState* state);
