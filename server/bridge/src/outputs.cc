@@ -1,11 +1,11 @@
 #include "mdr/bridge/outputs.h"
 
 #include <algorithm>
+#include <iterator>
 #include <limits>
 #include <set>
 #include <string>
-#include <string_view>
-#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "mdr/base/log_value.h"
@@ -89,15 +89,6 @@ std::vector<Leaf> StateLeaves() {
   return leaves;
 }
 
-const std::vector<Leaf>& ContactStateLeaves() {
-  static const std::vector<Leaf> leaves = [] {
-    std::vector<Leaf> all;
-    for (const StateField& field : kStateFields) all.push_back({field.name, field.output});
-    return all;
-  }();
-  return leaves;
-}
-
 const std::vector<Leaf>& StepResultLeaves() {
   static const std::vector<Leaf> leaves = [] {
     std::vector<Leaf> all = StateLeaves();
@@ -154,8 +145,7 @@ std::string TopLevelPaths(const std::vector<Leaf>& leaves) {
 // A path selects the leaf it names and every leaf below it.
 Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
                                const std::vector<Leaf>& leaves, const char* mask_field,
-                               const char* message_name,
-                               const char* example = "\"state.normal_force\"") {
+                               const char* message_name) {
   OutputSelection selection;
   for (int i = 0; i < mask.paths_size(); ++i) {
     const std::string& path = mask.paths(i);
@@ -173,7 +163,7 @@ Result<OutputSelection> Select(const google::protobuf::FieldMask& mask,
       return InvalidArgument(std::string(mask_field) + ".paths[" + std::to_string(i) + "]",
                              Quoted(path) + " is not a field of " + message_name +
                                  "; valid: " + TopLevelPaths(leaves) +
-                                 " or one of their fields (e.g. " + example + ")");
+                                 " or one of their fields (e.g. \"state.normal_force\")");
     }
   }
   return selection;
@@ -356,21 +346,21 @@ Result<OutputSelection> SelectStepOutputs(const google::protobuf::FieldMask& mas
 
 Result<OutputSelection> SelectStateOutputs(const google::protobuf::FieldMask& mask) {
   if (mask.paths_size() == 0) return OutputSelection::FullState();
-  // ContactState has no nested fields: a path is a field's name, looked up by hash (a stream
-  // parses its mask with every message).
-  static const std::unordered_map<std::string_view, Output> kByName = [] {
-    std::unordered_map<std::string_view, Output> by_name;
-    for (const StateField& field : kStateFields) by_name.emplace(field.name, field.output);
-    return by_name;
-  }();
+  // ContactState has no nested fields: a path is a field's name.
   OutputSelection selection;
-  for (const std::string& path : mask.paths()) {
-    const auto found = kByName.find(path);
-    if (found == kByName.end()) {
-      return Select(mask, ContactStateLeaves(), "state_mask", "ContactState",
-                    "\"tangential_force\"");  // names the path
+  for (int i = 0; i < mask.paths_size(); ++i) {
+    const std::string& path = mask.paths(i);
+    const auto named = [&](const StateField& field) { return path == field.name; };
+    const auto* field = std::find_if(std::begin(kStateFields), std::end(kStateFields), named);
+    if (field == std::end(kStateFields)) {
+      std::string names;
+      for (const StateField& f : kStateFields) {
+        names += (names.empty() ? "" : ", ") + std::string(f.name);
+      }
+      return InvalidArgument("state_mask.paths[" + std::to_string(i) + "]",
+                             Quoted(path) + " is not a field of ContactState; valid: " + names);
     }
-    selection.add(found->second);
+    selection.add(field->output);
   }
   return selection;
 }
@@ -434,6 +424,28 @@ void WriteKeptState(const KeptState& kept, const OutputSelection& selection,
   if (selection.has(Output::kMemoryVertices)) state->set_memory_vertices(kept.memory_vertices);
 }
 
+void CopyStateFields(const v1::ContactState& from, const OutputSelection& selection,
+                     v1::ContactState* to) {
+  using google::protobuf::FieldDescriptor;
+  static const std::vector<std::pair<Output, const FieldDescriptor*>> kFields = [] {
+    std::vector<std::pair<Output, const FieldDescriptor*>> fields;
+    for (const StateField& field : kStateFields) {
+      fields.emplace_back(field.output,
+                          v1::ContactState::descriptor()->FindFieldByName(field.name));
+    }
+    return fields;
+  }();
+  const google::protobuf::Reflection* reflection = from.GetReflection();
+  for (const auto& [output, field] : kFields) {
+    if (!selection.has(output)) continue;
+    if (field->cpp_type() == FieldDescriptor::CPPTYPE_DOUBLE) {
+      reflection->SetDouble(to, field, reflection->GetDouble(from, field));
+    } else {
+      reflection->SetUInt64(to, field, reflection->GetUInt64(from, field));
+    }
+  }
+}
+
 // The same expressions as Contact's accessors (contact.cc) on the kept values: bit for bit.
 void WriteCompleteState(const ContactConfig& config, const KeptState& kept,
                         v1::ContactState* state) {
@@ -442,12 +454,10 @@ void WriteCompleteState(const ContactConfig& config, const KeptState& kept,
   state->set_contact_radius(ContactRadiusAtDepth(config, kept.depth));
   state->set_normal_force(normal_force);
   state->set_friction_limit(config.friction * normal_force);
-  state->set_actuator_displacement(config.rig.tangential > 0
-                                       ? kept.tangential_displacement +
-                                             config.rig.tangential * kept.tangential_force
-                                       : kept.tangential_displacement);
-  state->set_actuator_depth(config.rig.normal > 0 ? kept.depth + config.rig.normal * normal_force
-                                                  : kept.depth);
+  state->set_actuator_displacement(ActuatorPosition(
+      config.rig.tangential, kept.tangential_displacement, [&] { return kept.tangential_force; }));
+  state->set_actuator_depth(
+      ActuatorPosition(config.rig.normal, kept.depth, [&] { return normal_force; }));
 }
 
 void WriteStepResult(const Contact& contact, std::uint64_t applied_steps, const StepReport& report,

@@ -249,11 +249,11 @@ double Contact::contact_radius() const { return ContactRadiusAtDepth(config_, de
 double Contact::normal_force() const { return NormalForceAtDepth(depth()); }
 
 double Contact::actuator_displacement() const {
-  return config_.rig.tangential > 0 ? ux_ + config_.rig.tangential * tangential_force() : ux_;
+  return ActuatorPosition(config_.rig.tangential, ux_, [this] { return tangential_force(); });
 }
 
 double Contact::actuator_depth() const {
-  return config_.rig.normal > 0 ? depth() + config_.rig.normal * normal_force() : depth();
+  return ActuatorPosition(config_.rig.normal, depth(), [this] { return normal_force(); });
 }
 
 double Contact::tangential_force() const {

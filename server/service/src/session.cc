@@ -24,6 +24,7 @@ using bridge::BoundsAtCommit;
 using bridge::CheckExportable;
 using bridge::CheckSingleContactQuery;
 using bridge::CheckSingleContactStep;
+using bridge::CopyStateFields;
 using bridge::ExportBytesBound;
 using bridge::ExportedSceneBytes;
 using bridge::InterfaceQuery;
@@ -529,15 +530,10 @@ void Session::CommitStateLocked(const OutputSelection& selection, v1::ContactSta
     committed_kept_ = kept;
     return;
   }
+  // An interface's forces are sums over its contacts: computed once, the answer copied.
   v1::ContactState committed;
   WriteStateLocked(OutputSelection::FullState(), &committed);
-  if (state != nullptr) {
-    if (selection == OutputSelection::FullState()) {
-      *state = committed;
-    } else {
-      WriteStateLocked(selection, state);
-    }
-  }
+  if (state != nullptr) CopyStateFields(committed, selection, state);
   std::lock_guard committed_lock(committed_mutex_);
   committed_state_.Swap(&committed);  // the previous state is freed after the lock
 }

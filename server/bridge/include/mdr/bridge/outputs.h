@@ -76,7 +76,7 @@ class OutputSelection {
   static OutputSelection FullState();
   // The ContactState fields a single contact's session keeps for GetSession after every batch:
   // those that need the contact's memory or counters. The others follow from them and the
-  // session's config (CompleteKeptState), computed only when they are read.
+  // session's config (WriteCompleteState), computed only when they are read.
   static OutputSelection KeptState();
 
   bool has(Output output) const { return bits_.test(static_cast<std::size_t>(output)); }
@@ -88,7 +88,6 @@ class OutputSelection {
     rest.bits_ = bits_ & ~other.bits_;
     return rest;
   }
-  bool operator==(const OutputSelection&) const = default;
   bool any_state() const;
   bool any_springs() const {
     return has(Output::kSpringTangentialDisplacement) || has(Output::kSpringNormalDisplacement);
@@ -166,6 +165,10 @@ void WriteApproximationErrors(const Contact& contact, v1::ErrorEstimate* estimat
 void WriteState(const Contact& contact, std::uint64_t applied_steps,
                 const OutputSelection& selection, v1::ContactState* state,
                 OutputCounters* counters = nullptr);
+
+// Copies the selected ContactState fields of from into *to (of a state computed once).
+void CopyStateFields(const v1::ContactState& from, const OutputSelection& selection,
+                     v1::ContactState* to);
 
 // The values of OutputSelection::KeptState, as a single contact's session keeps them after every
 // batch for GetSession (a plain struct: copied under a lock with every message).

@@ -88,6 +88,13 @@ double NormalForceAtDepth(const Profile& profile, const EffectiveMaterial& mater
 double DepthAtNormalForce(const Profile& profile, const EffectiveMaterial& material,
                           double normal_force);
 double ContactRadiusAtDepth(const ContactConfig& config, double depth);
+// Where the actuator stands on one channel with a rig of that compliance in series (RigCompliance):
+// the contact's position plus compliance times the channel's force, or the contact's position
+// without a rig (force, a callable, is then not evaluated: a tangential force is an integral).
+template <typename Force>
+double ActuatorPosition(double compliance, double position, Force force) {
+  return compliance > 0 ? position + compliance * force() : position;
+}
 
 // Validates a config: profile present, material moduli > 0, friction >= 0 and finite,
 // tolerance in (0, 0.1], vertex limit >= 8, grid_size in [2, 2^22], grid_max_radius > 0 for the
