@@ -996,6 +996,14 @@ TEST(TorsionalContactTest, StepsThatCannotBeExactAreRefusedAndChangeNothing) {
   EXPECT_EQ(huge.field(), "normal_value");
   EXPECT_EQ(contact.memory().pieces(), before);
   EXPECT_EQ(contact.depth(), depth);
+  // A load so small that the full-slip moment per modulus is subnormal (the request fuzzer's
+  // 8.4e-227 N, which answered |M| = 1.0000015 M_slip); unloading to 0 stays allowed.
+  const Status tiny = contact.Apply(NormalStep(NormalControl::kForce, 8.448726018105168e-227));
+  EXPECT_EQ(tiny.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(tiny.field(), "normal_value");
+  EXPECT_NE(tiny.message().find("full precision"), std::string::npos) << tiny.message();
+  EXPECT_EQ(contact.memory().pieces(), before);
+  EXPECT_EQ(contact.depth(), depth);
   // Profiles without a torsional bound yet are refused by name.
   const Status punch = TorsionalContact::Create(*MakeFlatPunch(1e-3), 0.3, 1e11, 4e10).status();
   EXPECT_EQ(punch.field(), "profile");

@@ -875,6 +875,21 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     last_dissipation_ = 0;
     return OkStatus();
   }
+  // A contact so small that its full-slip moment or full-stick stiffness per modulus falls near
+  // the subnormal doubles loses the relative precision that |M| <= M_slip needs: refused (the
+  // request fuzzer's find: 8.4e-227 N on a steel sphere answered |M| = 1.0000015 M_slip).
+  // Unloading to 0 is not refused; a physical load is some 10^200 above this floor.
+  constexpr double kSmallestFullPrecision =
+      std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon();
+  if (contact_radius > 0 &&
+      (bound_->FullSlipMomentPerModulus(contact_radius) < kSmallestFullPrecision ||
+       contact_radius * contact_radius * contact_radius < kSmallestFullPrecision)) {
+    return InvalidArgument("contact_radius",
+                           "the full-slip moment of a contact of radius " +
+                               FormatNumber(contact_radius) +
+                               " m is too small for the doubles to carry it to full precision; "
+                               "take a larger normal load, or unload to 0");
+  }
   std::vector<TorsionPiece> next;
   std::vector<TorsionBound::Integrals> next_tails;
   double dissipation = 0;
