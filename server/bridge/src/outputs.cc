@@ -5,6 +5,7 @@
 #include <limits>
 #include <set>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -346,21 +347,27 @@ Result<OutputSelection> SelectStepOutputs(const google::protobuf::FieldMask& mas
 
 Result<OutputSelection> SelectStateOutputs(const google::protobuf::FieldMask& mask) {
   if (mask.paths_size() == 0) return OutputSelection::FullState();
-  // ContactState has no nested fields: a path is a field's name.
+  // ContactState has no nested fields: a path is a field's name (compared as views, whose
+  // lengths are known: a stream parses its mask with every message).
+  static const std::vector<std::string_view> kNames = [] {
+    std::vector<std::string_view> names;
+    for (const StateField& field : kStateFields) names.emplace_back(field.name);
+    return names;
+  }();
   OutputSelection selection;
   for (int i = 0; i < mask.paths_size(); ++i) {
-    const std::string& path = mask.paths(i);
-    const auto named = [&](const StateField& field) { return path == field.name; };
-    const auto* field = std::find_if(std::begin(kStateFields), std::end(kStateFields), named);
-    if (field == std::end(kStateFields)) {
-      std::string names;
-      for (const StateField& f : kStateFields) {
-        names += (names.empty() ? "" : ", ") + std::string(f.name);
+    const std::string_view path = mask.paths(i);
+    const auto named = std::find(kNames.begin(), kNames.end(), path);
+    if (named == kNames.end()) {
+      std::string valid;
+      for (const std::string_view name : kNames) {
+        valid += (valid.empty() ? "" : ", ") + std::string(name);
       }
-      return InvalidArgument("state_mask.paths[" + std::to_string(i) + "]",
-                             Quoted(path) + " is not a field of ContactState; valid: " + names);
+      return InvalidArgument(
+          "state_mask.paths[" + std::to_string(i) + "]",
+          Quoted(mask.paths(i)) + " is not a field of ContactState; valid: " + valid);
     }
-    selection.add(field->output);
+    selection.add(kStateFields[named - kNames.begin()].output);
   }
   return selection;
 }
