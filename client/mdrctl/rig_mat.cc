@@ -342,15 +342,86 @@ std::optional<mdr::Status> CheckMat4Records(const std::string& path) {
   return mdr::OkStatus();
 }
 
+// The inflated bytes of one compressed MAT v5 variable (a zlib stream in [begin, end) of the
+// file), read forward: a window of what was inflated, its bytes before the last read dropped once
+// it outgrows 1 MiB, so checking a variable of any size takes bounded memory.
+class InflatedBytes {
+ public:
+  InflatedBytes(std::ifstream& in, std::streamoff begin, std::streamoff end)
+      : in_(in), next_in_(begin), end_(end), ok_(inflateInit(&stream_) == Z_OK) {}
+  ~InflatedBytes() {
+    if (ok_) inflateEnd(&stream_);
+  }
+  InflatedBytes(const InflatedBytes&) = delete;
+  InflatedBytes& operator=(const InflatedBytes&) = delete;
+
+  // The `n` bytes at `at`, at or after the last read's; false past the end of the stream.
+  bool Read(std::streamoff at, char* out, std::size_t n) {
+    if (at < window_start_) return false;
+    while (window_start_ + static_cast<std::streamoff>(window_.size()) <
+           at + static_cast<std::streamoff>(n)) {
+      DropBefore(at);
+      if (!InflateChunk()) return false;
+    }
+    std::memcpy(out, window_.data() + (at - window_start_), n);
+    DropBefore(at);
+    return true;
+  }
+
+ private:
+  void DropBefore(std::streamoff at) {
+    const std::size_t before =
+        std::min(window_.size(), static_cast<std::size_t>(at - window_start_));
+    if (before < (std::size_t{1} << 20) && before < window_.size()) return;
+    window_.erase(0, before);
+    window_start_ += static_cast<std::streamoff>(before);
+  }
+
+  // Appends the next chunk of inflated bytes; false when the stream has no more.
+  bool InflateChunk() {
+    if (!ok_ || ended_) return false;
+    if (stream_.avail_in == 0) {
+      const std::streamoff chunk =
+          std::min<std::streamoff>(end_ - next_in_, static_cast<std::streamoff>(input_.size()));
+      if (chunk <= 0 || !in_.seekg(next_in_) ||
+          !in_.read(reinterpret_cast<char*>(input_.data()), chunk)) {
+        in_.clear();
+        return false;
+      }
+      next_in_ += chunk;
+      stream_.next_in = input_.data();
+      stream_.avail_in = static_cast<uInt>(chunk);
+    }
+    unsigned char output[1 << 16];
+    stream_.next_out = output;
+    stream_.avail_out = sizeof output;
+    const int result = inflate(&stream_, Z_NO_FLUSH);
+    if (result != Z_OK && result != Z_STREAM_END) return false;
+    ended_ = result == Z_STREAM_END;
+    window_.append(reinterpret_cast<const char*>(output), sizeof output - stream_.avail_out);
+    return true;
+  }
+
+  std::ifstream& in_;
+  std::streamoff next_in_, end_;
+  z_stream stream_{};
+  bool ok_, ended_ = false;
+  std::vector<unsigned char> input_ = std::vector<unsigned char>(1 << 16);
+  std::string window_;
+  std::streamoff window_start_ = 0;
+};
+
 // A MAT v5 file is a 128-byte header and then one element per variable, each a tag (its type and
 // its byte count) and that many bytes, padded to 8 unless compressed. An array's element holds
 // its parts the same way (flags, dimensions, name, data; a struct's fields and a cell's elements
 // are arrays in turn). matio trusts these counts: it reads a file whose last variable was cut
 // short (a rig stopped while writing) without an error, the missing elements filled with whatever
-// its buffer held, allocates what a corrupt count declares (a name of gigabytes), and reads as
-// many numbers as an array's dimensions declare whatever its data holds. So before matio reads
-// anything, every element must end inside the file, every part inside its array, and a numeric
-// array's data must hold what its dimensions declare.
+// its buffer held, allocates what a corrupt count declares (a name of gigabytes, a pointer for
+// every element a cell's or a struct's dimensions declare), and reads as many numbers as an
+// array's dimensions declare whatever its data holds. So before matio reads anything, every
+// element must end inside the file, every part inside its array, a numeric array's data must hold
+// what its dimensions declare, and a cell, struct or function handle must hold an array for each
+// element it declares. A compressed variable is checked the same way over its inflated bytes.
 class Mat5Elements {
  public:
   explicit Mat5Elements(const std::string& path)
@@ -379,12 +450,14 @@ class Mat5Elements {
       if (tag->type == kCompressed) {
         if (mdr::Status stream = CheckCompressed(*tag, variable); !stream.ok()) return stream;
       }
-      at = tag->type == kCompressed ? tag->end : Padded(tag->end);
+      // Padding counts from the element's start: one after a compressed variable may be unaligned.
+      at = tag->type == kCompressed ? tag->end : at + Padded(tag->end - at);
     }
     return mdr::OkStatus();
   }
 
  private:
+  static constexpr std::uint32_t kInt8 = 1;         // miINT8
   static constexpr std::uint32_t kInt32 = 5;        // miINT32
   static constexpr std::uint32_t kUint32 = 6;       // miUINT32
   static constexpr std::uint32_t kMatrix = 14;      // miMATRIX
@@ -396,12 +469,47 @@ class Mat5Elements {
     std::streamoff data;   // where its bytes start
     std::streamoff bytes;  // how many
     std::streamoff end;    // of the element, before its padding
+    std::uint32_t word;    // its second word: a small element's data, else its byte count
   };
-  static std::streamoff Padded(std::streamoff at) { return (at + 7) / 8 * 8; }
+  static std::streamoff Padded(std::streamoff bytes) { return (bytes + 7) / 8 * 8; }
+  // a * b, at most 2^40: more elements than any file this size holds, and no overflow.
+  static std::uint64_t SaturatedProduct(std::uint64_t a, std::uint64_t b) {
+    constexpr std::uint64_t kMax = std::uint64_t{1} << 40;
+    std::uint64_t product;
+    return __builtin_mul_overflow(a, b, &product) || product > kMax ? kMax : product;
+  }
+
+  // What an array's first parts declare, read as its parts are walked (forward, as an inflated
+  // variable is read).
+  struct ArrayHeader {
+    std::uint32_t flags = 0;
+    std::uint64_t elements = 1;          // the product of its dimensions (SaturatedProduct)
+    std::uint32_t field_name_bytes = 0;  // a struct's, 0 if its parts do not declare them
+    std::streamoff field_names_bytes = 0;
+    std::uint64_t arrays = 0;  // the miMATRIX parts it holds
+  };
 
   // A compressed variable is one zlib stream that must end within its element: matio reports a
-  // corrupt one as a file without variables. Inflated and discarded here, a chunk at a time.
+  // corrupt one as a file without variables. Inflated once to check the stream, then walked.
   mdr::Status CheckCompressed(const Tag& tag, int variable) {
+    std::streamoff inflated = 0;
+    if (mdr::Status stream = CheckStream(tag, variable, &inflated); !stream.ok()) return stream;
+    InflatedBytes bytes(in_, tag.data, tag.end);
+    inflated_ = &bytes;
+    const std::optional<Tag> array = Read(0, inflated);
+    mdr::Status parts = mdr::OkStatus();
+    if (array && array->end > inflated) {
+      parts = InvalidArgumentAt(variable, "declares " + std::to_string(array->end) +
+                                              " bytes, but its data inflates to " +
+                                              std::to_string(inflated));
+    } else if (array && array->type == kMatrix) {
+      parts = CheckParts(8, array->end, variable, 1);
+    }
+    inflated_ = nullptr;
+    return parts;
+  }
+
+  mdr::Status CheckStream(const Tag& tag, int variable, std::streamoff* inflated) {
     auto corrupt = [&](const std::string& why) {
       return mdr::InvalidArgument(path_, "its variable number " + std::to_string(variable) +
                                              " (from byte " + std::to_string(tag.data - 8) +
@@ -432,15 +540,28 @@ class Mat5Elements {
       if (result != Z_OK && result != Z_STREAM_END) break;
     }
     const std::string message = stream.msg != nullptr ? stream.msg : "";
+    *inflated = static_cast<std::streamoff>(stream.total_out);
     inflateEnd(&stream);
     if (result == Z_STREAM_END) return mdr::OkStatus();
     if (result == Z_OK || result == Z_BUF_ERROR) return corrupt("its zlib stream ends early");
     return corrupt("zlib: " + (message.empty() ? std::to_string(result) : message));
   }
 
+  // "the file is corrupt: its variable number N <what>"; in a compressed variable, the byte
+  // offsets `what` names count its inflated data.
+  mdr::Status InvalidArgumentAt(int variable, const std::string& what) const {
+    const bool offsets = inflated_ != nullptr && what.find(" byte ") != std::string::npos;
+    return mdr::InvalidArgument(
+        path_, "the file is corrupt: its variable number " + std::to_string(variable) +
+                   (inflated_ != nullptr ? " (compressed) " : " ") + what +
+                   (offsets ? ", counting bytes of its inflated data" : ""));
+  }
+
   std::optional<std::uint32_t> Word(std::streamoff at) {
     std::uint32_t word;
-    if (!in_.seekg(at) || !in_.read(reinterpret_cast<char*>(&word), 4)) {
+    if (inflated_ != nullptr) {
+      if (!inflated_->Read(at, reinterpret_cast<char*>(&word), 4)) return std::nullopt;
+    } else if (!in_.seekg(at) || !in_.read(reinterpret_cast<char*>(&word), 4)) {
       in_.clear();
       return std::nullopt;
     }
@@ -450,11 +571,11 @@ class Mat5Elements {
   // The tag at `at`, if the 8 bytes before `limit` hold one.
   std::optional<Tag> Read(std::streamoff at, std::streamoff limit) {
     if (limit - at < 8) return std::nullopt;
-    const std::optional<std::uint32_t> type = Word(at), bytes = Word(at + 4);
-    if (!type || !bytes) return std::nullopt;
+    const std::optional<std::uint32_t> type = Word(at), word = Word(at + 4);
+    if (!type || !word) return std::nullopt;
     // A small element (its byte count in the type's upper half) is its 8-byte tag alone.
-    if ((*type >> 16) != 0) return Tag{*type & 0xffff, at + 4, *type >> 16, at + 8};
-    return Tag{*type, at + 8, *bytes, at + 8 + *bytes};
+    if ((*type >> 16) != 0) return Tag{*type & 0xffff, at + 4, *type >> 16, at + 8, *word};
+    return Tag{*type, at + 8, *word, at + 8 + *word, *word};
   }
 
   // The bytes of one element of a stored numeric type (0: not one).
@@ -482,58 +603,73 @@ class Mat5Elements {
   // A numeric array's real part (its parts: flags, dimensions, name, real part) holds exactly
   // what its dimensions declare: matio reads that many elements, from past the part if it holds
   // fewer. Other arrays, and parts matio would refuse anyway, are left to matio.
-  mdr::Status CheckNumericData(const std::vector<Tag>& parts, int variable) {
+  mdr::Status CheckNumericData(const std::vector<Tag>& parts, const ArrayHeader& header,
+                               int variable) {
     if (parts.size() < 4 || parts[0].bytes < 4) return mdr::OkStatus();
-    const std::optional<std::uint32_t> flags = Word(parts[0].data);
-    const std::uint32_t array_class = flags ? *flags & 0xff : 0;
+    const std::uint32_t array_class = header.flags & 0xff;
     const std::streamoff size = TypeSize(parts[3].type);
     if (array_class < 6 || array_class > 15 || size == 0) return mdr::OkStatus();  // mxDOUBLE..
-    std::uint64_t elements = 1;
-    for (std::streamoff at = parts[1].data; at + 4 <= parts[1].data + parts[1].bytes; at += 4) {
-      const std::optional<std::uint32_t> dim = Word(at);
-      if (!dim) return mdr::OkStatus();
-      elements = std::min<std::uint64_t>(elements * *dim, std::uint64_t{1} << 40);
-    }
     // A complex array's imaginary part (flag 0x800) holds as many elements as its real part.
-    const bool complex = (*flags & 0x800) != 0;
+    const bool complex = (header.flags & 0x800) != 0;
     const Tag* imaginary = complex && parts.size() > 4 ? &parts[4] : nullptr;
     const std::streamoff imaginary_size = imaginary ? TypeSize(imaginary->type) : 0;
     for (const auto& [part, part_size] :
          {std::pair{&parts[3], size}, std::pair{imaginary, imaginary_size}}) {
       if (part == nullptr || part_size == 0 ||
-          elements * part_size == static_cast<std::uint64_t>(part->bytes)) {
+          header.elements * part_size == static_cast<std::uint64_t>(part->bytes)) {
         continue;
       }
-      return mdr::InvalidArgument(
-          path_, "the file is corrupt: its variable number " + std::to_string(variable) +
-                     " has an array of " + std::to_string(elements) + " elements of " +
-                     std::to_string(part_size) + " bytes, but its data holds " +
-                     std::to_string(part->bytes) + " bytes");
+      return InvalidArgumentAt(variable, "has an array of " + std::to_string(header.elements) +
+                                             " elements of " + std::to_string(part_size) +
+                                             " bytes, but its data holds " +
+                                             std::to_string(part->bytes) + " bytes");
     }
     return mdr::OkStatus();
   }
 
+  // matio allocates a pointer for every element of a cell or a function handle, and for every
+  // field of every element of a struct, before it reads them one array each: each must be there.
+  mdr::Status CheckContainer(const ArrayHeader& header, int variable) {
+    constexpr std::uint32_t kCell = 1, kStruct = 2, kFunction = 16;
+    const std::uint32_t array_class = header.flags & 0xff;
+    std::uint64_t declared = header.elements;
+    std::string what = array_class == kCell ? "a cell of " : "a function handle of ";
+    if (array_class == kStruct) {
+      if (header.field_name_bytes == 0) return mdr::OkStatus();  // matio reads no fields
+      const std::uint64_t fields =
+          static_cast<std::uint64_t>(header.field_names_bytes) / header.field_name_bytes;
+      declared = SaturatedProduct(declared, fields);
+      what = "a struct of " + std::to_string(header.elements) + " elements x " +
+             std::to_string(fields) + " fields, ";
+    } else if (array_class != kCell && array_class != kFunction) {
+      return mdr::OkStatus();
+    }
+    if (declared <= header.arrays) return mdr::OkStatus();
+    return InvalidArgumentAt(variable, "has " + what + std::to_string(declared) +
+                                           " arrays, but holds " + std::to_string(header.arrays));
+  }
+
   // The parts of the array whose data spans [begin, end), and theirs, to kMaxNesting levels.
   mdr::Status CheckParts(std::streamoff begin, std::streamoff end, int variable, int depth) {
-    const auto corrupt = [&](const std::string& what) {
-      return mdr::InvalidArgument(path_, "the file is corrupt: its variable number " +
-                                             std::to_string(variable) + " " + what);
-    };
     if (depth > kMaxNesting) {
-      return corrupt("nests arrays deeper than " + std::to_string(kMaxNesting) + " levels");
+      return InvalidArgumentAt(
+          variable, "nests arrays deeper than " + std::to_string(kMaxNesting) + " levels");
     }
     std::vector<Tag> parts;  // the first five
-    for (std::streamoff at = begin; at < end; at = Padded(at)) {
+    ArrayHeader header;
+    for (std::streamoff at = begin; at < end; at = begin + Padded(at - begin)) {
       const std::optional<Tag> part = Read(at, end);
       if (!part || part->end > end) {
-        return corrupt("has a part at byte " + std::to_string(at) + " that " +
-                       (part ? "declares " + std::to_string(part->end - at) + " bytes"
-                             : "has no room for its tag") +
-                       ", past the end of its array at byte " + std::to_string(end));
+        return InvalidArgumentAt(variable,
+                                 "has a part at byte " + std::to_string(at) + " that " +
+                                     (part ? "declares " + std::to_string(part->end - at) + " bytes"
+                                           : "has no room for its tag") +
+                                     ", past the end of its array at byte " + std::to_string(end));
       }
       if (part->data == at + 4 && part->bytes > 4) {
-        return corrupt("has a part at byte " + std::to_string(at) + " that declares " +
-                       std::to_string(part->bytes) + " bytes in the 4 of a small element");
+        return InvalidArgumentAt(variable, "has a part at byte " + std::to_string(at) +
+                                               " that declares " + std::to_string(part->bytes) +
+                                               " bytes in the 4 of a small element");
       }
       // matio reads the flags and dimensions where they should be whatever their tags say, so
       // tags that say otherwise make it read the rest from elsewhere.
@@ -541,27 +677,63 @@ class Mat5Elements {
           (parts.size() == 0 && (part->type != kUint32 || part->bytes != 8)) ||
           (parts.size() == 1 && (part->type != kInt32 || part->bytes < 8 || part->bytes % 4 != 0));
       if (misplaced) {
-        return corrupt("has " + std::string(parts.empty() ? "array flags" : "dimensions") +
-                       " at byte " + std::to_string(at) + " of type " + std::to_string(part->type) +
-                       " and " + std::to_string(part->bytes) + " bytes, not " +
-                       (parts.empty() ? "8 bytes of miUINT32"
-                                      : "a multiple of 4 bytes of miINT32, at least 8"));
+        return InvalidArgumentAt(
+            variable, "has " + std::string(parts.empty() ? "array flags" : "dimensions") +
+                          " at byte " + std::to_string(at) + " of type " +
+                          std::to_string(part->type) + " and " + std::to_string(part->bytes) +
+                          " bytes, not " +
+                          (parts.empty() ? "8 bytes of miUINT32"
+                                         : "a multiple of 4 bytes of miINT32, at least 8"));
+      }
+      if (!ReadHeaderPart(parts.size(), *part, &header)) {
+        return InvalidArgumentAt(
+            variable, "has a part at byte " + std::to_string(at) + " that cannot be read");
       }
       if (part->type == kMatrix) {
+        ++header.arrays;
         if (mdr::Status parts = CheckParts(at + 8, part->end, variable, depth + 1); !parts.ok()) {
           return parts;
         }
       }
+      // A function handle's arrays are read as variables are, a compressed one too.
+      if (part->type == kCompressed && inflated_ == nullptr) {
+        ++header.arrays;
+        if (mdr::Status stream = CheckCompressed(*part, variable); !stream.ok()) return stream;
+      }
       if (parts.size() < 5) parts.push_back(*part);
       at = part->end;
     }
-    return CheckNumericData(parts, variable);
+    if (mdr::Status data = CheckNumericData(parts, header, variable); !data.ok()) return data;
+    return CheckContainer(header, variable);
+  }
+
+  // Reads what the array's part number `index` declares into `header`, as matio reads it: the
+  // flags, the dimensions, and a struct's field name length (the tag's second word, whatever its
+  // size) and field names (miINT8). False if its bytes cannot be read.
+  bool ReadHeaderPart(std::size_t index, const Tag& part, ArrayHeader* header) {
+    if (index == 0) {
+      const std::optional<std::uint32_t> flags = Word(part.data);
+      if (!flags) return false;
+      header->flags = *flags;
+    } else if (index == 1) {
+      for (std::streamoff at = part.data; at + 4 <= part.data + part.bytes; at += 4) {
+        const std::optional<std::uint32_t> dim = Word(at);
+        if (!dim) return false;
+        header->elements = SaturatedProduct(header->elements, *dim);
+      }
+    } else if (index == 3 && part.type == kInt32 && part.word > 0) {
+      header->field_name_bytes = part.word;
+    } else if (index == 4 && part.type == kInt8) {
+      header->field_names_bytes = part.bytes;
+    }
+    return true;
   }
 
   const std::string& path_;
   std::ifstream in_;
   std::streamoff size_ = 0;
   bool swapped_ = false;
+  InflatedBytes* inflated_ = nullptr;  // while a compressed variable is walked
 };
 
 // A run variable's element as its run id: an integer in decimal (run 1000000 as "1000000", not

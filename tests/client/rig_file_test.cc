@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <matio.h>
+#include <zlib.h>
 
 #include <bit>
 #include <cmath>
@@ -565,6 +566,148 @@ TEST_F(RigFileTest, MisplacedArrayPartsAreRefusedBeforeMatioReadsThem) {
   std::ofstream(Path("corrupt.mat"), std::ios::binary | std::ios::trunc) << bytes;
   EXPECT_THAT(ReadError("corrupt.mat").message(),
               HasSubstr("has an array of 6 elements of 8 bytes, but its data holds 40 bytes"));
+}
+
+// An array element (miMATRIX) in either byte order: flags of `array_class`, its dimensions, its
+// name, then `rest` (its data or its arrays, written by the caller).
+std::string ArrayElement(bool big_endian, std::uint32_t array_class,
+                         const std::vector<std::uint32_t>& dims, const std::string& name,
+                         const std::string& rest) {
+  Bytes bytes(big_endian);
+  bytes.U32(6), bytes.U32(8), bytes.U32(array_class), bytes.U32(0);
+  bytes.U32(5), bytes.U32(static_cast<std::uint32_t>(4 * dims.size()));
+  for (std::uint32_t dim : dims) bytes.U32(dim);
+  if (dims.size() % 2 != 0) bytes.U32(0);
+  bytes.U32(1), bytes.U32(static_cast<std::uint32_t>(name.size()));
+  bytes.text += name;
+  bytes.text.resize((bytes.text.size() + 7) / 8 * 8, '\0');
+  bytes.text += rest;
+  Bytes element(big_endian);
+  element.U32(14), element.U32(static_cast<std::uint32_t>(bytes.text.size()));
+  return element.text + bytes.text;
+}
+
+// A 1x1 double, unnamed (a cell's element or a struct's field).
+std::string OneDouble(bool big_endian, double value) {
+  Bytes data(big_endian);
+  data.U32(9), data.U32(8);
+  data.Put(value);
+  return ArrayElement(big_endian, 6, {1, 1}, "", data.text);
+}
+
+// A struct's field name length (a small element) and names, one field "v".
+std::string OneFieldName(bool big_endian) {
+  Bytes bytes(big_endian);
+  bytes.U32(5 | 4u << 16), bytes.U32(8);
+  bytes.U32(1), bytes.U32(8);
+  bytes.text += std::string("v\0\0\0\0\0\0\0", 8);
+  return bytes.text;
+}
+
+// `element` as a compressed variable (miCOMPRESSED: a zlib stream of it, not padded).
+std::string Compressed(bool big_endian, const std::string& element) {
+  uLongf size = compressBound(static_cast<uLong>(element.size()));
+  std::string stream(size, '\0');
+  EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(stream.data()), &size,
+                      reinterpret_cast<const Bytef*>(element.data()),
+                      static_cast<uLong>(element.size()), 6),
+            Z_OK);
+  stream.resize(size);
+  Bytes bytes(big_endian);
+  bytes.U32(15), bytes.U32(static_cast<std::uint32_t>(size));
+  return bytes.text + stream;
+}
+
+// The rig fuzzer's find: matio allocates a pointer for every element a cell, a struct (times its
+// fields) or a function handle declares before it reads them, 6 GB for a 480-byte file whose
+// function handle declared 50331648 x 16 elements. Each must hold an array per element it
+// declares, compressed or not, whatever its byte order; such variables that do are read past, and
+// so is a variable after a compressed one, unaligned (its stream is not padded).
+TEST_F(RigFileTest, ACellStructOrFunctionHandleMustHoldTheArraysItsDimensionsDeclare) {
+  const std::vector<std::pair<std::string, std::vector<double>>> columns{{"x", kDisplacement},
+                                                                         {"fx", kForce}};
+  CsvLayout layout;
+  layout.displacement_column = "x";
+  layout.force_column = "fx";
+  struct Case {
+    const char* what;
+    std::uint32_t array_class;
+    std::vector<std::uint32_t> dims;
+    bool with_field_names;
+    const char* refusal;  // with the dimensions at the top of the container
+  };
+  const Case cases[] = {
+      {"cell", 1, {50331648, 16}, false, "has a cell of 805306368 arrays, but holds 2"},
+      {"struct",
+       2,
+       {4096, 4096},
+       true,
+       "has a struct of 16777216 elements x 1 fields, 16777216 arrays, but holds 2"},
+      {"function handle",
+       16,
+       {50331648, 16},
+       false,
+       "has a function handle of 805306368 arrays, but holds 2"},
+  };
+  for (const bool big_endian : {false, true}) {
+    for (const bool compressed : {false, true}) {
+      for (const Case& c : cases) {
+        SCOPED_TRACE(std::string(c.what) + (big_endian ? ", big-endian" : ", little-endian") +
+                     (compressed ? ", compressed" : ""));
+        const auto write = [&](const std::vector<std::uint32_t>& dims) {
+          const std::string rest = (c.with_field_names ? OneFieldName(big_endian) : "") +
+                                   OneDouble(big_endian, 1.5) + OneDouble(big_endian, -2);
+          const std::string element = ArrayElement(big_endian, c.array_class, dims, "c", rest);
+          std::ofstream(Path("c.mat"), std::ios::binary | std::ios::trunc)
+              << Mat5Bytes(big_endian, columns)
+              << (compressed ? Compressed(big_endian, element) : element);
+        };
+        write({2, 1});  // as many arrays as it declares
+        auto read = ReadRigFile(Path("c.mat").string(), layout);
+        ASSERT_TRUE(read.ok()) << read.status().ToString();
+        EXPECT_EQ(read->samples.displacement_size(), static_cast<int>(kDisplacement.size()));
+        write(c.dims);
+        const std::string message = ReadError("c.mat", layout).message();
+        EXPECT_THAT(message, HasSubstr(std::string("the file is corrupt: its variable number 3") +
+                                       (compressed ? " (compressed) " : " ") + c.refusal));
+      }
+    }
+  }
+  // A cell nested in a struct's field, compressed: the walk reaches it in the inflated bytes.
+  for (const bool big_endian : {false, true}) {
+    const std::string cell = ArrayElement(big_endian, 1, {3, 1}, "",
+                                          OneDouble(big_endian, 1) + OneDouble(big_endian, 2));
+    const std::string element =
+        ArrayElement(big_endian, 2, {1, 1}, "s", OneFieldName(big_endian) + cell);
+    std::ofstream(Path("nested.mat"), std::ios::binary | std::ios::trunc)
+        << Mat5Bytes(big_endian, columns) << Compressed(big_endian, element);
+    EXPECT_THAT(
+        ReadError("nested.mat", layout).message(),
+        HasSubstr("its variable number 3 (compressed) has a cell of 3 arrays, but holds 2"));
+    // A byte count past its array: the offsets named are the inflated data's.
+    Bytes data(big_endian);
+    data.U32(9), data.U32(800);
+    data.Put(1.0);
+    std::ofstream(Path("count.mat"), std::ios::binary | std::ios::trunc)
+        << Mat5Bytes(big_endian, columns)
+        << Compressed(big_endian, ArrayElement(big_endian, 6, {1, 1}, "d", data.text));
+    EXPECT_THAT(ReadError("count.mat", layout).message(),
+                HasSubstr("its variable number 3 (compressed) has a part at byte 56 that declares "
+                          "808 bytes, past the end of its array at byte 72, counting bytes of its "
+                          "inflated data"));
+    // Variables after a compressed one, whose stream is not padded, start unaligned.
+    Bytes three(big_endian);
+    three.U32(9), three.U32(8);
+    three.Put(3.0);
+    const std::string first =
+        Compressed(big_endian, ArrayElement(big_endian, 6, {1, 1}, "a", three.text));
+    ASSERT_NE(first.size() % 8, 0u);
+    std::ofstream(Path("unaligned.mat"), std::ios::binary | std::ios::trunc)
+        << Mat5Bytes(big_endian, {}) << first << Mat5Bytes(big_endian, columns).substr(128);
+    auto read = ReadRigFile(Path("unaligned.mat").string(), layout);
+    ASSERT_TRUE(read.ok()) << read.status().ToString();
+    EXPECT_EQ(read->samples.tangential_force(1), kForce[1]);
+  }
 }
 
 // matio allocates what a v4 header declares before it reads anything (opening a 123-byte file
