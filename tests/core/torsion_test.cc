@@ -1114,6 +1114,21 @@ TEST(TorsionTest, ADamagedSnapshotIsRefusedByField) {
   bad = good, bad.contact_radius = -1;
   EXPECT_EQ(field_of(bad), "contact_radius");
   EXPECT_TRUE(TorsionalMemory::Restore(UnitHertz(), 1, good).ok());
+  // A contact the doubles do not carry, too small or too large, is refused as a step refuses
+  // it (a snapshot of one constant piece at v = 0 is otherwise valid at any radius).
+  for (const double radius : {1e-110, 1e110}) {
+    SCOPED_TRACE(radius);
+    TorsionSnapshot extreme{.contact_radius = radius, .pieces = {{.end = radius}}};
+    TorsionalMemory unit = UnitMemory();
+    const Status step = unit.SetContactRadius(radius);
+    EXPECT_EQ(step.field(), "contact_radius");
+    const Status restored = TorsionalMemory::Restore(UnitHertz(), 1, extreme).status();
+    EXPECT_EQ(restored.field(), "contact_radius");
+    EXPECT_EQ(restored.message(), step.message());
+    extreme.contact_radius = extreme.pieces[0].end = radius < 1 ? 1e-60 : 1e60;
+    const Result<TorsionalMemory> carried = TorsionalMemory::Restore(UnitHertz(), 1, extreme);
+    EXPECT_TRUE(carried.ok()) << carried.status().ToString();
+  }
 }
 
 TEST(TorsionTest, BadInputsNameTheirFieldAndChangeNothing) {

@@ -472,6 +472,7 @@ Result<TorsionalMemory> TorsionalMemory::Restore(std::shared_ptr<const TorsionBo
       Create(std::move(bound), torsional_modulus, snapshot.contact_radius);
   if (!created.ok()) return created.status();
   if (Status s = RequireFinite("contact_radius", snapshot.contact_radius); !s.ok()) return s;
+  if (Status s = created->CheckRepresentable(snapshot.contact_radius); !s.ok()) return s;
   if (Status s = RequireFinite("twist", snapshot.twist); !s.ok()) return s;
   if (Status s = RequireNonNegative("dissipated_energy", snapshot.dissipated_energy); !s.ok()) {
     return s;
@@ -868,6 +869,35 @@ Status TorsionalMemory::TwistThroughCompliance(double actuator, double complianc
   return Twist(direction * s);
 }
 
+Status TorsionalMemory::CheckRepresentable(double contact_radius) const {
+  if (contact_radius == 0) return OkStatus();  // unloaded: always allowed
+  // A contact so small that its full-slip moment or full-stick stiffness per modulus falls near
+  // the subnormal doubles loses the relative precision that |M| <= M_slip needs (the request
+  // fuzzer's find: 8.4e-227 N on a steel sphere answered |M| = 1.0000015 M_slip); a physical
+  // load is some 10^200 above this floor.
+  constexpr double kSmallestFullPrecision =
+      std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon();
+  const double cube = contact_radius * contact_radius * contact_radius;
+  const double slip_per_modulus = bound_->FullSlipMomentPerModulus(contact_radius);
+  if (slip_per_modulus < kSmallestFullPrecision || cube < kSmallestFullPrecision) {
+    return InvalidArgument("contact_radius",
+                           "the full-slip moment of a contact of radius " +
+                               FormatNumber(contact_radius) +
+                               " m is too small for the doubles to carry it to full precision; "
+                               "take a larger normal load, or unload to 0");
+  }
+  // A contact so large that its full-stick stiffness 16 G_t a^3 / 3 or its full-slip moment
+  // overflows the doubles would answer infinite moments (the request fuzzer's find, a normal
+  // force of 2.7e277 N on a steel sphere).
+  if (!std::isfinite(16 * modulus_ * cube / 3) || !std::isfinite(modulus_ * slip_per_modulus)) {
+    return InvalidArgument("contact_radius",
+                           "the stiffness or the full-slip moment of a contact of radius " +
+                               FormatNumber(contact_radius) +
+                               " m exceeds the finite doubles; take a smaller normal load");
+  }
+  return OkStatus();
+}
+
 Status TorsionalMemory::SetContactRadius(double contact_radius) {
   if (Status s = RequireFinite("contact_radius", contact_radius); !s.ok()) return s;
   if (Status s = RequireNonNegative("contact_radius", contact_radius); !s.ok()) return s;
@@ -875,36 +905,11 @@ Status TorsionalMemory::SetContactRadius(double contact_radius) {
     last_dissipation_ = 0;
     return OkStatus();
   }
-  // A contact so small that its full-slip moment or full-stick stiffness per modulus falls near
-  // the subnormal doubles loses the relative precision that |M| <= M_slip needs: refused (the
-  // request fuzzer's find: 8.4e-227 N on a steel sphere answered |M| = 1.0000015 M_slip).
-  // Unloading to 0 is not refused; a physical load is some 10^200 above this floor.
-  constexpr double kSmallestFullPrecision =
-      std::numeric_limits<double>::min() / std::numeric_limits<double>::epsilon();
-  if (contact_radius > 0 &&
-      (bound_->FullSlipMomentPerModulus(contact_radius) < kSmallestFullPrecision ||
-       contact_radius * contact_radius * contact_radius < kSmallestFullPrecision)) {
-    return InvalidArgument("contact_radius",
-                           "the full-slip moment of a contact of radius " +
-                               FormatNumber(contact_radius) +
-                               " m is too small for the doubles to carry it to full precision; "
-                               "take a larger normal load, or unload to 0");
-  }
+  if (Status s = CheckRepresentable(contact_radius); !s.ok()) return s;
   std::vector<TorsionPiece> next;
   std::vector<TorsionBound::Integrals> next_tails;
   double dissipation = 0;
   if (contact_radius > radius_) {
-    // A contact so large that its full-stick stiffness 16 G_t a^3 / 3 or its full-slip moment
-    // overflows the doubles would answer infinite moments: refused (the request fuzzer's find,
-    // a normal force of 2.7e277 N on a steel sphere).
-    const double stick = 16 * modulus_ * (contact_radius * contact_radius * contact_radius) / 3;
-    if (!std::isfinite(stick) ||
-        !std::isfinite(modulus_ * bound_->FullSlipMomentPerModulus(contact_radius))) {
-      return InvalidArgument("contact_radius",
-                             "the stiffness or the full-slip moment of a contact of radius " +
-                                 FormatNumber(contact_radius) +
-                                 " m exceeds the finite doubles; take a smaller normal load");
-    }
     next = pieces_;
     next.push_back({.end = contact_radius});
     next_tails = tails_;

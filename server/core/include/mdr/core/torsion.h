@@ -133,7 +133,7 @@ class TorsionalMemory {
   // signs -1, 0, +1, finite values, every bound piece of a radius in (0, contact_radius] (an
   // exact state), and |v| <= B at both ends of every piece (where |v| - B is largest: it is
   // monotone on a piece), to 1e-9 of the terms of v plus what a root exact to 1e-15 of the
-  // radius moves v - B by. Fields:
+  // radius moves v - B by; a contact radius that CheckRepresentable refuses is refused. Fields:
   // contact_radius, twist, dissipated_energy, last_step_dissipation, pieces[i].<member>.
   static Result<TorsionalMemory> Restore(std::shared_ptr<const TorsionBound> bound,
                                          double torsional_modulus, const TorsionSnapshot& snapshot);
@@ -160,10 +160,15 @@ class TorsionalMemory {
   // The normal load changes at fixed twist so that the contact radius becomes contact_radius
   // (finite, >= 0). Growing adds springs at v = 0; shrinking clips to the smaller bound and
   // forgets the springs outside (their energy is dissipated). A decrease whose result would break
-  // |F| <= 1 fails with FailedPrecondition, and a growth to a contact whose stiffness or
-  // full-slip moment overflows the doubles, or a decrease whose loss would take the dissipated
-  // energy beyond them, with InvalidArgument; none changes anything. Field: contact_radius.
+  // |F| <= 1 fails with FailedPrecondition, and a contact the doubles do not carry
+  // (CheckRepresentable), or a decrease whose loss would take the dissipated energy beyond them,
+  // with InvalidArgument; none changes anything. Field: contact_radius.
   Status SetContactRadius(double contact_radius);
+  // Whether the doubles carry a contact of this radius (> 0; 0 always passes): its full-slip
+  // moment and full-stick stiffness per modulus neither near the subnormals, where round-off
+  // breaks |M| <= M_slip, nor beyond the finite doubles. SetContactRadius and Restore refuse
+  // a radius that fails it (InvalidArgument, field contact_radius).
+  Status CheckRepresentable(double contact_radius) const;
 
   double twist() const { return twist_; }
   double contact_radius() const { return radius_; }
