@@ -483,8 +483,8 @@ class Mat5Elements {
   // variable is read).
   struct ArrayHeader {
     std::uint32_t flags = 0;
-    std::uint64_t elements = 1;          // the product of its dimensions (SaturatedProduct)
-    std::uint32_t field_name_bytes = 0;  // a struct's, 0 if its parts do not declare them
+    std::uint64_t elements = 1;           // the product of its dimensions (SaturatedProduct)
+    std::uint32_t field_name_length = 0;  // a struct's bytes per field name, 0: none declared
     std::streamoff field_names_bytes = 0;
     std::uint64_t arrays = 0;  // the miMATRIX parts it holds
   };
@@ -635,9 +635,9 @@ class Mat5Elements {
     std::uint64_t declared = header.elements;
     std::string what = array_class == kCell ? "a cell of " : "a function handle of ";
     if (array_class == kStruct) {
-      if (header.field_name_bytes == 0) return mdr::OkStatus();  // matio reads no fields
+      if (header.field_name_length == 0) return mdr::OkStatus();  // matio reads no fields
       const std::uint64_t fields =
-          static_cast<std::uint64_t>(header.field_names_bytes) / header.field_name_bytes;
+          static_cast<std::uint64_t>(header.field_names_bytes) / header.field_name_length;
       declared = SaturatedProduct(declared, fields);
       what = "a struct of " + std::to_string(header.elements) + " elements x " +
              std::to_string(fields) + " fields, ";
@@ -722,7 +722,7 @@ class Mat5Elements {
         header->elements = SaturatedProduct(header->elements, *dim);
       }
     } else if (index == 3 && part.type == kInt32 && part.word > 0) {
-      header->field_name_bytes = part.word;
+      header->field_name_length = part.word;
     } else if (index == 4 && part.type == kInt8) {
       header->field_names_bytes = part.bytes;
     }
