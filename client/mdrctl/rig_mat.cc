@@ -348,12 +348,24 @@ std::optional<mdr::Status> CheckMat4Records(const std::string& path) {
 class InflatedBytes {
  public:
   InflatedBytes(std::ifstream& in, std::streamoff begin, std::streamoff end)
-      : in_(in), next_in_(begin), end_(end), ok_(inflateInit(&stream_) == Z_OK) {}
+      : in_(in), next_in_(begin), end_(end), ok_(inflateInit(&stream_) == Z_OK) {
+    if (!ok_) error_ = "zlib cannot start";
+  }
   ~InflatedBytes() {
     if (ok_) inflateEnd(&stream_);
   }
   InflatedBytes(const InflatedBytes&) = delete;
   InflatedBytes& operator=(const InflatedBytes&) = delete;
+
+  // Inflates the whole stream, keeping nothing; its inflated bytes. Then ended() says whether
+  // the stream ended properly, error() why not.
+  std::streamoff Drain() {
+    while (InflateChunk()) DropBefore(window_start_ + static_cast<std::streamoff>(window_.size()));
+    return window_start_ + static_cast<std::streamoff>(window_.size());
+  }
+  bool ended() const { return ended_; }
+  // Why the stream did not end: "" if it stopped early (cut), else zlib's message.
+  const std::string& error() const { return error_; }
 
   // The `n` bytes at `at`, at or after the last read's; false past the end of the stream.
   bool Read(std::streamoff at, char* out, std::size_t n) {
@@ -379,7 +391,7 @@ class InflatedBytes {
 
   // Appends the next chunk of inflated bytes; false when the stream has no more.
   bool InflateChunk() {
-    if (!ok_ || ended_) return false;
+    if (!error_.empty() || ended_) return false;
     if (stream_.avail_in == 0) {
       const std::streamoff chunk =
           std::min<std::streamoff>(end_ - next_in_, static_cast<std::streamoff>(input_.size()));
@@ -396,7 +408,13 @@ class InflatedBytes {
     stream_.next_out = output;
     stream_.avail_out = sizeof output;
     const int result = inflate(&stream_, Z_NO_FLUSH);
-    if (result != Z_OK && result != Z_STREAM_END) return false;
+    if (result != Z_OK && result != Z_STREAM_END) {
+      if (result != Z_BUF_ERROR) {  // Z_BUF_ERROR: no progress, the stream is cut
+        error_ =
+            "zlib: " + (stream_.msg != nullptr ? std::string(stream_.msg) : std::to_string(result));
+      }
+      return false;
+    }
     ended_ = result == Z_STREAM_END;
     window_.append(reinterpret_cast<const char*>(output), sizeof output - stream_.avail_out);
     return true;
@@ -406,6 +424,7 @@ class InflatedBytes {
   std::streamoff next_in_, end_;
   z_stream stream_{};
   bool ok_, ended_ = false;
+  std::string error_;
   std::vector<unsigned char> input_ = std::vector<unsigned char>(1 << 16);
   std::string window_;
   std::streamoff window_start_ = 0;
@@ -492,16 +511,22 @@ class Mat5Elements {
   // A compressed variable is one zlib stream that must end within its element: matio reports a
   // corrupt one as a file without variables. Inflated once to check the stream, then walked.
   mdr::Status CheckCompressed(const Tag& tag, int variable) {
-    std::streamoff inflated = 0;
-    if (mdr::Status stream = CheckStream(tag, variable, &inflated); !stream.ok()) return stream;
+    InflatedBytes stream(in_, tag.data, tag.end);
+    const std::streamoff inflated = stream.Drain();
+    if (!stream.ended()) {
+      return mdr::InvalidArgument(
+          path_, "its variable number " + std::to_string(variable) + " (from byte " +
+                     std::to_string(tag.data - 8) + ") is compressed and its data is corrupt (" +
+                     (stream.error().empty() ? "its zlib stream ends early" : stream.error()) +
+                     "); the file is damaged");
+    }
     InflatedBytes bytes(in_, tag.data, tag.end);
     inflated_ = &bytes;
     const std::optional<Tag> array = Read(0, inflated);
     mdr::Status parts = mdr::OkStatus();
     if (array && array->end > inflated) {
-      parts = InvalidArgumentAt(variable, "declares " + std::to_string(array->end) +
-                                              " bytes, but its data inflates to " +
-                                              std::to_string(inflated));
+      parts = Corrupt(variable, "declares " + std::to_string(array->end) +
+                                    " bytes, but its data inflates to " + std::to_string(inflated));
     } else if (array && array->type == kMatrix) {
       parts = CheckParts(8, array->end, variable, 1);
     }
@@ -509,52 +534,17 @@ class Mat5Elements {
     return parts;
   }
 
-  mdr::Status CheckStream(const Tag& tag, int variable, std::streamoff* inflated) {
-    auto corrupt = [&](const std::string& why) {
-      return mdr::InvalidArgument(path_, "its variable number " + std::to_string(variable) +
-                                             " (from byte " + std::to_string(tag.data - 8) +
-                                             ") is compressed and its data is corrupt (" + why +
-                                             "); the file is damaged");
-    };
-    z_stream stream{};
-    if (inflateInit(&stream) != Z_OK) return corrupt("zlib cannot start");
-    std::vector<unsigned char> input(1 << 16), output(1 << 16);
-    std::streamoff at = tag.data;
-    int result = Z_OK;
-    while (result != Z_STREAM_END) {
-      if (stream.avail_in == 0) {
-        const std::streamoff chunk =
-            std::min<std::streamoff>(tag.end - at, static_cast<std::streamoff>(input.size()));
-        if (chunk <= 0) break;
-        if (!in_.seekg(at) || !in_.read(reinterpret_cast<char*>(input.data()), chunk)) {
-          in_.clear();
-          break;
-        }
-        at += chunk;
-        stream.next_in = input.data();
-        stream.avail_in = static_cast<uInt>(chunk);
-      }
-      stream.next_out = output.data();
-      stream.avail_out = static_cast<uInt>(output.size());
-      result = inflate(&stream, Z_NO_FLUSH);
-      if (result != Z_OK && result != Z_STREAM_END) break;
-    }
-    const std::string message = stream.msg != nullptr ? stream.msg : "";
-    *inflated = static_cast<std::streamoff>(stream.total_out);
-    inflateEnd(&stream);
-    if (result == Z_STREAM_END) return mdr::OkStatus();
-    if (result == Z_OK || result == Z_BUF_ERROR) return corrupt("its zlib stream ends early");
-    return corrupt("zlib: " + (message.empty() ? std::to_string(result) : message));
+  // "the file is corrupt: its variable number N <what>".
+  mdr::Status Corrupt(int variable, const std::string& what) const {
+    return mdr::InvalidArgument(path_, "the file is corrupt: its variable number " +
+                                           std::to_string(variable) +
+                                           (inflated_ != nullptr ? " (compressed) " : " ") + what);
   }
-
-  // "the file is corrupt: its variable number N <what>"; in a compressed variable, the byte
-  // offsets `what` names count its inflated data.
-  mdr::Status InvalidArgumentAt(int variable, const std::string& what) const {
-    const bool offsets = inflated_ != nullptr && what.find(" byte ") != std::string::npos;
-    return mdr::InvalidArgument(
-        path_, "the file is corrupt: its variable number " + std::to_string(variable) +
-                   (inflated_ != nullptr ? " (compressed) " : " ") + what +
-                   (offsets ? ", counting bytes of its inflated data" : ""));
+  // The same for a `what` that names byte offsets: in a compressed variable they count its
+  // inflated data, and the message says so.
+  mdr::Status CorruptAt(int variable, const std::string& what) const {
+    return Corrupt(variable,
+                   what + (inflated_ != nullptr ? ", counting bytes of its inflated data" : ""));
   }
 
   std::optional<std::uint32_t> Word(std::streamoff at) {
@@ -619,10 +609,10 @@ class Mat5Elements {
           header.elements * part_size == static_cast<std::uint64_t>(part->bytes)) {
         continue;
       }
-      return InvalidArgumentAt(variable, "has an array of " + std::to_string(header.elements) +
-                                             " elements of " + std::to_string(part_size) +
-                                             " bytes, but its data holds " +
-                                             std::to_string(part->bytes) + " bytes");
+      return Corrupt(variable, "has an array of " + std::to_string(header.elements) +
+                                   " elements of " + std::to_string(part_size) +
+                                   " bytes, but its data holds " + std::to_string(part->bytes) +
+                                   " bytes");
     }
     return mdr::OkStatus();
   }
@@ -645,31 +635,31 @@ class Mat5Elements {
       return mdr::OkStatus();
     }
     if (declared <= header.arrays) return mdr::OkStatus();
-    return InvalidArgumentAt(variable, "has " + what + std::to_string(declared) +
-                                           " arrays, but holds " + std::to_string(header.arrays));
+    return Corrupt(variable, "has " + what + std::to_string(declared) + " arrays, but holds " +
+                                 std::to_string(header.arrays));
   }
 
   // The parts of the array whose data spans [begin, end), and theirs, to kMaxNesting levels.
   mdr::Status CheckParts(std::streamoff begin, std::streamoff end, int variable, int depth) {
     if (depth > kMaxNesting) {
-      return InvalidArgumentAt(
-          variable, "nests arrays deeper than " + std::to_string(kMaxNesting) + " levels");
+      return Corrupt(variable,
+                     "nests arrays deeper than " + std::to_string(kMaxNesting) + " levels");
     }
     std::vector<Tag> parts;  // the first five
     ArrayHeader header;
     for (std::streamoff at = begin; at < end; at = begin + Padded(at - begin)) {
       const std::optional<Tag> part = Read(at, end);
       if (!part || part->end > end) {
-        return InvalidArgumentAt(variable,
-                                 "has a part at byte " + std::to_string(at) + " that " +
-                                     (part ? "declares " + std::to_string(part->end - at) + " bytes"
-                                           : "has no room for its tag") +
-                                     ", past the end of its array at byte " + std::to_string(end));
+        return CorruptAt(variable,
+                         "has a part at byte " + std::to_string(at) + " that " +
+                             (part ? "declares " + std::to_string(part->end - at) + " bytes"
+                                   : "has no room for its tag") +
+                             ", past the end of its array at byte " + std::to_string(end));
       }
       if (part->data == at + 4 && part->bytes > 4) {
-        return InvalidArgumentAt(variable, "has a part at byte " + std::to_string(at) +
-                                               " that declares " + std::to_string(part->bytes) +
-                                               " bytes in the 4 of a small element");
+        return CorruptAt(variable, "has a part at byte " + std::to_string(at) + " that declares " +
+                                       std::to_string(part->bytes) +
+                                       " bytes in the 4 of a small element");
       }
       // matio reads the flags and dimensions where they should be whatever their tags say, so
       // tags that say otherwise make it read the rest from elsewhere.
@@ -677,17 +667,17 @@ class Mat5Elements {
           (parts.size() == 0 && (part->type != kUint32 || part->bytes != 8)) ||
           (parts.size() == 1 && (part->type != kInt32 || part->bytes < 8 || part->bytes % 4 != 0));
       if (misplaced) {
-        return InvalidArgumentAt(
-            variable, "has " + std::string(parts.empty() ? "array flags" : "dimensions") +
-                          " at byte " + std::to_string(at) + " of type " +
-                          std::to_string(part->type) + " and " + std::to_string(part->bytes) +
-                          " bytes, not " +
-                          (parts.empty() ? "8 bytes of miUINT32"
-                                         : "a multiple of 4 bytes of miINT32, at least 8"));
+        return CorruptAt(variable,
+                         "has " + std::string(parts.empty() ? "array flags" : "dimensions") +
+                             " at byte " + std::to_string(at) + " of type " +
+                             std::to_string(part->type) + " and " + std::to_string(part->bytes) +
+                             " bytes, not " +
+                             (parts.empty() ? "8 bytes of miUINT32"
+                                            : "a multiple of 4 bytes of miINT32, at least 8"));
       }
       if (!ReadHeaderPart(parts.size(), *part, &header)) {
-        return InvalidArgumentAt(
-            variable, "has a part at byte " + std::to_string(at) + " that cannot be read");
+        return CorruptAt(variable,
+                         "has a part at byte " + std::to_string(at) + " that cannot be read");
       }
       if (part->type == kMatrix) {
         ++header.arrays;
