@@ -60,20 +60,31 @@ def holder(record, backends):
 
 
 def load(args, state):
+    """Creates and streams to `--sessions` sessions. With --backends, goes on creating until every
+    instance holds one (at most 8 times as many): the router hashes random session ids, and the
+    rest of run.sh kills one instance and scrapes another, each of which must hold sessions."""
+    backends = args.backends.split(",") if args.backends else []
     with mdr.Client(args.address, timeout=60) as client:
-        for index in range(args.sessions):
+        index = 0
+        while index < args.sessions or (
+                backends and not all_hold(state, len(backends)) and index < 8 * args.sessions):
             session = client.create_session(H1)
             record = {"name": session.name, "index": index, "acknowledged": 0}
             stream(client, record, args.batches)
+            if backends:
+                record["backend"] = holder(record, backends)
             state["sessions"].append(record)
-    if args.backends:
-        backends = args.backends.split(",")
-        for record in state["sessions"]:
-            record["backend"] = holder(record, backends)
+            index += 1
+    if backends:
         spread = [sum(r["backend"] == b for r in state["sessions"]) for b in range(len(backends))]
         print(f"drive: {len(state['sessions'])} sessions spread over the instances as {spread}")
-        if sum(count > 0 for count in spread) < 2:
-            sys.exit("drive: the router did not spread the sessions")
+        if not all_hold(state, len(backends)):
+            sys.exit("drive: the router did not spread the sessions over every instance")
+
+
+def all_hold(state, count):
+    """Whether each of the `count` instances holds at least one of the sessions."""
+    return {r["backend"] for r in state["sessions"]} == set(range(count))
 
 
 def more(args, state):
