@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <random>
 #include <string>
 #include <vector>
@@ -115,6 +116,46 @@ void BM_ApplyOnFailure(benchmark::State& state) {
                  (state.range(1) != 0 ? ", discarded" : ", unchanged"));
 }
 BENCHMARK(BM_ApplyOnFailure)->ArgsProduct({{0, 1}, {0, 1}});
+
+}  // namespace
+
+// Sub-steps every spring of a curved path (force_control.cc), to compare with the default.
+class ContactTestPeer {
+ public:
+  static void SubStepEverySpring(Contact& c) { c.hold_sticking_springs_apart_ = false; }
+};
+
+namespace {
+
+// A curved force path from out of contact: H1 pressed to F_N = 2.0625 N while u_x moves by
+// 10 nm. The depth goes as F^(2/3), so the bisection refines to its cap near the start and every
+// accepted sub-step adds a vertex: thousands of sub-steps and vertices. Arg 0: 1 holds the springs
+// that stick to the path's end apart from the sub-steps (the default), 0 sub-steps every spring
+// (the same state to round-off: ForcePathTest.HoldingStickingSpringsApart...); arg 1: -log10 of
+// force_path_tolerance.
+void BM_CurvedForcePathFromZero(benchmark::State& state) {
+  ContactConfig config = reference::H1Config(true);
+  config.force_path_tolerance = std::pow(10.0, -static_cast<double>(state.range(1)));
+  Contact fresh = std::move(Contact::Create(config)).value();
+  if (state.range(0) == 0) ContactTestPeer::SubStepEverySpring(fresh);
+  const Step press{NormalControl::kForce, 2.0625, TangentialControl::kDisplacementIncrement, 1e-8};
+  StepReport report;
+  std::size_t vertices = 0;
+  for (auto _ : state) {
+    Contact contact = fresh;
+    if (!contact.Apply(press, &report).ok()) state.SkipWithError("press");
+    vertices = contact.memory().vertex_count();
+  }
+  state.counters["substeps"] = report.substeps;
+  state.counters["vertices"] = static_cast<double>(vertices);
+  state.counters["path_error"] = report.path_error;
+  state.SetLabel(state.range(0) != 0 ? "sticking springs held apart" : "every spring sub-stepped");
+}
+BENCHMARK(BM_CurvedForcePathFromZero)
+    ->Args({1, 8})
+    ->Args({0, 8})
+    ->Args({1, 12})
+    ->Unit(benchmark::kMillisecond);
 
 // Torsional fretting of H1 (steel on steel, F_N = 100 N): a triangle wave in twist to the stick
 // radius a/2, one twist step and the moment per item. Arg 0: the sphere's closed form; arg 1:

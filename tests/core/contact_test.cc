@@ -454,6 +454,85 @@ TEST(ForcePathTest, NormalForceWithDisplacementAndDepthWithTangentialForce) {
   EXPECT_GE(c.last_step_dissipation(), 0);
 }
 
+}  // namespace
+
+// Switches off, on one contact, holding apart the springs that stick to a curved path's end
+// (force_control.cc), so that tests can compare with sub-stepping every spring.
+class ContactTestPeer {
+ public:
+  static void SubStepEverySpring(Contact& c) { c.hold_sticking_springs_apart_ = false; }
+};
+
+namespace {
+
+// Holding apart the springs that stick to a curved path's end is the same state to round-off:
+// random scenes (every profile kind, friction, scales, a normal rig one time in four) take
+// curved steps (a normal force or an actuator depth with a displacement, from and to out of
+// contact too) and straight ones, each also on a twin that sub-steps every spring. Both agree
+// step by step: the same outcome, sub-steps, vertices and slip tags; u at every vertex of either
+// to 1e-12 of mu kappa delta + |u_x|, the energy to 1e-12; and each state restores.
+TEST(ForcePathTest, HoldingStickingSpringsApartChangesNothingButRoundOff) {
+  testing::RandomScene random{std::mt19937_64(54)};
+  int curved_steps = 0, held_apart = 0, identical = 0;
+  for (int scene = 0; scene < 300; ++scene) {
+    ContactConfig config;
+    config.profile = random.Profile();
+    config.material = *RigidOnHalfSpace(random.LogUniform(1e6, 1e12), random.Uniform(0, 0.5));
+    config.friction = random.rng() % 10 == 0 ? 0.0 : random.LogUniform(1e-2, 1e2);
+    config.force_path_tolerance = random.LogUniform(1e-7, 1e-3);
+    const double d0 = random.LogUniform(1e-9, 1e-3);
+    Contact probe = std::move(Contact::Create(config)).value();
+    const double f0 = probe.NormalForceAtDepth(d0), slip = probe.mu_kappa() * d0;
+    if (random.rng() % 4 == 0) config.rig.normal = random.LogUniform(0.01, 10) * d0 / f0;
+    Contact held = std::move(Contact::Create(config)).value(), every = held;
+    ContactTestPeer::SubStepEverySpring(every);
+    for (int step = 0; step < 8; ++step) {
+      Step s;
+      const int kind = static_cast<int>(random.rng() % 4);
+      s.normal = kind == 0 ? NormalControl::kDepth : NormalControl::kForce;
+      s.normal_value = kind == 0               ? d0 * random.Uniform(-0.2, 1.5)
+                       : random.rng() % 8 == 0 ? 0.0
+                                               : f0 * random.LogUniform(1e-6, 2);
+      s.tangential =
+          kind == 3 ? TangentialControl::kDisplacement : TangentialControl::kDisplacementIncrement;
+      s.tangential_value =
+          kind == 3 ? slip * random.Uniform(-2, 2) : slip * random.RelativeAmplitude();
+      StepReport report_held, report_every;
+      const std::size_t vertices_before = held.memory().vertex_count();
+      const Status status_held = held.Apply(s, &report_held);
+      const Status status_every = every.Apply(s, &report_every);
+      const std::string where = "scene " + std::to_string(scene) + " step " + std::to_string(step) +
+                                " " + config.profile->Describe();
+      ASSERT_EQ(status_held.ToString(), status_every.ToString()) << where;
+      if (!status_held.ok()) continue;
+      ASSERT_EQ(report_held.substeps, report_every.substeps) << where;
+      if (report_held.substeps > 1) ++curved_steps;
+      if (report_held.substeps > 8 && vertices_before + report_held.substeps > 16) ++held_apart;
+      const ContactSnapshot a = held.Snapshot(), b = every.Snapshot();
+      ASSERT_EQ(a.z.size(), b.z.size()) << where;
+      ASSERT_EQ(a.tags, b.tags) << where;
+      const double scale =
+          held.mu_kappa() * std::max(held.depth(), 0.0) + std::abs(held.tangential_displacement());
+      for (std::size_t i = 0; i < a.z.size(); ++i) {
+        ASSERT_LE(std::abs(a.z[i] - b.z[i]), 1e-12 * held.depth()) << where << " vertex " << i;
+        ASSERT_LE(std::abs(a.u[i] - b.u[i]), 1e-12 * scale) << where << " vertex " << i;
+      }
+      ASSERT_TRUE(RelNear(held.dissipated_energy(), every.dissipated_energy(), 1e-12) ||
+                  std::abs(held.dissipated_energy() - every.dissipated_energy()) < 1e-300)
+          << where;
+      ASSERT_LE(std::abs(report_held.path_error - report_every.path_error),
+                1e-12 + 1e-3 * report_every.path_error)
+          << where;
+      ASSERT_TRUE(Contact::Restore(config, a).ok()) << where;
+      identical += testing::SnapshotDifference(a, b) == nullptr;
+    }
+  }
+  std::printf("curved steps %d (%d of them long), states bit for bit equal %d\n", curved_steps,
+              held_apart, identical);
+  EXPECT_GE(curved_steps, 500);
+  EXPECT_GE(held_apart, 50);
+}
+
 TEST(ForcePathTest, UnreachableIntermediateTargetFailsAtomically) {
   // Depth falls to zero while F_x must stay at 10 N: impossible on the way; nothing changes.
   Contact c = SphereWithTolerance(1e-9);

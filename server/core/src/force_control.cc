@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include "mdr/base/validate.h"
 #include "mdr/core/contact.h"
 #include "monotone_solve.h"
+#include "numerics.h"
 
 namespace mdr {
 namespace {
@@ -17,13 +21,89 @@ namespace {
 // uniform along the path when it is reached.
 constexpr int kMaxBisections = 13;
 
-// Largest |u_a(z) - u_b(z)| over the vertices of both memories (both are polylines).
+// u of `memory` at depth coordinates given in increasing order, as UAtDepth gives it (the same
+// interpolation, bit for bit), walking the vertices once instead of searching for each.
+class IncreasingDepthReader {
+ public:
+  explicit IncreasingDepthReader(const PiecewiseLinearMemory& memory) : memory_(memory) {}
+  double UAtDepth(double z) {
+    const std::vector<double>& zs = memory_.z();
+    const std::vector<double>& us = memory_.u();
+    if (zs.empty() || z < 0 || z > memory_.depth()) return 0;
+    while (next_ < zs.size() && zs[next_] <= z) ++next_;  // upper_bound, as UAtDepth
+    if (next_ >= zs.size()) return us.back();
+    if (next_ == 0) return us.front();
+    return internal::Interpolate(zs[next_ - 1], us[next_ - 1], zs[next_], us[next_], z);
+  }
+
+ private:
+  const PiecewiseLinearMemory& memory_;
+  std::size_t next_ = 0;
+};
+
+// Largest |u_a(z) - u_b(z)| over the vertices of both memories (both are polylines), in one
+// merge-like pass over the two sorted vertex lists.
 double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory& b) {
   double diff = 0;
-  for (double z : a.z()) diff = std::max(diff, std::abs(a.UAtDepth(z) - b.UAtDepth(z)));
-  for (double z : b.z()) diff = std::max(diff, std::abs(a.UAtDepth(z) - b.UAtDepth(z)));
+  for (const auto& [from, other] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
+    IncreasingDepthReader own(*from), there(*other);
+    for (double z : from->z()) diff = std::max(diff, std::abs(own.UAtDepth(z) - there.UAtDepth(z)));
+  }
   return diff;
 }
+
+// The leading springs of an exact memory that provably stick from now to the end of a curved
+// path, held apart from its sub-steps (MoveLeadingVertices) and put back moved by what u_x moved
+// meanwhile. Sticking springs only move with u_x, so that is the same state to round-off, and it
+// keeps every sub-step, copy and comparison to the springs the path can still change: without it
+// a path that builds a long polyline (loading from near zero, each sub-step adding a vertex)
+// costs sub-steps x vertices. The path has u_x linear in its parameter s and the depth concave
+// in s (F_N, or an actuator's depth delta + C_n F_N, linear in s, both convex in delta; or the
+// depth itself linear): on [s, 1] the depth is then above its chord, so a spring's distance to
+// either bound, mu kappa (delta - z) -+ u, is at least its value now plus the chord's change to
+// the path's end when that is negative.
+class StickingSprings {
+ public:
+  StickingSprings(double mu_kappa, double depth1, double ux1, double margin)
+      : mu_kappa_(mu_kappa), depth1_(depth1), ux1_(ux1), margin_(margin) {}
+  // Holds apart the leading vertices that stick to the end, all but the last of them: that one
+  // stays as the first of the polyline the sub-steps move.
+  void TakeFrom(PiecewiseLinearMemory& memory, double ux) {
+    const std::vector<double>& z = memory.z();
+    const std::vector<double>& u = memory.u();
+    const std::vector<std::uint8_t>& tags = memory.tags();
+    std::size_t sticking = 0;
+    while (sticking < z.size() && tags[sticking] == kInside &&
+           SticksToTheEnd(z[sticking], u[sticking], memory.depth(), ux)) {
+      ++sticking;
+    }
+    if (sticking < 2) return;
+    memory.MoveLeadingVertices(sticking - 1, run_);
+    taken_.push_back({run_.z.size(), ux});
+  }
+  // Puts the vertices back, each moved by u_x's change since it was taken.
+  void ReturnTo(PiecewiseLinearMemory& memory, double ux) {
+    std::size_t i = 0;
+    for (const auto& [end, ux_then] : taken_) {
+      const double moved = ux - ux_then;
+      for (; i < end; ++i) run_.u[i] += moved;
+    }
+    taken_.clear();
+    memory.RestoreLeadingVertices(run_);
+  }
+
+ private:
+  bool SticksToTheEnd(double z, double u, double depth, double ux) const {
+    const double bound = mu_kappa_ * (depth - z), chord = mu_kappa_ * (depth1_ - depth);
+    const double dux = ux1_ - ux;
+    return bound - u + std::min(0.0, chord - dux) > margin_ &&
+           bound + u + std::min(0.0, chord + dux) > margin_;
+  }
+
+  double mu_kappa_, depth1_, ux1_, margin_;
+  PiecewiseLinearMemory::VertexRun run_;
+  std::vector<std::pair<std::size_t, double>> taken_;  // (end in run_, u_x when taken)
+};
 
 }  // namespace
 
@@ -125,6 +205,19 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
   // clamp is non-expansive), so the estimate of the whole step is the largest local one; it
   // converges at second order in the sub-step length.
   StepReport total;
+  // Springs that stick to the path's end are held apart where that can be decided before the
+  // sub-steps: an exact memory, u_x moving linearly (no tangential force target or rig, whose u_x
+  // is solved along the way). The margin covers round-off in the depth solve and in u and u_x.
+  std::optional<StickingSprings> sticking;
+  auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_);
+  if (exact != nullptr && !tangential_force && rig.tangential == 0 && mu_kappa() > 0 &&
+      hold_sticking_springs_apart_) {
+    const double ux1 = targets.actuator_displacement;
+    const double margin = 1e-9 * mu_kappa() * std::max(depth0, targets.depth) +
+                          1e-12 * (std::abs(ux0) + std::abs(ux1));
+    sticking.emplace(mu_kappa(), targets.depth, ux1, margin);
+    sticking->TakeFrom(*exact, ux_);
+  }
   // Up to 2^kMaxBisections intervals: the interrupt is checked at each.
   auto refine = [&](auto&& self, double s0, double s1, int level) -> Status {
     if (Status s = interrupt.Check(); !s.ok()) return s;
@@ -140,12 +233,15 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
       total.substeps += 2;
       total.path_error = std::max(total.path_error, error);
       total.dissipated += d_two;
+      if (sticking) sticking->TakeFrom(std::get<PiecewiseLinearMemory>(memory_), ux_);
       return OkStatus();
     }
     if (Status s = self(self, s0, mid, level + 1); !s.ok()) return s;
     return self(self, mid, s1, level + 1);
   };
-  if (Status s = refine(refine, 0.0, 1.0, 0); !s.ok()) return s;
+  Status refined = refine(refine, 0.0, 1.0, 0);
+  if (sticking) sticking->ReturnTo(std::get<PiecewiseLinearMemory>(memory_), ux_);
+  if (!refined.ok()) return refined;
   // The largest local difference bounds the chords' error by itself: the accepted two half
   // sub-steps err by about a third of it (second order; measured 0.25..0.35 of it against a
   // much finer reference, which contact_test.cc checks). Each exact sub-step adds its own rounding,

@@ -440,6 +440,31 @@ double PiecewiseLinearMemory::LeavingDissipation(double depth1, double dux, doub
   return dissipated;
 }
 
+void PiecewiseLinearMemory::MoveLeadingVertices(std::size_t count, VertexRun& run) {
+  auto move = [count](auto& from, auto& to) {
+    to.insert(to.end(), from.begin(), from.begin() + static_cast<std::ptrdiff_t>(count));
+    from.erase(from.begin(), from.begin() + static_cast<std::ptrdiff_t>(count));
+  };
+  move(z_, run.z);
+  move(u_, run.u);
+  move(tag_, run.tag);
+  move(anchor_, run.anchor);
+}
+
+void PiecewiseLinearMemory::RestoreLeadingVertices(VertexRun& run) {
+  auto restore = [](auto& from, auto& to) {
+    to.insert(to.begin(), from.begin(), from.end());
+    from.clear();
+  };
+  restore(run.z, z_);
+  restore(run.u, u_);
+  restore(run.tag, tag_);
+  restore(run.anchor, anchor_);
+  // Apart, the first vertex kept could not merge with those in front of it; every step ends
+  // with this pass, so the memory is what sub-stepping every spring would have left.
+  MergeRedundantVertices();
+}
+
 double PiecewiseLinearMemory::UAtDepth(double z) const {
   if (z_.empty() || z < 0 || z > depth_) return 0;
   const auto j = static_cast<std::size_t>(std::upper_bound(z_.begin(), z_.end(), z) - z_.begin());

@@ -291,6 +291,10 @@ class Contact {
   // The force solves' work arrays: the contact's own, so that a handle warmed up on one thread
   // steps without allocating on any other (a contact is used by one thread at a time).
   mutable ForceSolveBuffers solve_buffers_;
+  // Whether a curved path holds apart the springs that stick to its end (force_control.cc); off
+  // only in tests that compare against sub-stepping every spring (ContactTestPeer).
+  bool hold_sticking_springs_apart_ = true;
+  friend class ContactTestPeer;
 };
 
 // The Jäger picture and the tangential tractions are functions of the exact memory; the grid

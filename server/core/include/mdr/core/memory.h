@@ -210,6 +210,22 @@ class PiecewiseLinearMemory {
   // ~(mu_kappa + |du/dz|) * c * eps * depth inside the bound (memory.cc, PlaceCrossing).
   double BoundTagTolerance(std::size_t i, double mu_kappa) const;
 
+  // The leading vertices of a polyline, held apart while a curved force path sub-steps the rest
+  // (force_control.cc): springs that provably stick for the rest of the path only move with u_x.
+  struct VertexRun {
+    std::vector<double> z, u;
+    std::vector<std::uint8_t> tag;
+    std::vector<SegmentAnchor> anchor;
+  };
+  // Appends vertices [0, count) to `run` and removes them; vertex `count` becomes the first, so
+  // count < vertex_count(). Steps then treat the rest as a polyline starting there; that is
+  // exact for the vertices kept as long as those set apart stick (they take no part in a step's
+  // crossings, slip state or dissipation then, and the first vertex kept is never merged).
+  void MoveLeadingVertices(std::size_t count, VertexRun& run);
+  // Puts `run` back in front of the vertices (emptying it) and merges the redundant ones, as a
+  // step would.
+  void RestoreLeadingVertices(VertexRun& run);
+
   // Same state (depth, polyline and anchors), bit for bit.
   bool operator==(const PiecewiseLinearMemory& other) const {
     return depth_ == other.depth_ && z_ == other.z_ && u_ == other.u_ && tag_ == other.tag_ &&
