@@ -124,7 +124,7 @@ typedef struct mdr_state {
 typedef struct mdr_step_report {
   int32_t substeps;  /* exact linear sub-steps used (1 for a straight step) */
   int32_t reserved;  /* 0 */
-  double path_error; /* estimated max |u error| / (mu kappa delta) of a curved path */
+  double path_error; /* a curved path's estimated relative error, memory or energy */
   double dissipated; /* J dissipated by the step (0 when energy is not tracked) */
 } mdr_step_report;
 

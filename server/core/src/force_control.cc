@@ -178,6 +178,22 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
     }
     return along(depth0, targets.depth, s);
   };
+  // Where an interval [s0, s1] is split: at the middle of its depth range where the depth is not
+  // linear in s. Loaded by force from F_N = 0 the depth grows like F^(2/3), infinitely steep in
+  // s at the start, while the path is smooth in the depth (Hertz: u_x - u_x0 grows like
+  // delta^(3/2)): halving s there stalls at the bisection cap (path_error 6.4e-6 instead of
+  // 1e-8 on the example of docs/engine.md), halving the depth converges.
+  const bool depth_curved = step.normal == NormalControl::kForce || rig.normal > 0;
+  auto split = [&](double s0, double s1) {
+    const double half = 0.5 * (s0 + s1);
+    if (!depth_curved) return half;
+    const double depth = 0.5 * (depth_at(s0) + depth_at(s1));
+    const double s = step.normal == NormalControl::kForce
+                         ? (NormalForceAtDepth(depth) - fn0) / (step.normal_value - fn0)
+                         : (depth + rig.normal * NormalForceAtDepth(depth) - actuator_depth0) /
+                               (targets.actuator_depth - actuator_depth0);
+    return s > s0 && s < s1 ? s : half;  // not NaN, and inside the interval despite round-off
+  };
   // One exact linear sub-step of `contact` to the path point at s.
   auto advance = [&](Contact& contact, double s, double* dissipated) -> Status {
     const double d = depth_at(s);
@@ -198,13 +214,22 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
     return OkStatus();
   };
   const double scale = std::max(mu_kappa() * std::max(depth0, targets.depth), 1e-300);
+  // The dissipated energy in units of sliding at the friction limit (at the path's deeper end) by
+  // the slip distance mu kappa delta or the actuator's travel, the larger: the most the step
+  // can dissipate, up to its elastic part (0 without friction: nothing dissipates).
+  const double energy_scale =
+      config_.friction * NormalForceAtDepth(std::max(depth0, targets.depth)) *
+      std::max(scale, std::abs(targets.actuator_displacement - actuator_displacement0));
 
   // Adaptive bisection: accept [s0, s1] when one sub-step and two half sub-steps agree to the
-  // tolerance. A chord's error sits in the springs that enter or slide during that interval and
-  // is not accumulated afterwards (sticking springs move rigidly with exact sub-step ends, the
-  // clamp is non-expansive), so the estimate of the whole step is the largest local one; it
-  // converges at second order in the sub-step length.
+  // tolerance, in the memory and in the energy they dissipate. A chord's error in the memory sits
+  // in the springs that enter or slide during that interval and is not accumulated afterwards
+  // (sticking springs move rigidly with exact sub-step ends, the clamp is non-expansive), so the
+  // memory's estimate is the largest local one. Each chord dissipates exactly what it does, not
+  // what the curve would, and those errors add up: an interval may take its share (s1 - s0) of
+  // the tolerance, and the estimate is their sum. Both converge at second order.
   StepReport total;
+  double memory_error = 0, energy_error = 0;
   // Springs that stick to the path's end are held apart where that can be decided before the
   // sub-steps: an exact memory, u_x moving linearly (no tangential force target or rig, whose u_x
   // is solved along the way). The margin covers round-off in the depth solve and in u and u_x.
@@ -223,15 +248,18 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
     if (Status s = interrupt.Check(); !s.ok()) return s;
     Contact one = *this, two = *this;
     double d_one = 0, d_two = 0;
-    const double mid = 0.5 * (s0 + s1);
+    const double mid = split(s0, s1);
     if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
     if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
     if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
     const double error = MemoryDifference(one, two) / scale;
-    if (error <= config_.force_path_tolerance || level >= kMaxBisections) {
+    const double energy = energy_scale > 0 ? std::abs(d_one - d_two) / energy_scale : 0.0;
+    const double tolerance = config_.force_path_tolerance;
+    if ((error <= tolerance && energy <= tolerance * (s1 - s0)) || level >= kMaxBisections) {
       *this = std::move(two);
       total.substeps += 2;
-      total.path_error = std::max(total.path_error, error);
+      memory_error = std::max(memory_error, error);
+      energy_error += energy;
       total.dissipated += d_two;
       if (sticking) sticking->TakeFrom(std::get<PiecewiseLinearMemory>(memory_), ux_);
       return OkStatus();
@@ -242,13 +270,13 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
   Status refined = refine(refine, 0.0, 1.0, 0);
   if (sticking) sticking->ReturnTo(std::get<PiecewiseLinearMemory>(memory_), ux_);
   if (!refined.ok()) return refined;
-  // The largest local difference bounds the chords' error by itself: the accepted two half
-  // sub-steps err by about a third of it (second order; measured 0.25..0.35 of it against a
-  // much finer reference, which contact_test.cc checks). Each exact sub-step adds its own rounding,
-  // a few eps of mu kappa delta per spring (u += dux, the clamp), which the difference of two runs
-  // does not show.
+  // Each estimate bounds its chords' error by itself: the accepted two half sub-steps err by
+  // about a third of the difference (second order; measured against much finer references, which
+  // contact_test.cc checks). path_error is the larger of the two. Each exact sub-step adds its own
+  // rounding, a few eps of mu kappa delta per spring (u += dux, the clamp), which the difference
+  // of two runs does not show.
   constexpr double kSubstepRounding = 4 * std::numeric_limits<double>::epsilon();
-  total.path_error += total.substeps * kSubstepRounding;
+  total.path_error = std::max(memory_error, energy_error) + total.substeps * kSubstepRounding;
   *report = total;
   return OkStatus();
 }

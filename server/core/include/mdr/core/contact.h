@@ -128,7 +128,9 @@ struct Step {
 
 struct StepReport {
   int substeps = 0;       // exact linear sub-steps used
-  double path_error = 0;  // estimated max |u error| / (mu kappa delta) of a curved path
+  // A curved path's estimated error: the larger of max |u error| / (mu kappa delta) and the
+  // dissipated energy's error / (mu F_N max(mu kappa delta, actuator travel)) (force_control.cc).
+  double path_error = 0;
   double dissipated = 0;  // J, 0 when energy is not tracked
 };
 
