@@ -243,31 +243,46 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
     sticking.emplace(mu_kappa(), targets.depth, ux1, margin);
     sticking->TakeFrom(*exact, ux_);
   }
-  // Up to 2^kMaxBisections intervals: the interrupt is checked at each.
-  auto refine = [&](auto&& self, double s0, double s1, int level) -> Status {
-    if (Status s = interrupt.Check(); !s.ok()) return s;
-    Contact one = *this, two = *this;
-    double d_one = 0, d_two = 0;
-    const double mid = split(s0, s1);
-    if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
-    if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
-    if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
-    const double error = MemoryDifference(one, two) / scale;
-    const double energy = energy_scale > 0 ? std::abs(d_one - d_two) / energy_scale : 0.0;
-    const double tolerance = config_.force_path_tolerance;
-    if ((error <= tolerance && energy <= tolerance * (s1 - s0)) || level >= kMaxBisections) {
-      *this = std::move(two);
-      total.substeps += 2;
-      memory_error = std::max(memory_error, error);
-      energy_error += energy;
-      total.dissipated += d_two;
-      if (sticking) sticking->TakeFrom(std::get<PiecewiseLinearMemory>(memory_), ux_);
-      return OkStatus();
-    }
-    if (Status s = self(self, s0, mid, level + 1); !s.ok()) return s;
-    return self(self, mid, s1, level + 1);
+  // Up to 2^kMaxBisections intervals, depth first from s = 0, the interrupt checked at each. A
+  // loop over a stack of intervals rather than recursion, and two trial contacts whose buffers
+  // are reused rather than fresh copies per interval: the path allocates little, and always from
+  // the same place (a sanitizer records a stack trace per distinct allocation site and depth).
+  struct Interval {
+    double s0, s1;
+    int level;
   };
-  Status refined = refine(refine, 0.0, 1.0, 0);
+  std::vector<Interval> pending = {{0.0, 1.0, 0}};
+  Contact one = *this, two = *this;
+  auto follow = [&]() -> Status {
+    while (!pending.empty()) {
+      const auto [s0, s1, level] = pending.back();
+      pending.pop_back();
+      if (Status s = interrupt.Check(); !s.ok()) return s;
+      one = *this;
+      two = *this;
+      double d_one = 0, d_two = 0;
+      const double mid = split(s0, s1);
+      if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
+      if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
+      if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
+      const double error = MemoryDifference(one, two) / scale;
+      const double energy = energy_scale > 0 ? std::abs(d_one - d_two) / energy_scale : 0.0;
+      const double tolerance = config_.force_path_tolerance;
+      if ((error <= tolerance && energy <= tolerance * (s1 - s0)) || level >= kMaxBisections) {
+        std::swap(*this, two);
+        total.substeps += 2;
+        memory_error = std::max(memory_error, error);
+        energy_error += energy;
+        total.dissipated += d_two;
+        if (sticking) sticking->TakeFrom(std::get<PiecewiseLinearMemory>(memory_), ux_);
+        continue;
+      }
+      pending.push_back({mid, s1, level + 1});
+      pending.push_back({s0, mid, level + 1});
+    }
+    return OkStatus();
+  };
+  const Status refined = follow();
   if (sticking) sticking->ReturnTo(std::get<PiecewiseLinearMemory>(memory_), ux_);
   if (!refined.ok()) return refined;
   // Each estimate bounds its chords' error by itself: the accepted two half sub-steps err by
