@@ -127,15 +127,16 @@ class ContactTestPeer {
 
 namespace {
 
-// A curved force path from out of contact: H1 pressed to F_N = 2.0625 N while u_x moves by
-// 10 nm. The depth goes as F^(2/3), so the bisection refines to its cap near the start and every
-// accepted sub-step adds a vertex: thousands of sub-steps and vertices. Arg 0: 1 holds the springs
-// that stick to the path's end apart from the sub-steps (the default), 0 sub-steps every spring
-// (the same state to round-off: ForcePathTest.HoldingStickingSpringsApart...); arg 1: -log10 of
-// force_path_tolerance.
+// A curved force path from out of contact: H1 pressed to F_N = 2.0625 N while the displacement
+// moves by 10 nm. The depth goes as F^(2/3), and every accepted sub-step adds a vertex: thousands
+// of sub-steps and vertices. Arg 0: 1 holds the springs that stick apart from the sub-steps (the
+// default), 0 sub-steps every spring (the same state to round-off:
+// ForcePathTest.HoldingStickingSpringsApart...); arg 1: -log10 of force_path_tolerance; arg 2: 1
+// moves the actuator through a tangential rig of 1e-9 m/N (u_x solved at every sub-step).
 void BM_CurvedForcePathFromZero(benchmark::State& state) {
   ContactConfig config = reference::H1Config(true);
   config.force_path_tolerance = std::pow(10.0, -static_cast<double>(state.range(1)));
+  if (state.range(2) != 0) config.rig.tangential = 1e-9;
   Contact fresh = std::move(Contact::Create(config)).value();
   if (state.range(0) == 0) ContactTestPeer::SubStepEverySpring(fresh);
   const Step press{NormalControl::kForce, 2.0625, TangentialControl::kDisplacementIncrement, 1e-8};
@@ -149,12 +150,16 @@ void BM_CurvedForcePathFromZero(benchmark::State& state) {
   state.counters["substeps"] = report.substeps;
   state.counters["vertices"] = static_cast<double>(vertices);
   state.counters["path_error"] = report.path_error;
-  state.SetLabel(state.range(0) != 0 ? "sticking springs held apart" : "every spring sub-stepped");
+  state.SetLabel(std::string(state.range(0) != 0 ? "sticking springs held apart"
+                                                 : "every spring sub-stepped") +
+                 (state.range(2) != 0 ? ", tangential rig" : ""));
 }
 BENCHMARK(BM_CurvedForcePathFromZero)
-    ->Args({1, 8})
-    ->Args({0, 8})
-    ->Args({1, 12})
+    ->Args({1, 8, 0})
+    ->Args({0, 8, 0})
+    ->Args({1, 12, 0})
+    ->Args({1, 8, 1})
+    ->Args({0, 8, 1})
     ->Unit(benchmark::kMillisecond);
 
 // Torsional fretting of H1 (steel on steel, F_N = 100 N): a triangle wave in twist to the stick

@@ -465,12 +465,13 @@ class ContactTestPeer {
 
 namespace {
 
-// Holding apart the springs that stick to a curved path's end is the same state to round-off:
-// random scenes (every profile kind, friction, scales, a normal rig one time in four) take
-// curved steps (a normal force or an actuator depth with a displacement, from and to out of
-// contact too) and straight ones, each also on a twin that sub-steps every spring. Both agree
-// step by step: the same outcome, sub-steps, vertices and slip tags; u at every vertex of either
-// to 1e-12 of mu kappa delta + |u_x|, the energy to 1e-12; and each state restores.
+// Holding apart the springs that stick on a curved path is the same state to round-off: random
+// scenes (every profile kind, friction, scales, a normal and a tangential rig one time in four
+// each) take curved steps (a normal force or an actuator depth with a displacement or a
+// tangential force, from and to out of contact too) and straight ones, each also on a twin that
+// sub-steps every spring. Both agree
+// step by step: the same outcome, sub-steps, vertex count and slip tags; u at every vertex of
+// either to 1e-12 of mu kappa delta + |u_x|, the energy to 1e-12; and each state restores.
 TEST(ForcePathTest, HoldingStickingSpringsApartChangesNothingButRoundOff) {
   testing::RandomScene random{std::mt19937_64(54)};
   int curved_steps = 0, held_apart = 0, identical = 0;
@@ -484,19 +485,23 @@ TEST(ForcePathTest, HoldingStickingSpringsApartChangesNothingButRoundOff) {
     Contact probe = std::move(Contact::Create(config)).value();
     const double f0 = probe.NormalForceAtDepth(d0), slip = probe.mu_kappa() * d0;
     if (random.rng() % 4 == 0) config.rig.normal = random.LogUniform(0.01, 10) * d0 / f0;
+    if (random.rng() % 4 == 0) config.rig.tangential = random.LogUniform(0.01, 10) * slip / f0;
     Contact held = std::move(Contact::Create(config)).value(), every = held;
     ContactTestPeer::SubStepEverySpring(every);
     for (int step = 0; step < 8; ++step) {
       Step s;
-      const int kind = static_cast<int>(random.rng() % 4);
+      const int kind = static_cast<int>(random.rng() % 5);
       s.normal = kind == 0 ? NormalControl::kDepth : NormalControl::kForce;
       s.normal_value = kind == 0               ? d0 * random.Uniform(-0.2, 1.5)
                        : random.rng() % 8 == 0 ? 0.0
                                                : f0 * random.LogUniform(1e-6, 2);
-      s.tangential =
-          kind == 3 ? TangentialControl::kDisplacement : TangentialControl::kDisplacementIncrement;
-      s.tangential_value =
-          kind == 3 ? slip * random.Uniform(-2, 2) : slip * random.RelativeAmplitude();
+      s.tangential = kind == 3   ? TangentialControl::kDisplacement
+                     : kind == 4 ? TangentialControl::kForce
+                                 : TangentialControl::kDisplacementIncrement;
+      s.tangential_value = kind == 3 ? slip * random.Uniform(-2, 2)
+                           : kind == 4
+                               ? random.Uniform(-0.95, 0.95) * config.friction * s.normal_value
+                               : slip * random.RelativeAmplitude();
       StepReport report_held, report_every;
       const std::size_t vertices_before = held.memory().vertex_count();
       const Status status_held = held.Apply(s, &report_held);
@@ -513,9 +518,13 @@ TEST(ForcePathTest, HoldingStickingSpringsApartChangesNothingButRoundOff) {
       ASSERT_EQ(a.tags, b.tags) << where;
       const double scale =
           held.mu_kappa() * std::max(held.depth(), 0.0) + std::abs(held.tangential_displacement());
-      for (std::size_t i = 0; i < a.z.size(); ++i) {
-        ASSERT_LE(std::abs(a.z[i] - b.z[i]), 1e-12 * held.depth()) << where << " vertex " << i;
-        ASSERT_LE(std::abs(a.u[i] - b.u[i]), 1e-12 * scale) << where << " vertex " << i;
+      // u compared as a function (a crossing's z is ill-conditioned where a segment runs nearly
+      // along its bound; u there is not).
+      for (const Contact* c : {&held, &every}) {
+        for (double z : c->memory().z()) {
+          ASSERT_LE(std::abs(held.memory().UAtDepth(z) - every.memory().UAtDepth(z)), 1e-12 * scale)
+              << where << " z " << z;
+        }
       }
       ASSERT_TRUE(RelNear(held.dissipated_energy(), every.dissipated_energy(), 1e-12) ||
                   std::abs(held.dissipated_energy() - every.dissipated_energy()) < 1e-300)

@@ -52,35 +52,65 @@ double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory
   return diff;
 }
 
-// The leading springs of an exact memory that provably stick from now to the end of a curved
-// path, held apart from its sub-steps (MoveLeadingVertices) and put back moved by what u_x moved
-// meanwhile. Sticking springs only move with u_x, so that is the same state to round-off, and it
-// keeps every sub-step, copy and comparison to the springs the path can still change: without it
-// a path that builds a long polyline (loading from near zero, each sub-step adding a vertex)
-// costs sub-steps x vertices. The path has u_x linear in its parameter s and the depth concave
-// in s (F_N, or an actuator's depth delta + C_n F_N, linear in s, both convex in delta; or the
-// depth itself linear): on [s, 1] the depth is then above its chord, so a spring's distance to
-// either bound, mu kappa (delta - z) -+ u, is at least its value now plus the chord's change to
-// the path's end when that is negative.
+// The leading springs of an exact memory that stick, held apart from the sub-steps of a curved
+// path (MoveLeadingVertices) and put back at its end moved by what u_x moved meanwhile. Sticking
+// springs only move with u_x, so that is the same state to round-off, and it keeps every
+// sub-step, copy and comparison to the springs the path can still change: without it a path
+// that builds a long polyline (loading from near zero, each sub-step adding a vertex) costs
+// sub-steps x vertices.
+// Where u_x moves linearly in s (ux1 given), springs that stick to the path's end are taken: the
+// depth is concave in s (F_N, or an actuator's depth delta + C_n F_N, linear in s, both convex in
+// delta; or the depth itself linear), so on [s, 1] it is above its chord, and a spring's distance
+// to either bound, mu kappa (delta - z) -+ u, is at least its value now plus the chord's change to
+// the path's end when that is negative. Where u_x is solved along the way (a tangential force
+// target or rig), springs that stick now are taken, and every trial sub-step is checked
+// (StillStick); the caller puts them back and sub-steps every spring once a check fails.
 class StickingSprings {
  public:
-  StickingSprings(double mu_kappa, double depth1, double ux1, double margin)
-      : mu_kappa_(mu_kappa), depth1_(depth1), ux1_(ux1), margin_(margin) {}
-  // Holds apart the leading vertices that stick to the end, all but the last of them: that one
-  // stays as the first of the polyline the sub-steps move.
+  StickingSprings(double mu_kappa, double depth1, std::optional<double> ux1, double margin,
+                  const Profile& profile)
+      : mu_kappa_(mu_kappa), depth1_(depth1), ux1_(ux1), margin_(margin), profile_(profile) {}
+  // Holds apart the leading vertices that stick, all but the last of them: that one stays as
+  // the first of the polyline the sub-steps move.
   void TakeFrom(PiecewiseLinearMemory& memory, double ux) {
     const std::vector<double>& z = memory.z();
     const std::vector<double>& u = memory.u();
     const std::vector<std::uint8_t>& tags = memory.tags();
     std::size_t sticking = 0;
     while (sticking < z.size() && tags[sticking] == kInside &&
-           SticksToTheEnd(z[sticking], u[sticking], memory.depth(), ux)) {
+           Sticks(z[sticking], u[sticking], memory.depth(), ux)) {
       ++sticking;
     }
     if (sticking < 2) return;
-    memory.MoveLeadingVertices(sticking - 1, run_);
+    const std::size_t count = sticking - 1;
+    // The first vertex kept stands for the disc inside it at its own u in the force solve
+    // (memory_force.cc, the atom of IntegralAfterStep); the rest of the held integral is fixed
+    // while everything in it moves together.
+    double x = profile_.RadiusAtDepth(z[0]);
+    held_integral_ += x * u[0];
+    for (std::size_t i = 0; i < count; ++i) {
+      const double x_next = profile_.RadiusAtDepth(z[i + 1]);
+      const PieceIntegrals piece = profile_.IntegratePiece(z[i], z[i + 1], x, x_next, false);
+      held_integral_ += u[i] * piece.j0 + (u[i + 1] - u[i]) * piece.j1;
+      x = x_next;
+    }
+    held_integral_ -= x * u[count];
+    for (std::size_t i = 0; i < count; ++i) {  // the least distances to the bounds
+      least_upper_ = std::min(least_upper_, ux - mu_kappa_ * z[i] - u[i]);
+      least_lower_ = std::min(least_lower_, u[i] - ux - mu_kappa_ * z[i]);
+    }
+    memory.MoveLeadingVertices(count, run_);
     taken_.push_back({run_.z.size(), ux});
   }
+  // Whether the springs held apart still stick (by half the margin) with `memory` at u_x = ux,
+  // and its first vertex, which stands for them in the force solve, too.
+  bool StillStick(const PiecewiseLinearMemory& memory, double ux) const {
+    const double bound = mu_kappa_ * memory.depth();
+    return (memory.tags().empty() || memory.tags()[0] == kInside) &&
+           bound - ux + least_upper_ > 0.5 * margin_ && bound + ux + least_lower_ > 0.5 * margin_;
+  }
+  // integral u dx over the springs held apart, less what the first vertex kept stands for.
+  double held_integral() const { return held_integral_; }
   // Puts the vertices back, each moved by u_x's change since it was taken.
   void ReturnTo(PiecewiseLinearMemory& memory, double ux) {
     std::size_t i = 0;
@@ -93,16 +123,25 @@ class StickingSprings {
   }
 
  private:
-  bool SticksToTheEnd(double z, double u, double depth, double ux) const {
-    const double bound = mu_kappa_ * (depth - z), chord = mu_kappa_ * (depth1_ - depth);
-    const double dux = ux1_ - ux;
+  bool Sticks(double z, double u, double depth, double ux) const {
+    const double bound = mu_kappa_ * (depth - z);
+    if (!ux1_) return bound - u > margin_ && bound + u > margin_;
+    const double chord = mu_kappa_ * (depth1_ - depth), dux = *ux1_ - ux;
     return bound - u + std::min(0.0, chord - dux) > margin_ &&
            bound + u + std::min(0.0, chord + dux) > margin_;
   }
 
-  double mu_kappa_, depth1_, ux1_, margin_;
+  double mu_kappa_, depth1_;
+  std::optional<double> ux1_;
+  double margin_;
+  const Profile& profile_;
   PiecewiseLinearMemory::VertexRun run_;
   std::vector<std::pair<std::size_t, double>> taken_;  // (end in run_, u_x when taken)
+  double held_integral_ = 0;
+  // The least of ux_taken - mu kappa z - u and of u - ux_taken - mu kappa z over the springs held
+  // apart: adding mu kappa delta -+ ux gives their least distance to the upper and lower bound.
+  double least_upper_ = std::numeric_limits<double>::infinity();
+  double least_lower_ = std::numeric_limits<double>::infinity();
 };
 
 }  // namespace
@@ -112,7 +151,8 @@ double Contact::MemoryDifference(const Contact& a, const Contact& b) {
   return MaxDifference(a.memory(), b.memory());
 }
 
-Result<double> Contact::SolveTangentialIncrement(double depth1, double fx) const {
+Result<double> Contact::SolveTangentialIncrement(double depth1, double fx,
+                                                 double held_integral) const {
   const double limit = config_.friction * NormalForceAtDepth(depth1);
   if (!(std::abs(fx) <= limit * (1 + 1e-12))) {
     return FailedPrecondition("tangential_force",
@@ -130,16 +170,16 @@ Result<double> Contact::SolveTangentialIncrement(double depth1, double fx) const
     return grid ? grid->GrossSlipIncrement(depth1, m, direction)
                 : memory().GrossSlipIncrement(depth1, m, direction);
   }
-  const double target = fx / (2 * config_.material.g_star);  // integral_0^a u dx
+  const double target = fx / (2 * config_.material.g_star) - held_integral;  // integral u dx
   return grid ? grid->IncrementForIntegralU(depth1, m, target)
               : memory().IncrementForIntegralU(depth1, m, *config_.profile, target, solve_buffers_);
 }
 
-double Contact::SolveActuatorIncrement(double depth1, double u_act) const {
+double Contact::SolveActuatorIncrement(double depth1, double u_act, double held_integral) const {
   // ux + dux + C_t 2 G* I(dux) = u_act, with I the integral of u after the step (F_x = 2 G* I):
   // I + spring dux = target, spring = 1 / (2 G* C_t).
   const double compliance = 2 * config_.material.g_star * config_.rig.tangential;
-  const double spring = 1 / compliance, target = (u_act - ux_) / compliance;
+  const double spring = 1 / compliance, target = (u_act - ux_) / compliance - held_integral;
   const GridMemory* grid = grid_memory();
   return grid ? grid->IncrementForIntegralU(depth1, mu_kappa(), target, spring)
               : memory().IncrementForIntegralU(depth1, mu_kappa(), *config_.profile, target,
@@ -194,20 +234,35 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
                                (targets.actuator_depth - actuator_depth0);
     return s > s0 && s < s1 ? s : half;  // not NaN, and inside the interval despite round-off
   };
+  // Springs that stick are held apart on an exact memory (StickingSprings); u_x moves linearly
+  // unless a tangential force target or rig solves it. The margin covers round-off in the depth
+  // solve and in u and u_x.
+  std::optional<StickingSprings> sticking;
+  auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_);
+  if (exact != nullptr && mu_kappa() > 0 && hold_sticking_springs_apart_) {
+    const bool ux_linear = !tangential_force && !through_rig;
+    const double ux1 = targets.actuator_displacement;
+    const double margin = 1e-9 * mu_kappa() * std::max(depth0, targets.depth) +
+                          1e-12 * (std::abs(ux0) + std::abs(ux1));
+    sticking.emplace(mu_kappa(), targets.depth, ux_linear ? std::optional(ux1) : std::nullopt,
+                     margin, *config_.profile);
+    sticking->TakeFrom(*exact, ux_);
+  }
   // One exact linear sub-step of `contact` to the path point at s.
   auto advance = [&](Contact& contact, double s, double* dissipated) -> Status {
     const double d = depth_at(s);
     double ux = along(ux0, targets.actuator_displacement, s);
     double dux = ux - contact.ux_;
+    const double held = sticking ? sticking->held_integral() : 0.0;
     if (tangential_force) {
       Result<double> solved =
-          contact.SolveTangentialIncrement(d, along(fx0, step.tangential_value, s));
+          contact.SolveTangentialIncrement(d, along(fx0, step.tangential_value, s), held);
       if (!solved.ok()) return solved.status();
       dux = *solved;
       ux = contact.ux_ + dux;
     } else if (through_rig) {
       dux = contact.SolveActuatorIncrement(
-          d, along(actuator_displacement0, targets.actuator_displacement, s));
+          d, along(actuator_displacement0, targets.actuator_displacement, s), held);
       ux = contact.ux_ + dux;
     }
     *dissipated += contact.LinearStep(d, ux, dux);
@@ -230,19 +285,6 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
   // the tolerance, and the estimate is their sum. Both converge at second order.
   StepReport total;
   double memory_error = 0, energy_error = 0;
-  // Springs that stick to the path's end are held apart where that can be decided before the
-  // sub-steps: an exact memory, u_x moving linearly (no tangential force target or rig, whose u_x
-  // is solved along the way). The margin covers round-off in the depth solve and in u and u_x.
-  std::optional<StickingSprings> sticking;
-  auto* exact = std::get_if<PiecewiseLinearMemory>(&memory_);
-  if (exact != nullptr && !tangential_force && rig.tangential == 0 && mu_kappa() > 0 &&
-      hold_sticking_springs_apart_) {
-    const double ux1 = targets.actuator_displacement;
-    const double margin = 1e-9 * mu_kappa() * std::max(depth0, targets.depth) +
-                          1e-12 * (std::abs(ux0) + std::abs(ux1));
-    sticking.emplace(mu_kappa(), targets.depth, ux1, margin);
-    sticking->TakeFrom(*exact, ux_);
-  }
   // Up to 2^kMaxBisections intervals, depth first from s = 0, the interrupt checked at each. A
   // loop over a stack of intervals rather than recursion, and two trial contacts whose buffers
   // are reused rather than fresh copies per interval: the path allocates little, and always from
@@ -262,9 +304,24 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
       two = *this;
       double d_one = 0, d_two = 0;
       const double mid = split(s0, s1);
+      bool held_stick = true;
+      auto still_stick = [&](const Contact& trial) {
+        held_stick = held_stick &&
+                     (!sticking || sticking->StillStick(
+                                       std::get<PiecewiseLinearMemory>(trial.memory_), trial.ux_));
+      };
       if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
+      still_stick(one);
       if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
+      still_stick(two);
       if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
+      still_stick(two);
+      if (!held_stick) {  // put them back, and sub-step every spring from here on
+        sticking->ReturnTo(std::get<PiecewiseLinearMemory>(memory_), ux_);
+        sticking.reset();
+        pending.push_back({s0, s1, level});
+        continue;
+      }
       const double error = MemoryDifference(one, two) / scale;
       const double energy = energy_scale > 0 ? std::abs(d_one - d_two) / energy_scale : 0.0;
       const double tolerance = config_.force_path_tolerance;

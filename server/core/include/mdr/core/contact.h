@@ -127,7 +127,7 @@ struct Step {
 };
 
 struct StepReport {
-  int substeps = 0;       // exact linear sub-steps used
+  int substeps = 0;  // exact linear sub-steps used
   // A curved path's estimated error: the larger of max |u error| / (mu kappa delta) and the
   // dissipated energy's error / (mu F_N max(mu kappa delta, actuator travel)) (force_control.cc).
   double path_error = 0;
@@ -251,10 +251,11 @@ class Contact {
   static double MemoryDifference(const Contact& a, const Contact& b);
   // The increment dux that gives tangential force fx at depth1 after a linear step from the
   // current state (force_control.cc, like the curved paths).
-  Result<double> SolveTangentialIncrement(double depth1, double fx) const;
+  // held_integral: integral u dx of springs a curved path holds apart (force_control.cc).
+  Result<double> SolveTangentialIncrement(double depth1, double fx, double held_integral = 0) const;
   // The increment dux after which the actuator stands at u_act: ux + dux + C_t F_x = u_act
   // (one root: the left side increases with dux).
-  double SolveActuatorIncrement(double depth1, double u_act) const;
+  double SolveActuatorIncrement(double depth1, double u_act, double held_integral = 0) const;
   // The contact depth at which the actuator's depth is `actuator`: delta + C_n F_N(delta).
   double DepthAtActuatorDepth(double actuator) const;
   // Where a step ends: the contact depth, and the actuator's depth and displacement that a rig's
@@ -293,7 +294,7 @@ class Contact {
   // The force solves' work arrays: the contact's own, so that a handle warmed up on one thread
   // steps without allocating on any other (a contact is used by one thread at a time).
   mutable ForceSolveBuffers solve_buffers_;
-  // Whether a curved path holds apart the springs that stick to its end (force_control.cc); off
+  // Whether a curved path holds apart the springs that stick (force_control.cc); off
   // only in tests that compare against sub-stepping every spring (ContactTestPeer).
   bool hold_sticking_springs_apart_ = true;
   friend class ContactTestPeer;
