@@ -63,8 +63,10 @@ double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory
 // delta; or the depth itself linear), so on [s, 1] it is above its chord, and a spring's distance
 // to either bound, mu kappa (delta - z) -+ u, is at least its value now plus the chord's change to
 // the path's end when that is negative. Where u_x is solved along the way (a tangential force
-// target or rig), springs that stick now are taken, and every trial sub-step is checked
-// (StillStick); the caller puts them back and sub-steps every spring once a check fails.
+// target or rig), springs that stick now, and would at the path's end depth with their u now, are
+// taken (the sub-steps never uncover them: they keep the vertex the step cuts at), and every trial
+// sub-step is checked (StillStick); the caller puts them back and sub-steps every spring once a
+// check fails.
 class StickingSprings {
  public:
   StickingSprings(double mu_kappa, double depth1, std::optional<double> ux1, double margin,
@@ -124,8 +126,11 @@ class StickingSprings {
 
  private:
   bool Sticks(double z, double u, double depth, double ux) const {
+    if (!ux1_) {  // and stay in contact: the depth is monotone along the path
+      const double bound = mu_kappa_ * (std::min(depth, depth1_) - z);
+      return bound - u > margin_ && bound + u > margin_;
+    }
     const double bound = mu_kappa_ * (depth - z);
-    if (!ux1_) return bound - u > margin_ && bound + u > margin_;
     const double chord = mu_kappa_ * (depth1_ - depth), dux = *ux1_ - ux;
     return bound - u + std::min(0.0, chord - dux) > margin_ &&
            bound + u + std::min(0.0, chord + dux) > margin_;
