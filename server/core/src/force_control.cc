@@ -299,14 +299,16 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
     int level;
   };
   std::vector<Interval> pending = {{0.0, 1.0, 0}};
-  Contact one = *this, two = *this;
+  // `half`: the state at an interval's middle, which is the one-sub-step trial of its left half
+  // (processed next) if the interval is split: that sub-step is not taken twice.
+  Contact one = *this, two = *this, half = *this;
+  double d_half = 0;
+  bool half_is_next = false;
   auto follow = [&]() -> Status {
     while (!pending.empty()) {
       const auto [s0, s1, level] = pending.back();
       pending.pop_back();
       if (Status s = interrupt.Check(); !s.ok()) return s;
-      one = *this;
-      two = *this;
       double d_one = 0, d_two = 0;
       const double mid = split(s0, s1);
       bool held_stick = true;
@@ -315,10 +317,20 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
                      (!sticking || sticking->StillStick(
                                        std::get<PiecewiseLinearMemory>(trial.memory_), trial.ux_));
       };
-      if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
-      still_stick(one);
+      if (half_is_next) {  // checked as the split interval's middle
+        std::swap(one, half);
+        d_one = d_half;
+      } else {
+        one = *this;
+        if (Status s = advance(one, s1, &d_one); !s.ok()) return s;
+        still_stick(one);
+      }
+      half_is_next = false;
+      two = *this;
       if (Status s = advance(two, mid, &d_two); !s.ok()) return s;
       still_stick(two);
+      half = two;
+      d_half = d_two;
       if (Status s = advance(two, s1, &d_two); !s.ok()) return s;
       still_stick(two);
       if (!held_stick) {  // put them back, and sub-step every spring from here on
@@ -341,6 +353,7 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
       }
       pending.push_back({mid, s1, level + 1});
       pending.push_back({s0, mid, level + 1});
+      half_is_next = true;
     }
     return OkStatus();
   };
