@@ -291,9 +291,9 @@ Status Contact::ApplyCurvedPath(const Step& step, const StepTargets& targets, St
   StepReport total;
   double memory_error = 0, energy_error = 0;
   // Up to 2^kMaxBisections intervals, depth first from s = 0, the interrupt checked at each. A
-  // loop over a stack of intervals rather than recursion, and two trial contacts whose buffers
-  // are reused rather than fresh copies per interval: the path allocates little, and always from
-  // the same place (a sanitizer records a stack trace per distinct allocation site and depth).
+  // loop over a stack of intervals rather than recursion, and trial contacts whose buffers are
+  // reused rather than fresh copies per interval: the path allocates little, and always from the
+  // same place (a sanitizer records a stack trace per distinct allocation site and depth).
   struct Interval {
     double s0, s1;
     int level;
