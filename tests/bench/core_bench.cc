@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "fixtures/contact_test_peer.h"
 #include "fixtures/reference_scenes.h"
 #include "mdr/core/aft.h"
 #include "mdr/core/contact.h"
@@ -116,16 +117,6 @@ void BM_ApplyOnFailure(benchmark::State& state) {
                  (state.range(1) != 0 ? ", discarded" : ", unchanged"));
 }
 BENCHMARK(BM_ApplyOnFailure)->ArgsProduct({{0, 1}, {0, 1}});
-
-}  // namespace
-
-// Sub-steps every spring of a curved path (force_control.cc), to compare with the default.
-class ContactTestPeer {
- public:
-  static void SubStepEverySpring(Contact& c) { c.hold_sticking_springs_apart_ = false; }
-};
-
-namespace {
 
 // A curved force path from out of contact: H1 pressed to F_N = 2.0625 N while the displacement
 // moves by 10 nm. The depth goes as F^(2/3), and every accepted sub-step adds a vertex: thousands

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <random>
 
+#include "fixtures/contact_test_peer.h"
 #include "test_util.h"
 
 namespace mdr {
@@ -454,17 +455,6 @@ TEST(ForcePathTest, NormalForceWithDisplacementAndDepthWithTangentialForce) {
   EXPECT_GE(c.last_step_dissipation(), 0);
 }
 
-}  // namespace
-
-// Switches off, on one contact, holding apart the springs that stick to a curved path's end
-// (force_control.cc), so that tests can compare with sub-stepping every spring.
-class ContactTestPeer {
- public:
-  static void SubStepEverySpring(Contact& c) { c.hold_sticking_springs_apart_ = false; }
-};
-
-namespace {
-
 // Holding apart the springs that stick on a curved path is the same state to round-off: random
 // scenes (every profile kind, friction, scales, a normal and a tangential rig one time in four
 // each) take curved steps (a normal force or an actuator depth with a displacement or a
@@ -608,7 +598,9 @@ TEST(ForcePathTest, PathErrorBoundsTheDissipatedEnergy) {
     for (double tolerance : {1e-4, 1e-6}) {
       StepReport report;
       const double energy = run(tolerance, &report, &scale);
-      if (tolerance < 1e-5) EXPECT_GT(report.substeps, 2) << c.name;
+      if (tolerance < 1e-5) {
+        EXPECT_GT(report.substeps, 2) << c.name;
+      }
       EXPECT_LE(report.path_error, tolerance) << c.name;
       EXPECT_LE(std::abs(energy - reference), (report.path_error + fine_report.path_error) * scale)
           << c.name << " tolerance " << tolerance << ": energy " << energy << " J, reference "

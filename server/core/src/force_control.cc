@@ -11,7 +11,6 @@
 #include "mdr/base/validate.h"
 #include "mdr/core/contact.h"
 #include "monotone_solve.h"
-#include "numerics.h"
 
 namespace mdr {
 namespace {
@@ -21,33 +20,16 @@ namespace {
 // uniform along the path when it is reached.
 constexpr int kMaxBisections = 13;
 
-// u of `memory` at depth coordinates given in increasing order, as UAtDepth gives it (the same
-// interpolation, bit for bit), walking the vertices once instead of searching for each.
-class IncreasingDepthReader {
- public:
-  explicit IncreasingDepthReader(const PiecewiseLinearMemory& memory) : memory_(memory) {}
-  double UAtDepth(double z) {
-    const std::vector<double>& zs = memory_.z();
-    const std::vector<double>& us = memory_.u();
-    if (zs.empty() || z < 0 || z > memory_.depth()) return 0;
-    while (next_ < zs.size() && zs[next_] <= z) ++next_;  // upper_bound, as UAtDepth
-    if (next_ >= zs.size()) return us.back();
-    if (next_ == 0) return us.front();
-    return internal::Interpolate(zs[next_ - 1], us[next_ - 1], zs[next_], us[next_], z);
-  }
-
- private:
-  const PiecewiseLinearMemory& memory_;
-  std::size_t next_ = 0;
-};
-
 // Largest |u_a(z) - u_b(z)| over the vertices of both memories (both are polylines), in one
 // merge-like pass over the two sorted vertex lists.
 double MaxDifference(const PiecewiseLinearMemory& a, const PiecewiseLinearMemory& b) {
   double diff = 0;
   for (const auto& [from, other] : {std::pair{&a, &b}, std::pair{&b, &a}}) {
-    IncreasingDepthReader own(*from), there(*other);
-    for (double z : from->z()) diff = std::max(diff, std::abs(own.UAtDepth(z) - there.UAtDepth(z)));
+    std::size_t own = 0, there = 0;
+    for (double z : from->z()) {
+      diff = std::max(
+          diff, std::abs(from->UAtIncreasingDepth(z, own) - other->UAtIncreasingDepth(z, there)));
+    }
   }
   return diff;
 }
@@ -95,12 +77,10 @@ class StickingSprings {
       const PieceIntegrals piece = profile_.IntegratePiece(z[i], z[i + 1], x, x_next, false);
       held_integral_ += u[i] * piece.j0 + (u[i + 1] - u[i]) * piece.j1;
       x = x_next;
-    }
-    held_integral_ -= x * u[count];
-    for (std::size_t i = 0; i < count; ++i) {  // the least distances to the bounds
       least_upper_ = std::min(least_upper_, ux - mu_kappa_ * z[i] - u[i]);
       least_lower_ = std::min(least_lower_, u[i] - ux - mu_kappa_ * z[i]);
     }
+    held_integral_ -= x * u[count];
     memory.MoveLeadingVertices(count, run_);
     taken_.push_back({run_.z.size(), ux});
   }

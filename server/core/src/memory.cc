@@ -467,7 +467,17 @@ void PiecewiseLinearMemory::RestoreLeadingVertices(VertexRun& run) {
 
 double PiecewiseLinearMemory::UAtDepth(double z) const {
   if (z_.empty() || z < 0 || z > depth_) return 0;
-  const auto j = static_cast<std::size_t>(std::upper_bound(z_.begin(), z_.end(), z) - z_.begin());
+  return UBeforeVertex(
+      static_cast<std::size_t>(std::upper_bound(z_.begin(), z_.end(), z) - z_.begin()), z);
+}
+
+double PiecewiseLinearMemory::UAtIncreasingDepth(double z, std::size_t& next) const {
+  if (z_.empty() || z < 0 || z > depth_) return 0;
+  while (next < z_.size() && z_[next] <= z) ++next;  // upper_bound, from where the last one was
+  return UBeforeVertex(next, z);
+}
+
+double PiecewiseLinearMemory::UBeforeVertex(std::size_t j, double z) const {
   if (j >= z_.size()) return u_.back();
   if (j == 0) return u_.front();
   return Interpolate(z_[j - 1], u_[j - 1], z_[j], u_[j], z);

@@ -152,6 +152,9 @@ class PiecewiseLinearMemory {
   const std::vector<SegmentAnchor>& anchors() const { return anchor_; }
   // u at depth coordinate z (0 outside [0, depth]).
   double UAtDepth(double z) const;
+  // The same for depths asked in increasing order, walking the vertices from `next` (start at 0)
+  // instead of searching: one pass over a list of depths.
+  double UAtIncreasingDepth(double z, std::size_t& next) const;
   // integral_0^a u(x) dx; F_x = 2 G* times this.
   double IntegralU(const Profile& profile) const;
   // Radius measure of the springs that stick in a further move toward the given bound (upper:
@@ -211,7 +214,7 @@ class PiecewiseLinearMemory {
   double BoundTagTolerance(std::size_t i, double mu_kappa) const;
 
   // The leading vertices of a polyline, held apart while a curved force path sub-steps the rest
-  // (force_control.cc): springs that provably stick for the rest of the path only move with u_x.
+  // (force_control.cc): springs that stick only move with u_x.
   struct VertexRun {
     std::vector<double> z, u;
     std::vector<std::uint8_t> tag;
@@ -233,6 +236,8 @@ class PiecewiseLinearMemory {
   }
 
  private:
+  // u at z from j, the first vertex beyond z (UAtDepth and UAtIncreasingDepth).
+  double UBeforeVertex(std::size_t j, double z) const;
   // Builds the unclamped polyline v = u + dux on [0, depth1] (cut or extended).
   void ShiftAndResize(double depth0, double depth1, double dux);
   // Clamps v into the bounds +-mu_kappa*(depth1 - z), inserting the crossing vertices; returns
